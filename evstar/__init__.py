@@ -1,0 +1,23 @@
+"""evstar: event-camera processing for weak, fast-moving space targets.
+
+Importing evstar is cheap: Taichi and Warp start only when a kernel is first used.
+"""
+from importlib import import_module
+
+from .camera import Camera
+from .errors import BackendError, DataError, EvstarError, EvstarWarning, FormatError
+from .events import Events
+from .imu import Imu
+from .recording import Recording
+
+__version__ = "0.1.0"
+_SUBMODULES = {"io", "sim", "denoise", "extract", "motion", "metrics", "pipeline", "backends"}
+
+__all__ = ["Camera", "Events", "Imu", "Recording", "EvstarError", "DataError",
+           "FormatError", "BackendError", "EvstarWarning", *_SUBMODULES]
+
+
+def __getattr__(name):
+    if name in _SUBMODULES:
+        return import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'evstar' has no attribute {name!r}")

@@ -1,0 +1,157 @@
+"""Events: the validated structure-of-arrays container every stage of evstar consumes."""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import DataError
+
+#: The structured-array convention of tonic / Metavision (field names x, y, t, p).
+STRUCTURED_DTYPE = np.dtype([("x", "<u2"), ("y", "<u2"), ("t", "<i8"), ("p", "<i1")])
+
+
+def _as_int_array(name, values, n=None):
+    arr = np.asarray(values)
+    if arr.ndim != 1:
+        raise DataError(f"events field '{name}' must be one-dimensional, got shape {arr.shape}")
+    if n is not None and len(arr) != n:
+        raise DataError(f"events field '{name}' has {len(arr)} entries, expected {n} (as t)")
+    if arr.dtype == bool:
+        return arr.astype(np.int64)
+    if not np.issubdtype(arr.dtype, np.integer):
+        if arr.size and not np.all(np.isfinite(arr)):
+            raise DataError(f"events field '{name}' holds non-finite values")
+        if arr.size and np.any(arr != np.round(arr)):
+            bad = arr[arr != np.round(arr)][0]
+            raise DataError(f"events field '{name}' holds a non-integer value {bad!r}")
+    return arr
+
+
+class Events:
+    """Time-sorted events of one sensor as contiguous arrays.
+
+    t: int64 µs (non-decreasing), x, y: uint16 pixel indices, p: int8 (1 ON, 0 OFF).
+    Construction validates everything; pass ``sort=True`` to order unsorted input
+    (stable, by time) — unsorted input is otherwise an error, never reordered silently.
+    """
+
+    __slots__ = ("t", "x", "y", "p", "width", "height")
+
+    def __init__(self, t, x, y, p, width, height, *, sort=False):
+        width, height = int(width), int(height)
+        if not (0 < width <= 65536 and 0 < height <= 65536):
+            raise DataError(f"sensor size must be positive and <= 65536, got {width}x{height}")
+        t = _as_int_array("t", t)
+        n = len(t)
+        x, y, p = (_as_int_array(k, v, n) for k, v in (("x", x), ("y", y), ("p", p)))
+        for name, arr, limit in (("x", x, width), ("y", y, height)):
+            if n and (arr.min() < 0 or arr.max() >= limit):
+                i = int(np.flatnonzero((arr < 0) | (arr >= limit))[0])
+                raise DataError(
+                    f"events field '{name}' = {arr[i]} at index {i} is outside the "
+                    f"{width}x{height} sensor (valid 0..{limit - 1})")
+        if n and not np.all(np.isin(p, (-1, 0, 1))):
+            bad = p[~np.isin(p, (-1, 0, 1))][0]
+            raise DataError(f"events field 'p' must be 0/1 (or -1/1), got {bad}")
+        self.t = np.ascontiguousarray(t, dtype=np.int64)
+        self.x = np.ascontiguousarray(x, dtype=np.uint16)
+        self.y = np.ascontiguousarray(y, dtype=np.uint16)
+        self.p = np.ascontiguousarray(p > 0, dtype=np.int8)
+        self.width, self.height = width, height
+        if n > 1 and np.any(np.diff(self.t) < 0):
+            if not sort:
+                i = int(np.flatnonzero(np.diff(self.t) < 0)[0])
+                raise DataError(
+                    f"event timestamps decrease at index {i + 1} ({self.t[i]} -> {self.t[i + 1]} µs); "
+                    "pass sort=True to order them by time")
+            order = np.argsort(self.t, kind="stable")
+            for k in ("t", "x", "y", "p"):
+                setattr(self, k, np.ascontiguousarray(getattr(self, k)[order]))
+
+    # -- construction helpers -------------------------------------------------------
+    @classmethod
+    def empty(cls, width, height):
+        z = np.zeros(0, np.int64)
+        return cls(z, z, z, z, width, height)
+
+    @classmethod
+    def _trusted(cls, t, x, y, p, width, height):
+        """Wrap arrays already known to satisfy the invariants (slices of valid Events)."""
+        ev = object.__new__(cls)
+        ev.t, ev.x, ev.y, ev.p = (np.ascontiguousarray(a) for a in (t, x, y, p))
+        ev.width, ev.height = width, height
+        return ev
+
+    @classmethod
+    def from_structured(cls, arr, width, height, *, sort=False):
+        """From a structured array with fields x, y, t, p (tonic / Metavision / faery)."""
+        names = arr.dtype.names or ()
+        missing = [k for k in ("x", "y", "t", "p") if k not in names]
+        if missing:
+            raise DataError(f"structured array lacks field(s) {missing}; has {list(names)}")
+        return cls(arr["t"], arr["x"], arr["y"], arr["p"], width, height, sort=sort)
+
+    def to_structured(self):
+        out = np.empty(len(self), STRUCTURED_DTYPE)
+        for k in ("x", "y", "t", "p"):
+            out[k] = getattr(self, k)
+        return out
+
+    @staticmethod
+    def concatenate(parts):
+        """Join Events of one sensor in order; the result must stay time-sorted."""
+        parts = list(parts)
+        if not parts:
+            raise DataError("cannot concatenate an empty list of Events")
+        w, h = parts[0].width, parts[0].height
+        if any((e.width, e.height) != (w, h) for e in parts):
+            raise DataError("cannot concatenate Events of different sensor sizes")
+        cat = {k: np.concatenate([getattr(e, k) for e in parts]) for k in ("t", "x", "y", "p")}
+        if len(cat["t"]) > 1 and np.any(np.diff(cat["t"]) < 0):
+            raise DataError("concatenated events are not time-sorted; pass them in time order")
+        return Events._trusted(cat["t"], cat["x"], cat["y"], cat["p"], w, h)
+
+    # -- access -----------------------------------------------------------------------
+    def __len__(self):
+        return len(self.t)
+
+    def __getitem__(self, index):
+        """Slice or boolean mask / index array (order kept; fancy indices must be increasing)."""
+        if isinstance(index, (int, np.integer)):
+            raise TypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
+        sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}
+        if not isinstance(index, slice) and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
+            raise DataError("an index array must keep events in time order")
+        return Events._trusted(sel["t"], sel["x"], sel["y"], sel["p"], self.width, self.height)
+
+    def time_window(self, t_start_us, t_stop_us):
+        """Events with t_start_us <= t < t_stop_us (views of the arrays, no copy)."""
+        i0, i1 = np.searchsorted(self.t, [t_start_us, t_stop_us], side="left")
+        return self[i0:i1]
+
+    @property
+    def sensor_size(self):
+        return (self.width, self.height)
+
+    @property
+    def duration_us(self):
+        return int(self.t[-1] - self.t[0]) if len(self) else 0
+
+    @property
+    def nbytes(self):
+        return sum(getattr(self, k).nbytes for k in ("t", "x", "y", "p"))
+
+    def copy(self):
+        return Events._trusted(self.t.copy(), self.x.copy(), self.y.copy(), self.p.copy(),
+                               self.width, self.height)
+
+    def __eq__(self, other):
+        if not isinstance(other, Events):
+            return NotImplemented
+        return (self.sensor_size == other.sensor_size and len(self) == len(other)
+                and all(np.array_equal(getattr(self, k), getattr(other, k)) for k in "txyp"))
+
+    __hash__ = None
+
+    def __repr__(self):
+        span = f", {self.t[0]}..{self.t[-1]} µs" if len(self) else ""
+        return f"Events(n={len(self)}, {self.width}x{self.height}{span})"

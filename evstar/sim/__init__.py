@@ -1,0 +1,1 @@
+"""Ground-based simulation: star targets, turntable motion, event sensor, IMU, ground truth."""

@@ -1,0 +1,1 @@
+"""Compute kernels of evstar (math only: no I/O, no policy). Imported as evstar_kernels."""

@@ -1,0 +1,1 @@
+"""Plain numpy kernels: the executable specification every accelerated backend is tested against."""

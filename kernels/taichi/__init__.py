@@ -1,0 +1,1 @@
+"""Taichi kernels for dense per-frame grids (binning, prefix sums, multi-radius counts)."""

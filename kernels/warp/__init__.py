@@ -1,0 +1,1 @@
+"""NVIDIA Warp kernels for particles on SO(3)."""
