@@ -1,0 +1,1 @@
+"""Motion compensation: IMU integration on SO(3), event warping, particle-filter bias correction."""
