@@ -1,0 +1,25 @@
+"""Options and helpers shared by several sub-commands."""
+from __future__ import annotations
+
+from .. import io
+
+
+def add_input_options(p):
+    p.add_argument("--format", help="input format, overriding the extension (csv, npz, hdf5, aedat4, raw, dat)")
+    p.add_argument("--sensor-size", nargs=2, type=int, metavar=("W", "H"),
+                   help="sensor size when the file does not say")
+    p.add_argument("--camera", help="camera JSON (width, height, fx, fy, cx, cy)")
+    p.add_argument("--imu", help="IMU CSV t,gx,gy,gz,ax,ay,az (µs, rad/s, m/s²)")
+
+
+def load(args):
+    """Read the input recording with the camera / IMU files the user passed."""
+    camera = io.read_camera(args.camera) if getattr(args, "camera", None) else None
+    size = args.sensor_size or (camera and (camera.width, camera.height)) or None
+    rec = io.read(args.input, format=args.format, sensor_size=size) if size else \
+        io.read(args.input, format=args.format)
+    if camera is not None:
+        rec.camera = camera
+    if getattr(args, "imu", None):
+        rec.imu = io.read_imu(args.imu)
+    return rec

@@ -1,0 +1,20 @@
+"""`evstar convert IN OUT`: change a recording's format (events, with IMU where both hold it)."""
+from __future__ import annotations
+
+from .. import io
+from .common import add_input_options, load
+
+
+def add_parser(sub):
+    p = sub.add_parser("convert", help="convert a recording to another format (by extension)")
+    p.add_argument("input", metavar="IN")
+    p.add_argument("output", metavar="OUT", help="output file: .csv .npz .h5 .aedat4")
+    add_input_options(p)
+    p.add_argument("--to", dest="out_format", help="output format, overriding the extension")
+    return p
+
+
+def run(args):
+    rec = load(args)
+    io.write(args.output, rec.events, imu=rec.imu, camera=rec.camera, format=args.out_format)
+    print(f"wrote {len(rec.events):,} events to {args.output}")

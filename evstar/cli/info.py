@@ -1,0 +1,49 @@
+"""`evstar info FILE`: what a recording holds."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from .common import add_input_options, load
+
+
+def add_parser(sub):
+    p = sub.add_parser("info", help="summarise a recording (events, rate, sensor, IMU)")
+    p.add_argument("input", metavar="FILE")
+    add_input_options(p)
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    return p
+
+
+def summary(rec):
+    ev = rec.events
+    dur_s = ev.duration_us * 1e-6
+    on = int(np.count_nonzero(ev.p))
+    out = {"events": len(ev), "sensor_size": [ev.width, ev.height],
+           "t_first_us": int(ev.t[0]) if len(ev) else None,
+           "t_last_us": int(ev.t[-1]) if len(ev) else None, "duration_s": dur_s,
+           "event_rate_hz": len(ev) / dur_s if dur_s > 0 else None,
+           "on_fraction": on / len(ev) if len(ev) else None, "imu": rec.imu is not None}
+    if rec.imu is not None:
+        out.update(imu_samples=len(rec.imu), imu_rate_hz=rec.imu.rate_hz)
+    if rec.camera is not None:
+        out["camera"] = rec.camera.to_dict()
+    return out
+
+
+def run(args):
+    s = summary(load(args))
+    if args.json:
+        print(json.dumps(s, indent=2))
+        return
+    print(f"file         {args.input}")
+    print(f"events       {s['events']:,}")
+    print(f"sensor       {s['sensor_size'][0]} x {s['sensor_size'][1]}")
+    print(f"duration     {s['duration_s']:.6f} s")
+    if s["event_rate_hz"]:
+        print(f"event rate   {s['event_rate_hz'] / 1e6:.3f} M events/s")
+    if s["on_fraction"] is not None:
+        print(f"polarity     {100 * s['on_fraction']:.1f} % ON / {100 * (1 - s['on_fraction']):.1f} % OFF")
+    imu = f"{s['imu_samples']:,} samples at {s['imu_rate_hz']:.1f} Hz" if s["imu"] else "none"
+    print(f"IMU          {imu}")

@@ -1,0 +1,130 @@
+"""AEDAT4 (iniVation DV) events and IMU through faery; gyro °/s and acceleration g become SI."""
+from __future__ import annotations
+
+import faery
+import numpy as np
+
+from ..errors import DataError, FormatError
+from ..events import Events
+from ..imu import Imu
+from ..recording import Recording
+from .atomic import atomic_path
+
+G = 9.80665  # standard gravity, m/s² per g
+D = faery.aedat
+
+
+def _decoder(path):
+    try:
+        return D.Decoder(str(path))
+    except FileNotFoundError:
+        raise FormatError(path, "no such file") from None
+    except Exception as exc:  # faery raises plain exceptions for corrupt headers
+        raise FormatError(path, f"not a readable AEDAT4 file ({exc})") from None
+
+
+def _event_track(path, dec):
+    tracks = [t for t in dec.tracks() if t.data_type == "events"]
+    if not tracks:
+        raise FormatError(path, "no event stream in this AEDAT4 file")
+    return tracks[0]
+
+
+def _iterate(path, dec):
+    try:
+        yield from dec
+    except Exception as exc:
+        raise FormatError(path, f"truncated or corrupt AEDAT4 data ({exc})") from None
+
+
+def _imu_from(packets):
+    if not packets:
+        return None
+    a = np.concatenate(packets)
+    gyro = np.radians(np.stack([a[f"gyroscope_{c}"] for c in "xyz"], 1).astype(np.float64))
+    accel = G * np.stack([a[f"accelerometer_{c}"] for c in "xyz"], 1).astype(np.float64)
+    return Imu(a["t"].astype(np.int64), gyro, accel)
+
+
+def read(path, sort=False, **_):
+    dec = _decoder(path)
+    track = _event_track(path, dec)
+    ev, imu = [], []
+    for tr, packet in _iterate(path, dec):
+        if tr.id == track.id:
+            ev.append(packet)
+        elif tr.data_type == "imus":
+            imu.append(packet)
+    w, h = track.dimensions
+    try:
+        a = np.concatenate(ev) if ev else np.zeros(0, ev_dtype())
+        events = Events(a["t"].astype(np.int64), a["x"], a["y"], a["on"], w, h, sort=sort)
+        return Recording(events, _imu_from(imu))
+    except DataError as exc:
+        raise FormatError(path, str(exc)) from None
+
+
+def ev_dtype():
+    return np.dtype([("t", "<u8"), ("x", "<u2"), ("y", "<u2"), ("on", "?")])
+
+
+def packets(path, **_):
+    dec = _decoder(path)
+    track = _event_track(path, dec)
+
+    def gen():
+        for tr, packet in _iterate(path, dec):
+            if tr.id == track.id and len(packet):
+                yield (packet["t"].astype(np.int64), packet["x"], packet["y"],
+                       packet["on"].astype(np.int8))
+    return (*track.dimensions, gen())
+
+
+def _node(name, path, attrs, nodes=()):
+    return D.DescriptionNode(name=name, path=path, attributes=attrs, nodes=list(nodes))
+
+
+def _stream(i, type_id, name, info):
+    s = lambda v: D.DescriptionAttribute(attribute_type="string", value=v)  # noqa: E731
+    base = f"/mainloop/Recorder/outInfo/{i}/"
+    return _node(str(i), base, {"compression": s("LZ4"), "originalOutputName": s(name),
+                                "typeIdentifier": s(type_id)},
+                 [_node("info", base + "info/", dict(info, source=s("evstar")))])
+
+
+def write(path, events, imu=None, camera=None, packet_events=20_000):
+    """Events as track 0 and IMU (°/s, g) as track 1, packets interleaved by time."""
+    i = lambda v: D.DescriptionAttribute(attribute_type="int", value=v)  # noqa: E731
+    streams = [_stream(0, "EVTS", "events", {"sizeX": i(events.width), "sizeY": i(events.height)})]
+    if imu is not None:
+        streams.append(_stream(1, "IMUS", "imu", {}))
+    desc = [_node("outInfo", "/mainloop/Recorder/outInfo/", {}, streams)]
+    if len(events) and events.t[0] < 0:
+        raise FormatError(path, "AEDAT4 stores unsigned timestamps; events start before t=0")
+    with atomic_path(path) as tmp:
+        with D.Encoder(str(tmp), desc, D.LZ4_DEFAULT) as enc:
+            for track, packet in _interleave(events, imu, packet_events):
+                enc.write(track, packet)
+
+
+def _imu_packet(imu):
+    names = ["t", "temperature"] + [f"accelerometer_{c}" for c in "xyz"] + \
+            [f"gyroscope_{c}" for c in "xyz"] + [f"magnetometer_{c}" for c in "xyz"]
+    out = np.zeros(len(imu), np.dtype([(n, "<u8" if n == "t" else "<f4") for n in names]))
+    out["t"] = imu.t
+    for k, c in enumerate("xyz"):
+        out[f"accelerometer_{c}"] = imu.accel[:, k] / G
+        out[f"gyroscope_{c}"] = np.degrees(imu.gyro[:, k])
+    return out
+
+
+def _interleave(events, imu, packet_events):
+    """Yield (track, packet) in time order so readers see a causal stream."""
+    ev = np.zeros(len(events), ev_dtype())
+    ev["t"], ev["x"], ev["y"], ev["on"] = events.t, events.x, events.y, events.p > 0
+    items = [(int(ev["t"][k]), 0, ev[k:k + packet_events]) for k in range(0, len(ev), packet_events)]
+    if imu is not None and len(imu):
+        ip = _imu_packet(imu)
+        items += [(int(ip["t"][k]), 1, ip[k:k + 1000]) for k in range(0, len(ip), 1000)]
+    for _, track, packet in sorted(items, key=lambda it: (it[0], it[1])):
+        yield track, packet

@@ -1,0 +1,94 @@
+"""HDF5 events `/events/{t,x,y,p}` (attrs width, height), optional `/imu` and `/camera` groups (h5py)."""
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from ..camera import Camera
+from ..errors import DataError, FormatError
+from ..events import Events
+from ..imu import Imu
+from ..recording import Recording
+from .atomic import atomic_path
+from .text import sensor_size_from
+
+
+def _open(path):
+    try:
+        return h5py.File(path, "r")
+    except FileNotFoundError:
+        raise FormatError(path, "no such file") from None
+    except OSError as exc:
+        raise FormatError(path, f"not a readable HDF5 file ({exc})") from None
+
+
+def _datasets(path, f):
+    if "events" not in f:
+        raise FormatError(path, f"no '/events' group (top-level keys: {list(f.keys())})")
+    g = f["events"]
+    missing = [k for k in "txyp" if k not in g]
+    if missing:
+        raise FormatError(path, f"missing dataset(s) {['/events/' + k for k in missing]}")
+    n = {k: g[k].shape[0] for k in "txyp"}
+    if len(set(n.values())) != 1:
+        raise FormatError(path, f"datasets under /events have different lengths {n}")
+    return g
+
+
+def _size(path, g, sensor_size):
+    if sensor_size is None and "width" in g.attrs and "height" in g.attrs:
+        return int(g.attrs["width"]), int(g.attrs["height"])
+    if sensor_size is None:
+        return sensor_size_from(path, (g["x"][:], g["y"][:]), None)
+    return tuple(int(v) for v in sensor_size)
+
+
+def read(path, sensor_size=None, sort=False):
+    with _open(path) as f:
+        g = _datasets(path, f)
+        try:
+            w, h = _size(path, g, sensor_size)
+            rec = Recording(Events(*(g[k][:] for k in "txyp"), w, h, sort=sort))
+            if "imu" in f:
+                i = f["imu"]
+                rec.imu = Imu(i["t"][:], i["gyro"][:], i["accel"][:],
+                              R_cam_imu=i.attrs.get("R_cam_imu"),
+                              time_offset_us=int(i.attrs.get("time_offset_us", 0)))
+            if "camera" in f:
+                rec.camera = Camera(**{k: v.item() for k, v in f["camera"].attrs.items()})
+        except (DataError, KeyError, TypeError) as exc:
+            raise FormatError(path, str(exc)) from None
+    return rec
+
+
+def packets(path, sensor_size=None, chunk_events=1_000_000):
+    """(width, height, iterator) reading `chunk_events` rows at a time."""
+    f = _open(path)
+    g = _datasets(path, f)
+    w, h = _size(path, g, sensor_size)
+
+    def gen():
+        with f:
+            n = g["t"].shape[0]
+            for i in range(0, n, chunk_events):
+                yield tuple(g[k][i:i + chunk_events] for k in "txyp")
+    return w, h, gen()
+
+
+def write(path, events, imu=None, camera=None):
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        g = f.create_group("events")
+        g.attrs["width"], g.attrs["height"] = events.width, events.height
+        for k in "txyp":
+            g.create_dataset(k, data=getattr(events, k), chunks=len(events) > 0 or None,
+                             compression="gzip" if len(events) else None, shuffle=len(events) > 0)
+        if imu is not None:
+            i = f.create_group("imu")
+            for k in ("t", "gyro", "accel"):
+                i.create_dataset(k, data=getattr(imu, k))
+            i.attrs["R_cam_imu"] = imu.R_cam_imu
+            i.attrs["time_offset_us"] = imu.time_offset_us
+        if camera is not None:
+            c = f.create_group("camera")
+            for k, v in camera.to_dict().items():
+                c.attrs[k] = v

@@ -1,0 +1,50 @@
+"""IMU CSV `t,gx,gy,gz,ax,ay,az` (t µs, gyro rad/s, accel m/s²)."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..errors import DataError, FormatError
+from ..imu import Imu
+from .atomic import atomic_path
+
+COLUMNS = ["t", "gx", "gy", "gz", "ax", "ay", "az"]
+
+
+def read_imu(path, R_cam_imu=None, time_offset_us=0):
+    try:
+        frame = pd.read_csv(path, dtype=str, skipinitialspace=True, comment="#", keep_default_na=False)
+    except FileNotFoundError:
+        raise FormatError(path, "no such file") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise FormatError(path, f"not a readable IMU CSV ({exc})") from None
+    frame.columns = [str(c).strip().lower() for c in frame.columns]
+    missing = [c for c in COLUMNS if c not in frame.columns]
+    if missing:
+        raise FormatError(path, f"missing IMU column(s) {missing}; expected header {','.join(COLUMNS)}")
+    data = {}
+    for c in COLUMNS:
+        v = pd.to_numeric(frame[c], errors="coerce").to_numpy(np.float64)
+        bad = np.flatnonzero(np.isnan(v) & ~frame[c].str.strip().str.lower().isin(["nan", "inf", "-inf"]).to_numpy())
+        if len(bad):
+            i = int(bad[0])
+            raise FormatError(path, f"line {i + 2}: column '{c}' holds a non-numeric value {frame[c].iloc[i]!r}")
+        if not np.all(np.isfinite(v)):
+            i = int(np.flatnonzero(~np.isfinite(v))[0])
+            raise FormatError(path, f"line {i + 2}: column '{c}' is not finite ({frame[c].iloc[i]})")
+        data[c] = v
+    try:
+        return Imu(np.round(data["t"]).astype(np.int64),
+                   np.stack([data[c] for c in ("gx", "gy", "gz")], 1),
+                   np.stack([data[c] for c in ("ax", "ay", "az")], 1),
+                   R_cam_imu=R_cam_imu, time_offset_us=time_offset_us)
+    except DataError as exc:
+        raise FormatError(path, str(exc)) from None
+
+
+def write_imu(path, imu):
+    """Write the samples as measured (IMU frame and clock); calibration is not part of this format."""
+    frame = pd.DataFrame(np.column_stack([imu.gyro, imu.accel]), columns=COLUMNS[1:])
+    frame.insert(0, "t", imu.t)
+    with atomic_path(path) as tmp:
+        frame.to_csv(tmp, index=False, float_format="%.17g")

@@ -1,0 +1,91 @@
+"""NPZ / NPY events: a structured array (fields x, y, t, p) or separate arrays t, x, y, p."""
+from __future__ import annotations
+
+import zipfile
+
+import numpy as np
+
+from ..errors import FormatError
+from ..imu import Imu
+from ..recording import Recording
+from .atomic import atomic_path
+from .text import sensor_size_from
+from ..camera import Camera
+from ..events import Events
+
+
+def _load(path):
+    try:
+        return np.load(path, allow_pickle=False, mmap_mode="r" if str(path).endswith(".npy") else None)
+    except FileNotFoundError:
+        raise FormatError(path, "no such file") from None
+    except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
+        raise FormatError(path, f"not a readable NumPy file ({exc})") from None
+
+
+def _columns(path, data):
+    if isinstance(data, np.ndarray):
+        names = data.dtype.names or ()
+        src = data
+    else:
+        names = data.files
+        if "events" in names:  # a structured array stored under 'events'
+            src = data["events"]
+            names = src.dtype.names or ()
+        else:
+            src = data
+    missing = [k for k in "txyp" if k not in names]
+    if missing:
+        raise FormatError(path, f"missing field(s) {missing}; found {list(names)}")
+    return [np.asarray(src[k]) for k in "txyp"]
+
+
+def _size(path, data, cols, sensor_size):
+    if sensor_size is None and not isinstance(data, np.ndarray) and "sensor_size" in data.files:
+        sensor_size = tuple(int(v) for v in data["sensor_size"])
+    return sensor_size_from(path, (cols[1], cols[2]), sensor_size)
+
+
+def read(path, sensor_size=None, sort=False):
+    data = _load(path)
+    try:
+        cols = _columns(path, data)
+        w, h = _size(path, data, cols, sensor_size)
+        rec = Recording(Events(*cols, w, h, sort=sort))
+        if not isinstance(data, np.ndarray):
+            if "imu_t" in data.files:
+                rec.imu = Imu(data["imu_t"], data["imu_gyro"], data["imu_accel"],
+                              R_cam_imu=data["imu_R_cam_imu"],
+                              time_offset_us=int(data["imu_time_offset_us"]))
+            if "camera" in data.files:
+                rec.camera = Camera(*data["camera"][:6], *data["camera"][6:])
+        return rec
+    except FormatError:
+        raise
+    except (ValueError, KeyError) as exc:
+        raise FormatError(path, str(exc)) from None
+
+
+def packets(path, sensor_size=None, chunk_events=1_000_000):
+    """(width, height, iterator): .npy files are memory-mapped, so chunks stay bounded."""
+    data = _load(path)
+    cols = _columns(path, data)
+    w, h = _size(path, data, cols, sensor_size)
+
+    def gen():
+        for i in range(0, len(cols[0]), chunk_events):
+            yield tuple(np.asarray(c[i:i + chunk_events]) for c in cols)
+    return w, h, gen()
+
+
+def write(path, events, imu=None, camera=None):
+    arrays = dict(t=events.t, x=events.x, y=events.y, p=events.p,
+                  sensor_size=np.array(events.sensor_size))
+    if imu is not None:
+        arrays.update(imu_t=imu.t, imu_gyro=imu.gyro, imu_accel=imu.accel,
+                      imu_R_cam_imu=imu.R_cam_imu, imu_time_offset_us=imu.time_offset_us)
+    if camera is not None:
+        c = camera
+        arrays["camera"] = np.array([c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2])
+    with atomic_path(path, suffix=".tmp.npz") as tmp:
+        np.savez_compressed(tmp, **arrays)
