@@ -20,10 +20,10 @@ _settings = {"cpu_threads": None, "cache_dir": None}
 
 def configure(*, cpu_threads=None, cache_dir=None):
     """Set thread count and kernel cache folder; must precede the first kernel call."""
-    if _taichi_arch is not None or _warp_ready:
-        raise BackendError("configure() must be called before any backend is initialised")
     if cpu_threads is not None and (int(cpu_threads) != cpu_threads or cpu_threads < 1):
         raise ValueError(f"cpu_threads must be a positive integer, got {cpu_threads!r}")
+    if _taichi_arch is not None or _warp_ready:
+        raise BackendError("configure() must be called before any backend is initialised")
     _settings.update(cpu_threads=cpu_threads, cache_dir=cache_dir)
 
 

@@ -1,0 +1,55 @@
+"""Backend start-up: explicit arch, checked, clear errors for absent GPUs."""
+import subprocess
+import sys
+
+import pytest
+
+from evstar import BackendError, backends
+
+
+def test_bad_device_string():
+    with pytest.raises(ValueError, match="device must be 'cpu' or 'cuda'"):
+        backends.check_device("tpu")
+
+
+def test_available_reports_cpu():
+    info = backends.available()
+    assert info["cpu"] is True and "cpu" in info["warp_devices"]
+
+
+def _run(code):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+
+
+def test_taichi_cpu_then_cuda_request_is_refused_in_same_process():
+    r = _run("from evstar import backends\n"
+             "ti = backends.taichi('cpu')\n"
+             "assert ti.lang.impl.current_cfg().arch == ti.cpu\n"
+             "try:\n    backends.taichi('cuda')\nexcept backends.BackendError as e:\n    print('ERR', e)\n")
+    assert r.returncode == 0, r.stderr
+    assert "already running on 'cpu'" in r.stdout
+
+
+def test_missing_gpu_is_an_error_not_a_silent_cpu_run():
+    if backends.available()["cuda"]:
+        pytest.skip("a CUDA GPU is present: the fallback path cannot be exercised here")
+    r = _run("from evstar import backends\n"
+             "try:\n    backends.taichi('cuda')\nexcept backends.BackendError as e:\n    print('ERR', e)\n"
+             "try:\n    backends.warp('cuda')\nexcept backends.BackendError as e:\n    print('ERR', e)\n")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count("ERR") == 2 and "fell back" in r.stdout
+
+
+def test_configure_threads_and_cache(tmp_path):
+    r = _run("from evstar import backends\n"
+             f"backends.configure(cpu_threads=1, cache_dir={str(tmp_path)!r})\n"
+             "wp, dev = backends.warp('cpu')\n"
+             "print(wp.config.kernel_cache_dir)\n"
+             "try:\n    backends.configure(cpu_threads=2)\nexcept backends.BackendError as e:\n    print('ERR', e)\n")
+    assert r.returncode == 0, r.stderr
+    assert str(tmp_path / "warp") in r.stdout and "ERR" in r.stdout
+
+
+def test_configure_rejects_bad_threads():
+    with pytest.raises(ValueError, match="cpu_threads"):
+        backends.configure(cpu_threads=0)

@@ -1,0 +1,27 @@
+"""The `evstar info` and `evstar convert` commands, run in-process as a user would."""
+import json
+
+from evstar import io
+from evstar.cli import main
+
+
+def test_info_json_on_real_aedat4(real_dir, capsys):
+    assert main(["info", str(real_dir / "emlb_demo-01.aedat4"), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["events"] == 319_512 and s["sensor_size"] == [346, 260]
+    assert s["imu"] and s["imu_samples"] == 510 and 900 < s["imu_rate_hz"] < 1100
+    assert 0.5 < s["duration_s"] < 0.52 and 0 < s["on_fraction"] < 1
+
+
+def test_convert_raw_to_hdf5_and_back_to_csv(real_dir, tmp_path, capsys):
+    out = tmp_path / "a.h5"
+    assert main(["convert", str(real_dir / "expelliarmus_evt2_sample.raw"), str(out)]) == 0
+    assert "539,481 events" in capsys.readouterr().out
+    assert main(["convert", str(out), str(tmp_path / "a.csv")]) == 0
+    assert io.read(tmp_path / "a.csv", sensor_size=(640, 480)).events == io.read(out).events
+
+
+def test_user_errors_exit_2_with_message(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "missing.aedat4")]) == 2
+    err = capsys.readouterr().err
+    assert "evstar info: error:" in err and "missing.aedat4: no such file" in err
