@@ -13,6 +13,7 @@ from importlib import import_module
 
 from ..errors import EvstarWarning, FormatError
 from .camera_json import read_camera, write_camera
+from .centroids_csv import read_centroids, write_centroids
 from .imu_csv import read_imu, write_imu
 
 # format name -> (module, extensions, can write)
@@ -26,7 +27,7 @@ FORMATS = {
 }
 
 __all__ = ["FORMATS", "read", "write", "windows", "format_of", "read_imu", "write_imu",
-           "read_camera", "write_camera"]
+           "read_camera", "write_camera", "read_centroids", "write_centroids"]
 
 
 def format_of(path, format=None):

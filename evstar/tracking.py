@@ -1,0 +1,87 @@
+"""Multi-target tracking: link centroids across pseudo-frames into tracks.
+
+Each track predicts its next position with a constant-velocity model (from its last two
+centroids); centroids of a frame are assigned to tracks by minimum total distance
+(Hungarian, scipy) within a gate. A track survives up to ``max_gap`` frames without a
+centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
+start new tracks, so stars entering the field get fresh ids.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .frames import frame_bounds
+
+
+class Tracker:
+    def __init__(self, gate_px=6.0, init_gate_px=40.0, max_gap=3, min_length=3):
+        for name, v in (("gate_px", gate_px), ("init_gate_px", init_gate_px)):
+            if not v > 0:
+                raise ValueError(f"{name} must be positive, got {v!r}")
+        if not (int(max_gap) == max_gap and max_gap >= 0):
+            raise ValueError(f"max_gap must be a non-negative integer, got {max_gap!r}")
+        if not (int(min_length) == min_length and min_length >= 1):
+            raise ValueError(f"min_length must be a positive integer, got {min_length!r}")
+        self.gate_px, self.init_gate_px = float(gate_px), float(init_gate_px)
+        self.max_gap, self.min_length = int(max_gap), int(min_length)
+
+    def link(self, centroids):
+        """Return a copy of `centroids` with the ``track`` field filled (time-sorted input).
+
+        Tracks shorter than ``min_length`` centroids get track = -1 (unconfirmed).
+        """
+        out = centroids.copy()
+        order = np.argsort(out["frame"], kind="stable")
+        frames, starts, stops = frame_bounds(out["frame"][order])
+        tracks = []  # dicts: id, frames [..], xy [..]
+        next_id = 0
+        for f, a, b in zip(frames, starts, stops):
+            rows = order[a:b]
+            live = [tr for tr in tracks if f - tr["frames"][-1] <= self.max_gap + 1]
+            pts = np.column_stack([out["x"][rows], out["y"][rows]])
+            pairs = self._assign(live, pts, f)
+            taken = set()
+            for ti, ri in pairs:
+                live[ti]["frames"].append(f)
+                live[ti]["xy"].append(pts[ri])
+                out["track"][rows[ri]] = live[ti]["id"]
+                taken.add(ri)
+            for ri in range(len(rows)):
+                if ri not in taken:
+                    tracks.append({"id": next_id, "frames": [f], "xy": [pts[ri]]})
+                    out["track"][rows[ri]] = next_id
+                    next_id += 1
+        return _drop_short(out, self.min_length)
+
+    def _assign(self, live, pts, f):
+        if not live or not len(pts):
+            return []
+        pred = np.array([_predict(tr, f) for tr in live])
+        gates = np.array([self.gate_px if len(tr["xy"]) > 1 else self.init_gate_px for tr in live])
+        cost = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
+        big = 1e9
+        masked = np.where(cost <= gates[:, None], cost, big)
+        ti, ri = linear_sum_assignment(masked)
+        return [(t, r) for t, r in zip(ti, ri) if masked[t, r] < big]
+
+
+def _predict(track, f):
+    """Constant velocity from the last two centroids (per frame), else stay put."""
+    if len(track["xy"]) < 2:
+        return track["xy"][-1]
+    v = (track["xy"][-1] - track["xy"][-2]) / (track["frames"][-1] - track["frames"][-2])
+    return track["xy"][-1] + v * (f - track["frames"][-1])
+
+
+def _drop_short(out, min_length):
+    ids, counts = np.unique(out["track"], return_counts=True)
+    short = ids[counts < min_length]
+    out["track"][np.isin(out["track"], short)] = -1
+    # renumber confirmed tracks 0, 1, 2 ... in order of appearance
+    confirmed = out["track"] >= 0
+    _, first = np.unique(out["track"][confirmed], return_index=True)
+    old = out["track"][confirmed][np.sort(first)]
+    remap = {o: n for n, o in enumerate(old)}
+    out["track"][confirmed] = [remap[v] for v in out["track"][confirmed]]
+    return out

@@ -1,0 +1,143 @@
+"""Extraction: per-frame DBSCAN centroids and multi-target tracks on synthetic scenes."""
+import numpy as np
+import pytest
+
+from evstar import Events, io
+from evstar.extract import Extractor
+from evstar.tracking import Tracker
+
+
+def blob_scene(stars, width=200, height=150, duration_us=100_000, per_frame=60, noise=300,
+               sigma=0.7, seed=0, dt_us=10_000):
+    """Gaussian event blobs moving linearly: stars = [(x0, y0, vx px/s, vy px/s)]. Returns
+    events and a truth function (star, t) -> (x, y)."""
+    rng = np.random.default_rng(seed)
+    ts, xs, ys = [], [], []
+    n = per_frame * duration_us // dt_us
+    for x0, y0, vx, vy in stars:
+        t = rng.integers(0, duration_us, n)
+        ts.append(t)
+        xs.append(x0 + vx * t * 1e-6 + rng.normal(0, sigma, n))
+        ys.append(y0 + vy * t * 1e-6 + rng.normal(0, sigma, n))
+    ts.append(rng.integers(0, duration_us, noise))
+    xs.append(rng.uniform(-0.5, width - 0.5, noise))
+    ys.append(rng.uniform(-0.5, height - 0.5, noise))
+    t, x, y = (np.concatenate(a) for a in (ts, xs, ys))
+    inside = (np.round(x) >= 0) & (np.round(x) < width) & (np.round(y) >= 0) & (np.round(y) < height)
+    t, x, y = t[inside], np.round(x[inside]), np.round(y[inside])
+    o = np.argsort(t, kind="stable")
+    ev = Events(t[o], x[o], y[o], rng.integers(0, 2, len(o)), width, height)
+    return ev, lambda k, tt: (stars[k][0] + stars[k][2] * tt * 1e-6, stars[k][1] + stars[k][3] * tt * 1e-6)
+
+
+def test_static_star_centroid_is_subpixel_accurate():
+    ev, truth = blob_scene([(50.3, 40.7, 0, 0)], noise=50)
+    c = Extractor(min_samples=8).centroids(ev)
+    assert len(c) == 10  # one per frame
+    assert np.all(np.abs(c["x"] - 50.3) < 0.3) and np.all(np.abs(c["y"] - 40.7) < 0.3)
+    assert np.all(c["n_events"] >= 40)
+
+
+def test_moving_star_mean_time_matches_truth_better_than_frame_mid():
+    ev, truth = blob_scene([(20, 30, 900, 300)], per_frame=80, noise=0, seed=1)
+    err = {}
+    for ref in ("mean", "mid"):
+        c = Extractor(min_samples=5, time_ref=ref, t_origin_us=0).centroids(ev)
+        tx, ty = truth(0, c["t"])
+        err[ref] = np.hypot(c["x"] - tx, c["y"] - ty).mean()
+    assert err["mean"] < 0.3
+    assert err["mean"] <= err["mid"] + 0.05
+
+
+def test_frame_mid_time_convention():
+    ev, _ = blob_scene([(50, 40, 0, 0)], noise=0)
+    c = Extractor(time_ref="mid", t_origin_us=0).centroids(ev)
+    assert np.array_equal(c["t"], c["frame"] * 10_000 + 5_000)
+
+
+def test_empty_and_all_noise_input():
+    ex = Extractor(min_samples=5)
+    assert len(ex.centroids(Events.empty(10, 10))) == 0
+    rng = np.random.default_rng(3)
+    n = 200
+    noise = Events(np.sort(rng.integers(0, 100_000, n)), rng.integers(0, 640, n),
+                   rng.integers(0, 480, n), np.ones(n), 640, 480)
+    assert len(ex.centroids(noise)) == 0
+
+
+def test_border_flag_and_min_cluster_size():
+    ev, _ = blob_scene([(0.4, 70, 0, 0), (100, 70, 0, 0)], noise=0, per_frame=30)
+    c = Extractor(min_samples=4).centroids(ev)
+    near = c["x"] < 5
+    assert near.any() and np.all(c["border"][near]) and not np.any(c["border"][~near])
+    assert len(Extractor(min_samples=4, min_cluster_size=10_000).centroids(ev)) == 0
+
+
+def test_two_stars_closer_than_eps_are_split_and_flagged():
+    ev, _ = blob_scene([(60, 50, 0, 0), (63.5, 50, 0, 0)], noise=0, per_frame=150, sigma=0.5)
+    merged = Extractor(eps=2.5, min_samples=5, split_valley=None).centroids(ev)
+    assert np.all(np.abs(merged["x"] - 61.75) < 0.5)  # DBSCAN alone merges them
+    c = Extractor(eps=2.5, min_samples=5).centroids(ev)
+    assert len(c) == 20 and np.all(c["split"])
+    xs = np.sort(c["x"].reshape(10, 2), axis=1)
+    assert np.all(np.abs(xs[:, 0] - 60) < 0.4) and np.all(np.abs(xs[:, 1] - 63.5) < 0.4)
+
+
+def test_single_wide_star_is_not_split():
+    ev, _ = blob_scene([(60, 50, 0, 0)], noise=0, per_frame=300, sigma=1.2)
+    c = Extractor(eps=2.5, min_samples=5).centroids(ev)
+    assert len(c) == 10 and not c["split"].any()
+
+
+def test_weightings_differ_only_where_they_should():
+    ev, _ = blob_scene([(50, 40, 0, 0)], noise=0)
+    a = Extractor(weighting="events").centroids(ev)
+    for w in ("pixels", "polarity"):
+        b = Extractor(weighting=w).centroids(ev)
+        assert np.all(np.hypot(a["x"] - b["x"], a["y"] - b["y"]) < 0.5)
+
+
+def test_xy_override_uses_float_coordinates():
+    ev, _ = blob_scene([(50, 40, 0, 0)], noise=0)
+    shifted = np.column_stack([ev.x + 0.25, ev.y - 0.5]).astype(float)
+    a, b = Extractor().centroids(ev), Extractor().centroids(ev, xy=shifted)
+    np.testing.assert_allclose(b["x"] - a["x"], 0.25)
+    np.testing.assert_allclose(b["y"] - a["y"], -0.5)
+    with pytest.raises(ValueError, match="xy must have shape"):
+        Extractor().centroids(ev, xy=shifted[:3])
+
+
+@pytest.mark.parametrize("kw,name", [({"eps": 0}, "eps"), ({"min_samples": 0}, "min_samples"),
+                                     ({"dt_us": -1}, "dt_us"), ({"weighting": "x"}, "weighting"),
+                                     ({"time_ref": "end"}, "time_ref")])
+def test_bad_parameters_name_themselves(kw, name):
+    with pytest.raises(ValueError, match=name):
+        Extractor(**kw)
+
+
+def test_tracks_many_targets_with_gaps_and_entries():
+    stars = [(20 + 15 * k, 20 + 10 * k, 300, 100) for k in range(8)] + [(-10, 120, 600, 0)]
+    ev, truth = blob_scene(stars, width=300, height=200, duration_us=300_000, per_frame=40, noise=500)
+    # a gap: drop star 0's events in frames 10-11
+    x0 = truth(0, ev.t)[0]
+    gap = (ev.t >= 100_000) & (ev.t < 120_000) & (np.abs(ev.x - x0) < 4) & (np.abs(ev.y - truth(0, ev.t)[1]) < 4)
+    ev = ev[~gap]
+    c = Tracker(max_gap=3).link(Extractor(min_samples=6).centroids(ev))
+    good = c[c["track"] >= 0]
+    # each true star maps to exactly one track id over its life
+    for k in range(9):
+        tx, ty = truth(k, good["t"])
+        mine = good[np.hypot(good["x"] - tx, good["y"] - ty) < 1.5]
+        assert len(np.unique(mine["track"])) == 1 and len(mine) >= 25
+    assert mine["x"].min() < 10  # star 8 entered from the left edge and kept its id
+    assert len(np.unique(good["track"])) == 9
+
+
+def test_centroid_csv_round_trip(tmp_path):
+    ev, _ = blob_scene([(50, 40, 100, 0), (120, 90, 0, 50)])
+    c = Tracker().link(Extractor().centroids(ev))
+    io.write_centroids(tmp_path / "c.csv", c)
+    assert (tmp_path / "c.csv").read_text().splitlines()[0].startswith("t,x,y,track,n_events,frame")
+    back = io.read_centroids(tmp_path / "c.csv")
+    np.testing.assert_array_equal(back["track"], c["track"])
+    np.testing.assert_allclose(back["x"], c["x"], atol=1e-4)
