@@ -1,0 +1,57 @@
+"""Centroid accuracy against ground truth: errors, detection rate, false tracks.
+
+`positions(t_us)` is the truth: an array (n_stars, len(t_us), 2) of true pixel positions
+(the simulator's ``truth.star_positions``). A centroid is matched to the nearest true
+star at the centroid's own timestamp, within ``match_px``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def match(centroids, positions, match_px=3.0):
+    """(star index or -1, error px) per centroid."""
+    if len(centroids) == 0:
+        return np.zeros(0, np.int64), np.zeros(0)
+    xy = positions(centroids["t"])                       # (S, N, 2)
+    d = np.hypot(xy[..., 0] - centroids["x"], xy[..., 1] - centroids["y"])
+    d = np.where(np.isfinite(d), d, np.inf)
+    star = np.argmin(d, axis=0)
+    err = d[star, np.arange(len(centroids))]
+    return np.where(err <= match_px, star, -1), err
+
+
+def summary(errors):
+    """mean, median, p95 and max of an error array (NaN when empty)."""
+    e = np.asarray(errors, dtype=float)
+    if len(e) == 0:
+        return {"mean": float("nan"), "median": float("nan"), "p95": float("nan"), "max": float("nan"), "n": 0}
+    return {"mean": float(e.mean()), "median": float(np.median(e)),
+            "p95": float(np.percentile(e, 95)), "max": float(e.max()), "n": int(len(e))}
+
+
+def detection(centroids, positions, frame_ids, frame_t_us, width, height, match_px=3.0,
+              margin_px=2.0):
+    """Fraction of (frame, star) pairs with the star inside the sensor (frames `frame_ids`
+    with mid-times `frame_t_us`) that have a matched centroid; and the same per star."""
+    frame_ids, frame_t_us = np.asarray(frame_ids), np.asarray(frame_t_us)
+    xy = positions(frame_t_us)                           # (S, F, 2) at frame mid-times
+    inside = ((xy[..., 0] >= margin_px) & (xy[..., 0] <= width - 1 - margin_px)
+              & (xy[..., 1] >= margin_px) & (xy[..., 1] <= height - 1 - margin_px))
+    star, _ = match(centroids, positions, match_px)
+    found = np.zeros_like(inside)
+    col = np.searchsorted(frame_ids, centroids["frame"])
+    ok = (star >= 0) & (col < len(frame_ids))
+    ok[ok] &= frame_ids[col[ok]] == centroids["frame"][ok]
+    found[star[ok], col[ok]] = True
+    per_star = np.where(inside.sum(1) > 0, (found & inside).sum(1) / np.maximum(inside.sum(1), 1), np.nan)
+    total = (found & inside).sum() / max(inside.sum(), 1)
+    return float(total), per_star
+
+
+def false_tracks(centroids, positions, duration_s, match_px=3.0):
+    """Confirmed tracks (id >= 0) whose centroids mostly match no true star, per second."""
+    star, _ = match(centroids, positions, match_px)
+    ids = np.unique(centroids["track"][centroids["track"] >= 0])
+    bad = sum(np.mean(star[centroids["track"] == i] < 0) > 0.5 for i in ids)
+    return bad / duration_s if duration_s > 0 else float("nan")
