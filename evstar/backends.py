@@ -70,7 +70,7 @@ def warp(device="cpu"):
         if not _warp_ready:
             if _settings["cache_dir"]:
                 wp.config.kernel_cache_dir = os.path.join(_settings["cache_dir"], "warp")
-            wp.config.quiet = True
+            wp.config.log_level = wp.LOG_WARNING  # no start-up banner on stdout
             wp.init()
             _warp_ready = True
     names = [str(d) for d in wp.get_devices()]

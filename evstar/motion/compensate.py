@@ -1,0 +1,97 @@
+"""Motion compensation of an event stream: modes 'none' | 'imu' | 'pf'.
+
+Every event moves to its pseudo-frame's reference time (float coordinates for centroids);
+the rounded coordinates (pixel i covers [i − ½, i + ½)) are what the filters bin.
+
+- 'none': coordinates unchanged.
+- 'imu':  rotation from the raw gyro integrated on SO(3).
+- 'pf':   rotation from the gyro corrected by the particle filter's bias estimate, which
+          needs star observations (t, track, x, y centroids, e.g. from a first extraction
+          pass with 'imu') or a FilterResult from an earlier run.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..events import Events
+from .imu_integration import AttitudeTrack, check_coverage
+from .particle_filter import ParticleFilter
+from .warping import frame_reference_times, warp_to_reference
+
+MODES = ("none", "imu", "pf")
+
+
+class Compensation:
+    """Per-event result: x, y float64 (warped), xi, yi int64 (rounded), inside (rounded pixel on
+    the sensor), frame int64, t_ref_us float64, plus the attitude track and, for 'pf', the
+    FilterResult used."""
+
+    def __init__(self, events, mode, x, y, frame, t_ref_us, attitude=None, filter_result=None):
+        self.mode = mode
+        self.x, self.y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        self.frame, self.t_ref_us = frame, t_ref_us
+        self.attitude, self.filter_result = attitude, filter_result
+        finite = np.isfinite(self.x) & np.isfinite(self.y)
+        self.xi = np.floor(np.where(finite, self.x, -1.0) + 0.5).astype(np.int64)
+        self.yi = np.floor(np.where(finite, self.y, -1.0) + 0.5).astype(np.int64)
+        self.inside = (finite & (self.xi >= 0) & (self.xi < events.width)
+                       & (self.yi >= 0) & (self.yi < events.height))
+        self._events = events
+
+    def __len__(self):
+        return len(self.x)
+
+    def events(self):
+        """(Events at the rounded warped pixels of the events that stay on the sensor, their
+        indices in the input stream). Time order is kept."""
+        ev, idx = self._events, np.flatnonzero(self.inside)
+        return Events._trusted(ev.t[idx], self.xi[idx].astype(np.uint16),
+                               self.yi[idx].astype(np.uint16), ev.p[idx],
+                               ev.width, ev.height), idx
+
+    def __repr__(self):
+        return f"Compensation(mode={self.mode!r}, n={len(self)}, inside={int(self.inside.sum())})"
+
+
+def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, observations=None,
+               particle_filter=None, filter_result=None, causal=True, t0_us=None, reference="mid",
+               backend="numpy", device="cpu"):
+    """Warp `events` to their frames' reference times.
+
+    events: evstar.Events; imu: evstar.Imu covering the events (modes 'imu', 'pf');
+    camera: evstar.Camera; dt_us: pseudo-frame length (µs); t0_us: frame origin (default the
+    first event); reference: 'mid' (frame mid-time) or 'start'. For mode 'pf', either
+    `observations` (see evstar.motion.StarObservations) with an optional `particle_filter`
+    (a ParticleFilter; default ParticleFilter()), or a `filter_result` from an earlier run;
+    causal: use at each time the bias estimated up to then (True, online) or the final
+    estimate throughout (False, offline). backend 'numpy' | 'warp' and device 'cpu' | 'cuda'
+    choose where the warping runs (the particle filter has its own device setting).
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
+    if mode == "none":
+        return Compensation(events, mode, events.x, events.y, frame, t_ref)
+    if imu is None or camera is None:
+        raise ValueError(f"mode={mode!r} needs an imu and a camera")
+    if len(events):
+        check_coverage(imu, events.t[0], events.t[-1])
+    result = None
+    if mode == "pf":
+        result = filter_result or _run_filter(particle_filter, imu, observations, camera)
+        attitude = result.attitude_track(imu, causal=causal)
+    else:
+        attitude = AttitudeTrack.from_imu(imu)
+    x, y = warp_to_reference(events.t, events.x, events.y, t_ref, attitude, camera,
+                             extrapolate_us=float(dt_us), backend=backend, device=device)
+    return Compensation(events, mode, x, y, frame, t_ref, attitude, result)
+
+
+def _run_filter(particle_filter, imu, observations, camera):
+    if observations is None:
+        raise ValueError("mode='pf' needs observations (star centroids t, track, x, y) "
+                         "or a filter_result")
+    pf = ParticleFilter() if particle_filter is None else particle_filter
+    if not isinstance(pf, ParticleFilter):
+        raise ValueError(f"particle_filter must be a ParticleFilter, got {type(pf).__name__}")
+    return pf.run(imu, observations, camera)

@@ -1,0 +1,55 @@
+"""Sensor noise that no scene causes: background activity and hot pixels.
+
+Background activity is an independent Poisson process of `noise_hz` at every pixel. Their
+superposition is one Poisson process of rate noise_hz · n_pixels whose events fall on
+uniformly random pixels, which is how it is drawn: exponential gaps, a cumulative sum (times
+come out sorted, no sort of millions of events) and a uniform pixel per event.
+
+A hot pixel fires far more often, as a renewal process whose gaps are the refractory period
+plus an exponential wait, so that its mean rate is `hot_pixel_hz`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def _poisson_times(rng, rate_hz, duration_s, dead_s=0.0):
+    """Sorted event times (s) of a renewal process on [0, duration): gaps dead + Exp."""
+    if rate_hz <= 0 or duration_s <= 0:
+        return np.zeros(0)
+    mean_wait = 1.0 / rate_hz - dead_s
+    expected = rate_hz * duration_s
+    parts, t_end = [], 0.0
+    while True:
+        n = int(expected + 6 * np.sqrt(expected) + 16)
+        gaps = rng.exponential(mean_wait, n)
+        if dead_s:
+            gaps += dead_s
+        t = t_end + np.cumsum(gaps)
+        parts.append(t[t < duration_s])
+        if t[-1] >= duration_s:
+            return np.concatenate(parts)
+        t_end, expected = t[-1], rate_hz * (duration_s - t[-1])
+
+
+def background_activity(rng, n_pixels, rate_hz, duration_s, on_fraction=0.5):
+    """(t seconds sorted, pixel index, polarity int8) of Poisson noise at rate_hz per pixel."""
+    t = _poisson_times(rng, rate_hz * n_pixels, duration_s)
+    pix = rng.integers(0, n_pixels, len(t))
+    pol = (rng.random(len(t)) < on_fraction).astype(np.int8)
+    return t, pix, pol
+
+
+def hot_pixels(rng, n_pixels, count, rate_hz, duration_s, refractory_s):
+    """(t seconds sorted, pixel index, polarity int8, hot pixel indices) of `count` hot pixels."""
+    where = np.sort(rng.choice(n_pixels, size=min(count, n_pixels), replace=False))
+    ts, ps = [], []
+    for pix in where:
+        t = _poisson_times(rng, rate_hz, duration_s, refractory_s)
+        ts.append(t), ps.append(np.full(len(t), pix))
+    if not ts:
+        return np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int8), where
+    t, pix = np.concatenate(ts), np.concatenate(ps)
+    order = np.argsort(t, kind="stable")
+    pol = (rng.random(len(t)) < 0.5).astype(np.int8)
+    return t[order], pix[order], pol, where

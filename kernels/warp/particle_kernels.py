@@ -1,0 +1,185 @@
+"""Warp kernels of the SO(3) particle filter (math only; launches live in particle_launch.py).
+
+One thread per particle; a prediction kernel runs a whole block of IMU steps per launch.
+Each kernel mirrors a function of `evstar_kernels.reference.particle_filter` term by term;
+FMA contraction is switched off for this module so that CPU results are bit-identical.
+"""
+import warp as wp
+
+from .counter_rng import counter_key, counter_normal, particle_key, pcg_hash
+from .so3 import quat_exp, quat_mul, quat_normalize, quat_rotate
+
+wp.set_module_options({"cpu_compiler_flags": (wp.config.cpu_compiler_flags or "-march=native")
+                       + " -ffp-contract=off"})
+
+_GYRO = wp.constant(wp.uint32(0))
+_WALK = wp.constant(wp.uint32(3))
+
+
+@wp.func
+def predict_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64, gyro_noise: wp.float64,
+                 n0: wp.float64, n1: wp.float64, n2: wp.float64):
+    """q <- Exp(−θ) ⊗ q with θ = (ω − b)·dt + gyro_noise·√dt·n."""
+    s = gyro_noise * wp.sqrt(dt)
+    tx = (omega[0] - b[0]) * dt + s * n0
+    ty = (omega[1] - b[1]) * dt + s * n1
+    tz = (omega[2] - b[2]) * dt + s * n2
+    return quat_mul(quat_exp(-tx, -ty, -tz), q)
+
+
+@wp.kernel
+def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
+                    omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
+                    seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
+                    walk_sigma: wp.float64):
+    """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
+    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step)."""
+    i = wp.tid()
+    p = wp.uint32(i)
+    qi = q[i]
+    bi = b[i]
+    n_steps = dt.shape[0]
+    pkey = particle_key(seed, p)
+    for k in range(n_steps):
+        key = pcg_hash(pkey + step0 + wp.uint32(k))
+        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise,
+                          counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
+                          counter_normal(key, _GYRO + wp.uint32(2)))
+    q[i] = quat_normalize(qi)
+    if n_steps > 0:
+        key = counter_key(seed, p, step0 + wp.uint32(n_steps - 1))
+        b[i] = bi + wp.vec3d(walk_sigma * counter_normal(key, _WALK),
+                             walk_sigma * counter_normal(key, _WALK + wp.uint32(1)),
+                             walk_sigma * counter_normal(key, _WALK + wp.uint32(2)))
+
+
+@wp.kernel
+def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
+                  omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
+                  step_normals: wp.array2d(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
+                  gyro_noise: wp.float64, walk_sigma: wp.float64):
+    """predict_counter with the normals supplied: step_normals (K, N), walk_normals (N)."""
+    i = wp.tid()
+    qi = q[i]
+    bi = b[i]
+    n_steps = dt.shape[0]
+    for k in range(n_steps):
+        n = step_normals[k, i]
+        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise, n[0], n[1], n[2])
+    q[i] = quat_normalize(qi)
+    if n_steps > 0:
+        n = walk_normals[i]
+        b[i] = bi + wp.vec3d(walk_sigma * n[0], walk_sigma * n[1], walk_sigma * n[2])
+
+
+@wp.kernel
+def counter_normals(seed: wp.uint32, step: wp.uint32, component0: wp.uint32,
+                    out: wp.array2d(dtype=wp.float64)):
+    """out[i, c] = normal of (seed, particle i, step, component0 + c)."""
+    i, c = wp.tid()
+    out[i, c] = counter_normal(counter_key(seed, wp.uint32(i), step), component0 + wp.uint32(c))
+
+
+@wp.kernel
+def add_log_likelihood(q: wp.array(dtype=wp.vec4d), stars: wp.array(dtype=wp.vec3d),
+                       uv: wp.array(dtype=wp.vec2d), fx: wp.float64, fy: wp.float64,
+                       cx: wp.float64, cy: wp.float64, inv_sigma: wp.float64, gate2: wp.float64,
+                       logw: wp.array(dtype=wp.float64)):
+    """logw += Σ_j −½·min(|pinhole(R(q)·d_j) − uv_j|²/σ², gate²); a star behind costs gate²/2."""
+    i = wp.tid()
+    qi = q[i]
+    acc = wp.float64(0.0)
+    for j in range(stars.shape[0]):
+        c = quat_rotate(qi, stars[j])
+        r2 = gate2
+        if c[2] > wp.float64(0.0):
+            ru = ((fx * c[0] / c[2] + cx) - uv[j][0]) * inv_sigma
+            rv = ((fy * c[1] / c[2] + cy) - uv[j][1]) * inv_sigma
+            r2 = wp.min(ru * ru + rv * rv, gate2)
+        acc = acc - wp.float64(0.5) * r2
+    logw[i] = logw[i] + acc
+
+
+@wp.kernel
+def weight_sums_sequential(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=wp.vec4d),
+                           b: wp.array(dtype=wp.vec3d), q_ref: wp.vec4d,
+                           cdf: wp.array(dtype=wp.float64), sums: wp.array(dtype=wp.float64)):
+    """One thread, index order: cdf = cumsum(w), sums = [Σw, Σw², Σ w·s·q, Σ w·b] (CPU path)."""
+    n = logw.shape[0]
+    m = logw[0]
+    for i in range(1, n):
+        m = wp.max(m, logw[i])
+    total = wp.float64(0.0)
+    total2 = wp.float64(0.0)
+    sq = wp.vec4d()
+    sb = wp.vec3d()
+    for i in range(n):
+        w = wp.exp(logw[i] - m)
+        qi = q[i]
+        dot = qi[0] * q_ref[0] + qi[1] * q_ref[1] + qi[2] * q_ref[2] + qi[3] * q_ref[3]
+        ws = w
+        if dot < wp.float64(0.0):
+            ws = -w
+        total = total + w
+        cdf[i] = total
+        total2 = total2 + w * w
+        sq = wp.vec4d(sq[0] + ws * qi[0], sq[1] + ws * qi[1], sq[2] + ws * qi[2], sq[3] + ws * qi[3])
+        bi = b[i]
+        sb = wp.vec3d(sb[0] + w * bi[0], sb[1] + w * bi[1], sb[2] + w * bi[2])
+    sums[0] = total
+    sums[1] = total2
+    for c in range(4):
+        sums[2 + c] = sq[c]
+    for c in range(3):
+        sums[6 + c] = sb[c]
+
+
+@wp.kernel
+def log_weight_max(logw: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    i = wp.tid()
+    wp.atomic_max(out, 0, logw[i])
+
+
+@wp.kernel
+def weight_terms(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=wp.vec4d),
+                 b: wp.array(dtype=wp.vec3d), q_ref: wp.vec4d, max_logw: wp.array(dtype=wp.float64),
+                 w_out: wp.array(dtype=wp.float64), sums: wp.array(dtype=wp.float64)):
+    """Parallel form of weight_sums_sequential (GPU path): sums by atomics, cdf by a scan."""
+    i = wp.tid()
+    w = wp.exp(logw[i] - max_logw[0])
+    qi = q[i]
+    dot = qi[0] * q_ref[0] + qi[1] * q_ref[1] + qi[2] * q_ref[2] + qi[3] * q_ref[3]
+    ws = w
+    if dot < wp.float64(0.0):
+        ws = -w
+    w_out[i] = w
+    wp.atomic_add(sums, 0, w)
+    wp.atomic_add(sums, 1, w * w)
+    for c in range(4):
+        wp.atomic_add(sums, 2 + c, ws * qi[c])
+    bi = b[i]
+    for c in range(3):
+        wp.atomic_add(sums, 6 + c, w * bi[c])
+
+
+@wp.kernel
+def systematic_resample(cdf: wp.array(dtype=wp.float64), u0: wp.float64,
+                        q_in: wp.array(dtype=wp.vec4d), b_in: wp.array(dtype=wp.vec3d),
+                        q_out: wp.array(dtype=wp.vec4d), b_out: wp.array(dtype=wp.vec3d),
+                        parent: wp.array(dtype=wp.int32)):
+    """Child j copies the first particle i with cdf[i] > (u0 + j)/N · cdf[N−1] (binary search)."""
+    j = wp.tid()
+    n = cdf.shape[0]
+    pos = (u0 + wp.float64(j)) / wp.float64(n) * cdf[n - 1]
+    lo = int(0)
+    hi = n
+    while lo < hi:  # numpy.searchsorted(cdf, pos, side="right")
+        mid = (lo + hi) // 2
+        if cdf[mid] <= pos:
+            lo = mid + 1
+        else:
+            hi = mid
+    i = wp.min(lo, n - 1)
+    parent[j] = i
+    q_out[j] = q_in[i]
+    b_out[j] = b_in[i]

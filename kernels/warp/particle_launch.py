@@ -1,0 +1,99 @@
+"""Launch logic of the SO(3) particle filter: device arrays, buffers and kernel launches.
+
+`WarpParticles` holds the particle arrays on one Warp device; each method is one step of the
+filter and launches the kernels of particle_kernels.py. On the CPU the weight sums run in
+index order on one thread (bit-identical to the numpy reference); on a GPU they use atomics
+and a parallel scan (equal to rounding).
+"""
+import numpy as np
+import warp as wp
+
+from . import particle_kernels as K
+
+
+class WarpParticles:
+    """Particles q (N, 4) and b (N, 3) with their log-weights on a Warp device."""
+
+    def __init__(self, q, b, device="cpu", sequential=None):
+        """sequential: weight sums on one thread in index order (default: on the CPU only)."""
+        q, b = np.asarray(q, np.float64), np.asarray(b, np.float64)
+        self.n = len(q)
+        self.device = device
+        self.q = wp.array(q, dtype=wp.vec4d, device=device)
+        self.b = wp.array(b, dtype=wp.vec3d, device=device)
+        self.logw = wp.zeros(self.n, dtype=wp.float64, device=device)
+        self._q2 = wp.empty_like(self.q)
+        self._b2 = wp.empty_like(self.b)
+        self.cdf = wp.zeros(self.n, dtype=wp.float64, device=device)
+        self.parent = wp.zeros(self.n, dtype=wp.int32, device=device)
+        self._sums = wp.zeros(9, dtype=wp.float64, device=device)
+        self._w = wp.zeros(self.n, dtype=wp.float64, device=device)
+        self._max = wp.zeros(1, dtype=wp.float64, device=device)
+        self._sequential = wp.get_device(device).is_cpu if sequential is None else bool(sequential)
+
+    # -- prediction --------------------------------------------------------------------------
+    def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
+                step_normals=None, walk_normals=None):
+        """One block of IMU steps (see reference.particle_filter.predict), one launch."""
+        dt = np.ascontiguousarray(dt, dtype=np.float64)
+        if len(dt) == 0:
+            return
+        omega_d = wp.array(np.ascontiguousarray(omega, np.float64), dtype=wp.vec3d, device=self.device)
+        dt_d = wp.array(dt, dtype=wp.float64, device=self.device)
+        walk_sigma = float(bias_walk * np.sqrt(np.sum(dt)))
+        if step_normals is None:
+            wp.launch(K.predict_counter, self.n, device=self.device,
+                      inputs=[self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
+                              wp.uint32(step0 & 0xFFFFFFFF),
+                              float(gyro_noise), walk_sigma])
+        else:
+            sn = wp.array(np.ascontiguousarray(step_normals, np.float64), dtype=wp.vec3d,
+                          device=self.device)
+            wn = wp.array(np.ascontiguousarray(walk_normals, np.float64), dtype=wp.vec3d,
+                          device=self.device)
+            wp.launch(K.predict_given, self.n, device=self.device,
+                      inputs=[self.q, self.b, omega_d, dt_d, sn, wn, float(gyro_noise), walk_sigma])
+
+    def normals(self, seed, step, component0, count=3):
+        """The counter-based normals the kernels draw, (N, count) on the host (for checks)."""
+        out = wp.zeros((self.n, count), dtype=wp.float64, device=self.device)
+        wp.launch(K.counter_normals, (self.n, count), device=self.device,
+                  inputs=[wp.uint32(seed), wp.uint32(step), wp.uint32(component0), out])
+        return out.numpy()
+
+    # -- update ------------------------------------------------------------------------------
+    def add_log_likelihood(self, stars_world, uv, *, fx, fy, cx, cy, pixel_sigma, gate):
+        stars = wp.array(np.ascontiguousarray(stars_world, np.float64), dtype=wp.vec3d,
+                         device=self.device)
+        uv_d = wp.array(np.ascontiguousarray(uv, np.float64), dtype=wp.vec2d, device=self.device)
+        wp.launch(K.add_log_likelihood, self.n, device=self.device,
+                  inputs=[self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
+                          1.0 / pixel_sigma, float(gate) * float(gate), self.logw])
+
+    def weight_sums(self, q_ref):
+        """Fill self.cdf and return the nine sums of reference.particle_filter.weight_sums."""
+        q_ref = wp.vec4d(*np.asarray(q_ref, np.float64))
+        if self._sequential:
+            wp.launch(K.weight_sums_sequential, 1, device=self.device,
+                      inputs=[self.logw, self.q, self.b, q_ref, self.cdf, self._sums])
+        else:
+            self._max.fill_(-np.inf)
+            self._sums.zero_()
+            wp.launch(K.log_weight_max, self.n, device=self.device, inputs=[self.logw, self._max])
+            wp.launch(K.weight_terms, self.n, device=self.device,
+                      inputs=[self.logw, self.q, self.b, q_ref, self._max, self._w, self._sums])
+            wp.utils.array_scan(self._w, self.cdf, inclusive=True)
+        return self._sums.numpy()
+
+    def resample(self, u0):
+        """Systematic resampling from self.cdf (call weight_sums first); resets the weights."""
+        wp.launch(K.systematic_resample, self.n, device=self.device,
+                  inputs=[self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent])
+        self.q, self._q2 = self._q2, self.q
+        self.b, self._b2 = self._b2, self.b
+        self.logw.zero_()
+
+    # -- host views --------------------------------------------------------------------------
+    def host(self):
+        """(q, b, logw) copied to numpy."""
+        return self.q.numpy(), self.b.numpy(), self.logw.numpy()

@@ -1,0 +1,154 @@
+"""Taichi (CPU) filters are bit-exact with the numpy reference: masks and counts."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import evstar
+from evstar import denoise
+
+SENSORS = [(1, 1), (7, 5), (40, 30)]
+RADII = [(3,), (1.5,), (3, 5, 7, 9, 11), (2, 4.5)]
+
+
+def make_events(seed, n, width, height, max_step=400, t_start=0, hot=None):
+    rng = np.random.default_rng(seed)
+    t = t_start + np.cumsum(rng.integers(0, max_step + 1, n))
+    x, y = rng.integers(0, width, n), rng.integers(0, height, n)
+    if hot is not None:  # a share of the events on a few pixels, so counts pile up
+        on = rng.random(n) < hot
+        x[on], y[on] = rng.integers(0, min(width, 2), on.sum()), rng.integers(0, min(height, 2), on.sum())
+    return evstar.Events(t, x, y, rng.integers(0, 2, n), width, height)
+
+
+def assert_same(flt_ref, flt_ti, ev):
+    m_ref, m_ti = flt_ref.apply(ev), flt_ti.apply(ev)
+    assert m_ti.dtype == bool and m_ti.shape == (len(ev),)
+    np.testing.assert_array_equal(m_ti, m_ref)
+    np.testing.assert_array_equal(flt_ti.counts_, flt_ref.counts_)
+    assert flt_ti.counts_.dtype == flt_ref.counts_.dtype
+
+
+def mr_pair(radii, thresholds, dt_us=1_000, **kw):
+    return (denoise.MRNDSEF(dt_us, radii, thresholds, backend="reference"),
+            denoise.MRNDSEF(dt_us, radii, thresholds, **kw))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 400), size=st.sampled_from(SENSORS),
+       radii=st.sampled_from(RADII), strategy=st.sampled_from(denoise.STRATEGIES),
+       th=st.lists(st.integers(1, 9), min_size=5, max_size=5), hot=st.sampled_from([None, 0.3]))
+def test_density_counts_match_reference(seed, n, size, radii, strategy, th, hot):
+    ev = make_events(seed, n, *size, hot=hot)
+    assert_same(*mr_pair(radii, th[:len(radii)], strategy=strategy), ev)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 400), size=st.sampled_from(SENSORS),
+       dt=st.sampled_from([1, 50, 1_000, 10_000]), k=st.integers(1, 8),
+       t_start=st.sampled_from([0, 7, 3_000, -20_000, 10**15]))
+def test_classical_matches_reference(seed, n, size, dt, k, t_start):
+    ev = make_events(seed, n, *size, max_step=300, t_start=t_start)
+    assert_same(denoise.ClassicalFilter(dt, k, backend="reference"), denoise.ClassicalFilter(dt, k), ev)
+
+
+def test_edge_and_corner_pixels():
+    w, h = 40, 30
+    border = [(x, y) for x in range(w) for y in range(h) if x in (0, 1, w - 2, w - 1) or y in (0, 1, h - 2, h - 1)]
+    rng = np.random.default_rng(5)
+    pick = rng.integers(0, len(border), 3000)
+    xy = np.array(border)[pick]
+    ev = evstar.Events(np.sort(rng.integers(0, 30_000, 3000)), xy[:, 0], xy[:, 1], np.ones(3000), w, h)
+    for strategy in denoise.STRATEGIES:
+        assert_same(*mr_pair((3, 5, 7, 9, 11), (2, 3, 4, 6, 8), strategy=strategy), ev)
+    assert_same(denoise.ClassicalFilter(500, backend="reference"), denoise.ClassicalFilter(500), ev)
+
+
+def test_empty_stream_empty_frames_and_one_event_frames():
+    empty = evstar.Events.empty(40, 30)
+    for flt in (denoise.MRNDSEF(thresholds=(1,) * 5), denoise.NDSEF(threshold=1), denoise.ClassicalFilter()):
+        keep = flt.apply(empty)
+        assert keep.shape == (0,) and keep.dtype == bool and len(flt.counts_) == 0
+    # frames of one event separated by long empty stretches, then a busy frame
+    t = np.r_[0, 50_000, 51_000, 400_000, 900_000 + np.arange(50)]
+    rng = np.random.default_rng(2)
+    ev = evstar.Events(t, rng.integers(0, 40, len(t)), rng.integers(0, 30, len(t)), np.ones(len(t)), 40, 30)
+    for strategy in denoise.STRATEGIES:
+        assert_same(*mr_pair((3, 5, 7, 9, 11), (1, 2, 2, 3, 3), dt_us=10_000, strategy=strategy), ev)
+    assert_same(denoise.ClassicalFilter(10_000, backend="reference"), denoise.ClassicalFilter(10_000), ev)
+
+
+def test_streams_longer_than_one_launch(monkeypatch):
+    ev = make_events(11, 5000, 40, 30, max_step=40)
+    ref_mr = mr_pair((3, 5, 7), (2, 4, 6))[0]
+    ref_cl = denoise.ClassicalFilter(700, 2, backend="reference")
+    expect_mr, expect_cl = ref_mr.apply(ev), ref_cl.apply(ev)
+    monkeypatch.setattr(denoise, "_MAX_LAUNCH_EVENTS", 333)
+    mr = denoise.MRNDSEF(1_000, (3, 5, 7), (2, 4, 6))
+    cl = denoise.ClassicalFilter(700, 2)
+    np.testing.assert_array_equal(mr.apply(ev), expect_mr)
+    np.testing.assert_array_equal(mr.counts_, ref_mr.counts_)
+    np.testing.assert_array_equal(cl.apply(ev), expect_cl)
+    np.testing.assert_array_equal(cl.counts_, ref_cl.counts_)
+    assert len(list(denoise._frame_launches(denoise.ref.frame_offsets(ev.t, 1_000)))) > 5
+
+
+def test_frames_too_big_for_16_bit_cells():
+    # > 65535 events in one frame switch the grid to 32-bit cells; counts pile up on 4 pixels
+    ev = make_events(3, 70_000, 40, 30, max_step=0, hot=0.9)
+    for strategy in ("sparse", "dense"):
+        assert_same(*mr_pair((1, 3), (5, 20_000), strategy=strategy), ev)
+    assert mr_pair((1, 3), (5, 20_000))[1].apply(ev).sum() > 0
+
+
+def test_ndsef_and_auto_thresholds_match_reference():
+    ev = make_events(8, 20_000, 40, 30, max_step=3)
+    a = denoise.NDSEF(10_000, 4, "auto", backend="reference")
+    b = denoise.NDSEF(10_000, 4, "auto")
+    assert_same(a, b, ev)
+    assert a.threshold_ == b.threshold_ and a.rate_hz_ == b.rate_hz_
+    c, d = denoise.MRNDSEF(backend="reference"), denoise.MRNDSEF()
+    assert_same(c, d, ev)
+    assert c.thresholds_ == d.thresholds_
+
+
+@pytest.fixture(params=[False, True], ids=["numpy-arrays", "device-arrays"])
+def device_arrays(request, monkeypatch):
+    """The event-parallel (GPU) form, with the CUDA data path (Taichi ndarrays) run on CPU."""
+    monkeypatch.setattr(denoise, "_DEVICE_ARRAYS", request.param)
+    return request.param
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 400), size=st.sampled_from(SENSORS),
+       radii=st.sampled_from(RADII), strategy=st.sampled_from(denoise.STRATEGIES),
+       th=st.lists(st.integers(1, 9), min_size=5, max_size=5))
+def test_event_parallel_counts_match_reference(seed, n, size, radii, strategy, th):
+    ev = make_events(seed, n, *size, hot=0.2)
+    assert_same(*mr_pair(radii, th[:len(radii)], strategy=strategy, schedule="events"), ev)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 400), size=st.sampled_from(SENSORS),
+       dt=st.sampled_from([1, 50, 1_000, 10_000]), k=st.integers(1, 8),
+       t_start=st.sampled_from([0, 7, 3_000, -20_000, 10**15]), max_step=st.sampled_from([0, 300, 30_000]))
+def test_event_parallel_classical_matches_reference(seed, n, size, dt, k, t_start, max_step):
+    ev = make_events(seed, n, *size, max_step=max_step, t_start=t_start)
+    assert_same(denoise.ClassicalFilter(dt, k, backend="reference"),
+                denoise.ClassicalFilter(dt, k, schedule="events"), ev)
+
+
+def test_event_parallel_data_path_batches_and_launches(device_arrays, monkeypatch):
+    ev = make_events(12, 6000, 40, 30, max_step=40)
+    ref_mr = mr_pair((3, 5, 7), (2, 4, 6))[0]
+    ref_cl = denoise.ClassicalFilter(700, 2, backend="reference")
+    expect_mr, expect_cl = ref_mr.apply(ev), ref_cl.apply(ev)
+    # small scratch budgets and launches: many batches of frames / buckets per launch
+    monkeypatch.setattr(denoise, "_EVENT_GRID_BYTES", 100_000)
+    monkeypatch.setattr(denoise, "_MAX_LAUNCH_EVENTS", 1_000)
+    for strategy in denoise.STRATEGIES:
+        mr = denoise.MRNDSEF(1_000, (3, 5, 7), (2, 4, 6), strategy=strategy, schedule="events")
+        np.testing.assert_array_equal(mr.apply(ev), expect_mr)
+        np.testing.assert_array_equal(mr.counts_, ref_mr.counts_)
+    cl = denoise.ClassicalFilter(700, 2, schedule="events")
+    np.testing.assert_array_equal(cl.apply(ev), expect_cl)
+    np.testing.assert_array_equal(cl.counts_, ref_cl.counts_)
