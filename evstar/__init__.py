@@ -9,15 +9,20 @@ from .errors import BackendError, DataError, EvstarError, EvstarWarning, FormatE
 from .events import Events
 from .imu import Imu
 from .recording import Recording
+from .config import Config
 
 __version__ = "0.1.0"
-_SUBMODULES = {"io", "sim", "denoise", "extract", "motion", "metrics", "pipeline", "backends"}
+_SUBMODULES = {"io", "sim", "denoise", "extract", "tracking", "motion", "metrics", "accuracy",
+               "pipeline", "backends", "report", "profiling"}
 
-__all__ = ["Camera", "Events", "Imu", "Recording", "EvstarError", "DataError",
+__all__ = ["Camera", "Config", "Pipeline", "Events", "Imu", "Recording", "EvstarError", "DataError",
            "FormatError", "BackendError", "EvstarWarning", *_SUBMODULES]
 
 
 def __getattr__(name):
+    if name == "Pipeline":
+        from .pipeline import Pipeline
+        return Pipeline
     if name in _SUBMODULES:
         return import_module(f".{name}", __name__)
     raise AttributeError(f"module 'evstar' has no attribute {name!r}")

@@ -1,7 +1,7 @@
 """Centroid accuracy against ground truth: errors, detection rate, false tracks.
 
-`positions(t_us)` is the truth: an array (n_stars, len(t_us), 2) of true pixel positions
-(the simulator's ``truth.star_positions``). A centroid is matched to the nearest true
+`positions(t_us)` is the truth: an array (len(t_us), n_stars, 2) of true pixel positions
+(the simulator's ``truth.star_position``). A centroid is matched to the nearest true
 star at the centroid's own timestamp, within ``match_px``.
 """
 from __future__ import annotations
@@ -13,7 +13,7 @@ def match(centroids, positions, match_px=3.0):
     """(star index or -1, error px) per centroid."""
     if len(centroids) == 0:
         return np.zeros(0, np.int64), np.zeros(0)
-    xy = positions(centroids["t"])                       # (S, N, 2)
+    xy = positions(centroids["t"]).transpose(1, 0, 2)   # (S, N, 2)
     d = np.hypot(xy[..., 0] - centroids["x"], xy[..., 1] - centroids["y"])
     d = np.where(np.isfinite(d), d, np.inf)
     star = np.argmin(d, axis=0)
@@ -35,7 +35,7 @@ def detection(centroids, positions, frame_ids, frame_t_us, width, height, match_
     """Fraction of (frame, star) pairs with the star inside the sensor (frames `frame_ids`
     with mid-times `frame_t_us`) that have a matched centroid; and the same per star."""
     frame_ids, frame_t_us = np.asarray(frame_ids), np.asarray(frame_t_us)
-    xy = positions(frame_t_us)                           # (S, F, 2) at frame mid-times
+    xy = positions(frame_t_us).transpose(1, 0, 2)       # (S, F, 2) at frame mid-times
     inside = ((xy[..., 0] >= margin_px) & (xy[..., 0] <= width - 1 - margin_px)
               & (xy[..., 1] >= margin_px) & (xy[..., 1] <= height - 1 - margin_px))
     star, _ = match(centroids, positions, match_px)

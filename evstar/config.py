@@ -98,18 +98,15 @@ class TrackConfig:
 
 @dataclass
 class MotionConfig:
-    compensate: str = "none"
+    compensate: str = "none"              # none | imu | pf
     n_particles: int = 4096
-    gyro_noise_dps: float = 0.05          # gyro white noise per sample (°/s), particle spread
-    bias_walk_dps: float = 0.005          # bias random walk per sample (°/s)
-    pixel_sigma: float = 0.5              # centroid measurement noise (px)
+    causal: bool = False                  # pf: bias known up to each time (True) or final (False)
 
     def validate(self, s="motion"):
         _check(self.compensate in COMPENSATIONS, f"{s}.compensate", self.compensate,
                f"must be one of {COMPENSATIONS}")
         _positive(f"{s}.n_particles", self.n_particles, integer=True)
-        for k in ("gyro_noise_dps", "bias_walk_dps", "pixel_sigma"):
-            _positive(f"{s}.{k}", getattr(self, k))
+        _check(isinstance(self.causal, bool), f"{s}.causal", self.causal, "must be true or false")
 
 
 @dataclass

@@ -389,11 +389,11 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
     for f0, f1 in _frame_launches(offsets):
         e0, e1 = int(offsets[f0]), int(offsets[f1])
         local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
-        # 16-bit cells cannot overflow when no frame holds more than 65535 events
-        cell = "u16x4" if np.diff(local).max() <= np.iinfo(np.uint16).max else "i32"
+        # packed 16-bit cells are exact while no frame holds more than MAX_EVENTS events
+        cell = "u16x4" if np.diff(local).max() <= frame_grids.MAX_EVENTS else "i32"
         dtype, per_element = _CELL_DTYPES[cell]
-        grid = _scratch_array(("grid", cell, geo, threads),
-                              lambda: np.zeros(threads * geo.plane // per_element, dtype))
+        grid = _scratch_array(("grid", cell, geo, threads),  # + 1 spare word (see frame_grids)
+                              lambda: np.zeros(threads * geo.plane // per_element + 1, dtype))
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
         kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, busy,

@@ -35,7 +35,8 @@ class Extractor:
     halves dips, between them, below split_valley times the lower of the two peaks is two
     targets closer than eps: they are reported apart (flag ``split``), not merged. A
     single smeared streak has a flat profile and halves as wide as their separation allows,
-    so it stays whole. None disables the check.
+    and a moving star's leading ON and trailing OFF lobes differ in polarity, so both stay
+    whole. None disables the check.
     """
 
     def __init__(self, dt_us=10_000, eps=2.5, min_samples=5, min_cluster_size=None,
@@ -91,17 +92,21 @@ class Extractor:
 
     # -- one cluster ----------------------------------------------------------------------
     def _describe(self, events, xy, frames, members):
-        parts = self._split(xy[members]) if self.split_valley else None
+        parts = self._split(xy[members], events.p[members]) if self.split_valley else None
         groups = [members] if parts is None else [members[parts == k] for k in (0, 1)]
         return [self._row(events, xy, frames, g, split=parts is not None) for g in groups]
 
-    def _split(self, pts):
+    def _split(self, pts, p):
         """Labels 0/1 when the cluster holds two separable targets, else None."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
         lab = KMeans(n_clusters=2, n_init=3, random_state=0).fit_predict(pts)
         sizes = np.bincount(lab, minlength=2)
         if sizes.min() < self.min_cluster_size:
+            return None
+        # a moving star fires ON at its leading edge and OFF at its trailing edge: halves
+        # that differ in polarity are the two lobes of one target, not two targets
+        if abs(p[lab == 0].mean() - p[lab == 1].mean()) > 0.5:
             return None
         c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)
         sep = np.linalg.norm(c1 - c0)

@@ -6,7 +6,7 @@ from evstar.extract import CENTROID_DTYPE
 
 def _truth(t):
     t = np.asarray(t, float) * 1e-6
-    return np.stack([np.stack([10 + 100 * t, 20 + 0 * t], -1), np.stack([50 + 0 * t, 40 + 50 * t], -1)])
+    return np.stack([np.stack([10 + 100 * t, 20 + 0 * t], -1), np.stack([50 + 0 * t, 40 + 50 * t], -1)], 1)
 
 
 def _centroids(rows):

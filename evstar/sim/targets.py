@@ -123,8 +123,9 @@ def hipparcos_field(camera, R_cw, *, mag_limit=6.0, max_stars=None, margin_deg=0
 def hipparcos_field_along(camera, trajectory, duration_s, *, mag_limit=6.0, max_stars=None):
     """Hipparcos stars that come into view at some time of a trajectory (world = ICRS).
 
-    The attitude is sampled every quarter of the narrower field of view of rotation, each
-    sample's view widened by that much; `max_stars` keeps the brightest.
+    The attitude is sampled whenever the camera may have turned by a quarter of its narrower
+    field of view, and each sample's view is widened by that much; `max_stars` keeps the
+    brightest.
     """
     if max_stars is not None and max_stars < 0:
         raise ValueError(f"max_stars must be >= 0, got {max_stars!r}")

@@ -13,7 +13,7 @@ pass costs (disk_costs).
 sensor size and one set of disks: the disks and the grid's row stride are compile-time
 constants, so every cell read is unrolled at a constant offset. `disks[k]` is a tuple of
 (dy, w) rows, w the half-width of row dy. Cell layouts: see frame_grids ("u16x4" for
-launches whose frames hold <= 65535 events, "i32" otherwise).
+launches whose frames hold <= frame_grids.MAX_EVENTS events, "i32" otherwise).
 
 Outputs: counts[e, k] = events of e's frame in disk k around e (e included), -1 where e
 was rejected at an earlier radius; keep[e] = 1 iff counts[e, k] >= thresholds[k] for all k.
@@ -54,18 +54,27 @@ def annulus_segments(disks):
     return tuple(out)
 
 
-def disk_costs(disks, geo):
-    """Compile-time costs (in direct cell reads) that steer the sparse/dense choice.
+def direct_costs(disks, geo, cell):
+    """Reads per event of each radius's direct count: annulus cells, or SWAR words."""
+    segments = annulus_segments(disks)
+    if cell == "u16x4":  # words loaded plus ~1.5 corrections per row piece
+        return [sum(n_words + 1.5 for g in fg.swar_plan(seg, geo.stride) for _, _, _, n_words, _ in g)
+                for seg in segments]
+    return [sum(b - a + 1 for _, pieces in seg for a, b in pieces) for seg in segments]
+
+
+def disk_costs(disks, geo, cell="i32"):
+    """Compile-time costs (in reads) that steer the sparse/dense choice.
 
     Returns (dense_min, rest_gain, plane_cost): radius 1 uses prefix sums when a frame holds
     at least dense_min events; after radius 1, the survivors use prefix sums for the other
     radii when survivors * rest_gain > plane_cost.
     """
-    area = [sum(2 * w + 1 for _, w in rows) for rows in disks]
+    direct = direct_costs(disks, geo, cell)
     plane_cost = int(PREFIX_CELL_COST * geo.prefix_plane)
-    gain1 = max(area[0] - 2 * len(disks[0]), 1)
-    rest_gain = max(area[-1] - area[0] - 2 * sum(len(rows) for rows in disks[1:]), 1)
-    return max(1, plane_cost // gain1), rest_gain, plane_cost
+    gain1 = max(direct[0] - 2 * len(disks[0]), 1)
+    rest_gain = max(sum(direct[1:]) - 2 * sum(len(rows) for rows in disks[1:]), 1)
+    return max(1, int(plane_cost // gain1)), max(1, int(rest_gain)), plane_cost
 
 
 def make_disk_count(disks, geo, cell):
@@ -74,7 +83,7 @@ def make_disk_count(disks, geo, cell):
     segments = annulus_segments(disks)
     stride, pstride = geo.stride, geo.prefix_stride
     if cell == "u16x4":
-        sums = [fg.make_swar_sum(fg.swar_terms(seg, stride)) for seg in segments]
+        sums = [fg.make_swar_sum(fg.swar_plan(seg, stride)) for seg in segments]
 
     @ti.func
     def disk_count(grid: ti.template(), prefix: ti.template(), at: ti.i32, pat: ti.i32,
@@ -107,7 +116,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     """
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
-    model_min, rest_gain, plane_cost = disk_costs(disks, geo)
+    model_min, rest_gain, plane_cost = disk_costs(disks, geo, cell)
     dtype, bin_cell, unbin_cell, read_cell = fg.LAYOUTS[cell]
     grid_1d = ti.types.ndarray(dtype=dtype, ndim=1)
     disk_count = make_disk_count(disks, geo, cell)

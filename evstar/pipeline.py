@@ -1,0 +1,267 @@
+"""The whole chain: motion compensation -> denoise -> extract -> track -> metrics.
+
+    import evstar
+    from evstar import sim
+    run = sim.simulate(sim.paper_preset(20.0), seed=1)
+    result = evstar.Pipeline(evstar.Config()).run(run.events, run.imu, run.camera, truth=run.truth)
+    result.centroids, result.metrics
+
+Every stage is also callable alone (evstar.motion.compensate, evstar.denoise, evstar.extract,
+evstar.tracking). A recording larger than memory goes through :meth:`Pipeline.run_file`,
+chunk by chunk of ``config.chunk_frames`` frames, with results identical to :meth:`run`:
+both take the background rate for ``auto`` thresholds from the first ``chunk_frames``
+frames (the calibration window), frames never straddle chunks, the classical filter gets
+the previous chunk's last ``dt`` of events as context, and tracks are linked at the end.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import accuracy
+from .config import Config
+from .events import Events
+from .extract import CENTROID_DTYPE, Extractor
+from .tracking import Tracker
+
+
+@dataclass
+class Result:
+    centroids: np.ndarray                     # CENTROID_DTYPE rows, tracks linked
+    metrics: dict
+    timings_s: dict
+    keep: np.ndarray | None = None            # keep mask per input event (None when streamed)
+    compensation: object = None               # evstar.motion.Compensation (whole runs)
+    frame_counts: dict = field(default_factory=dict)   # per-frame counts for plots
+
+
+class Pipeline:
+    def __init__(self, config=None):
+        self.config = Config() if config is None else config
+        if not isinstance(self.config, Config):
+            raise ValueError(f"config must be an evstar.Config, got {type(config).__name__}")
+        self.config.validate()
+
+    # -- stage factories ----------------------------------------------------------------
+    def make_filter(self, t0_us, rate_hz):
+        """The configured denoiser with a fixed frame origin and background rate."""
+        from . import denoise
+
+        c, d = self.config, self.config.denoise
+        common = dict(dt_us=c.dt_us, device=c.device)
+        if d.method == "classical":
+            return denoise.ClassicalFilter(k=d.k, **common)
+        if d.method == "ndsef":
+            return denoise.NDSEF(radius=d.radius, threshold=d.threshold or "auto", alpha=d.alpha,
+                                 rate_hz=rate_hz, t0_us=t0_us, **common)
+        if d.method == "mr-ndsef":
+            th = d.thresholds if d.thresholds == "auto" else tuple(d.thresholds)
+            return denoise.MRNDSEF(radii=tuple(d.radii), thresholds=th, alpha=d.alpha,
+                                   rate_hz=rate_hz, t0_us=t0_us, **common)
+        return None
+
+    def make_extractor(self, t0_us, compensated=False):
+        """Compensated coordinates are positions at the frame mid-time, so their centroids
+        carry that time whatever extract.time_ref says."""
+        e = self.config.extract
+        return Extractor(dt_us=self.config.dt_us, eps=e.eps, min_samples=e.min_samples,
+                         min_cluster_size=e.min_cluster_size, weighting=e.weighting,
+                         time_ref="mid" if compensated else e.time_ref, t_origin_us=t0_us)
+
+    def make_tracker(self):
+        t = self.config.track
+        return Tracker(gate_px=t.gate_px, init_gate_px=t.init_gate_px, max_gap=t.max_gap,
+                       min_length=t.min_length)
+
+    def calibration_rate(self, events, t0_us):
+        """Background rate (events/pixel/s) of the first chunk_frames frames."""
+        from evstar_kernels.reference.denoise import background_rate
+
+        w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        return background_rate(w.t, w.x, w.y, w.width, w.height)
+
+    # -- one chunk ----------------------------------------------------------------------
+    def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
+        from .motion import compensate
+
+        return compensate(events, imu, camera, self.config.dt_us, mode, t0_us=t0_us,
+                          filter_result=filter_result, causal=self.config.motion.causal,
+                          backend="warp" if len(events) > 200_000 else "numpy",
+                          device=self.config.device)
+
+    def _chunk(self, events, imu, camera, t0_us, rate, mode, filter_result, context=None):
+        """(keep mask, centroids, timings) of one chunk; `context` are earlier events the
+        classical filter needs (their own outputs are dropped)."""
+        timings = {}
+        t = time.perf_counter()
+        comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
+        ev_f, idx = comp.events()
+        timings["compensate"] = time.perf_counter() - t
+        t = time.perf_counter()
+        flt = self.make_filter(t0_us, rate)
+        if flt is None:
+            keep_f = np.ones(len(ev_f), bool)
+        elif context is not None and len(context) and self.config.denoise.method == "classical":
+            both = Events.concatenate([context, ev_f])
+            keep_f = flt.apply(both)[len(context):]
+        else:
+            keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
+        timings["denoise"] = time.perf_counter() - t
+        t = time.perf_counter()
+        kept = idx[keep_f]
+        xy = np.column_stack([comp.x[kept], comp.y[kept]])
+        cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
+        timings["extract"] = time.perf_counter() - t
+        keep = np.zeros(len(events), bool)
+        keep[kept] = True
+        return keep, cents, timings, comp, ev_f
+
+    # -- whole recordings in memory -----------------------------------------------------
+    def run(self, events, imu=None, camera=None, truth=None):
+        """Run every stage on events held in memory."""
+        mode = self.config.motion.compensate
+        if mode != "none" and (imu is None or camera is None):
+            raise ValueError(f"motion.compensate = {mode!r} needs an IMU and a camera")
+        t0 = int(events.t[0]) if len(events) else 0
+        rate = self.calibration_rate(events, t0)
+        timings = {}
+        filter_result = None
+        if mode == "pf":
+            filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
+        keep, cents, chunk_t, comp, _ = self._chunk(events, imu, camera, t0, rate, mode, filter_result)
+        _add(timings, chunk_t)
+        result = self._finish(cents, timings, len(events), truth=truth,
+                              stats=_stats(events, keep, truth, 0), filter_result=filter_result)
+        result.keep, result.compensation = keep, comp
+        result.frame_counts = _frame_counts(events, keep, truth, 0, self.config.dt_us, t0)
+        return result
+
+    def _particle_filter(self, chunks, imu, camera, t0, rate):
+        """First pass with IMU compensation -> tracked centroids -> particle filter."""
+        from .motion import ParticleFilter
+
+        timings = {}
+        parts = []
+        for events, context in chunks:
+            _, cents, chunk_t, _, _ = self._chunk(events, imu, camera, t0, rate, "imu", None, context)
+            parts.append(cents)
+            _add(timings, {"pf_first_pass": sum(chunk_t.values())})
+        tracked = self.make_tracker().link(_cat(parts))
+        obs = tracked[tracked["track"] >= 0]
+        t = time.perf_counter()
+        pf = ParticleFilter(self.config.motion.n_particles, seed=self.config.seed,
+                            device=self.config.device)
+        result = pf.run(imu, {"t": obs["t"], "track": obs["track"], "x": obs["x"], "y": obs["y"]},
+                        camera)
+        timings["particle_filter"] = time.perf_counter() - t
+        return result, timings
+
+    def _finish(self, centroids, timings, n_events, truth, stats, filter_result):
+        t = time.perf_counter()
+        cents = self.make_tracker().link(centroids)
+        timings["track"] = time.perf_counter() - t
+        metrics = {"events": n_events, "events_kept": stats["kept"],
+                   "centroids": int(len(cents)),
+                   "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0]))),
+                   "throughput_events_per_s": n_events / max(sum(timings.values()), 1e-9),
+                   "timings_s": dict(timings)}
+        if filter_result is not None and len(filter_result.bias):
+            metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
+        if truth is not None:
+            metrics.update(self._truth_metrics(cents, stats, truth))
+        return Result(cents, metrics, timings)
+
+    def _truth_metrics(self, cents, stats, truth):
+        from .metrics import snr_db
+
+        s0, n0, s1, n1 = stats["signal"], stats["noise"], stats["signal_kept"], stats["noise_kept"]
+        out = {"snr_before_db": snr_db(s0, n0), "snr_after_db": snr_db(s1, n1),
+               "signal_retained": s1 / s0 if s0 else float("nan"),
+               "noise_removed": 1 - n1 / n0 if n0 else float("nan")}
+        out["snr_gain_db"] = out["snr_after_db"] - out["snr_before_db"]
+        star, err = accuracy.match(cents, truth.star_position)
+        out["centroid_error_px"] = accuracy.summary(err[star >= 0])
+        out["centroids_matched"] = int((star >= 0).sum())
+        return out
+
+    # -- recordings larger than memory ---------------------------------------------------
+    def run_file(self, path, imu=None, camera=None, truth=None, progress=True, format=None,
+                 sensor_size=None):
+        """Stream a file chunk by chunk (bounded memory); same results as run()."""
+        from . import io
+
+        mode = self.config.motion.compensate
+        if mode != "none" and (imu is None or camera is None):
+            raise ValueError(f"motion.compensate = {mode!r} needs an IMU and a camera")
+        span = self.config.chunk_frames * self.config.dt_us
+        first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
+        if first is None:
+            raise ValueError(f"{path}: no events")
+        t0 = int(first[1].t[0])
+        rate = self.calibration_rate(first[1], t0)
+
+        def chunks(desc):
+            return _with_context(io.windows(path, span, format=format, sensor_size=sensor_size,
+                                            t_origin_us=t0), self.config.dt_us, desc, progress)
+        timings, filter_result = {}, None
+        if mode == "pf":
+            filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
+        parts, stats, n_events, offset = [], {}, 0, 0
+        for events, context in chunks("evstar run"):
+            keep, cents, chunk_t, _, _ = self._chunk(events, imu, camera, t0, rate, mode,
+                                                     filter_result, context)
+            _add(timings, chunk_t)
+            parts.append(cents)
+            _add(stats, _stats(events, keep, truth, offset))
+            n_events += len(events)
+            offset += len(events)
+        return self._finish(_cat(parts), timings, n_events, truth, stats, filter_result)
+
+
+# -- helpers -----------------------------------------------------------------------------
+def _with_context(windows, dt_us, desc, progress):
+    """(events, context) per chunk: context = the previous chunk's events of its last dt."""
+    from tqdm import tqdm
+
+    bar = tqdm(desc=desc, unit="ev", unit_scale=True, disable=not progress, leave=False)
+    prev = None
+    for _, events in windows:
+        context = None if prev is None else prev.time_window(int(events.t[0]) - dt_us, int(events.t[0]))
+        yield events, context
+        bar.update(len(events))
+        prev = events
+    bar.close()
+
+
+def _stats(events, keep, truth, offset):
+    out = {"kept": int(keep.sum())}
+    if truth is not None:
+        sig = truth.labels[offset:offset + len(events)] >= 0
+        out.update(signal=int(sig.sum()), noise=int((~sig).sum()),
+                   signal_kept=int((sig & keep).sum()), noise_kept=int((~sig & keep).sum()))
+    return out
+
+
+def _frame_counts(events, keep, truth, offset, dt_us, t0):
+    frames = (events.t - t0) // dt_us
+    n = int(frames[-1]) + 1 if len(frames) else 0
+    out = {"t_s": (np.arange(n) + 0.5) * dt_us * 1e-6,
+           "before": np.bincount(frames, minlength=n), "after": np.bincount(frames[keep], minlength=n)}
+    if truth is not None:
+        sig = truth.labels[offset:offset + len(events)] >= 0
+        for name, m in (("signal_before", sig), ("signal_after", sig & keep),
+                        ("noise_before", ~sig), ("noise_after", ~sig & keep)):
+            out[name] = np.bincount(frames[m], minlength=n)
+    return out
+
+
+def _add(acc, new):
+    for k, v in new.items():
+        acc[k] = acc.get(k, 0) + v
+
+
+def _cat(parts):
+    parts = [p for p in parts if len(p)]
+    return np.concatenate(parts) if parts else np.zeros(0, CENTROID_DTYPE)
