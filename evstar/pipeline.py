@@ -30,14 +30,18 @@ from .tracking import Tracker
 @dataclass
 class Result:
     centroids: np.ndarray                     # CENTROID_DTYPE rows, tracks linked
-    metrics: dict
-    timings_s: dict
+    metrics: dict                             # deterministic for given inputs and seed
+    timings_s: dict                           # seconds per stage (varies run to run)
     keep: np.ndarray | None = None            # keep mask per input event (None when streamed)
     compensation: object = None               # evstar.motion.Compensation (whole runs)
-    frame_counts: dict = field(default_factory=dict)   # per-frame counts for plots
+    frame_counts: dict = field(default_factory=dict)   # per-frame event counts, for plots
+    image_before: np.ndarray | None = None    # accumulated events per pixel (height, width)
+    image_after: np.ndarray | None = None     # the same, kept events only
 
 
 class Pipeline:
+    """Runs the configured stages; see the module docstring."""
+
     def __init__(self, config=None):
         self.config = Config() if config is None else config
         if not isinstance(self.config, Config):
@@ -132,10 +136,10 @@ class Pipeline:
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
         keep, cents, chunk_t, comp, _ = self._chunk(events, imu, camera, t0, rate, mode, filter_result)
         _add(timings, chunk_t)
-        result = self._finish(cents, timings, len(events), truth=truth,
-                              stats=_stats(events, keep, truth, 0), filter_result=filter_result)
+        acc = _Summary(events.width, events.height, self.config.dt_us, t0)
+        acc.add(events, keep, truth, 0)
+        result = self._finish(cents, timings, len(events), truth, acc, filter_result)
         result.keep, result.compensation = keep, comp
-        result.frame_counts = _frame_counts(events, keep, truth, 0, self.config.dt_us, t0)
         return result
 
     def _particle_filter(self, chunks, imu, camera, t0, rate):
@@ -158,20 +162,20 @@ class Pipeline:
         timings["particle_filter"] = time.perf_counter() - t
         return result, timings
 
-    def _finish(self, centroids, timings, n_events, truth, stats, filter_result):
+    def _finish(self, centroids, timings, n_events, truth, acc, filter_result):
+        stats = acc.stats
         t = time.perf_counter()
         cents = self.make_tracker().link(centroids)
         timings["track"] = time.perf_counter() - t
         metrics = {"events": n_events, "events_kept": stats["kept"],
                    "centroids": int(len(cents)),
-                   "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0]))),
-                   "throughput_events_per_s": n_events / max(sum(timings.values()), 1e-9),
-                   "timings_s": dict(timings)}
+                   "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0])))}
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:
             metrics.update(self._truth_metrics(cents, stats, truth))
-        return Result(cents, metrics, timings)
+        return Result(cents, metrics, dict(timings), frame_counts=acc.frame_counts(),
+                      image_before=acc.before, image_after=acc.after)
 
     def _truth_metrics(self, cents, stats, truth):
         from .metrics import snr_db
@@ -208,16 +212,16 @@ class Pipeline:
         timings, filter_result = {}, None
         if mode == "pf":
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
-        parts, stats, n_events, offset = [], {}, 0, 0
+        parts, offset = [], 0
+        acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _, _ = self._chunk(events, imu, camera, t0, rate, mode,
                                                      filter_result, context)
             _add(timings, chunk_t)
             parts.append(cents)
-            _add(stats, _stats(events, keep, truth, offset))
-            n_events += len(events)
+            acc.add(events, keep, truth, offset)
             offset += len(events)
-        return self._finish(_cat(parts), timings, n_events, truth, stats, filter_result)
+        return self._finish(_cat(parts), timings, offset, truth, acc, filter_result)
 
 
 # -- helpers -----------------------------------------------------------------------------
@@ -235,26 +239,45 @@ def _with_context(windows, dt_us, desc, progress):
     bar.close()
 
 
-def _stats(events, keep, truth, offset):
-    out = {"kept": int(keep.sum())}
-    if truth is not None:
-        sig = truth.labels[offset:offset + len(events)] >= 0
-        out.update(signal=int(sig.sum()), noise=int((~sig).sum()),
-                   signal_kept=int((sig & keep).sum()), noise_kept=int((~sig & keep).sum()))
-    return out
+class _Summary:
+    """Counts accumulated chunk by chunk: kept/signal/noise totals, per-frame counts and
+    per-pixel images (bounded memory: one image per sensor, one row per frame)."""
 
+    def __init__(self, width, height, dt_us, t0):
+        self.dt_us, self.t0 = dt_us, t0
+        self.before = np.zeros((height, width), np.int64)
+        self.after = np.zeros((height, width), np.int64)
+        self.stats, self.frames = {}, {}
 
-def _frame_counts(events, keep, truth, offset, dt_us, t0):
-    frames = (events.t - t0) // dt_us
-    n = int(frames[-1]) + 1 if len(frames) else 0
-    out = {"t_s": (np.arange(n) + 0.5) * dt_us * 1e-6,
-           "before": np.bincount(frames, minlength=n), "after": np.bincount(frames[keep], minlength=n)}
-    if truth is not None:
-        sig = truth.labels[offset:offset + len(events)] >= 0
-        for name, m in (("signal_before", sig), ("signal_after", sig & keep),
-                        ("noise_before", ~sig), ("noise_after", ~sig & keep)):
-            out[name] = np.bincount(frames[m], minlength=n)
-    return out
+    def add(self, events, keep, truth, offset):
+        from .report import accumulated
+
+        self.before += accumulated(events)
+        self.after += accumulated(events[keep])
+        frames = (events.t - self.t0) // self.dt_us
+        series = {"before": np.ones(len(events), bool), "after": keep}
+        new = {"kept": int(keep.sum())}
+        if truth is not None:
+            sig = truth.labels[offset:offset + len(events)] >= 0
+            series.update(signal_before=sig, signal_after=sig & keep, noise_before=~sig,
+                          noise_after=~sig & keep)
+            new.update(signal=int(sig.sum()), noise=int((~sig).sum()),
+                       signal_kept=int((sig & keep).sum()), noise_kept=int((~sig & keep).sum()))
+        _add(self.stats, new)
+        if len(frames):
+            lo, n = int(frames[0]), int(frames[-1] - frames[0]) + 1
+            for name, m in series.items():
+                counts = np.bincount(frames[m] - lo, minlength=n)
+                self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
+
+    def frame_counts(self):
+        if not self.frames:
+            return {}
+        n = max(self.frames["before"]) + 1
+        out = {"t_s": (np.arange(n) + 0.5) * self.dt_us * 1e-6}
+        for name, d in self.frames.items():
+            out[name] = np.array([d.get(k, 0) for k in range(n)])
+        return out
 
 
 def _add(acc, new):

@@ -38,20 +38,21 @@ def _show(ax, img, title):
     ax.set_ylabel("y (px)")
 
 
-def plot_denoise(path, events, keep):
-    """Accumulated events before and after denoising, side by side (log colour scale)."""
+def plot_denoise(path, image_before, image_after):
+    """Accumulated events (per-pixel counts) before and after denoising (log colour scale)."""
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
-    _show(axes[0], accumulated(events), f"before denoising: {len(events):,} events")
-    _show(axes[1], accumulated(events[keep]), f"after denoising: {int(keep.sum()):,} events kept")
+    _show(axes[0], image_before, f"before denoising: {int(image_before.sum()):,} events")
+    _show(axes[1], image_after, f"after denoising: {int(image_after.sum()):,} events kept")
     return _save(fig, path)
 
 
-def plot_tracks(path, events, keep, centroids, truth_xy=None):
-    """Star tracks over the accumulated image of the kept events; truth dashed when given."""
+def plot_tracks(path, image, centroids, truth_xy=None):
+    """Star tracks over an accumulated image of the kept events; truth dashed when given."""
     plt = _plt()
+    height, width = image.shape
     fig, ax = plt.subplots(figsize=(8, 6))
-    _show(ax, accumulated(events[keep]), "star tracks")
+    _show(ax, image, "star tracks")
     for tid in np.unique(centroids["track"]):
         if tid < 0:
             continue
@@ -60,8 +61,8 @@ def plot_tracks(path, events, keep, centroids, truth_xy=None):
     if truth_xy is not None:
         for k, xy in enumerate(truth_xy):
             ax.plot(xy[:, 0], xy[:, 1], "--", color="cyan", lw=0.8, label="truth" if k == 0 else None)
-    ax.set_xlim(-0.5, events.width - 0.5)
-    ax.set_ylim(events.height - 0.5, -0.5)
+    ax.set_xlim(-0.5, width - 0.5)
+    ax.set_ylim(height - 0.5, -0.5)
     if len(np.unique(centroids["track"])) <= 12:
         ax.legend(loc="upper right", fontsize=7)
     return _save(fig, path)
