@@ -1,0 +1,116 @@
+"""The whole pipeline: streaming equals whole runs, CLI outputs, robustness."""
+import json
+
+import numpy as np
+import pytest
+
+import evstar
+from evstar import Config, Pipeline, io, sim
+from evstar.cli import main
+
+
+@pytest.fixture(scope="module")
+def scene():
+    bias = tuple(np.radians([0.3, -0.2, 0.25]))
+    return sim.simulate(sim.paper_preset(16.0, duration_s=0.3, imu=sim.ImuSpec(gyro_bias=bias)), seed=3)
+
+
+@pytest.fixture(scope="module")
+def scene_file(scene, tmp_path_factory):
+    d = tmp_path_factory.mktemp("scene")
+    io.write(d / "events.h5", scene.events, imu=scene.imu, camera=scene.camera)
+    io.write_imu(d / "imu.csv", scene.imu)
+    io.write_camera(d / "camera.json", scene.camera)
+    sim.save_truth(d / "truth.npz", scene.truth)
+    return d
+
+
+@pytest.mark.parametrize("method,mode", [("mr-ndsef", "none"), ("classical", "none"),
+                                         ("ndsef", "imu"), ("mr-ndsef", "pf")])
+def test_streaming_equals_whole_run(scene, scene_file, method, mode):
+    cfg = Config(chunk_frames=7).replace(**{"denoise.method": method, "motion.compensate": mode,
+                                            "motion.n_particles": 512})
+    whole = Pipeline(cfg).run(scene.events, scene.imu, scene.camera, truth=scene.truth)
+    streamed = Pipeline(cfg).run_file(scene_file / "events.h5", scene.imu, scene.camera,
+                                      truth=scene.truth, progress=False)
+    assert len(whole.centroids) > 10
+    np.testing.assert_array_equal(whole.centroids, streamed.centroids)
+    assert whole.metrics == streamed.metrics
+    np.testing.assert_array_equal(whole.image_after, streamed.image_after)
+    for k, v in whole.frame_counts.items():
+        np.testing.assert_array_equal(v, streamed.frame_counts[k])
+
+
+def test_pipeline_quality_on_the_paper_scene(scene):
+    cfg = Config().replace(**{"motion.compensate": "pf", "motion.n_particles": 1024})
+    m = Pipeline(cfg).run(scene.events, scene.imu, scene.camera, truth=scene.truth).metrics
+    assert m["tracks"] == 1 and m["signal_retained"] > 0.9 and m["snr_gain_db"] > 25
+    assert m["centroid_error_px"]["mean"] < 0.3 and m["centroid_error_px"]["max"] < 1.0
+
+
+def test_compensation_needs_imu_and_camera(scene):
+    with pytest.raises(ValueError, match="needs an IMU and a camera"):
+        Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(scene.events)
+    with pytest.raises(ValueError, match="evstar.Config"):
+        Pipeline({"dt_us": 5})
+
+
+def _outputs(d):
+    return {f.name: f.read_bytes() for f in sorted(d.iterdir()) if f.name != "profile.json"}
+
+
+def test_cli_run_writes_results_and_is_reproducible(scene_file, tmp_path, capsys):
+    args = ["run", str(scene_file / "events.h5"), "--truth", str(scene_file / "truth.npz"),
+            "--compensate", "imu", "--no-progress"]
+    assert main(args + ["-o", str(tmp_path / "a")]) == 0
+    assert "centroid err" in capsys.readouterr().out
+    names = {f.name for f in (tmp_path / "a").iterdir()}
+    assert {"centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml", "denoise.png",
+            "tracks.png", "per_frame.png", "errors.png"} <= names
+    m = json.loads((tmp_path / "a" / "metrics.json").read_text())
+    assert m["centroid_error_px"]["mean"] < 0.3
+    assert Config.load(tmp_path / "a" / "config.toml").motion.compensate == "imu"
+    assert main(args + ["-o", str(tmp_path / "b")]) == 0
+    assert _outputs(tmp_path / "a") == _outputs(tmp_path / "b")
+
+
+def test_cli_run_streams_large_inputs_with_same_results(scene_file, tmp_path):
+    base = ["run", str(scene_file / "events.h5"), "--no-progress", "--chunk-frames", "5"]
+    assert main(base + ["-o", str(tmp_path / "whole")]) == 0
+    assert main(base + ["--stream-above-mb", "0", "-o", str(tmp_path / "streamed")]) == 0
+    for name in ("centroids.csv", "tracks.csv", "metrics.json"):
+        assert (tmp_path / "whole" / name).read_bytes() == (tmp_path / "streamed" / name).read_bytes()
+
+
+def test_interrupted_run_leaves_no_partial_output(scene_file, tmp_path, monkeypatch):
+    def interrupt(*a, **k):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(evstar.report, "plot_per_frame", interrupt)
+    assert main(["run", str(scene_file / "events.h5"), "-o", str(tmp_path / "out"), "--no-progress"]) == 130
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bad_configuration_is_rejected_naming_the_key(scene_file, tmp_path, capsys):
+    cfg = tmp_path / "cfg.toml"
+    cfg.write_text("[extract]\nepsilon = 3\n")
+    assert main(["run", str(scene_file / "events.h5"), "-o", str(tmp_path / "o"), "--config", str(cfg)]) == 2
+    assert "extract.epsilon" in capsys.readouterr().err
+    assert main(["extract", str(scene_file / "events.h5"), "-o", str(tmp_path / "c.csv"), "--eps", "-1"]) == 2
+    assert "extract.eps" in capsys.readouterr().err
+
+
+def test_cli_extract_with_imu_csv_and_camera(scene_file, tmp_path, capsys):
+    out = tmp_path / "c.csv"
+    assert main(["extract", str(scene_file / "events.h5"), "-o", str(out), "--imu", str(scene_file / "imu.csv"),
+                 "--camera", str(scene_file / "camera.json"), "--compensate", "imu"]) == 0
+    c = io.read_centroids(out)
+    assert len(c) >= 25 and set(np.unique(c["track"])) == {0}
+    assert out.read_text().startswith("t,x,y,track,n_events,frame")
+
+
+def test_demo_runs_the_whole_job(tmp_path, capsys):
+    assert main(["demo", "-o", str(tmp_path / "demo"), "--compensate", "imu"]) == 0
+    out = capsys.readouterr().out
+    assert "centroid err" in out and (tmp_path / "demo" / "tracks.png").stat().st_size > 10_000
+    m = json.loads((tmp_path / "demo" / "metrics.json").read_text())
+    assert m["tracks"] == 1 and m["centroid_error_px"]["mean"] < 0.3
