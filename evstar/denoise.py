@@ -394,12 +394,9 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
         dtype, per_element = _CELL_DTYPES[cell]
         grid = _scratch_array(("grid", cell, geo, threads),
                               lambda: np.zeros(threads * geo.plane // per_element, dtype))
-        order = _scratch_array(("order", cell, threads),  # events grouped by alignment
-                               lambda: np.zeros((threads, frame_grids.MAX_EVENTS if cell == "u16x4" else 1),
-                                                np.int32))
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
-        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, busy, order,
+        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, busy,
                counts[e0:e1], keep[e0:e1])
 
 

@@ -8,7 +8,7 @@ from importlib import import_module
 from ..errors import EvstarError
 
 # sub-command name -> module in this package defining add_parser(subparsers) and run(args)
-COMMANDS = ["info", "convert", "simulate", "denoise", "extract", "run", "demo"]
+COMMANDS = ["info", "convert", "simulate", "denoise", "extract", "run", "demo", "bench"]
 
 
 def build_parser():
