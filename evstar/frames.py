@@ -12,9 +12,9 @@ def check_dt(dt_us):
 
 def frame_ids(t, dt_us, t_origin_us=None):
     """Frame index of each timestamp (int64); the origin defaults to the first timestamp."""
-    t = np.asarray(t, dtype=np.int64)
-    t0 = (int(t[0]) if len(t) else 0) if t_origin_us is None else int(t_origin_us)
-    return (t - t0) // check_dt(dt_us)
+    from evstar_kernels.reference.denoise import frame_index
+
+    return frame_index(t, check_dt(dt_us), t_origin_us)
 
 
 def frame_bounds(frames):
