@@ -65,15 +65,19 @@ class Extractor:
         frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
         # membership is decided on the pixel grid (float, e.g. warped, coordinates are
         # rounded as the filters round them); centroids use the floats
-        xy = np.floor(_coords(events, xy) + 0.5)
+        xy = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
         if len(events) == 0:
             return frames, np.zeros(0, np.int64)
-        pts = np.column_stack([xy, (frames - frames[0]) * _FRAME_GAP])
         # events repeat at a pixel (a star fires ~30 per pixel it crosses): cluster the
-        # distinct points weighted by multiplicity — the same core test, far fewer neighbours
-        uniq, inverse, counts = np.unique(pts, axis=0, return_inverse=True, return_counts=True)
+        # distinct (frame, pixel) cells weighted by multiplicity — the same core test, far
+        # fewer neighbours. One int64 key per cell keeps the de-duplication a 1-D sort.
+        lo = xy.min(0)
+        w, h = xy.max(0) - lo + 1
+        key = ((frames - frames[0]) * h + (xy[:, 1] - lo[1])) * w + (xy[:, 0] - lo[0])
+        cells, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * _FRAME_GAP])
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
-            uniq, sample_weight=counts)
+            pts.astype(np.float64), sample_weight=counts)
         return frames, labels[inverse.ravel()]
 
     def centroids(self, events, xy=None):
