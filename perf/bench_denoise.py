@@ -11,8 +11,9 @@ Rows: ClassicalFilter (k=1, dt 10 ms), NDSEF (radius 5, auto threshold), MR-NDSE
 event-parallel GPU form run on the CPU), reference (numpy, on the first 1 M events) and
 dv-processing's BackgroundActivityNoiseFilter (dt 10 ms). Medians of --repeats runs after
 one warm-up; the first call (kernel compilation into a cold cache) is reported apart.
-Extra memory: the peak resident memory above the level before the call (VmHWM, reset
-before each call), against the input's bytes.
+Extra memory: the peak of the numpy arrays one call allocates (tracemalloc; outputs,
+temporaries and the filter's scratch grids), against the input's bytes; not measured for
+dv-processing (C++ allocations).
 
     python perf/bench_denoise.py [--events 1e7] [--repeats 5] [--scenes star,dense]
 
@@ -27,6 +28,7 @@ import os
 import pathlib
 import tempfile
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -57,27 +59,19 @@ def simulate(name, n_events, seed=0):
     return ev
 
 
-def _status(key):
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(key):
-                return int(line.split()[1]) * 1024
-    return 0
-
-
 def extra_memory(fn):
-    """Peak resident bytes above the level before fn() (Linux VmHWM, reset first)."""
+    """Peak bytes of the numpy arrays fn() allocates (tracemalloc), the filter's reusable
+    scratch grids included (dropped first so the call allocates them again)."""
+    denoise._scratch.clear()
     gc.collect()
+    tracemalloc.start()
     try:
-        with open("/proc/self/clear_refs", "w") as f:
-            f.write("5")
-    except OSError:
-        return None
-    before = _status("VmRSS")
-    out = fn()
-    peak = _status("VmHWM")
+        out = fn()
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
     del out
-    return max(peak - before, 0)
+    return peak
 
 
 def dv_store(events):
@@ -128,18 +122,21 @@ def bench_row(scene, name, backend, events, run_fn, repeats, compile_fn=None):
         compile_fn()
         first = time.perf_counter() - t0
     reps = 1 if backend == "reference" else repeats
+    cpu0 = time.process_time()
     timing = profiling.time_call(run_fn, repeats=reps, warmup=0 if backend == "reference" else 1)
-    mem = extra_memory(run_fn)
+    cpu = (time.process_time() - cpu0) / (reps + (0 if backend == "reference" else 1))
+    mem = None if backend == "dv-processing" else extra_memory(run_fn)
     med = timing["median_s"]
     row = dict(scene=scene, filter=name, backend=backend, events=len(events),
                input_mb=events.nbytes / 1e6, median_s=med, mev_s=len(events) / med / 1e6,
-               runs_s=timing["runs_s"], first_call_s=first,
+               runs_s=timing["runs_s"], first_call_s=first, cpu_s=cpu,
+               mev_per_cpu_s=len(events) / cpu / 1e6,
                extra_mb=None if mem is None else mem / 1e6,
                extra_x_input=None if mem is None else mem / events.nbytes)
     print(f"  {scene:5s} {name:9s} {backend:18s} {row['mev_s']:8.1f} M ev/s  "
           f"median {med * 1e3:8.1f} ms  first {first if first is None else round(first, 2)} s  "
-          f"extra {row['extra_x_input'] if mem is None else round(row['extra_x_input'], 2)}x input",
-          flush=True)
+          f"extra {row['extra_x_input'] if mem is None else round(row['extra_x_input'], 2)}x input  "
+          f"cpu {row['cpu_s']:.3f} s", flush=True)
     return row
 
 
@@ -174,14 +171,18 @@ def main(argv=None):
                 rows.append(bench_row(scene, name, backend, ev, lambda: flt.apply(ev), args.repeats,
                                       compile_fn))
     meta = dict(dt_us=10_000, taichi_cpu_threads=threads, reference_events=REFERENCE_EVENTS,
+                load_average=os.getloadavg(),
                 scenes={k: f"{v} Hz/pixel background, 640x480" for k, v in SCENES.items()},
                 note="medians after one warm-up; first_call_s = compile into an empty kernel cache "
-                     "+ first run on 20 k events; the machine's 2 cores are shared with other jobs")
+                     "+ first run on 20 k events; cpu_s = process CPU time per call (all threads), "
+                     "M events/CPU-s is the throughput per core-second, which other jobs sharing the "
+                     "machine's 2 cores disturb less than wall time")
     RESULTS.mkdir(exist_ok=True)
     profiling.write_results(RESULTS / "denoise.json", rows, meta)
     cols = [("scene", "scene", ""), ("filter", "filter", ""), ("backend", "backend", ""),
             ("events", "events", ","), ("mev_s", "M events/s", ".1f"), ("median_s", "median s", ".3f"),
-            ("first_call_s", "first call s", ".2f"), ("extra_x_input", "extra mem / input", ".2f")]
+            ("mev_per_cpu_s", "M events/CPU-s", ".1f"), ("first_call_s", "first call s", ".2f"),
+            ("extra_x_input", "extra mem / input", ".2f")]
     text = profiling.table(rows, cols)
     (RESULTS / "denoise.md").write_text(text + "\n")
     print(text)
