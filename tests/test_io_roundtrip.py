@@ -114,3 +114,12 @@ def test_windows_equal_whole_read(tmp_path, ext):
     parts = [w for _, w in io.windows(path, 70_000, sensor_size=(64, 48))]
     assert all(len(w) for w in parts)
     assert Events.concatenate(parts) == ev
+
+
+def test_written_files_get_the_usual_permissions(tmp_path):
+    old = os.umask(0o022)
+    try:
+        io.write(tmp_path / "a.npz", random_events(10))
+    finally:
+        os.umask(old)
+    assert (tmp_path / "a.npz").stat().st_mode & 0o777 == 0o644
