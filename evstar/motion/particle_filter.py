@@ -84,11 +84,13 @@ class ParticleFilter:
     definition). pixel_sigma: centroid noise, px. gate: residual cap in sigmas.
     resample_threshold: resample when ESS < resample_threshold·N.
     The noise settings are the filter's model; set them somewhat above the sensor's values
-    to keep the particle cloud diverse.
+    to keep the particle cloud diverse. bias_walk defaults to 0.02 °/s/√s: on extracted
+    centroids (whose errors are correlated in time) 0.05 let the weakly observed roll bias
+    wander more (perf/paper_fig8_motion.py).
     """
 
     def __init__(self, n_particles=4096, *, seed=0, device="cpu", backend="warp",
-                 gyro_noise=0.02 * DEG, bias_walk=0.05 * DEG, bias_prior=0.5 * DEG,
+                 gyro_noise=0.02 * DEG, bias_walk=0.02 * DEG, bias_prior=0.5 * DEG,
                  attitude_prior=0.0, pixel_sigma=0.3, gate=5.0, resample_threshold=0.5):
         if int(n_particles) != n_particles or n_particles < 2:
             raise ValueError(f"n_particles must be an integer >= 2, got {n_particles!r}")
