@@ -90,14 +90,14 @@ class Pipeline:
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
         from .motion import compensate
 
+        # always the Warp warp: chunks and whole runs must round identically
         return compensate(events, imu, camera, self.config.dt_us, mode, t0_us=t0_us,
                           filter_result=filter_result, causal=self.config.motion.causal,
-                          backend="warp" if len(events) > 200_000 else "numpy",
-                          device=self.config.device)
+                          backend="warp", device=self.config.device)
 
     def _chunk(self, events, imu, camera, t0_us, rate, mode, filter_result, context=None):
-        """(keep mask, centroids, timings) of one chunk; `context` are earlier events the
-        classical filter needs (their own outputs are dropped)."""
+        """(keep mask, centroids, timings, compensation) of one chunk; `context` are earlier
+        events the classical filter needs (their own outputs are dropped)."""
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
@@ -120,7 +120,7 @@ class Pipeline:
         timings["extract"] = time.perf_counter() - t
         keep = np.zeros(len(events), bool)
         keep[kept] = True
-        return keep, cents, timings, comp, ev_f
+        return keep, cents, timings, comp
 
     # -- whole recordings in memory -----------------------------------------------------
     def run(self, events, imu=None, camera=None, truth=None):
@@ -134,7 +134,7 @@ class Pipeline:
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        keep, cents, chunk_t, comp, _ = self._chunk(events, imu, camera, t0, rate, mode, filter_result)
+        keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result)
         _add(timings, chunk_t)
         acc = _Summary(events.width, events.height, self.config.dt_us, t0)
         acc.add(events, keep, truth, 0)
@@ -149,7 +149,7 @@ class Pipeline:
         timings = {}
         parts = []
         for events, context in chunks:
-            _, cents, chunk_t, _, _ = self._chunk(events, imu, camera, t0, rate, "imu", None, context)
+            _, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, "imu", None, context)
             parts.append(cents)
             _add(timings, {"pf_first_pass": sum(chunk_t.values())})
         tracked = self.make_tracker().link(_cat(parts))
@@ -216,7 +216,7 @@ class Pipeline:
         parts, offset = [], 0
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
         for events, context in chunks("evstar run"):
-            keep, cents, chunk_t, _, _ = self._chunk(events, imu, camera, t0, rate, mode,
+            keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
                                                      filter_result, context)
             _add(timings, chunk_t)
             parts.append(cents)
