@@ -145,19 +145,18 @@ class ClassicalFilter(_Filter):
 class _DensityFilter(_Filter):
     """Shared machinery: pseudo-frames, thresholds (explicit or auto), counting backends."""
 
-    def _resolve_thresholds(self, ev):
+    def _resolve_thresholds(self, ev, offsets):
         if isinstance(self.thresholds, str):
-            rate = self.rate_hz if self.rate_hz is not None else \
-                ref.background_rate(ev.t, ev.x, ev.y, ev.width, ev.height)
+            rate = self.rate_hz if self.rate_hz is not None else _background_rate(ev, offsets, self.dt_us)
             self.rate_hz_ = rate
             return ref.poisson_thresholds(rate, self.dt_us, self.radii, self.alpha)
         self.rate_hz_ = self.rate_hz
         return np.asarray(self.thresholds, np.int64)
 
     def _apply(self, ev):
-        th = self._resolve_thresholds(ev)
-        self.thresholds_ = tuple(int(v) for v in th)
         offsets = ref.frame_offsets(ev.t, self.dt_us, self.t0_us)
+        th = self._resolve_thresholds(ev, offsets)
+        self.thresholds_ = tuple(int(v) for v in th)
         self.n_frames_ = len(offsets) - 1
         if self.backend == "reference":
             frame = ref.frame_index(ev.t, self.dt_us, self.t0_us)
@@ -168,6 +167,24 @@ class _DensityFilter(_Filter):
                                           self.schedule)
         self.counts_ = counts
         return keep
+
+
+_RATE_SAMPLE_EVENTS = 1 << 20
+
+
+def _background_rate(ev, offsets, dt_us):
+    """λ for auto thresholds: ref.background_rate on the whole stream, or on evenly spaced
+    whole frames holding about _RATE_SAMPLE_EVENTS events when the stream is longer."""
+    n_full = len(offsets) - 2  # the last frame may be cut short
+    step = int(np.ceil(offsets[-1] / _RATE_SAMPLE_EVENTS))
+    if step <= 1 or n_full < 2 * step:
+        return ref.background_rate(ev.t, ev.x, ev.y, ev.width, ev.height)
+    frames = np.arange(0, n_full, step)
+    parts = [slice(offsets[f], offsets[f + 1]) for f in frames]
+    xs = np.concatenate([ev.x[p] for p in parts])
+    ys = np.concatenate([ev.y[p] for p in parts])
+    ts = np.concatenate([ev.t[p] for p in parts])
+    return ref.background_rate(ts, xs, ys, ev.width, ev.height, duration_s=len(frames) * dt_us * 1e-6)
 
 
 def _check_strategy(strategy):
@@ -491,7 +508,7 @@ def _compact_buckets(t, dt_us):
 def _classical_events(ti, ev, dt_us, k, device, support, keep):
     from evstar_kernels.taichi import classical_buckets as cb
 
-    fill, evaluate, clear = cb.classical_bucket_kernels(ev.width, ev.height)[1:]
+    fill, evaluate, clear = cb.classical_bucket_kernels(ev.width, ev.height)
     arrays = _Arrays(ti, device)
     stride, n = ev.width + 2, len(ev)
     plane = (ev.height + 2) * stride
@@ -503,16 +520,16 @@ def _classical_events(ti, ev, dt_us, k, device, support, keep):
         return arrays.put(first), arrays.put(np.full(planes * plane, cb.BORDER, np.int64))
 
     first, last_t = _scratch_array(("buckets", plane, stride, planes, arrays.on_device), fresh_planes)
-    pix = (ev.y.astype(np.int64) + 1) * stride + ev.x + 1
     early = np.flatnonzero(ev.t < dt_us)  # only these can see dv's initial zeros
+    pix_early = (ev.y[early].astype(np.int64) + 1) * stride + ev.x[early] + 1
     first_any = np.full(plane, -1, np.int32)
     first_any.reshape(ev.height + 2, stride)[1:-1, 1:-1] = cb.NONE
-    starts = np.searchsorted(bucket, bucket[np.arange(0, n, _MAX_LAUNCH_EVENTS)], side="left")
+    starts = np.unique(np.searchsorted(bucket, bucket[np.arange(0, n, _MAX_LAUNCH_EVENTS)], side="left"))
     for a, b in zip(starts, np.append(starts[1:], n)):
         base = int(np.searchsorted(bucket, bucket[a] - 1, side="left"))
         fa = first_any.copy()
         if len(early):
-            u, i = np.unique(pix[early], return_index=True)
+            u, i = np.unique(pix_early, return_index=True)
             fa[u] = early[i] - base
         sl = slice(base, b)
         t_d, x_d, y_d = arrays.put(ev.t[sl]), arrays.put(ev.x[sl]), arrays.put(ev.y[sl])

@@ -117,3 +117,18 @@ def test_cuda_without_gpu_is_an_error_not_a_cpu_run():
     for flt in (denoise.NDSEF(device="cuda"), denoise.ClassicalFilter(device="cuda")):
         with pytest.raises(BackendError):
             flt.apply(events())
+
+
+def test_auto_rate_of_long_streams_comes_from_a_sample_of_frames(monkeypatch):
+    rng = np.random.default_rng(5)
+    n, rate = 60_000, 50.0                       # 50 Hz/pixel on 40x30 for 1 s
+    ev = evstar.Events(np.sort(rng.integers(0, 1_000_000, n)), rng.integers(0, 40, n),
+                       rng.integers(0, 30, n), np.ones(n), 40, 30)
+    full = denoise.MRNDSEF()
+    full.apply(ev)
+    monkeypatch.setattr(denoise, "_RATE_SAMPLE_EVENTS", 5_000)
+    sampled, sampled_ref = denoise.MRNDSEF(), denoise.MRNDSEF(backend="reference")
+    sampled.apply(ev)
+    sampled_ref.apply(ev)
+    assert sampled.rate_hz_ != full.rate_hz_ and sampled.rate_hz_ == sampled_ref.rate_hz_
+    assert sampled.rate_hz_ == pytest.approx(rate, rel=0.1) and full.rate_hz_ == pytest.approx(rate, rel=0.05)

@@ -181,18 +181,20 @@ def poisson_thresholds(rate_hz, dt_us, radii, alpha):
     return np.array(out, np.int64)
 
 
-def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20):
+def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, duration_s=None):
     """Robust background rate λ (events / pixel / s) of a stream.
 
     Pixels whose event count is improbably high for a Poisson process of the plain mean
     rate (upper tail < `outlier_p`: hot pixels, the target's track) are left out, and the
-    rate is re-measured on the remaining pixels over the stream's duration. Pixel counts
-    are accumulated in chunks so the temporary memory stays small for long streams.
+    rate is re-measured on the remaining pixels over the stream's duration (its time span
+    unless `duration_s` is given, e.g. for a sample of time windows). Pixel counts are
+    accumulated in chunks so the temporary memory stays small for long streams.
     """
     t = np.asarray(t)
     if len(t) == 0:
         return 0.0
-    duration_s = max(int(t[-1]) - int(t[0]), 1) * 1e-6
+    if duration_s is None:
+        duration_s = max(int(t[-1]) - int(t[0]), 1) * 1e-6
     counts = np.zeros(width * height, np.int64)
     for i in range(0, len(t), chunk):
         pix = np.asarray(y[i:i + chunk], np.int32) * np.int32(width) + np.asarray(x[i:i + chunk], np.int32)

@@ -8,7 +8,10 @@ and every earlier event of bucket b(i) does. So neighbour n supports i iff
   t_i < dt and first_any[n] > i      (no event at n before i: dv's map still holds 0).
 Per batch of buckets [b0, b1) the planes of buckets b0 − 1 .. b1 − 1 are filled with atomic
 min/max, evaluated, and cleared by un-binning. Planes have a one-pixel border that is never
-written (first = NONE, last_t = BORDER never support). Indices are launch-local i32.
+written (first = NONE, last_t = BORDER never support). first_any (one plane, from the
+caller: the first launch-local index of an event at each pixel among the events with
+t < dt, NONE if none, negative if before the launch) has a border of -1. Indices are
+launch-local i32.
 """
 import functools
 
@@ -26,18 +29,13 @@ u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 
 @functools.lru_cache(maxsize=None)
 def classical_bucket_kernels(width, height):
-    """(first_events, fill, evaluate, clear) kernels for one sensor size."""
+    """(fill, evaluate, clear) kernels for one sensor size."""
     stride = width + 2
     plane = (height + 2) * stride
 
     @ti.func
     def cell(x: ti.template(), y: ti.template(), i: ti.i32) -> ti.i32:
         return (ti.cast(y[i], ti.i32) + 1) * stride + ti.cast(x[i], ti.i32) + 1
-
-    @ti.kernel
-    def first_events(x: u16_1d, y: u16_1d, n: ti.i32, first_any: i32_1d):
-        for i in range(n):
-            ti.atomic_min(first_any[cell(x, y, i)], i)
 
     @ti.kernel
     def fill(x: u16_1d, y: u16_1d, bucket: i32_1d, e0: ti.i32, e1: ti.i32, b_base: ti.i32,
@@ -76,4 +74,4 @@ def classical_bucket_kernels(width, height):
             first[at] = NONE
             last_t[at] = ti.i64(BORDER)
 
-    return first_events, fill, evaluate, clear
+    return fill, evaluate, clear

@@ -37,7 +37,7 @@ def count_events_kernels(disks, width, height):
     """(bin, prefix_rows, count, unbin) kernels for one sensor size and set of disks."""
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
-    disk_count = make_disk_count(disks, geo)
+    disk_count = make_disk_count(disks, geo, "i32")
 
     @ti.kernel
     def bin_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, f0: ti.i32, f1: ti.i32, grid: i32_1d):

@@ -57,8 +57,8 @@ def annulus_segments(disks):
 def direct_costs(disks, geo, cell):
     """Reads per event of each radius's direct count: annulus cells, or SWAR words."""
     segments = annulus_segments(disks)
-    if cell == "u16x4":  # words loaded plus ~1.5 corrections per row piece
-        return [sum(n_words + 1.5 for g in fg.swar_plan(seg, geo.stride) for _, _, _, n_words, _ in g)
+    if cell == "u16x4":  # words loaded, mean over the four alignments
+        return [sum(len(g) for terms in fg.swar_terms(seg, geo.stride) for g in terms) / fg.LANES
                 for seg in segments]
     return [sum(b - a + 1 for _, pieces in seg for a, b in pieces) for seg in segments]
 
@@ -82,8 +82,7 @@ def make_disk_count(disks, geo, cell):
     count c of disk k−1 plus the annulus cells read directly (all offsets constant)."""
     segments = annulus_segments(disks)
     stride, pstride = geo.stride, geo.prefix_stride
-    if cell == "u16x4":
-        sums = [fg.make_swar_sum(fg.swar_plan(seg, stride)) for seg in segments]
+    sums = [fg.make_swar_sum(fg.swar_terms(seg, stride)) for seg in segments] if cell == "u16x4" else []
 
     @ti.func
     def disk_count(grid: ti.template(), prefix: ti.template(), at: ti.i32, pat: ti.i32,

@@ -9,10 +9,11 @@ prefix[r, c] = sum(grid[r, :c]). All sizes are Python constants baked into the k
 Two cell layouts:
 - "i32": one int32 per cell; any count.
 - "u16x4": four 16-bit cells per uint64 word (cell i is lane i % 4 of word i // 4). A disk
-  row is summed word-wise (SWAR): add the words lane by lane, drop the lanes outside the
-  row, and fold the four lanes with one multiply. Exact when no frame holds more than
-  MAX_EVENTS events: then no lane, partial or final sum can carry. The grid array needs
-  one spare word at its end (a row piece may read one word past its last cell).
+  is summed word-wise (SWAR): mask the lanes outside it, add the words lane by lane, and
+  fold the four lanes with one multiply. Which words and masks depends on the centre's
+  alignment (cell % 4).
+  Exact when no frame holds more than MAX_EVENTS events: then no lane, partial or final
+  sum can carry.
 """
 from dataclasses import dataclass
 
@@ -20,7 +21,7 @@ import taichi as ti
 
 LANES = 4
 LANE_BITS = 16
-MAX_EVENTS = (1 << LANE_BITS) // 4 - 1  # per frame, for u16x4 cells (a cell is read <= 4 times)
+MAX_EVENTS = (1 << LANE_BITS) - 1  # per frame, for u16x4 cells
 FULL = (1 << 64) - 1
 FOLD = 0x0001000100010001  # x * FOLD >> 48 = sum of the four 16-bit lanes of x
 
@@ -96,56 +97,47 @@ def u16x4_cell(words: ti.template(), i: ti.i32) -> ti.i32:
     return ti.cast((words[i >> 2] >> ti.cast(LANE_BITS * (i & 3), ti.u64)) & ti.u64(0xFFFF), ti.i32)
 
 
-def swar_plan(segments, stride):
-    """Static plan of a SWAR disk sum: per row piece (dy, (dx_lo, dx_hi)) the row's word
-    offset, dx_lo, its length, the words to load and whether the unwanted trailing lanes
-    can reach into a second word. Pieces are read from the word of their first cell."""
-    plan = []
-    for dy, pieces in segments:
-        for a, b in pieces:
-            n = b - a + 1
-            words = (n + 2) // LANES + 1             # most words n cells can span
-            plan.append((dy * stride // LANES, a, n, words, LANES * words - n > LANES))
-    return tuple(plan[i:i + 32] for i in range(0, len(plan), 32))  # unroll <= 32 at a time
+def swar_terms(segments, stride):
+    """For each alignment o = (centre cell) % 4: the (word offset, lane mask) pairs whose
+    masked sum is the count of `segments` (rows (dy, ((dx_lo, dx_hi), ...))) around the
+    centre. Offsets are relative to the centre's word; pieces of one row sharing a word
+    have their masks merged (they are disjoint)."""
+    out = []
+    for o in range(LANES):
+        terms = {}
+        for dy, pieces in segments:
+            for a, b in pieces:
+                s, e = o + a, o + b
+                for j in range(s // LANES, e // LANES + 1):
+                    lo, hi = max(s - LANES * j, 0), min(e - LANES * j, LANES - 1)
+                    mask = sum(0xFFFF << (LANE_BITS * lane) for lane in range(lo, hi + 1))
+                    key = dy * stride // LANES + j
+                    terms[key] = terms.get(key, 0) | mask
+        items = sorted(terms.items())
+        out.append(tuple(tuple(items[i:i + 32]) for i in range(0, len(items), 32)))  # unroll <= 32 at a time
+    return tuple(out)
 
 
-@ti.func
-def low_lanes(q: ti.u64) -> ti.u64:
-    """Mask of the lanes below lane q (0..3)."""
-    return (ti.u64(1) << (ti.u64(LANE_BITS) * q)) - ti.u64(1)
+def make_swar_sum(terms):
+    """ti.func swar_sum(words, at): the count of the cells `terms` (see swar_terms)
+    describes around cell `at`, each alignment at % 4 with its own unrolled words and masks.
 
-
-@ti.func
-def top_lanes(m: ti.u64) -> ti.u64:
-    """Mask of the top m lanes (0..4), without shifting by 64."""
-    half = ti.u64(LANE_BITS // 2) * m
-    return ~((ti.u64(FULL) >> half) >> half)
-
-
-def make_swar_sum(plan):
-    """ti.func: the count of the cells of `plan` (see swar_plan) around cell `at`.
-
-    Branch-free: each piece adds all the words it may span, then subtracts the lanes
-    before its first cell and after its last. The subtracted lanes were added just
-    before, so no lane borrows; no lane carries while a cell is loaded at most 4 times
-    and the frame holds at most MAX_EVENTS events.
-    """
+    (Measured on the 2-core CPU: one branch on the alignment costs about what picking the
+    masks with conditional moves costs, or grouping a frame's events by alignment first.)"""
 
     @ti.func
     def swar_sum(words: ti.template(), at: ti.i32) -> ti.i32:
+        w0 = at >> 2
+        o = at & 3
         acc = ti.u64(0)
-        for group in ti.static(plan):
-            for row, a, n, n_words, two in ti.static(group):
-                s = at + a
-                q = ti.cast(s & 3, ti.u64)
-                base = (s >> 2) + row
-                for j in ti.static(range(n_words)):
-                    acc += words[base + j]
-                acc -= words[base] & low_lanes(q)
-                r = ti.u64(LANES * n_words - n) - q     # unwanted lanes after the last cell
-                acc -= words[base + n_words - 1] & top_lanes(ti.min(r, ti.u64(LANES)))
-                if ti.static(two):
-                    acc -= words[base + n_words - 2] & top_lanes(ti.max(r, ti.u64(LANES)) - ti.u64(LANES))
+        for ov in ti.static(range(LANES)):
+            if o == ov:
+                for group in ti.static(terms[ov]):
+                    for off, mask in ti.static(group):
+                        if ti.static(mask == FULL):
+                            acc += words[w0 + off]
+                        else:
+                            acc += words[w0 + off] & ti.u64(mask)
         return ti.cast((acc * ti.u64(FOLD)) >> ti.u64(48), ti.i32)
 
     return swar_sum
