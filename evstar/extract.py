@@ -107,16 +107,36 @@ class Extractor:
         return [self._row(events, xy, frames, g, split=parts is not None) for g in groups]
 
     def _split(self, pts, p):
-        """Labels 0/1 when the cluster holds two separable targets, else None."""
+        """Labels 0/1 when the cluster holds two separable targets, else None.
+
+        First on all events; a moving star fires ON at its leading edge and OFF at its
+        trailing edge, so halves that differ in polarity are the two lobes of one target.
+        Then on each polarity alone, where one target is one lobe: that finds a faint star
+        beside a bright one, whose lobes dominate the first split. Both polarities must
+        show the pair; their halves are matched by their order along the pair's axis."""
+        lab = self._halves(pts)
+        if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
+            return lab
+        on, off = p == 1, p == 0
+        lab_on, lab_off = self._halves(pts[on]), self._halves(pts[off])
+        if lab_on is None or lab_off is None:
+            return None
+        c_on = np.array([pts[on][lab_on == k].mean(0) for k in (0, 1)])
+        c_off = np.array([pts[off][lab_off == k].mean(0) for k in (0, 1)])
+        axis = c_on[1] - c_on[0]
+        if (c_off[1] - c_off[0]) @ axis < 0:  # OFF halves in the opposite order
+            lab_off = 1 - lab_off
+        out = np.empty(len(pts), np.int64)
+        out[on], out[off] = lab_on, lab_off
+        return out
+
+    def _halves(self, pts):
+        """2-means labels when `pts` form two compact groups with a clear valley between
+        them, else None."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
         lab = _two_means(pts)
-        sizes = np.bincount(lab, minlength=2)
-        if sizes.min() < self.min_cluster_size:
-            return None
-        # a moving star fires ON at its leading edge and OFF at its trailing edge: halves
-        # that differ in polarity are the two lobes of one target, not two targets
-        if abs(p[lab == 0].mean() - p[lab == 1].mean()) > 0.5:
+        if np.bincount(lab, minlength=2).min() < self.min_cluster_size:
             return None
         c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)
         sep = np.linalg.norm(c1 - c0)

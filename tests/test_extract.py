@@ -141,3 +141,40 @@ def test_centroid_csv_round_trip(tmp_path):
     back = io.read_centroids(tmp_path / "c.csv")
     np.testing.assert_array_equal(back["track"], c["track"])
     np.testing.assert_allclose(back["x"], c["x"], atol=1e-4)
+
+
+def lobed_star_events(x0, y0, vx, n_per_frame, rng, duration_us=100_000, lobe=1.0, sigma=0.6):
+    """A star moving along x: ON events lead it by `lobe` px, OFF events trail it."""
+    n = n_per_frame * duration_us // 10_000
+    t = rng.integers(0, duration_us, n)
+    p = rng.integers(0, 2, n)
+    x = x0 + vx * t * 1e-6 + np.where(p == 1, lobe, -lobe) + rng.normal(0, sigma, n)
+    y = y0 + rng.normal(0, sigma, n)
+    return t, x, y, p
+
+
+def test_faint_star_beside_a_bright_one_is_split_not_merged():
+    # a faint star 6 px ahead of a bright one along their motion: 2-means on all events
+    # cuts the bright star's ON/OFF lobes apart; the per-polarity test finds the pair
+    rng = np.random.default_rng(5)
+    parts = [lobed_star_events(60, 50, 200, 300, rng, lobe=1.5),
+             lobed_star_events(66, 50, 200, 40, rng, lobe=1.5)]
+    t, x, y, p = (np.concatenate(c) for c in zip(*parts))
+    o = np.argsort(t, kind="stable")
+    ev = Events(t[o], np.round(x[o]), np.round(y[o]), p[o], 200, 150)
+    assert len(Extractor(split_valley=None).centroids(ev)) == 10  # DBSCAN merges them
+    c = Extractor().centroids(ev)
+    split = c[c["split"]]
+    assert len(split) >= 10 and len(c) == len(split) + (20 - len(split)) // 2  # >= 5 of 10 frames
+    pairs = split[np.argsort(split["frame"] * 1000 + split["x"], kind="stable")].reshape(-1, 2)
+    gap = pairs["x"][:, 1] - pairs["x"][:, 0]
+    assert np.all(np.abs(gap - 6) < 0.6) and np.all(pairs["n_events"][:, 0] > 3 * pairs["n_events"][:, 1])
+
+
+def test_lobed_moving_star_stays_whole():
+    rng = np.random.default_rng(6)
+    t, x, y, p = lobed_star_events(60, 50, 300, 300, rng, lobe=1.5)
+    o = np.argsort(t, kind="stable")
+    ev = Events(t[o], np.round(x[o]), np.round(y[o]), p[o], 200, 150)
+    c = Extractor().centroids(ev)
+    assert len(c) == 10 and not c["split"].any()
