@@ -18,13 +18,7 @@ import functools
 import taichi as ti
 
 NONE = 2**31 - 1
-BORDER = -(1 << 62)
-
-i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
-u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
-i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
-i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
-u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+from .classical import BORDER, i8_1d, i32_1d, i64_1d, u8_1d, u16_1d  # noqa: F401
 
 
 @functools.lru_cache(maxsize=None)
