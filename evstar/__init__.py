@@ -13,7 +13,7 @@ from .config import Config
 
 __version__ = "0.1.0"
 _SUBMODULES = {"io", "sim", "denoise", "extract", "tracking", "motion", "metrics", "accuracy",
-               "pipeline", "backends", "report", "profiling"}
+               "pipeline", "backends", "report", "profiling", "interop"}
 
 __all__ = ["Camera", "Config", "Pipeline", "Events", "Imu", "Recording", "EvstarError", "DataError",
            "FormatError", "BackendError", "EvstarWarning", *_SUBMODULES]

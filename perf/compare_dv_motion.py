@@ -39,6 +39,7 @@ from paper_fig8_motion import REALISTIC_BIAS_DPS, REALISTIC_IMU, centroid_errors
 
 import evstar  # noqa: E402
 from evstar import accuracy, motion, profiling, sim  # noqa: E402
+from evstar.interop import to_dv_store  # noqa: E402
 from evstar.config import Config  # noqa: E402
 from evstar.events import Events  # noqa: E402
 from evstar_kernels.reference import so3  # noqa: E402
@@ -56,16 +57,6 @@ def scenes(quick):
 
 
 # -- dv-processing --------------------------------------------------------------------------
-def dv_store(events):
-    import dv_processing as dv
-
-    store = dv.EventStore()
-    push = store.push_back
-    for t, x, y, p in zip(events.t.tolist(), events.x.tolist(), events.y.tolist(), events.p.tolist()):
-        push(t, x, y, bool(p))
-    return store
-
-
 def dv_poses(attitude):
     """dv poses T_world<-camera (rotation R_cw^T, no translation) at the attitude's nodes."""
     import dv_processing as dv
@@ -132,7 +123,7 @@ def accuracy_rows(run):
     comp = motion.compensate(ev, run.imu, run.camera, DT_US, "imu", t0_us=t0)
     rows.append(error_row("evstar (rounded)", stages_on(comp.events()[0], pipe, t0, rate), truth))
     attitude = motion.AttitudeTrack.from_imu(run.imu)
-    a = dv_compensate(dv_store(ev), dv_poses(attitude), run.camera, t0, n_frames)
+    a = dv_compensate(to_dv_store(ev), dv_poses(attitude), run.camera, t0, n_frames)
     dv_ev = Events(a["timestamp"], a["x"].astype(np.uint16), a["y"].astype(np.uint16),
                    a["polarity"].astype(np.int8), ev.width, ev.height, sort=True)
     dv_cents = stages_on(dv_ev, pipe, t0, rate)
@@ -152,7 +143,7 @@ def throughput_rows(run, repeats):
                                                           backend=backend), repeats=repeats)
         rows.append(dict(variant=f"evstar compensate ({backend}, CPU)", median_s=t["median_s"],
                          events_per_s=len(ev) / t["median_s"]))
-    store, poses = dv_store(ev), dv_poses(motion.AttitudeTrack.from_imu(run.imu))
+    store, poses = to_dv_store(ev), dv_poses(motion.AttitudeTrack.from_imu(run.imu))
     t = profiling.time_call(lambda: dv_compensate(store, poses, run.camera, t0, n_frames), repeats=repeats)
     rows.append(dict(variant="dv MotionCompensator", median_s=t["median_s"], events_per_s=len(ev) / t["median_s"]))
     return rows

@@ -6,6 +6,7 @@ import pytest
 
 import evstar
 from evstar import denoise, io
+from evstar.interop import to_dv_store
 
 dv = pytest.importorskip("dv_processing", reason="dv-processing is a test dependency (pip install .[test])")
 
@@ -14,14 +15,6 @@ def dv_kept(store, width, height, dt_us):
     flt = dv.noise.BackgroundActivityNoiseFilter((width, height), datetime.timedelta(microseconds=dt_us))
     flt.accept(store)
     return flt.generateEvents().numpy()
-
-
-def store_from(events):
-    store = dv.EventStore()
-    push = store.push_back
-    for t, x, y, p in zip(events.t.tolist(), events.x.tolist(), events.y.tolist(), events.p.tolist()):
-        push(t, x, y, bool(p))
-    return store
 
 
 def assert_dv_mask(events, keep, kept):
@@ -56,7 +49,7 @@ def test_one_million_simulated_events():
     scn = sim.paper_preset(12.0, duration_s=1.0, sensor=sim.SensorSpec(noise_hz=14.0))
     events = sim.simulate(scn, seed=4).events
     assert len(events) >= 1_000_000 and events.t[0] < 10_000
-    kept = dv_kept(store_from(events), events.width, events.height, 10_000)
+    kept = dv_kept(to_dv_store(events), events.width, events.height, 10_000)
     keep = denoise.ClassicalFilter(10_000).apply(events)
     assert_dv_mask(events, keep, kept)
     assert keep[events.t < events.t[0] + 1_000].all()
