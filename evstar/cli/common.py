@@ -16,8 +16,7 @@ def load(args):
     """Read the input recording with the camera / IMU files the user passed."""
     camera = io.read_camera(args.camera) if getattr(args, "camera", None) else None
     size = args.sensor_size or (camera and (camera.width, camera.height)) or None
-    rec = io.read(args.input, format=args.format, sensor_size=size) if size else \
-        io.read(args.input, format=args.format)
+    rec = io.read(args.input, format=args.format, sensor_size=size)
     if camera is not None:
         rec.camera = camera
     if getattr(args, "imu", None):

@@ -12,6 +12,7 @@ import time
 import numpy as np
 
 from .. import io
+from ..io.atomic import atomic_path
 from ..errors import EvstarError
 from .common import add_input_options, load
 
@@ -75,7 +76,8 @@ def run(args):
     elapsed = time.perf_counter() - start
     io.write(args.output, rec.events[keep], imu=rec.imu, camera=rec.camera, format=args.out_format)
     if args.mask_out:
-        np.save(args.mask_out, keep)
+        with atomic_path(args.mask_out) as tmp, open(tmp, "wb") as f:
+            np.save(f, keep)  # a file object: np.save adds no ".npy" to the temporary name
     n = len(keep)
     extra = f", thresholds {list(flt.thresholds_)}" if hasattr(flt, "thresholds_") else ""
     print(f"kept {int(keep.sum()):,} of {n:,} events ({100 * keep.mean() if n else 0:.1f} %) "
