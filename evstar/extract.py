@@ -9,6 +9,7 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 from sklearn.cluster import DBSCAN
 
 from .frames import check_dt, frame_bounds, frame_ids
@@ -114,12 +115,18 @@ class Extractor:
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis."""
-        lab = self._halves(pts)
+        if len(pts) < 2 * self.min_cluster_size:
+            return None
+        seeds = _two_peaks(pts)
+        if seeds is None:  # one peak: one target (the common case, decided cheaply)
+            return None
+        lab = self._halves(pts, seeds)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         on, off = p == 1, p == 0
-        lab_on, lab_off = self._halves(pts[on]), self._halves(pts[off])
-        if lab_on is None or lab_off is None:
+        lab_on = self._halves(pts[on])
+        lab_off = None if lab_on is None else self._halves(pts[off])
+        if lab_off is None:
             return None
         c_on = np.array([pts[on][lab_on == k].mean(0) for k in (0, 1)])
         c_off = np.array([pts[off][lab_off == k].mean(0) for k in (0, 1)])
@@ -130,12 +137,16 @@ class Extractor:
         out[on], out[off] = lab_on, lab_off
         return out
 
-    def _halves(self, pts):
-        """2-means labels when `pts` form two compact groups with a clear valley between
-        them, else None."""
+    def _halves(self, pts, seeds=None):
+        """Labels 0/1 when `pts` hold two compact targets with a clear valley between them,
+        else None. The seeds are the two highest peaks of the smoothed count image, so a
+        faint star beside a bright one is found (2-means would halve the bright one)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        lab = _two_means(pts)
+        seeds = _two_peaks(pts) if seeds is None else seeds
+        if seeds is None:
+            return None
+        lab = _two_means(pts, *seeds)
         if np.bincount(lab, minlength=2).min() < self.min_cluster_size:
             return None
         c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)
@@ -143,12 +154,15 @@ class Extractor:
         if sep < 2:  # closer than two pixels: not resolvable on the pixel grid
             return None
         proj = (pts - c0) @ ((c1 - c0) / sep)
-        # a uniform streak cut in two has sep / axial std = 2·sqrt(3) ≈ 3.5; two compact
+        # a uniform streak cut in two has sep / axial std = 2·sqrt(3) ≈ 3.5 (more by chance
+        # with few events: + 8 / sqrt(n) bounds 99.9 % of simulated streaks); two compact
         # targets have far more
         axial = np.mean([proj[lab == 0].std(), (proj[lab == 1] - sep).std()])
-        if sep < 5 * max(axial, 0.25):
+        n_min = np.bincount(lab).min()
+        if sep < (2 * np.sqrt(3) + 8 / np.sqrt(n_min)) * max(axial, 0.25):
             return None
-        # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep)
+        # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep): it must
+        # dip between the two; a lopsided blob stays whole
         lo = np.floor(proj.min() - 0.5)
         hist = np.bincount(np.floor(proj - lo).astype(int))
         b0, b1 = int(np.floor(-lo)), int(np.floor(sep - lo))
@@ -177,20 +191,38 @@ class Extractor:
         return tuple(pts.mean(0))
 
 
-def _two_means(pts, iterations=10):
-    """Lloyd's 2-means started from the halves along the principal axis (deterministic;
-    a per-cluster scikit-learn KMeans costs ~10 ms of overhead, this ~50 µs)."""
-    centred = pts - pts.mean(0)
-    axis = np.linalg.eigh(centred.T @ centred)[1][:, -1]
-    lab = (centred @ axis > 0).astype(np.int64)
+_SMOOTH = np.exp(-0.5 * (np.arange(-2, 3) / 0.7) ** 2)  # Gaussian, sigma 0.7 px
+
+
+def _two_peaks(pts):
+    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
+    image smoothed by a Gaussian of 0.7 px; None when there is one."""
+    ij = np.floor(pts + 0.5).astype(np.int64)
+    origin = ij.min(0) - 2
+    w, h = ij.max(0) - origin + 3
+    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
+    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
+    img = ndimage.correlate1d(ndimage.correlate1d(img, _SMOOTH, 0, mode="constant"), _SMOOTH, 1,
+                              mode="constant")
+    is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
+    yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
+    far = [q for q in yx[1:] if np.hypot(*(q - yx[0])) >= 2]
+    if not far:
+        return None
+    return (yx[0][::-1] + origin).astype(float), (far[0][::-1] + origin).astype(float)
+
+
+def _two_means(pts, a, b, iterations=10):
+    """Lloyd's 2-means started from the centres a and b (deterministic; a per-cluster
+    scikit-learn KMeans costs ~10 ms of overhead, this ~50 µs)."""
+    c = np.array([a, b], float)
+    lab = None
     for _ in range(iterations):
-        if lab.min() == lab.max():
-            break
-        c = np.array([pts[lab == 0].mean(0), pts[lab == 1].mean(0)])
         new = (((pts - c[1]) ** 2).sum(1) < ((pts - c[0]) ** 2).sum(1)).astype(np.int64)
-        if np.array_equal(new, lab):
-            break
+        if (lab is not None and np.array_equal(new, lab)) or new.min() == new.max():
+            return new
         lab = new
+        c = np.array([pts[lab == 0].mean(0), pts[lab == 1].mean(0)])
     return lab
 
 
