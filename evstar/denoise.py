@@ -169,7 +169,7 @@ class _DensityFilter(_Filter):
         return keep
 
 
-_RATE_SAMPLE_EVENTS = 1 << 20
+_RATE_SAMPLE_EVENTS = 1 << 18  # λ within ~0.2 %, in a few ms
 
 
 def _background_rate(ev, offsets, dt_us):
@@ -233,7 +233,7 @@ class NDSEF(_DensityFilter):
 
     def _apply(self, ev):
         keep = super()._apply(ev)
-        self.counts_ = self.counts_[:, 0].copy()
+        self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
         self.threshold_ = self.thresholds_[0]
         return keep
 
