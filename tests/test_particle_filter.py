@@ -234,6 +234,28 @@ def test_new_stars_are_initialised_from_the_estimate(scene):
     assert len(res.stars) == len(np.unique(obs.track[obs.t_us <= 300_000]))
 
 
+def test_star_directions_average_their_first_centroids():
+    # 0.15 px centroid noise: a direction set from one centroid keeps that centroid's error
+    # for the star's whole track; the mean of its first ten does not
+    imu, obs, q0, _, truth = synthetic_scene(duration_s=0.5, pixel_noise=0.15)
+    exact = synthetic_scene(duration_s=0.5, pixel_noise=0.0)[1]  # same draws, no noise
+    first = {k: i for i, k in reversed(list(enumerate(exact.track)))}
+
+    def direction_error_px(res):
+        err = []
+        for k, d in res.stars.items():
+            i = first[k]
+            seen = CAMERA.project(so3.quat_rotate(truth([exact.t_us[i]])[0], d)[None])[0]
+            err.append(np.hypot(*(seen - [exact.x[i], exact.y[i]])))
+        return np.mean(err)
+
+    one = ParticleFilter(1024, seed=0, star_refine=1).run(imu, obs, CAMERA, q0=q0)
+    ten = ParticleFilter(1024, seed=0).run(imu, obs, CAMERA, q0=q0)
+    assert ten.stars.keys() == one.stars.keys()
+    assert direction_error_px(ten) < 0.6 * direction_error_px(one), (direction_error_px(ten),
+                                                                      direction_error_px(one))
+
+
 def test_bias_correction_respects_imu_extrinsics():
     R = so3.exp_so3([0.3, -2.0, 0.7])
     rng = np.random.default_rng(4)
@@ -257,6 +279,8 @@ def test_input_errors():
         ParticleFilter(pixel_sigma=0)
     with pytest.raises(ValueError, match="seed"):
         ParticleFilter(seed=-1)
+    with pytest.raises(ValueError, match="star_refine"):
+        ParticleFilter(star_refine=0)
     imu = Imu(np.arange(0, 100_001, 1000), np.zeros((101, 3)))
     obs = StarObservations([0, 50_000, 200_000], [1, 1, 1], [10, 11, 12], [5, 5, 5])
     with pytest.raises(DataError, match="IMU covers 0..100000 µs .* observations span 0..200000"):
