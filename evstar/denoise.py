@@ -145,6 +145,15 @@ class ClassicalFilter(_Filter):
 class _DensityFilter(_Filter):
     """Shared machinery: pseudo-frames, thresholds (explicit or auto), counting backends."""
 
+    def _set_common(self, dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule):
+        """Validate and store the parameters NDSEF and MR-NDSEF share."""
+        self.dt_us, self.device, self.t0_us = _check_common(dt_us, backend, device, t0_us)
+        self.alpha = _check_alpha(alpha)
+        self.rate_hz = _check_rate(rate_hz)
+        self.backend = backend
+        self.strategy = _check_strategy(strategy)
+        self.schedule = _check_schedule(schedule, self.device)
+
     def _resolve_thresholds(self, ev, offsets):
         if isinstance(self.thresholds, str):
             rate = self.rate_hz if self.rate_hz is not None else _background_rate(ev, offsets, self.dt_us)
@@ -213,7 +222,7 @@ class NDSEF(_DensityFilter):
     def __init__(self, dt_us=10_000, radius=5, threshold="auto", *, alpha=1e-3, rate_hz=None,
                  t0_us=None, backend="taichi", device="cpu", strategy="auto",
                  schedule="auto"):
-        self.dt_us, self.device, self.t0_us = _check_common(dt_us, backend, device, t0_us)
+        self._set_common(dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule)
         self.radius = _check_radius("radius", radius)
         if isinstance(threshold, str):
             if threshold != "auto":
@@ -221,11 +230,6 @@ class NDSEF(_DensityFilter):
         else:
             threshold = _check_int("threshold", threshold, 1)
         self.threshold = threshold
-        self.alpha = _check_alpha(alpha)
-        self.rate_hz = _check_rate(rate_hz)
-        self.backend = backend
-        self.strategy = _check_strategy(strategy)
-        self.schedule = _check_schedule(schedule, self.device)
 
     radii = property(lambda self: (self.radius,))
     thresholds = property(lambda self: self.threshold if isinstance(self.threshold, str)
@@ -254,7 +258,7 @@ class MRNDSEF(_DensityFilter):
     def __init__(self, dt_us=10_000, radii=(3, 5, 7, 9, 11), thresholds="auto", *, alpha=1e-3,
                  rate_hz=None, t0_us=None, backend="taichi", device="cpu", strategy="auto",
                  schedule="auto"):
-        self.dt_us, self.device, self.t0_us = _check_common(dt_us, backend, device, t0_us)
+        self._set_common(dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule)
         if isinstance(radii, (str, bytes)) or not hasattr(radii, "__len__") or len(radii) == 0:
             raise ValueError(f"radii must be a non-empty sequence of radii, got {radii!r}")
         radii = tuple(_check_radius("radii", r) for r in radii)
@@ -270,11 +274,6 @@ class MRNDSEF(_DensityFilter):
                                  f"({len(radii)}), got {thresholds!r}")
             thresholds = tuple(_check_int("thresholds", v, 1) for v in thresholds)
         self.thresholds = thresholds
-        self.alpha = _check_alpha(alpha)
-        self.rate_hz = _check_rate(rate_hz)
-        self.backend = backend
-        self.strategy = _check_strategy(strategy)
-        self.schedule = _check_schedule(schedule, self.device)
 
 
 # -- Taichi launch logic -------------------------------------------------------------------------
