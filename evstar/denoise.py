@@ -396,31 +396,38 @@ def _taichi_counts(ev, offsets, radii, thresholds, device, strategy, schedule):
 def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
     from evstar_kernels.taichi import frame_counts, frame_grids
 
-    geo = frame_grids.Geometry(ev.width, ev.height, frame_counts.disk_padding(disks))
     dense_min = {"auto": -1, "sparse": np.iinfo(np.int32).max, "dense": 0}[strategy]
     threads = _cpu_threads(ti)
-    prefix = _scratch_array(("prefix", geo, threads),
-                            lambda: np.zeros(threads * geo.prefix_plane, np.int32))
+    size = (ev.width, ev.height)
+    cells, prefix_cells, tile_cells = frame_counts.scratch_sizes(disks, *size)
+    prefix = _scratch_array(("prefix", disks, size, threads), lambda: np.zeros(threads * prefix_cells, np.int32))
+    tiles = _scratch_array(("tiles", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint64))
+    flags = _scratch_array(("flags", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint8))
+    masks = _scratch_array(("masks", disks, size), lambda: frame_counts.tile_masks(disks, *size))
+    owners = _scratch_array(("owners", disks, size, threads), lambda: np.zeros(threads * cells, np.int32))
     busy = np.zeros(threads, np.int32)
     for f0, f1 in _frame_launches(offsets):
         e0, e1 = int(offsets[f0]), int(offsets[f1])
         local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
+        biggest = int(np.diff(local).max())
         # packed 16-bit cells are exact while no frame holds more than MAX_EVENTS events
-        cell = "u16x4" if np.diff(local).max() <= frame_grids.MAX_EVENTS else "i32"
+        cell = "u16x4" if biggest <= frame_grids.MAX_EVENTS else "i32"
         dtype, per_element = _CELL_DTYPES[cell]
-        grid = _scratch_array(("grid", cell, geo, threads),
-                              lambda: np.zeros(threads * geo.plane // per_element, dtype))
+        grid = _scratch_array(("grid", cell, disks, size, threads),
+                              lambda: np.zeros(threads * cells // per_element, dtype))
+        repeats = np.empty(threads * (biggest // 2 + 1), np.int32)  # a repeated pixel holds >= 2 events
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
-        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, busy,
-               counts[e0:e1], keep[e0:e1])
+        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, flags,
+               masks, repeats, owners, busy, counts[e0:e1], keep[e0:e1])
 
 
 def _counts_events(ti, ev, offsets, disks, th, strategy, device, counts, keep):
     from evstar_kernels.taichi import event_counts, frame_counts, frame_grids
 
     geo = frame_grids.Geometry(ev.width, ev.height, frame_counts.disk_padding(disks))
-    dense_min = {"auto": frame_counts.disk_costs(disks, geo)[0], "sparse": np.iinfo(np.int32).max,
+    direct = frame_counts.direct_costs(disks, geo, "i32")
+    dense_min = {"auto": frame_counts.prefix_break_even(direct, disks, geo), "sparse": np.iinfo(np.int32).max,
                  "dense": 0}[strategy]
     bin_frames, prefix_rows, count, unbin_frames = event_counts.count_events_kernels(
         disks, ev.width, ev.height)

@@ -1,13 +1,20 @@
 """Multi-radius disk counts per pseudo-frame, lane-parallel for CPUs (no per-event atomics).
 
-Each busy iteration of the parallel loop owns a run of whole frames and a private grid
+Each busy iteration of the parallel loop owns a run of whole frames and a private scratch
 slot: it bins a frame, counts radius 1 for every event, then the larger radii for the
-survivors only (hierarchical screening), and un-bins the frame. Sparse frames read the
-disk cells directly, radius k adding only its annulus to the count of radius k−1 (work
-grows with events); dense frames build row prefix sums and read two cells per disk row
-(work grows with pixels, once per frame). A frame is dense when it holds >= dense_min
-events, or — after radius 1 — when its survivors would read more cells than a prefix
-pass costs (disk_costs).
+survivors only (hierarchical screening), and un-bins the frame. Two frame layouts:
+
+- sparse (work grows with events): an occupancy bit tile plane (bit_tiles) holds which
+  pixels have an event, and the cell grid holds only the *extras* (count − 1) of pixels
+  with repeated events, listed as they appear and flagged per tile. A disk's count is a
+  few popcounts of tile & mask, plus — only where a tile under its box is flagged — the
+  extras in the disk's cells read from the grid. Radius k adds its annulus to radius k−1.
+- dense (work grows with pixels, once per frame): the grid holds the counts, row prefix
+  sums are built and each disk row costs two reads.
+
+A frame is dense when it holds >= dense_min events, or — after radius 1 — when its
+survivors would read more than a prefix pass costs (disk_costs); the sparse layout is then
+folded into full counts first.
 
 `count_frames_kernel(disks, width, height, cell)` builds (and caches) a kernel for one
 sensor size and one set of disks: the disks and the grid's row stride are compile-time
@@ -19,19 +26,29 @@ Outputs: counts[e, k] = events of e's frame in disk k around e (e included), -1 
 was rejected at an earlier radius; keep[e] = 1 iff counts[e, k] >= thresholds[k] for all k.
 """
 import functools
+import math
+from dataclasses import dataclass
 
 import taichi as ti
 
+from . import bit_tiles
 from . import frame_grids as fg
 from . import slots
 
 u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
+u64_1d = ti.types.ndarray(dtype=ti.u64, ndim=1)
 i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
 i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
 u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 
 #: cost of one row-prefix cell relative to one direct cell read (sequential vs scattered)
 PREFIX_CELL_COST = 0.75
+#: reads per tile under a sparse disk's box: the tile, its mask and its flag
+TILE_READS = 3
+#: reads per event to fold a sparse frame into full counts (and un-bin cells later)
+FOLD_READS = 3
+#: layouts of a frame for the survivors of radius 1 (see count_frames_kernel)
+SPARSE, FULL, PREFIX = 0, 1, 2
 
 
 def disk_padding(disks):
@@ -63,23 +80,68 @@ def direct_costs(disks, geo, cell):
     return [sum(b - a + 1 for _, pieces in seg for a, b in pieces) for seg in segments]
 
 
-def disk_costs(disks, geo, cell="i32"):
-    """Compile-time costs (in reads) that steer the sparse/dense choice.
+def prefix_break_even(direct, disks, geo):
+    """Events from which a frame's radius-1 counts are cheaper from row prefix sums, when
+    each event costs direct[0] reads otherwise (the event-parallel form's model)."""
+    plane_cost = int(PREFIX_CELL_COST * geo.prefix_plane)
+    return max(1, int(plane_cost // max(direct[0] - 2 * len(disks[0]), 1)))
 
-    Returns (dense_min, rest_gain, plane_cost): radius 1 uses prefix sums when a frame holds
-    at least dense_min events; after radius 1, the survivors use prefix sums for the other
-    radii when survivors * rest_gain > plane_cost.
+
+def flagged_share(n_events, geo, span):
+    """Chance that a box of span x span tiles holds a repeated pixel, for n_events spread
+    evenly over the sensor (Poisson per pixel)."""
+    lam = n_events / (geo.width * geo.height)
+    repeat = -math.expm1(-lam) - lam * math.exp(-lam)  # P[count >= 2]
+    return -math.expm1(bit_tiles.TILE * bit_tiles.TILE * span * span * math.log1p(-min(repeat, 1 - 1e-12)))
+
+
+@dataclass(frozen=True)
+class Costs:
+    """Compile-time costs (in reads) that steer the lane kernel's layouts (see disk_costs)."""
+    tiles: bool         # radius 1 of sparse frames from bit tiles (else direct reads)
+    dense_min: int      # a frame of >= dense_min events is counted from prefix sums
+    plane: int          # one row-prefix pass
+    fold: int           # per event: folding the bits into full counts, un-binning cells
+    rest_sparse: float  # per survivor, radii 2..K: tiles + extras (flagged)
+    rest_direct: float  # ... direct reads of full counts
+    rest_prefix: float  # ... prefix reads
+
+
+def disk_costs(disks, geo, cell="i32"):
+    """The Costs of `disks` on `geo`.
+
+    Radius 1 of a frame costs, per event, its tiles' reads plus — when a tile is flagged —
+    the direct reads of the extras (sparse; small disks read their cells directly instead,
+    when that is fewer reads than the tiles), or two reads per disk row after a prefix
+    pass (dense). Survivors sit where events pile up, so their tiles are costed as flagged.
     """
     direct = direct_costs(disks, geo, cell)
-    plane_cost = int(PREFIX_CELL_COST * geo.prefix_plane)
-    gain1 = max(direct[0] - 2 * len(disks[0]), 1)
-    rest_gain = max(sum(direct[1:]) - 2 * sum(len(rows) for rows in disks[1:]), 1)
-    return max(1, int(plane_cost // gain1)), max(1, int(rest_gain)), plane_cost
+    tp = bit_tiles.plan(geo, disks)
+    plane = int(PREFIX_CELL_COST * geo.prefix_plane)
+
+    tiles = TILE_READS * tp.spans[0] ** 2 < direct[0]
+
+    def gain1(n):  # per event, sparse minus dense, radius 1
+        if not tiles:
+            return direct[0] - 2 * len(disks[0])
+        share = flagged_share(n, geo, tp.spans[0])
+        return TILE_READS * tp.spans[0] ** 2 + share * direct[0] - 2 * len(disks[0])
+
+    n = 1
+    while n < (1 << 30) and n * gain1(n) <= plane:
+        n *= 2
+    lo = n // 2
+    while n - lo > 1:  # the first n with n * gain1(n) > plane
+        mid = (lo + n) // 2
+        lo, n = (mid, n) if mid * gain1(mid) <= plane else (lo, mid)
+    return Costs(tiles=tiles, dense_min=n, plane=plane, fold=FOLD_READS,
+                 rest_sparse=sum(TILE_READS * s * s + d for s, d in zip(tp.spans[1:], direct[1:])),
+                 rest_direct=sum(direct[1:]), rest_prefix=sum(2 * len(rows) for rows in disks[1:]))
 
 
 def make_disk_count(disks, geo, cell):
-    """ti.func counting disk k around a cell: from row prefix sums (dense) or, sparse, the
-    count c of disk k−1 plus the annulus cells read directly (all offsets constant)."""
+    """ti.func adding disk k's annulus around a cell to the count c of disk k−1: from row
+    prefix sums (dense) or the annulus cells read directly (all offsets constant)."""
     segments = annulus_segments(disks)
     stride, pstride = geo.stride, geo.prefix_stride
     sums = [fg.make_swar_sum(fg.swar_terms(seg, stride)) for seg in segments] if cell == "u16x4" else []
@@ -105,47 +167,130 @@ def make_disk_count(disks, geo, cell):
     return disk_count
 
 
+def tile_masks(disks, width, height):
+    """The mask table count_frames_kernel(disks, width, height, ...) takes (uint64)."""
+    geo = fg.Geometry(width, height, disk_padding(disks))
+    return bit_tiles.mask_table(bit_tiles.plan(geo, disks), annulus_segments(disks))
+
+
+def scratch_sizes(disks, width, height):
+    """Elements per slot of the kernel's scratch: (grid cells, prefix, tiles and flags)."""
+    geo = fg.Geometry(width, height, disk_padding(disks))
+    return geo.plane, geo.prefix_plane, bit_tiles.plan(geo, disks).plane
+
+
 @functools.lru_cache(maxsize=None)
 def count_frames_kernel(disks, width, height, cell="i32"):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Call as kernel(x, y, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    busy, counts, keep); dense_min < 0 uses the built-in cost model, 0 forces prefix sums,
-    a huge value forces direct reads. grid holds busy.shape[0] planes of `cell` layout.
+    tiles, flags, masks, repeats, owners, busy, counts, keep); dense_min < 0 uses the built-in
+    cost model, 0 forces prefix sums, a huge value forces direct reads (sparse, then full
+    counts for the survivors where cheaper). grid, prefix, tiles, flags and owners hold
+    busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
+    calls; masks is tile_masks(disks, width, height); repeats holds busy.shape[0] equal parts
+    of room for the pixels with repeated events of one frame (half its events suffice).
+
+    Survivors at one pixel share their counts: the first one counts (and becomes the
+    pixel's owner), the others copy.
     """
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
-    model_min, rest_gain, plane_cost = disk_costs(disks, geo, cell)
+    tp = bit_tiles.plan(geo, disks)
+    costs = disk_costs(disks, geo, cell)
     dtype, bin_cell, unbin_cell, read_cell = fg.LAYOUTS[cell]
     grid_1d = ti.types.ndarray(dtype=dtype, ndim=1)
     disk_count = make_disk_count(disks, geo, cell)
+    box_counts = [bit_tiles.make_box_count(tp, k) for k in range(n_radii)]
+
+    @ti.func
+    def count(grid: ti.template(), prefix: ti.template(), tiles: ti.template(), flags: ti.template(),
+              masks: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, xe: ti.i32, ye: ti.i32,
+              k: ti.template(), layout: ti.i32, c: ti.i32) -> ti.i32:
+        """Disk k's count around (xe, ye), given disk k−1's count c."""
+        at = g0 + fg.cell_index(geo, xe, ye)
+        out = c
+        if layout == PREFIX:
+            out = disk_count(grid, prefix, at, p0 + fg.prefix_index(geo, xe, ye), k, 1, 0)
+        elif layout == FULL:
+            out = disk_count(grid, prefix, at, 0, k, 0, c)
+        else:
+            occupied, flagged = ti.static(box_counts[k])(tiles, flags, masks, t0, xe + geo.pad,
+                                                         ye + geo.pad)
+            out += occupied
+            if flagged != ti.u8(0):  # repeated events near: add the extras of the annulus
+                out = disk_count(grid, prefix, at, 0, k, 0, out)
+        return out
+
+    @ti.func
+    def tile_and_bit(xe: ti.i32, ye: ti.i32):
+        return bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad), bit_tiles.bit_of(xe + geo.pad, ye + geo.pad)
+
+    @ti.func
+    def survivor_layout(layout: ti.i32, n: ti.i32, survivors: ti.i32, prefix_allowed: ti.i32) -> ti.i32:
+        """The cheapest layout for the survivors of a frame of n events now in `layout`."""
+        s = ti.cast(survivors, ti.f32)
+        fold = 0.0
+        cost = s * costs.rest_direct
+        best = layout
+        if layout == SPARSE:
+            fold = ti.cast(costs.fold, ti.f32) * ti.cast(n, ti.f32)
+            cost = s * costs.rest_sparse
+            if fold + s * costs.rest_direct < cost:
+                best = FULL
+                cost = fold + s * costs.rest_direct
+        if prefix_allowed and fold + costs.plane + s * costs.rest_prefix < cost:
+            best = PREFIX
+        return best
 
     @ti.kernel
     def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
                      thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
-                     busy: i32_1d, counts: i32_2d, keep: u8_1d):
+                     tiles: u64_1d, flags: u8_1d, masks: u64_1d, repeats: i32_1d,
+                     owners: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
         if first_dense < 0:
-            first_dense = model_min
+            first_dense = costs.dense_min
+        room = repeats.shape[0] // busy.shape[0]
         for u in range(unit_lo.shape[0]):
             if unit_hi[u] > unit_lo[u]:
                 slot = slots.claim(busy, busy.shape[0])
                 g0 = slot * geo.plane
                 p0 = slot * geo.prefix_plane
+                t0 = slot * tp.plane
+                r0 = slot * room
                 for f in range(unit_lo[u], unit_hi[u]):
                     e0 = offsets[f]
                     e1 = offsets[f + 1]
+                    layout = SPARSE
+                    if ti.static(not costs.tiles):
+                        layout = FULL
+                    if e1 - e0 >= first_dense:
+                        layout = PREFIX
+                    n_rep = 0
                     for e in range(e0, e1):
-                        bin_cell(grid, g0 + fg.cell_index(geo, ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32)))
-                    dense = e1 - e0 >= first_dense
-                    if dense:
+                        xe = ti.cast(x[e], ti.i32)
+                        ye = ti.cast(y[e], ti.i32)
+                        at = fg.cell_index(geo, xe, ye)
+                        if layout != SPARSE:
+                            bin_cell(grid, g0 + at)
+                        else:  # a bit per pixel; a repeat goes to the extras (and its tile's flag)
+                            t, b = tile_and_bit(xe, ye)
+                            word = tiles[t0 + t]
+                            if word & b != ti.u64(0):
+                                if read_cell(grid, g0 + at) == 0:
+                                    repeats[r0 + n_rep] = at
+                                    n_rep += 1
+                                bin_cell(grid, g0 + at)
+                                flags[t0 + t] = ti.u8(1)
+                            else:
+                                tiles[t0 + t] = word | b
+                    if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
                     survivors = 0
                     for e in range(e0, e1):  # radius 1: every event
-                        xe = ti.cast(x[e], ti.i32)
-                        ye = ti.cast(y[e], ti.i32)
-                        c = disk_count(grid, prefix, g0 + fg.cell_index(geo, xe, ye),
-                                       p0 + fg.prefix_index(geo, xe, ye), 0, dense, 0)
+                        c = count(grid, prefix, tiles, flags, masks, g0, p0, t0,
+                                  ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32), 0, layout, 0)
                         counts[e, 0] = c
                         for k in ti.static(range(1, n_radii)):
                             counts[e, k] = -1
@@ -153,27 +298,57 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         survivors += alive
                         keep[e] = ti.cast(alive, ti.u8)
                     if ti.static(n_radii > 1):
-                        if survivors > 0 and not dense and dense_min < 0 and survivors * rest_gain > plane_cost:
-                            fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                            dense = True
+                        if survivors > 0 and layout != PREFIX:
+                            was = layout
+                            layout = survivor_layout(layout, e1 - e0, survivors, dense_min < 0)
+                            if was == SPARSE and layout != SPARSE:
+                                for e in range(e0, e1):  # fold the bits into the extras: full counts
+                                    xe = ti.cast(x[e], ti.i32)
+                                    ye = ti.cast(y[e], ti.i32)
+                                    t, b = tile_and_bit(xe, ye)
+                                    if tiles[t0 + t] & b != ti.u64(0):
+                                        bin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+                                        tiles[t0 + t] = tiles[t0 + t] & ~b
+                            if layout == PREFIX:
+                                fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
                         if survivors > 0:
-                            for e in range(e0, e1):  # larger radii: survivors only
+                            for e in range(e0, e1):  # larger radii: survivors only, once per pixel
                                 if keep[e] == 1:
-                                    c = counts[e, 0]
-                                    alive = 1
                                     xe = ti.cast(x[e], ti.i32)
                                     ye = ti.cast(y[e], ti.i32)
                                     at = g0 + fg.cell_index(geo, xe, ye)
-                                    pat = p0 + fg.prefix_index(geo, xe, ye)
-                                    for k in ti.static(range(1, n_radii)):
-                                        if alive == 1:
-                                            c = disk_count(grid, prefix, at, pat, k, dense, c)
-                                            counts[e, k] = c
-                                            if c < thresholds[k]:
-                                                alive = 0
-                                    keep[e] = ti.cast(alive, ti.u8)
+                                    owner = owners[at] - 1
+                                    if owner >= 0:  # an earlier survivor at this pixel: same counts
+                                        for k in ti.static(range(1, n_radii)):
+                                            counts[e, k] = counts[owner, k]
+                                        keep[e] = keep[owner]
+                                    else:
+                                        owners[at] = e + 1
+                                        c = counts[e, 0]
+                                        alive = 1
+                                        for k in ti.static(range(1, n_radii)):
+                                            if alive == 1:
+                                                c = count(grid, prefix, tiles, flags, masks, g0, p0, t0,
+                                                          xe, ye, k, layout, c)
+                                                counts[e, k] = c
+                                                if c < thresholds[k]:
+                                                    alive = 0
+                                        keep[e] = ti.cast(alive, ti.u8)
+                            for e in range(e0, e1):
+                                if counts[e, 1] >= 0:
+                                    owners[g0 + fg.cell_index(geo, ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32))] = 0
                     for e in range(e0, e1):
-                        unbin_cell(grid, g0 + fg.cell_index(geo, ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32)))
+                        xe = ti.cast(x[e], ti.i32)
+                        ye = ti.cast(y[e], ti.i32)
+                        if layout == SPARSE:
+                            t, b = tile_and_bit(xe, ye)
+                            tiles[t0 + t] = tiles[t0 + t] & ~b
+                        else:
+                            unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+                    for i in range(n_rep):
+                        at = repeats[r0 + i]
+                        unbin_cell(grid, g0 + at)
+                        flags[t0 + bit_tiles.tile_of(tp, at % geo.stride, at // geo.stride)] = ti.u8(0)
                 slots.release(busy, slot)
 
     return count_frames
