@@ -415,11 +415,11 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
         dtype, per_element = _CELL_DTYPES[cell]
         grid = _scratch_array(("grid", cell, disks, size, threads),
                               lambda: np.zeros(threads * cells // per_element, dtype))
-        repeats = np.empty(threads * (biggest // 2 + 1), np.int32)  # a repeated pixel holds >= 2 events
+        repeats, owned = (np.empty(threads * biggest, np.int32) for _ in range(2))  # room: a frame's pixels
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
         kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, flags,
-               masks, repeats, owners, busy, counts[e0:e1], keep[e0:e1])
+               masks, repeats, owners, owned, busy, counts[e0:e1], keep[e0:e1])
 
 
 def _counts_events(ti, ev, offsets, disks, th, strategy, device, counts, keep):

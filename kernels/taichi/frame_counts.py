@@ -184,15 +184,16 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Call as kernel(x, y, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    tiles, flags, masks, repeats, owners, busy, counts, keep); dense_min < 0 uses the built-in
-    cost model, 0 forces prefix sums, a huge value forces direct reads (sparse, then full
-    counts for the survivors where cheaper). grid, prefix, tiles, flags and owners hold
-    busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
-    calls; masks is tile_masks(disks, width, height); repeats holds busy.shape[0] equal parts
-    of room for the pixels with repeated events of one frame (half its events suffice).
+    tiles, flags, masks, repeats, owners, owned, busy, counts, keep); dense_min < 0 uses the
+    built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
+    then full counts for the survivors where cheaper). grid, prefix, tiles, flags and owners
+    hold busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
+    calls; masks is tile_masks(disks, width, height); repeats and owned hold busy.shape[0]
+    equal parts of room for a frame's pixels (its event count suffices).
 
-    Survivors at one pixel share their counts: the first one counts (and becomes the
-    pixel's owner), the others copy.
+    Events at one pixel have the same counts, so for the larger radii the pixel's first
+    survivor counts — it becomes the pixel's owner — and the others copy its counts.
+    (Radius 1 counts every event: measured, copying there was slower.)
     """
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
@@ -247,11 +248,11 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
                      thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
                      tiles: u64_1d, flags: u8_1d, masks: u64_1d, repeats: i32_1d,
-                     owners: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
+                     owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
         if first_dense < 0:
             first_dense = costs.dense_min
-        room = repeats.shape[0] // busy.shape[0]
+        room = owned.shape[0] // busy.shape[0]
         for u in range(unit_lo.shape[0]):
             if unit_hi[u] > unit_lo[u]:
                 slot = slots.claim(busy, busy.shape[0])
@@ -288,6 +289,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
                     survivors = 0
+                    n_owned = 0
                     for e in range(e0, e1):  # radius 1: every event
                         c = count(grid, prefix, tiles, flags, masks, g0, p0, t0,
                                   ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32), 0, layout, 0)
@@ -318,12 +320,15 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                     ye = ti.cast(y[e], ti.i32)
                                     at = g0 + fg.cell_index(geo, xe, ye)
                                     owner = owners[at] - 1
-                                    if owner >= 0:  # an earlier survivor at this pixel: same counts
+                                    if owner >= 0 and owner != e:  # an earlier event here: same counts
                                         for k in ti.static(range(1, n_radii)):
                                             counts[e, k] = counts[owner, k]
                                         keep[e] = keep[owner]
                                     else:
-                                        owners[at] = e + 1
+                                        if owner < 0:
+                                            owners[at] = e + 1
+                                            owned[r0 + n_owned] = at
+                                            n_owned += 1
                                         c = counts[e, 0]
                                         alive = 1
                                         for k in ti.static(range(1, n_radii)):
@@ -334,9 +339,6 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                                 if c < thresholds[k]:
                                                     alive = 0
                                         keep[e] = ti.cast(alive, ti.u8)
-                            for e in range(e0, e1):
-                                if counts[e, 1] >= 0:
-                                    owners[g0 + fg.cell_index(geo, ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32))] = 0
                     for e in range(e0, e1):
                         xe = ti.cast(x[e], ti.i32)
                         ye = ti.cast(y[e], ti.i32)
@@ -345,6 +347,8 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                             tiles[t0 + t] = tiles[t0 + t] & ~b
                         else:
                             unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+                    for i in range(n_owned):
+                        owners[owned[r0 + i]] = 0
                     for i in range(n_rep):
                         at = repeats[r0 + i]
                         unbin_cell(grid, g0 + at)
