@@ -159,3 +159,47 @@ def test_event_parallel_data_path_batches_and_launches(device_arrays, monkeypatc
     wide_ref = denoise.ClassicalFilter(100_000, 3, backend="reference")
     wide = denoise.ClassicalFilter(100_000, 3, schedule="events")
     np.testing.assert_array_equal(wide.apply(ev), wide_ref.apply(ev))
+
+
+# radius 1 from bit tiles (r1 >= 3.5), with survivors; a box wider than the unrolled 4 x 4 tiles
+TILE_GEOMETRIES = [((40, 30), (5,)), ((40, 30), (4, 6, 9)), ((40, 30), (20,))]
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 600), geometry=st.sampled_from(TILE_GEOMETRIES),
+       strategy=st.sampled_from(denoise.STRATEGIES), th=st.lists(st.integers(1, 12), min_size=3, max_size=3),
+       hot=st.sampled_from([None, 0.1, 0.5]))
+def test_tile_counts_match_reference(seed, n, geometry, strategy, th, hot):
+    size, radii = geometry
+    ev = make_events(seed, n, *size, hot=hot)
+    assert_same(*mr_pair(radii, th[:len(radii)], strategy=strategy), ev)
+
+
+def test_every_survivor_layout_matches_reference():
+    """Sparse frames whose survivors are counted in each layout the cost model can pick:
+    tiles (few survivors), full counts folded from the tiles, and row prefix sums."""
+    from evstar_kernels.taichi import frame_counts, frame_grids
+
+    w, h, radii = 120, 90, (4, 6, 9)
+    disks = denoise._disks(radii)
+    costs = frame_counts.disk_costs(disks, frame_grids.Geometry(w, h, frame_counts.disk_padding(disks)), "u16x4")
+    lattice = [(x, y) for x in range(5, w, 10) for y in range(5, h, 10)]  # 10 px apart: alone
+    n = costs.dense_min - 1  # the biggest sparse frame
+    to_full = costs.fold * n / (costs.rest_sparse - costs.rest_direct)  # survivors from which folding pays
+    to_prefix = costs.plane / (costs.rest_direct - costs.rest_prefix)
+    assert costs.tiles and to_full < to_prefix < n / 2, (to_full, to_prefix, n)
+    rng = np.random.default_rng(4)
+    cases = [(2 * len(lattice) + 3, 3), (n, int(to_full + to_prefix) // 2), (n, int(to_prefix) + 20)]
+    for n_events, survivors in cases:
+        # the survivors: two clumps 1 px apart, > 4 px from the lattice; the other events on
+        # the lattice, repeated m times at most, below the radius-1 threshold m + 1
+        clumps = [(60, 40)] * (survivors - survivors // 2) + [(61, 40)] * (survivors // 2)
+        rest = n_events - survivors
+        xy = np.array(clumps + [lattice[i % len(lattice)] for i in range(rest)])[rng.permutation(n_events)]
+        th1 = -(-rest // len(lattice)) + 1
+        assert survivors >= th1
+        ev = evstar.Events(np.arange(n_events), xy[:, 0], xy[:, 1], np.ones(n_events), w, h)
+        for strategy in ("auto", "sparse"):
+            ref, fast = mr_pair(radii, (th1, 3, 3), dt_us=10 * n_events, strategy=strategy)
+            assert_same(ref, fast, ev)
+            assert (fast.counts_[:, 1] >= 0).sum() == survivors

@@ -123,7 +123,7 @@ def disk_costs(disks, geo, cell="i32"):
 
     def gain1(n):  # per event, sparse minus dense, radius 1
         if not tiles:
-            return direct[0] - 2 * len(disks[0])
+            return max(direct[0] - 2 * len(disks[0]), 1)
         share = flagged_share(n, geo, tp.spans[0])
         return TILE_READS * tp.spans[0] ** 2 + share * direct[0] - 2 * len(disks[0])
 
