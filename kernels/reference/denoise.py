@@ -195,10 +195,12 @@ def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, durat
         return 0.0
     if duration_s is None:
         duration_s = max(int(t[-1]) - int(t[0]), 1) * 1e-6
-    counts = np.zeros(width * height, np.int64)
+    counts = None
     for i in range(0, len(t), chunk):
         pix = np.asarray(y[i:i + chunk], np.int32) * np.int32(width) + np.asarray(x[i:i + chunk], np.int32)
-        counts += np.bincount(pix, minlength=width * height)
+        part = np.bincount(pix, minlength=width * height)
+        counts = part if counts is None else counts + part
     cut = poisson.isf(outlier_p, counts.mean())
-    inliers = counts <= cut
-    return float(counts[inliers].sum() / max(inliers.sum(), 1) / duration_s)
+    outliers = np.flatnonzero(counts > cut)  # few: sum them rather than copy the inliers
+    n_inliers = counts.size - len(outliers)
+    return float((int(counts.sum()) - int(counts[outliers].sum())) / max(n_inliers, 1) / duration_s)

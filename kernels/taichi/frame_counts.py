@@ -342,9 +342,8 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     for e in range(e0, e1):
                         xe = ti.cast(x[e], ti.i32)
                         ye = ti.cast(y[e], ti.i32)
-                        if layout == SPARSE:
-                            t, b = tile_and_bit(xe, ye)
-                            tiles[t0 + t] = tiles[t0 + t] & ~b
+                        if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
+                            tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
                         else:
                             unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
                     for i in range(n_owned):
