@@ -402,7 +402,7 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
     cells, prefix_cells, tile_cells = frame_counts.scratch_sizes(disks, *size)
     prefix = _scratch_array(("prefix", disks, size, threads), lambda: np.zeros(threads * prefix_cells, np.int32))
     tiles = _scratch_array(("tiles", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint64))
-    flags = _scratch_array(("flags", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint8))
+    repeated = _scratch_array(("repeated", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint64))
     masks = _scratch_array(("masks", disks, size), lambda: frame_counts.tile_masks(disks, *size))
     owners = _scratch_array(("owners", disks, size, threads), lambda: np.zeros(threads * cells, np.int32))
     busy = np.zeros(threads, np.int32)
@@ -418,7 +418,7 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
         repeats, owned = (np.empty(threads * biggest, np.int32) for _ in range(2))  # room: a frame's pixels
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
-        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, flags,
+        kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, repeated,
                masks, repeats, owners, owned, busy, counts[e0:e1], keep[e0:e1])
 
 

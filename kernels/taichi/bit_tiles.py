@@ -6,7 +6,8 @@ with one popcount of tile & mask each, from a plane small enough to stay in L1 (
 640 x 480). The masks depend only on where the box starts inside its first tile: `masks`
 holds, per radius and for each of the 64 start offsets, one mask per covered tile
 (span x span tiles). Repeated events at one pixel are not in the bits; frame_counts keeps
-them apart ("extras", count − 1 per pixel), with one flag per tile that holds any.
+them apart ("extras", count − 1 per pixel), and marks their pixels in a second plane of
+tiles (the repeat bits) so that a disk learns from the same masks whether it holds any.
 
 Coordinates are the cell grid's (frame_grids.Geometry, padding included), so a disk of
 radius k around the event at padded (X, Y) has its box at (X − e_k, Y − e_k), e_k the
@@ -91,29 +92,31 @@ def pixel_bit(tiles: ti.template(), t0: ti.i32, tp: ti.template(), X: ti.i32, Y:
 
 
 def make_box_count(tp, k):
-    """ti.func (tiles, flags, masks, t0, X, Y) -> (occupied pixels of radius k's cells
-    around padded (X, Y), whether any tile under the box has a flag)."""
+    """ti.func (tiles, repeated, masks, t0, X, Y) -> (occupied pixels of radius k's cells
+    around padded (X, Y), nonzero iff any of those cells holds repeated events)."""
     e, s, base = tp.extents[k], tp.spans[k], tp.bases[k]
     unrolled = s <= UNROLL_SPAN
 
     @ti.func
-    def box_count(tiles: ti.template(), flags: ti.template(), masks: ti.template(), t0: ti.i32,
+    def box_count(tiles: ti.template(), repeated: ti.template(), masks: ti.template(), t0: ti.i32,
                   X: ti.i32, Y: ti.i32):
         bx, by = X - e, Y - e
         first = t0 + tile_of(tp, bx, by)
         m0 = base + (((by & (TILE - 1)) << SHIFT) | (bx & (TILE - 1))) * (s * s)
         n = 0
-        flagged = ti.u8(0)
+        near = ti.u64(0)
         if ti.static(unrolled):
             for j in ti.static(range(s)):
                 for i in ti.static(range(s)):
-                    n += ti.cast(ti.math.popcnt(tiles[first + j * tp.cols + i] & masks[m0 + j * s + i]), ti.i32)
-                    flagged |= flags[first + j * tp.cols + i]
+                    m = masks[m0 + j * s + i]
+                    n += ti.cast(ti.math.popcnt(tiles[first + j * tp.cols + i] & m), ti.i32)
+                    near |= repeated[first + j * tp.cols + i] & m
         else:
             for j in range(s):
                 for i in range(s):
-                    n += ti.cast(ti.math.popcnt(tiles[first + j * tp.cols + i] & masks[m0 + j * s + i]), ti.i32)
-                    flagged |= flags[first + j * tp.cols + i]
-        return n, flagged
+                    m = masks[m0 + j * s + i]
+                    n += ti.cast(ti.math.popcnt(tiles[first + j * tp.cols + i] & m), ti.i32)
+                    near |= repeated[first + j * tp.cols + i] & m
+        return n, near
 
     return box_count

@@ -6,9 +6,9 @@ survivors only (hierarchical screening), and un-bins the frame. Two frame layout
 
 - sparse (work grows with events): an occupancy bit tile plane (bit_tiles) holds which
   pixels have an event, and the cell grid holds only the *extras* (count − 1) of pixels
-  with repeated events, listed as they appear and flagged per tile. A disk's count is a
-  few popcounts of tile & mask, plus — only where a tile under its box is flagged — the
-  extras in the disk's cells read from the grid. Radius k adds its annulus to radius k−1.
+  with repeated events, listed as they appear and marked in a plane of repeat bits. A
+  disk's count is a few popcounts of tile & mask, plus — only where the repeat bits say
+  the disk holds repeats — the extras in the disk's cells read from the grid. Radius k adds its annulus to radius k−1.
 - dense (work grows with pixels, once per frame): the grid holds the counts, row prefix
   sums are built and each disk row costs two reads.
 
@@ -43,7 +43,7 @@ u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 
 #: cost of one row-prefix cell relative to one direct cell read (sequential vs scattered)
 PREFIX_CELL_COST = 0.75
-#: reads per tile under a sparse disk's box: the tile, its mask and its flag
+#: reads per tile under a sparse disk's box: the tile, its mask and its repeat bits
 TILE_READS = 3
 #: reads per event to fold a sparse frame into full counts (and un-bin cells later)
 FOLD_READS = 3
@@ -87,12 +87,12 @@ def prefix_break_even(direct, disks, geo):
     return max(1, int(plane_cost // max(direct[0] - 2 * len(disks[0]), 1)))
 
 
-def flagged_share(n_events, geo, span):
-    """Chance that a box of span x span tiles holds a repeated pixel, for n_events spread
-    evenly over the sensor (Poisson per pixel)."""
+def repeat_share(n_events, geo, cells):
+    """Chance that `cells` pixels hold a repeated pixel, for n_events spread evenly over the
+    sensor (Poisson per pixel)."""
     lam = n_events / (geo.width * geo.height)
     repeat = -math.expm1(-lam) - lam * math.exp(-lam)  # P[count >= 2]
-    return -math.expm1(bit_tiles.TILE * bit_tiles.TILE * span * span * math.log1p(-min(repeat, 1 - 1e-12)))
+    return -math.expm1(cells * math.log1p(-min(repeat, 1 - 1e-12)))
 
 
 @dataclass(frozen=True)
@@ -102,7 +102,7 @@ class Costs:
     dense_min: int      # a frame of >= dense_min events is counted from prefix sums
     plane: int          # one row-prefix pass
     fold: int           # per event: folding the bits into full counts, un-binning cells
-    rest_sparse: float  # per survivor, radii 2..K: tiles + extras (flagged)
+    rest_sparse: float  # per survivor, radii 2..K: tiles + extras (beside repeats)
     rest_direct: float  # ... direct reads of full counts
     rest_prefix: float  # ... prefix reads
 
@@ -110,10 +110,11 @@ class Costs:
 def disk_costs(disks, geo, cell="i32"):
     """The Costs of `disks` on `geo`.
 
-    Radius 1 of a frame costs, per event, its tiles' reads plus — when a tile is flagged —
-    the direct reads of the extras (sparse; small disks read their cells directly instead,
-    when that is fewer reads than the tiles), or two reads per disk row after a prefix
-    pass (dense). Survivors sit where events pile up, so their tiles are costed as flagged.
+    Radius 1 of a frame costs, per event, its tiles' reads plus — when the disk holds
+    repeats — the direct reads of the extras (sparse; small disks read their cells directly
+    instead, when that is fewer reads than the tiles), or two reads per disk row after a
+    prefix pass (dense). Survivors sit where events pile up, so they are costed as beside
+    repeats.
     """
     direct = direct_costs(disks, geo, cell)
     tp = bit_tiles.plan(geo, disks)
@@ -124,7 +125,7 @@ def disk_costs(disks, geo, cell="i32"):
     def gain1(n):  # per event, sparse minus dense, radius 1
         if not tiles:
             return max(direct[0] - 2 * len(disks[0]), 1)
-        share = flagged_share(n, geo, tp.spans[0])
+        share = repeat_share(n, geo, sum(2 * w + 1 for _, w in disks[0]))
         return TILE_READS * tp.spans[0] ** 2 + share * direct[0] - 2 * len(disks[0])
 
     n = 1
@@ -174,7 +175,7 @@ def tile_masks(disks, width, height):
 
 
 def scratch_sizes(disks, width, height):
-    """Elements per slot of the kernel's scratch: (grid cells, prefix, tiles and flags)."""
+    """Elements per slot of the kernel's scratch: (grid cells, prefix, tiles and repeat bits)."""
     geo = fg.Geometry(width, height, disk_padding(disks))
     return geo.plane, geo.prefix_plane, bit_tiles.plan(geo, disks).plane
 
@@ -184,9 +185,9 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Call as kernel(x, y, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    tiles, flags, masks, repeats, owners, owned, busy, counts, keep); dense_min < 0 uses the
+    tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); dense_min < 0 uses the
     built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
-    then full counts for the survivors where cheaper). grid, prefix, tiles, flags and owners
+    then full counts for the survivors where cheaper). grid, prefix, tiles, repeated and owners
     hold busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
     calls; masks is tile_masks(disks, width, height); repeats and owned hold busy.shape[0]
     equal parts of room for a frame's pixels (its event count suffices).
@@ -205,7 +206,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     box_counts = [bit_tiles.make_box_count(tp, k) for k in range(n_radii)]
 
     @ti.func
-    def count(grid: ti.template(), prefix: ti.template(), tiles: ti.template(), flags: ti.template(),
+    def count(grid: ti.template(), prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
               masks: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, xe: ti.i32, ye: ti.i32,
               k: ti.template(), layout: ti.i32, c: ti.i32) -> ti.i32:
         """Disk k's count around (xe, ye), given disk k−1's count c."""
@@ -216,10 +217,10 @@ def count_frames_kernel(disks, width, height, cell="i32"):
         elif layout == FULL:
             out = disk_count(grid, prefix, at, 0, k, 0, c)
         else:
-            occupied, flagged = ti.static(box_counts[k])(tiles, flags, masks, t0, xe + geo.pad,
+            occupied, near = ti.static(box_counts[k])(tiles, repeated, masks, t0, xe + geo.pad,
                                                          ye + geo.pad)
             out += occupied
-            if flagged != ti.u8(0):  # repeated events near: add the extras of the annulus
+            if near != ti.u64(0):  # repeated events in the annulus: add their extras
                 out = disk_count(grid, prefix, at, 0, k, 0, out)
         return out
 
@@ -247,7 +248,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     @ti.kernel
     def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
                      thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
-                     tiles: u64_1d, flags: u8_1d, masks: u64_1d, repeats: i32_1d,
+                     tiles: u64_1d, repeated: u64_1d, masks: u64_1d, repeats: i32_1d,
                      owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
         if first_dense < 0:
@@ -275,7 +276,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         at = fg.cell_index(geo, xe, ye)
                         if layout != SPARSE:
                             bin_cell(grid, g0 + at)
-                        else:  # a bit per pixel; a repeat goes to the extras (and its tile's flag)
+                        else:  # a bit per pixel; a repeat goes to the extras (and to the repeat bits)
                             t, b = tile_and_bit(xe, ye)
                             word = tiles[t0 + t]
                             if word & b != ti.u64(0):
@@ -283,7 +284,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                     repeats[r0 + n_rep] = at
                                     n_rep += 1
                                 bin_cell(grid, g0 + at)
-                                flags[t0 + t] = ti.u8(1)
+                                repeated[t0 + t] = repeated[t0 + t] | b
                             else:
                                 tiles[t0 + t] = word | b
                     if layout == PREFIX:
@@ -291,7 +292,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     survivors = 0
                     n_owned = 0
                     for e in range(e0, e1):  # radius 1: every event
-                        c = count(grid, prefix, tiles, flags, masks, g0, p0, t0,
+                        c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0,
                                   ti.cast(x[e], ti.i32), ti.cast(y[e], ti.i32), 0, layout, 0)
                         counts[e, 0] = c
                         for k in ti.static(range(1, n_radii)):
@@ -333,7 +334,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                         alive = 1
                                         for k in ti.static(range(1, n_radii)):
                                             if alive == 1:
-                                                c = count(grid, prefix, tiles, flags, masks, g0, p0, t0,
+                                                c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0,
                                                           xe, ye, k, layout, c)
                                                 counts[e, k] = c
                                                 if c < thresholds[k]:
@@ -351,7 +352,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     for i in range(n_rep):
                         at = repeats[r0 + i]
                         unbin_cell(grid, g0 + at)
-                        flags[t0 + bit_tiles.tile_of(tp, at % geo.stride, at // geo.stride)] = ti.u8(0)
+                        repeated[t0 + bit_tiles.tile_of(tp, at % geo.stride, at // geo.stride)] = ti.u64(0)
                 slots.release(busy, slot)
 
     return count_frames
