@@ -141,29 +141,56 @@ def disk_costs(disks, geo, cell="i32"):
                  rest_direct=sum(direct[1:]), rest_prefix=sum(2 * len(rows) for rows in disks[1:]))
 
 
+def make_prefix_count(disks, geo):
+    """ti.func disk k's count around a prefix cell: two reads per disk row."""
+    pstride = geo.prefix_stride
+
+    @ti.func
+    def prefix_count(prefix: ti.template(), pat: ti.i32, k: ti.template()) -> ti.i32:
+        out = 0
+        for dy, w in ti.static(disks[k]):
+            out += prefix[pat + dy * pstride + w + 1] - prefix[pat + dy * pstride - w]
+        return out
+
+    return prefix_count
+
+
+def make_direct_count(disks, geo, cell):
+    """ti.func adding the grid cells of disk k's annulus around a cell to c, read directly
+    (SWAR words for u16x4; all offsets constant)."""
+    segments = annulus_segments(disks)
+    stride = geo.stride
+    sums = [fg.make_swar_sum(fg.swar_terms(seg, stride)) for seg in segments] if cell == "u16x4" else []
+
+    @ti.func
+    def direct_count(grid: ti.template(), at: ti.i32, k: ti.template(), c: ti.i32) -> ti.i32:
+        out = c
+        if ti.static(cell == "u16x4"):
+            out += ti.static(sums[k])(grid, at)
+        else:
+            for dy, pieces in ti.static(segments[k]):
+                for a, b in ti.static(pieces):
+                    for dx in ti.static(range(a, b + 1)):
+                        out += grid[at + dy * stride + dx]
+        return out
+
+    return direct_count
+
+
 def make_disk_count(disks, geo, cell):
     """ti.func adding disk k's annulus around a cell to the count c of disk k−1: from row
-    prefix sums (dense) or the annulus cells read directly (all offsets constant)."""
-    segments = annulus_segments(disks)
-    stride, pstride = geo.stride, geo.prefix_stride
-    sums = [fg.make_swar_sum(fg.swar_terms(seg, stride)) for seg in segments] if cell == "u16x4" else []
+    prefix sums (dense) or the annulus cells read directly."""
+    prefix_count = make_prefix_count(disks, geo)
+    direct_count = make_direct_count(disks, geo, cell)
 
     @ti.func
     def disk_count(grid: ti.template(), prefix: ti.template(), at: ti.i32, pat: ti.i32,
                    k: ti.template(), dense: ti.i32, c: ti.i32) -> ti.i32:
-        out = c
+        out = 0
         if dense:
-            out = 0
-            for dy, w in ti.static(disks[k]):
-                out += prefix[pat + dy * pstride + w + 1] - prefix[pat + dy * pstride - w]
+            out = prefix_count(prefix, pat, k)
         else:
-            if ti.static(cell == "u16x4"):
-                out += ti.static(sums[k])(grid, at)
-            else:
-                for dy, pieces in ti.static(segments[k]):
-                    for a, b in ti.static(pieces):
-                        for dx in ti.static(range(a, b + 1)):
-                            out += grid[at + dy * stride + dx]
+            out = direct_count(grid, at, k, c)
         return out
 
     return disk_count
@@ -203,26 +230,28 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     costs = disk_costs(disks, geo, cell)
     dtype, bin_cell, unbin_cell, read_cell = fg.LAYOUTS[cell]
     grid_1d = ti.types.ndarray(dtype=dtype, ndim=1)
-    disk_count = make_disk_count(disks, geo, cell)
+    prefix_count = make_prefix_count(disks, geo)
+    direct_count = make_direct_count(disks, geo, cell)
     box_counts = [bit_tiles.make_box_count(tp, k) for k in range(n_radii)]
 
     @ti.func
     def count(grid: ti.template(), prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
               masks: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, xe: ti.i32, ye: ti.i32,
               k: ti.template(), layout: ti.i32, c: ti.i32) -> ti.i32:
-        """Disk k's count around (xe, ye), given disk k−1's count c."""
-        at = g0 + fg.cell_index(geo, xe, ye)
+        """Disk k's count around (xe, ye), given disk k−1's count c (each way of counting
+        appears once: the kernel compiles in a fraction of the time)."""
         out = c
         if layout == PREFIX:
-            out = disk_count(grid, prefix, at, p0 + fg.prefix_index(geo, xe, ye), k, 1, 0)
-        elif layout == FULL:
-            out = disk_count(grid, prefix, at, 0, k, 0, c)
+            out = prefix_count(prefix, p0 + fg.prefix_index(geo, xe, ye), k)
         else:
-            occupied, near = ti.static(box_counts[k])(tiles, repeated, masks, t0, xe + geo.pad,
-                                                         ye + geo.pad)
-            out += occupied
-            if near != ti.u64(0):  # repeated events in the annulus: add their extras
-                out = disk_count(grid, prefix, at, 0, k, 0, out)
+            direct = 1
+            if layout == SPARSE:
+                occupied, near = ti.static(box_counts[k])(tiles, repeated, masks, t0, xe + geo.pad,
+                                                             ye + geo.pad)
+                out += occupied
+                direct = ti.cast(near != ti.u64(0), ti.i32)  # repeats in the annulus: add their extras
+            if direct:
+                out = direct_count(grid, g0 + fg.cell_index(geo, xe, ye), k, out)
         return out
 
     @ti.func
