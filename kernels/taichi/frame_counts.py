@@ -2,19 +2,22 @@
 
 Each busy iteration of the parallel loop owns a run of whole frames and a private scratch
 slot: it bins a frame, counts radius 1 for every event, then the larger radii for the
-survivors only (hierarchical screening), and un-bins the frame. Two frame layouts:
+survivors only (hierarchical screening), and un-bins the frame. Frame layouts:
 
-- sparse (work grows with events): an occupancy bit tile plane (bit_tiles) holds which
+- SPARSE (work grows with events): a plane of occupancy bit tiles (bit_tiles) holds which
   pixels have an event, and the cell grid holds only the *extras* (count − 1) of pixels
-  with repeated events, listed as they appear and marked in a plane of repeat bits. A
-  disk's count is a few popcounts of tile & mask, plus — only where the repeat bits say
-  the disk holds repeats — the extras in the disk's cells read from the grid. Radius k adds its annulus to radius k−1.
-- dense (work grows with pixels, once per frame): the grid holds the counts, row prefix
-  sums are built and each disk row costs two reads.
+  with repeated events, listed as they appear and marked in a second tile plane (the
+  repeat bits). A disk's count is a few popcounts of tile & mask, plus — only where the
+  repeat bits say the disk holds repeats — the extras in its cells, read from the grid.
+  The planes stay in L1/L2 where a cell grid would not, and no alignment branch is taken.
+- FULL: the grid holds the counts, and a disk's cells are read directly (SWAR words).
+- PREFIX (work grows with pixels, once per frame): FULL plus row prefix sums; each disk
+  row costs two reads.
 
-A frame is dense when it holds >= dense_min events, or — after radius 1 — when its
-survivors would read more than a prefix pass costs (disk_costs); the sparse layout is then
-folded into full counts first.
+Radius k adds its annulus to the count of radius k−1. A frame of >= dense_min events
+starts in PREFIX, the others in SPARSE (FULL for disks too small for tiles to pay). After
+radius 1 the survivors' pixels decide whether the larger radii stay as they are or fold
+the bits into full counts (FULL), with prefix sums on top if cheaper (disk_costs).
 
 `count_frames_kernel(disks, width, height, cell)` builds (and caches) a kernel for one
 sensor size and one set of disks: the disks and the grid's row stride are compile-time
