@@ -223,9 +223,9 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     calls; masks is tile_masks(disks, width, height); repeats and owned hold busy.shape[0]
     equal parts of room for a frame's pixels (its event count suffices).
 
-    Events at one pixel have the same counts, so for the larger radii the pixel's first
-    survivor counts — it becomes the pixel's owner — and the others copy its counts.
-    (Radius 1 counts every event: measured, copying there was slower.)
+    Events at one pixel have the same counts, so where counting is dear (radius 1 beside
+    repeated pixels, and the larger radii) the pixel's first event counts — it becomes the
+    pixel's owner — and the others copy its counts.
     """
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
@@ -323,11 +323,30 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                 tiles[t0 + t] = word | b
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned = 0  # pixels of survivors: the first survivor at a pixel owns it
+                    n_owned = 0  # pixels counted by their first event: the pixel's owner
+                    n_alive = 0  # ... of them, pixels of survivors
                     for e in range(e0, e1):  # radius 1: every event
                         xe = ti.cast(x[e], ti.i32)
                         ye = ti.cast(y[e], ti.i32)
-                        c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0, xe, ye, 0, layout, 0)
+                        at = g0 + fg.cell_index(geo, xe, ye)
+                        owner = -1
+                        c = 0
+                        if layout == SPARSE:
+                            occupied, near = ti.static(box_counts[0])(tiles, repeated, masks, t0,
+                                                                      xe + geo.pad, ye + geo.pad)
+                            c = occupied
+                            if near != ti.u64(0):  # repeats in the disk: their extras, once per pixel
+                                owner = owners[at] - 1
+                                if owner >= 0:
+                                    c = counts[owner, 0]
+                                else:
+                                    owner = e
+                                    owners[at] = e + 1
+                                    owned[r0 + n_owned] = at
+                                    n_owned += 1
+                                    c = direct_count(grid, at, 0, occupied)
+                        else:
+                            c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0, xe, ye, 0, layout, 0)
                         counts[e, 0] = c
                         for k in ti.static(range(1, n_radii)):
                             counts[e, k] = -1
@@ -335,15 +354,19 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         keep[e] = ti.cast(alive, ti.u8)
                         if ti.static(n_radii > 1):
                             if alive == 1:
-                                at = g0 + fg.cell_index(geo, xe, ye)
-                                if owners[at] == 0:
-                                    owners[at] = e + 1
-                                    owned[r0 + n_owned] = at
-                                    n_owned += 1
+                                if owner < 0:
+                                    owner = owners[at] - 1
+                                    if owner < 0:
+                                        owner = e
+                                        owners[at] = e + 1
+                                        owned[r0 + n_owned] = at
+                                        n_owned += 1
+                                if owner == e:
+                                    n_alive += 1
                     if ti.static(n_radii > 1):
-                        if n_owned > 0 and layout != PREFIX:
+                        if n_alive > 0 and layout != PREFIX:
                             was = layout
-                            layout = survivor_layout(layout, e1 - e0, n_owned, dense_min < 0)
+                            layout = survivor_layout(layout, e1 - e0, n_alive, dense_min < 0)
                             if was == SPARSE and layout != SPARSE:
                                 for e in range(e0, e1):  # fold the bits into the extras: full counts
                                     xe = ti.cast(x[e], ti.i32)
@@ -355,7 +378,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                             if layout == PREFIX:
                                 fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
                         for e in range(e0, e1):  # larger radii: survivors only, once per pixel
-                            if n_owned > 0 and keep[e] == 1:
+                            if n_alive > 0 and keep[e] == 1:
                                 xe = ti.cast(x[e], ti.i32)
                                 ye = ti.cast(y[e], ti.i32)
                                 owner = owners[g0 + fg.cell_index(geo, xe, ye)] - 1
