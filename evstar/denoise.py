@@ -415,7 +415,8 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
         dtype, per_element = _CELL_DTYPES[cell]
         grid = _scratch_array(("grid", cell, disks, size, threads),
                               lambda: np.zeros(threads * cells // per_element, dtype))
-        repeats, owned = (np.empty(threads * biggest, np.int32) for _ in range(2))  # room: a frame's pixels
+        room = min(biggest, ev.width * ev.height)  # a frame's pixels, each listed at most once
+        repeats, owned = (np.empty(threads * room, np.int32) for _ in range(2))
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, ev.width, ev.height, cell)
         kernel(ev.x[e0:e1], ev.y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, repeated,

@@ -221,7 +221,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     then full counts for the survivors where cheaper). grid, prefix, tiles, repeated and owners
     hold busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
     calls; masks is tile_masks(disks, width, height); repeats and owned hold busy.shape[0]
-    equal parts of room for a frame's pixels (its event count suffices).
+    equal parts of room for a frame's distinct pixels (min(its events, width · height)).
 
     Events at one pixel have the same counts, so where counting is dear (radius 1 beside
     repeated pixels, and the larger radii) the pixel's first event counts — it becomes the
