@@ -279,6 +279,72 @@ def count_frames_kernel(disks, width, height, cell="i32"):
             best = PREFIX
         return best
 
+    @ti.func
+    def bin_frame(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
+                  grid: ti.template(), tiles: ti.template(), repeated: ti.template(),
+                  repeats: ti.template(), g0: ti.i32, t0: ti.i32, r0: ti.i32) -> ti.i32:
+        """Bin the frame's events in `layout`; returns how many pixels it listed in repeats."""
+        n_rep = 0
+        for e in range(e0, e1):
+            xe = ti.cast(x[e], ti.i32)
+            ye = ti.cast(y[e], ti.i32)
+            at = fg.cell_index(geo, xe, ye)
+            if layout != SPARSE:
+                bin_cell(grid, g0 + at)
+            else:  # a bit per pixel; a repeat goes to the extras (and to the repeat bits)
+                t, b = tile_and_bit(xe, ye)
+                word = tiles[t0 + t]
+                if word & b != ti.u64(0):
+                    if read_cell(grid, g0 + at) == 0:
+                        repeats[r0 + n_rep] = at
+                        n_rep += 1
+                    bin_cell(grid, g0 + at)
+                    repeated[t0 + t] = repeated[t0 + t] | b
+                else:
+                    tiles[t0 + t] = word | b
+        return n_rep
+
+    @ti.func
+    def owner_of(owners: ti.template(), owned: ti.template(), at: ti.i32, e: ti.i32, r0: ti.i32,
+                 n_owned: ti.i32):
+        """The pixel's owner (its first event to ask); e becomes it if there is none yet."""
+        owner = owners[at] - 1
+        if owner < 0:
+            owner = e
+            owners[at] = e + 1
+            owned[r0 + n_owned] = at
+            n_owned += 1
+        return owner, n_owned
+
+    @ti.func
+    def fold_frame(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, grid: ti.template(),
+                   tiles: ti.template(), g0: ti.i32, t0: ti.i32):
+        """Turn a sparse frame's bits + extras into full counts in the grid (bits cleared)."""
+        for e in range(e0, e1):
+            xe = ti.cast(x[e], ti.i32)
+            ye = ti.cast(y[e], ti.i32)
+            t, b = tile_and_bit(xe, ye)
+            if tiles[t0 + t] & b != ti.u64(0):
+                bin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+                tiles[t0 + t] = tiles[t0 + t] & ~b
+
+    @ti.func
+    def unbin_frame(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
+                    grid: ti.template(), tiles: ti.template(), repeated: ti.template(),
+                    repeats: ti.template(), n_rep: ti.i32, g0: ti.i32, t0: ti.i32, r0: ti.i32):
+        """Leave the frame's scratch all zero again."""
+        for e in range(e0, e1):
+            xe = ti.cast(x[e], ti.i32)
+            ye = ti.cast(y[e], ti.i32)
+            if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
+                tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
+            else:
+                unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+        for i in range(n_rep):
+            at = repeats[r0 + i]
+            unbin_cell(grid, g0 + at)
+            repeated[t0 + bit_tiles.tile_of(tp, at % geo.stride, at // geo.stride)] = ti.u64(0)
+
     @ti.kernel
     def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
                      thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
@@ -303,27 +369,10 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         layout = FULL
                     if e1 - e0 >= first_dense:
                         layout = PREFIX
-                    n_rep = 0
-                    for e in range(e0, e1):
-                        xe = ti.cast(x[e], ti.i32)
-                        ye = ti.cast(y[e], ti.i32)
-                        at = fg.cell_index(geo, xe, ye)
-                        if layout != SPARSE:
-                            bin_cell(grid, g0 + at)
-                        else:  # a bit per pixel; a repeat goes to the extras (and to the repeat bits)
-                            t, b = tile_and_bit(xe, ye)
-                            word = tiles[t0 + t]
-                            if word & b != ti.u64(0):
-                                if read_cell(grid, g0 + at) == 0:
-                                    repeats[r0 + n_rep] = at
-                                    n_rep += 1
-                                bin_cell(grid, g0 + at)
-                                repeated[t0 + t] = repeated[t0 + t] | b
-                            else:
-                                tiles[t0 + t] = word | b
+                    n_rep = bin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, g0, t0, r0)
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned = 0  # pixels counted by their first event: the pixel's owner
+                    n_owned = 0  # pixels counted by their first event, the pixel's owner
                     n_alive = 0  # ... of them, pixels of survivors
                     for e in range(e0, e1):  # radius 1: every event
                         xe = ti.cast(x[e], ti.i32)
@@ -336,15 +385,11 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                                                       xe + geo.pad, ye + geo.pad)
                             c = occupied
                             if near != ti.u64(0):  # repeats in the disk: their extras, once per pixel
-                                owner = owners[at] - 1
-                                if owner >= 0:
-                                    c = counts[owner, 0]
-                                else:
-                                    owner = e
-                                    owners[at] = e + 1
-                                    owned[r0 + n_owned] = at
-                                    n_owned += 1
+                                owner, n_owned = owner_of(owners, owned, at, e, r0, n_owned)
+                                if owner == e:
                                     c = direct_count(grid, at, 0, occupied)
+                                else:
+                                    c = counts[owner, 0]
                         else:
                             c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0, xe, ye, 0, layout, 0)
                         counts[e, 0] = c
@@ -355,12 +400,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         if ti.static(n_radii > 1):
                             if alive == 1:
                                 if owner < 0:
-                                    owner = owners[at] - 1
-                                    if owner < 0:
-                                        owner = e
-                                        owners[at] = e + 1
-                                        owned[r0 + n_owned] = at
-                                        n_owned += 1
+                                    owner, n_owned = owner_of(owners, owned, at, e, r0, n_owned)
                                 if owner == e:
                                     n_alive += 1
                     if ti.static(n_radii > 1):
@@ -368,13 +408,7 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                             was = layout
                             layout = survivor_layout(layout, e1 - e0, n_alive, dense_min < 0)
                             if was == SPARSE and layout != SPARSE:
-                                for e in range(e0, e1):  # fold the bits into the extras: full counts
-                                    xe = ti.cast(x[e], ti.i32)
-                                    ye = ti.cast(y[e], ti.i32)
-                                    t, b = tile_and_bit(xe, ye)
-                                    if tiles[t0 + t] & b != ti.u64(0):
-                                        bin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
-                                        tiles[t0 + t] = tiles[t0 + t] & ~b
+                                fold_frame(x, y, e0, e1, grid, tiles, g0, t0)
                             if layout == PREFIX:
                                 fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
                         for e in range(e0, e1):  # larger radii: survivors only, once per pixel
@@ -397,19 +431,9 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                                             if c < thresholds[k]:
                                                 alive = 0
                                     keep[e] = ti.cast(alive, ti.u8)
-                    for e in range(e0, e1):
-                        xe = ti.cast(x[e], ti.i32)
-                        ye = ti.cast(y[e], ti.i32)
-                        if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
-                            tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
-                        else:
-                            unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+                    unbin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, n_rep, g0, t0, r0)
                     for i in range(n_owned):
                         owners[owned[r0 + i]] = 0
-                    for i in range(n_rep):
-                        at = repeats[r0 + i]
-                        unbin_cell(grid, g0 + at)
-                        repeated[t0 + bit_tiles.tile_of(tp, at % geo.stride, at // geo.stride)] = ti.u64(0)
                 slots.release(busy, slot)
 
     return count_frames
