@@ -1,1 +1,2 @@
-"""Taichi kernels for dense per-frame grids (binning, prefix sums, multi-radius counts)."""
+"""Taichi kernels: per-frame cell grids and bit tiles (binning, prefix sums, multi-radius
+counts) and the classical filter."""
