@@ -400,11 +400,14 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
     threads = _cpu_threads(ti)
     size = (ev.width, ev.height)
     cells, prefix_cells, tile_cells = frame_counts.scratch_sizes(disks, *size)
-    prefix = _scratch_array(("prefix", disks, size, threads), lambda: np.zeros(threads * prefix_cells, np.int32))
-    tiles = _scratch_array(("tiles", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint64))
-    repeated = _scratch_array(("repeated", disks, size, threads), lambda: np.zeros(threads * tile_cells, np.uint64))
+
+    def slots_of(name, n, dtype):  # one zeroed part per thread, kept for the next call
+        return _scratch_array((name, disks, size, threads), lambda: np.zeros(threads * n, dtype))
+
+    prefix = slots_of("prefix", prefix_cells, np.int32)
+    tiles, repeated = slots_of("tiles", tile_cells, np.uint64), slots_of("repeated", tile_cells, np.uint64)
+    owners = slots_of("owners", cells, np.int32)
     masks = _scratch_array(("masks", disks, size), lambda: frame_counts.tile_masks(disks, *size))
-    owners = _scratch_array(("owners", disks, size, threads), lambda: np.zeros(threads * cells, np.int32))
     busy = np.zeros(threads, np.int32)
     for f0, f1 in _frame_launches(offsets):
         e0, e1 = int(offsets[f0]), int(offsets[f1])
@@ -413,8 +416,7 @@ def _counts_lanes(ti, ev, offsets, disks, th, strategy, device, counts, keep):
         # packed 16-bit cells are exact while no frame holds more than MAX_EVENTS events
         cell = "u16x4" if biggest <= frame_grids.MAX_EVENTS else "i32"
         dtype, per_element = _CELL_DTYPES[cell]
-        grid = _scratch_array(("grid", cell, disks, size, threads),
-                              lambda: np.zeros(threads * cells // per_element, dtype))
+        grid = slots_of(f"grid-{cell}", cells // per_element, dtype)
         room = min(biggest, ev.width * ev.height)  # a frame's pixels, each listed at most once
         repeats, owned = (np.empty(threads * room, np.int32) for _ in range(2))
         lo, hi = _units(_balanced_cuts(local, 8 * threads), threads)
@@ -428,8 +430,8 @@ def _counts_events(ti, ev, offsets, disks, th, strategy, device, counts, keep):
 
     geo = frame_grids.Geometry(ev.width, ev.height, frame_counts.disk_padding(disks))
     direct = frame_counts.direct_costs(disks, geo, "i32")
-    dense_min = {"auto": frame_counts.prefix_break_even(direct, disks, geo), "sparse": np.iinfo(np.int32).max,
-                 "dense": 0}[strategy]
+    dense_min = {"auto": frame_counts.prefix_break_even(direct, disks, geo),
+                 "sparse": np.iinfo(np.int32).max, "dense": 0}[strategy]
     bin_frames, prefix_rows, count, unbin_frames = event_counts.count_events_kernels(
         disks, ev.width, ev.height)
     arrays = _Arrays(ti, device)

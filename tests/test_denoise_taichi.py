@@ -182,9 +182,11 @@ def test_every_survivor_layout_matches_reference():
 
     w, h, radii = 120, 90, (4, 6, 9)
     disks = denoise._disks(radii)
-    costs = frame_counts.disk_costs(disks, frame_grids.Geometry(w, h, frame_counts.disk_padding(disks)), "u16x4")
+    geo = frame_grids.Geometry(w, h, frame_counts.disk_padding(disks))
+    costs = frame_counts.disk_costs(disks, geo, "u16x4")
     n = costs.dense_min - 1  # the biggest sparse frame
-    to_full = costs.fold * n / (costs.rest_sparse - costs.rest_direct)  # survivor pixels from which folding pays
+    # survivor pixels from which folding pays, and from which prefix sums do
+    to_full = costs.fold * n / (costs.rest_sparse - costs.rest_direct)
     to_prefix = costs.plane / (costs.rest_direct - costs.rest_prefix)
     assert costs.tiles and to_full < to_prefix < 500, (to_full, to_prefix)
     rng = np.random.default_rng(4)
