@@ -38,6 +38,7 @@ class TilePlan:
 
 
 def extent(rows):
+    """The largest |dx| or |dy| of a disk given as (dy, half-width) rows."""
     return max(max(abs(dy), w) for dy, w in rows)
 
 
@@ -84,11 +85,6 @@ def tile_of(tp: ti.template(), X: ti.i32, Y: ti.i32) -> ti.i32:
 @ti.func
 def bit_of(X: ti.i32, Y: ti.i32) -> ti.u64:
     return ti.u64(1) << ti.cast(((Y & (TILE - 1)) << SHIFT) | (X & (TILE - 1)), ti.u64)
-
-
-@ti.func
-def pixel_bit(tiles: ti.template(), t0: ti.i32, tp: ti.template(), X: ti.i32, Y: ti.i32) -> ti.i32:
-    return ti.cast((tiles[t0 + tile_of(tp, X, Y)] & bit_of(X, Y)) != ti.u64(0), ti.i32)
 
 
 def make_box_count(tp, k):

@@ -56,7 +56,7 @@ SPARSE, FULL, PREFIX = 0, 1, 2
 
 
 def disk_padding(disks):
-    return max(max(abs(dy), w) for rows in disks for dy, w in rows)
+    return max(bit_tiles.extent(rows) for rows in disks)
 
 
 def annulus_segments(disks):
@@ -241,8 +241,9 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     def count(grid: ti.template(), prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
               masks: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, xe: ti.i32, ye: ti.i32,
               k: ti.template(), layout: ti.i32, c: ti.i32) -> ti.i32:
-        """Disk k's count around (xe, ye), given disk k−1's count c (each way of counting
-        appears once: the kernel compiles in a fraction of the time)."""
+        """Disk k's count around (xe, ye) for k >= 1, given disk k−1's count c. (Radius 1
+        has its own loop; each way of counting a radius appears once in the kernel, which
+        keeps its compile time down.)"""
         out = c
         if layout == PREFIX:
             out = prefix_count(prefix, p0 + fg.prefix_index(geo, xe, ye), k)
@@ -380,18 +381,21 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                         at = g0 + fg.cell_index(geo, xe, ye)
                         owner = -1
                         c = 0
-                        if layout == SPARSE:
+                        direct = ti.cast(layout == FULL, ti.i32)
+                        if layout == PREFIX:
+                            c = prefix_count(prefix, p0 + fg.prefix_index(geo, xe, ye), 0)
+                        elif layout == SPARSE:
                             occupied, near = ti.static(box_counts[0])(tiles, repeated, masks, t0,
                                                                       xe + geo.pad, ye + geo.pad)
                             c = occupied
                             if near != ti.u64(0):  # repeats in the disk: their extras, once per pixel
                                 owner, n_owned = owner_of(owners, owned, at, e, r0, n_owned)
                                 if owner == e:
-                                    c = direct_count(grid, at, 0, occupied)
+                                    direct = 1
                                 else:
                                     c = counts[owner, 0]
-                        else:
-                            c = count(grid, prefix, tiles, repeated, masks, g0, p0, t0, xe, ye, 0, layout, 0)
+                        if direct:
+                            c = direct_count(grid, at, 0, c)
                         counts[e, 0] = c
                         for k in ti.static(range(1, n_radii)):
                             counts[e, k] = -1
