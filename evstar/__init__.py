@@ -5,7 +5,8 @@ Importing evstar is cheap: Taichi and Warp start only when a kernel is first use
 from importlib import import_module
 
 from .camera import Camera
-from .errors import BackendError, DataError, EvstarError, EvstarWarning, FormatError
+from .errors import (BackendError, DataError, EvstarError, EvstarWarning, FormatError, OutputError,
+                     ParameterError, ParameterTypeError)
 from .events import Events
 from .imu import Imu
 from .recording import Recording
@@ -16,7 +17,8 @@ _SUBMODULES = {"io", "sim", "denoise", "extract", "tracking", "motion", "metrics
                "pipeline", "backends", "report", "profiling", "interop"}
 
 __all__ = ["Camera", "Config", "Pipeline", "Events", "Imu", "Recording", "EvstarError", "DataError",
-           "FormatError", "BackendError", "EvstarWarning", *_SUBMODULES]
+           "FormatError", "BackendError", "EvstarWarning", "OutputError", "ParameterError",
+           "ParameterTypeError", *_SUBMODULES]
 
 
 def __getattr__(name):
