@@ -23,11 +23,10 @@ background at the same false-alarm probability α. Radii are evaluated hierarchi
 """
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
-from . import backends
+from . import backends, parameters as P
+from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from evstar_kernels.reference import denoise as ref
 
@@ -35,56 +34,30 @@ BACKENDS = ("taichi", "reference")
 _MAX_LAUNCH_EVENTS = 1 << 30  # Taichi loop bounds are i32: launch at most this many events
 
 
-# -- parameter validation ------------------------------------------------------------------
-def _check_int(name, value, low, high=None):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        if not (isinstance(value, numbers.Real) and float(value).is_integer()):
-            raise ValueError(f"{name} must be an integer, got {value!r}")
-    value = int(value)
-    if value < low or (high is not None and value > high):
-        span = f">= {low}" if high is None else f"in {low}..{high}"
-        raise ValueError(f"{name} must be {span}, got {value}")
-    return value
-
-
-def _check_radius(name, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value) \
-            or value <= 0 or value > 64:
-        raise ValueError(f"{name} must be a positive number of pixels (<= 64), got {value!r}")
-    return float(value) if not float(value).is_integer() else int(value)
+# -- parameter validation: the declarations of evstar.parameters, plus the kernel options --
+D, G, K = P.DENOISE, P.GLOBAL, P.KERNEL
+BACKENDS, STRATEGIES, SCHEDULES = P.DENOISE_BACKENDS, P.STRATEGIES, P.SCHEDULES
 
 
 def _check_common(dt_us, backend, device, t0_us):
-    dt_us = _check_int("dt_us", dt_us, 1)
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    device = backends.check_device(device)
+    dt_us, device = G.check("dt_us", dt_us), G.check("device", device)
+    backend = K.check("backend", backend)
     if backend == "reference" and device != "cpu":
-        raise ValueError(f"device must be 'cpu' with backend='reference', got {device!r}")
-    if t0_us is not None:
-        t0_us = _check_int("t0_us", t0_us, -(1 << 62))
-    return dt_us, device, t0_us
-
-
-def _check_alpha(alpha):
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha < 1:
-        raise ValueError(f"alpha must be a probability in (0, 1), got {alpha!r}")
-    return float(alpha)
-
-
-def _check_rate(rate_hz):
-    if rate_hz is None:
-        return None
-    if isinstance(rate_hz, bool) or not isinstance(rate_hz, numbers.Real) \
-            or not np.isfinite(rate_hz) or rate_hz < 0:
-        raise ValueError(f"rate_hz must be None or a rate >= 0 in events/pixel/s, got {rate_hz!r}")
-    return float(rate_hz)
+        raise ParameterError(f"device must be 'cpu' with backend='reference', got {device!r}")
+    return dt_us, device, K.check("t0_us", t0_us)
 
 
 def _check_events(events):
     if not isinstance(events, Events):
-        raise TypeError(f"expected evstar.Events, got {type(events).__name__}")
+        raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
     return events
+
+
+def _check_schedule(schedule, device):
+    schedule = K.check("schedule", schedule)
+    if schedule == "lanes" and device != "cpu":
+        raise ParameterError("schedule='lanes' is the CPU form; use 'events' (or 'auto') on CUDA")
+    return schedule
 
 
 # -- base class ------------------------------------------------------------------------------
@@ -127,7 +100,7 @@ class ClassicalFilter(_Filter):
 
     def __init__(self, dt_us=10_000, k=1, *, backend="taichi", device="cpu", schedule="auto"):
         self.dt_us, self.device, _ = _check_common(dt_us, backend, device, None)
-        self.k = _check_int("k", k, 1, 8)
+        self.k = D.check("k", k)
         self.backend = backend
         self.schedule = _check_schedule(schedule, self.device)
 
@@ -148,10 +121,10 @@ class _DensityFilter(_Filter):
     def _set_common(self, dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule):
         """Validate and store the parameters NDSEF and MR-NDSEF share."""
         self.dt_us, self.device, self.t0_us = _check_common(dt_us, backend, device, t0_us)
-        self.alpha = _check_alpha(alpha)
-        self.rate_hz = _check_rate(rate_hz)
+        self.alpha = D.check("alpha", alpha)
+        self.rate_hz = D.check("rate_hz", rate_hz)
         self.backend = backend
-        self.strategy = _check_strategy(strategy)
+        self.strategy = K.check("strategy", strategy)
         self.schedule = _check_schedule(schedule, self.device)
 
     def _resolve_thresholds(self, ev, offsets):
@@ -196,16 +169,6 @@ def _background_rate(ev, offsets, dt_us):
     return ref.background_rate(ts, xs, ys, ev.width, ev.height, duration_s=len(frames) * dt_us * 1e-6)
 
 
-def _check_strategy(strategy):
-    if strategy not in STRATEGIES:
-        raise ValueError(f"strategy must be one of {STRATEGIES}, got {strategy!r}")
-    return strategy
-
-
-#: auto: per-frame choice on CPU; sparse/dense: force direct cell reads / row prefix sums
-STRATEGIES = ("auto", "sparse", "dense")
-
-
 class NDSEF(_DensityFilter):
     """Neighbourhood-density spatio-temporal event filter (single radius).
 
@@ -223,13 +186,8 @@ class NDSEF(_DensityFilter):
                  t0_us=None, backend="taichi", device="cpu", strategy="auto",
                  schedule="auto"):
         self._set_common(dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule)
-        self.radius = _check_radius("radius", radius)
-        if isinstance(threshold, str):
-            if threshold != "auto":
-                raise ValueError(f"threshold must be a positive integer or 'auto', got {threshold!r}")
-        else:
-            threshold = _check_int("threshold", threshold, 1)
-        self.threshold = threshold
+        self.radius = D.check("radius", radius)
+        self.threshold = D.check("threshold", threshold)
 
     radii = property(lambda self: (self.radius,))
     thresholds = property(lambda self: self.threshold if isinstance(self.threshold, str)
@@ -259,27 +217,32 @@ class MRNDSEF(_DensityFilter):
                  rate_hz=None, t0_us=None, backend="taichi", device="cpu", strategy="auto",
                  schedule="auto"):
         self._set_common(dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule)
-        if isinstance(radii, (str, bytes)) or not hasattr(radii, "__len__") or len(radii) == 0:
-            raise ValueError(f"radii must be a non-empty sequence of radii, got {radii!r}")
-        radii = tuple(_check_radius("radii", r) for r in radii)
-        if any(b <= a for a, b in zip(radii, radii[1:])):
-            raise ValueError(f"radii must be strictly increasing, got {radii}")
-        self.radii = radii
-        if isinstance(thresholds, str):
-            if thresholds != "auto":
-                raise ValueError(f"thresholds must be 'auto' or one integer per radius, got {thresholds!r}")
-        else:
-            if not hasattr(thresholds, "__len__") or len(thresholds) != len(radii):
-                raise ValueError(f"thresholds must be 'auto' or one integer per radius "
-                                 f"({len(radii)}), got {thresholds!r}")
-            thresholds = tuple(_check_int("thresholds", v, 1) for v in thresholds)
-        self.thresholds = thresholds
+        self.radii = tuple(D.check("radii", radii))
+        thresholds = D.check("thresholds", thresholds)
+        if thresholds != P.AUTO and len(thresholds) != len(self.radii):
+            raise ParameterError(f"thresholds must be 'auto' or one integer per radius "
+                                 f"({len(self.radii)}), got {thresholds!r}")
+        self.thresholds = thresholds if thresholds == P.AUTO else tuple(thresholds)
+
+
+def from_config(config, *, t0_us=None, rate_hz=None, backend="taichi"):
+    """The filter an :class:`evstar.Config` describes (None for method 'none'): the one
+    factory of the pipeline and the command line. `rate_hz` (e.g. a calibration window's
+    background rate) is used unless the configuration fixes denoise.rate_hz."""
+    d = config.denoise
+    common = dict(dt_us=config.dt_us, device=config.device, backend=backend)
+    density = dict(alpha=d.alpha, rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz,
+                   t0_us=t0_us, **common)
+    if d.method == "classical":
+        return ClassicalFilter(k=d.k, **common)
+    if d.method == "ndsef":
+        return NDSEF(radius=d.radius, threshold=d.threshold, **density)
+    if d.method == "mr-ndsef":
+        return MRNDSEF(radii=d.radii, thresholds=d.thresholds, **density)
+    return None
 
 
 # -- Taichi launch logic -------------------------------------------------------------------------
-#: lanes: CPU form (lane-parallel, private grids, no per-event atomics);
-#: events: GPU form (event-parallel with atomics); auto: lanes on CPU, events on CUDA
-SCHEDULES = ("auto", "lanes", "events")
 _EVENT_GRID_BYTES = 256 << 20   # scratch planes of the event-parallel form, per batch
 _DEVICE_ARRAYS = False          # tests set True to run the CUDA data path (ti.ndarray) on CPU
 _CELL_DTYPES = {"u16x4": (np.uint64, 4), "i32": (np.int32, 1)}  # dtype, cells per element
@@ -291,14 +254,6 @@ def _scratch_array(key, make):
     if arr is None:
         arr = _scratch[key] = make()
     return arr
-
-
-def _check_schedule(schedule, device):
-    if schedule not in SCHEDULES:
-        raise ValueError(f"schedule must be one of {SCHEDULES}, got {schedule!r}")
-    if schedule == "lanes" and device != "cpu":
-        raise ValueError("schedule='lanes' is the CPU form; use 'events' (or 'auto') on CUDA")
-    return schedule
 
 
 def _resolve_schedule(schedule, device):

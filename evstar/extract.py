@@ -12,6 +12,9 @@ import numpy as np
 from scipy import ndimage
 from sklearn.cluster import DBSCAN
 
+from . import parameters as P
+from .errors import ParameterError, ParameterTypeError
+from .events import Events
 from .frames import check_dt, frame_bounds, frame_ids
 
 #: one row per centroid; t in µs; flags: border (touches the sensor edge), split (separated
@@ -19,8 +22,8 @@ from .frames import check_dt, frame_bounds, frame_ids
 CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "<i8"),
                            ("n_events", "<i4"), ("frame", "<i8"), ("spread", "<f8"),
                            ("border", "?"), ("split", "?")])
-WEIGHTINGS = ("events", "pixels", "polarity")
-TIME_REFS = ("mean", "mid")
+E = P.EXTRACT
+WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
 _FRAME_GAP = 1e6
 
@@ -40,29 +43,24 @@ class Extractor:
     whole. None disables the check.
     """
 
-    def __init__(self, dt_us=10_000, eps=2.5, min_samples=5, min_cluster_size=None,
-                 weighting="events", time_ref="mean", split_valley=0.35, t_origin_us=None):
+    def __init__(self, dt_us=P.GLOBAL["dt_us"].default, eps=E["eps"].default,
+                 min_samples=E["min_samples"].default, min_cluster_size=None,
+                 weighting=E["weighting"].default, time_ref=E["time_ref"].default,
+                 split_valley=E["split_valley"].default, t_origin_us=None):
         self.dt_us = check_dt(dt_us)
-        if not eps > 0:
-            raise ValueError(f"eps must be positive, got {eps!r}")
-        if not (isinstance(min_samples, (int, np.integer)) and min_samples >= 1):
-            raise ValueError(f"min_samples must be a positive integer, got {min_samples!r}")
-        if min_cluster_size is not None and not min_cluster_size >= 1:
-            raise ValueError(f"min_cluster_size must be >= 1, got {min_cluster_size!r}")
-        if weighting not in WEIGHTINGS:
-            raise ValueError(f"weighting must be one of {WEIGHTINGS}, got {weighting!r}")
-        if time_ref not in TIME_REFS:
-            raise ValueError(f"time_ref must be one of {TIME_REFS}, got {time_ref!r}")
-        if split_valley is not None and not 0 < split_valley < 1:
-            raise ValueError(f"split_valley must be in (0, 1) or None, got {split_valley!r}")
-        self.eps, self.min_samples = float(eps), int(min_samples)
-        self.min_cluster_size = int(min_cluster_size or min_samples)
-        self.weighting, self.time_ref = weighting, time_ref
-        self.split_valley, self.t_origin_us = split_valley, t_origin_us
+        self.eps = float(E.check("eps", eps))
+        self.min_samples = E.check("min_samples", min_samples)
+        self.min_cluster_size = E.check("min_cluster_size", min_cluster_size) or self.min_samples
+        self.weighting = E.check("weighting", weighting)
+        self.time_ref = E.check("time_ref", time_ref)
+        self.split_valley = E.check("split_valley", split_valley)
+        self.t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
 
     def labels(self, events, xy=None):
         """(frame id, DBSCAN label) per event; label -1 is noise. `xy` overrides coordinates
         (e.g. motion-compensated floats; clustered at their rounded pixels)."""
+        if not isinstance(events, Events):
+            raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
         # membership is decided on the pixel grid (float, e.g. warped, coordinates are
         # rounded as the filters round them); centroids use the floats
@@ -231,5 +229,5 @@ def _coords(events, xy):
         return np.column_stack([events.x, events.y]).astype(np.float64)
     xy = np.asarray(xy, dtype=np.float64)
     if xy.shape != (len(events), 2):
-        raise ValueError(f"xy must have shape ({len(events)}, 2), got {xy.shape}")
+        raise ParameterError(f"xy must have shape ({len(events)}, 2), got {xy.shape}")
     return xy

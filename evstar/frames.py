@@ -5,9 +5,10 @@ import numpy as np
 
 
 def check_dt(dt_us):
-    if not (isinstance(dt_us, (int, np.integer)) and dt_us > 0):
-        raise ValueError(f"dt_us must be a positive integer number of microseconds, got {dt_us!r}")
-    return int(dt_us)
+    """dt_us as the declaration in evstar.parameters accepts it (ParameterError otherwise)."""
+    from .parameters import GLOBAL
+
+    return GLOBAL.check("dt_us", dt_us)
 
 
 def frame_ids(t, dt_us, t_origin_us=None):

@@ -16,7 +16,7 @@ the previous chunk's last ``dt`` of events as context, and tracks are linked at 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -53,31 +53,16 @@ class Pipeline:
         """The configured denoiser with a fixed frame origin and background rate."""
         from . import denoise
 
-        c, d = self.config, self.config.denoise
-        common = dict(dt_us=c.dt_us, device=c.device)
-        if d.method == "classical":
-            return denoise.ClassicalFilter(k=d.k, **common)
-        if d.method == "ndsef":
-            return denoise.NDSEF(radius=d.radius, threshold=d.threshold or "auto", alpha=d.alpha,
-                                 rate_hz=rate_hz, t0_us=t0_us, **common)
-        if d.method == "mr-ndsef":
-            th = d.thresholds if d.thresholds == "auto" else tuple(d.thresholds)
-            return denoise.MRNDSEF(radii=tuple(d.radii), thresholds=th, alpha=d.alpha,
-                                   rate_hz=rate_hz, t0_us=t0_us, **common)
-        return None
+        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz)
 
     def make_extractor(self, t0_us, compensated=False):
         """Compensated coordinates are positions at the frame mid-time, so their centroids
         carry that time whatever extract.time_ref says."""
-        e = self.config.extract
-        return Extractor(dt_us=self.config.dt_us, eps=e.eps, min_samples=e.min_samples,
-                         min_cluster_size=e.min_cluster_size, weighting=e.weighting,
-                         time_ref="mid" if compensated else e.time_ref, t_origin_us=t0_us)
+        params = {**asdict(self.config.extract), **({"time_ref": "mid"} if compensated else {})}
+        return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, **params)
 
     def make_tracker(self):
-        t = self.config.track
-        return Tracker(gate_px=t.gate_px, init_gate_px=t.init_gate_px, max_gap=t.max_gap,
-                       min_length=t.min_length)
+        return Tracker(**asdict(self.config.track))
 
     def calibration_rate(self, events, t0_us):
         """Background rate (events/pixel/s) of the first chunk_frames frames."""

@@ -1,0 +1,254 @@
+"""Every tunable parameter of evstar, declared once: type, range, choices, default, doc.
+
+The stage classes (filters, Extractor, Tracker, ParticleFilter), :class:`evstar.Config` and
+the command line (argparse options are built from these declarations) all check values
+with :meth:`Param.check`, so a value one layer accepts the others accept too, and a bad
+one raises :class:`evstar.ParameterError` naming it, whichever layer it came through.
+
+This module imports nothing heavy: ``evstar --help`` builds its options from it.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+
+from .errors import ParameterError
+
+AUTO = "auto"
+
+
+@dataclass(frozen=True)
+class Param:
+    """One parameter. kind: int | float | str | bool; `many`: a non-empty list of kind
+    (strictly increasing when `increasing`); `auto`: the string "auto" is allowed too;
+    `optional`: None is allowed. low/high bound numbers (inclusive unless open_low/open_high).
+    cli: the option name (default --name); cli_scale: option value x scale = parameter value
+    (e.g. --dt-ms in ms for dt_us), cli_unit: the unit the option is given in."""
+
+    name: str
+    kind: type
+    default: object
+    doc: str
+    low: float | None = None
+    high: float | None = None
+    open_low: bool = False
+    open_high: bool = False
+    choices: tuple | None = None
+    many: bool = False
+    increasing: bool = False
+    auto: bool = False
+    optional: bool = False
+    unit: str = ""
+    cli: str | None = None
+    cli_scale: float = 1
+    cli_unit: str | None = None
+    checker: object = None  # a function (value, key) -> value replacing the type/range test
+
+    def check(self, value, key=None):
+        """The value normalised (integral floats to int, tuples to lists), or ParameterError
+        naming `key` (default: the parameter's name)."""
+        key = key or self.name
+        if value is None and self.optional:
+            return None
+        if self.auto and value == AUTO:
+            return AUTO
+        if not self.many:
+            return self._one(value, key)
+        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+            raise ParameterError(f"{key} must be {self.expected()}, got {value!r}")
+        values = [self._one(v, key) for v in value]
+        if not values:
+            raise ParameterError(f"{key} must be {self.expected()}, got an empty list")
+        if self.increasing and any(b <= a for a, b in zip(values, values[1:])):
+            raise ParameterError(f"{key} must be strictly increasing, got {values}")
+        return values
+
+    def _one(self, value, key):
+        if self.checker is not None:
+            return self.checker(value, key)
+        v = _convert(self.kind, value)
+        if v is None or (self.choices is not None and v not in self.choices) \
+                or not self._in_range(v):
+            raise ParameterError(f"{key} must be {self.expected()}, got {value!r}")
+        return v
+
+    def _in_range(self, v):
+        if self.kind not in (int, float):
+            return True
+        low_ok = self.low is None or (v > self.low if self.open_low else v >= self.low)
+        high_ok = self.high is None or (v < self.high if self.open_high else v <= self.high)
+        return low_ok and high_ok
+
+    def expected(self):
+        """What a valid value looks like, in words."""
+        if self.choices is not None:
+            what = "one of " + ", ".join(repr(c) for c in self.choices)
+        elif self.kind is bool:
+            what = "true or false"
+        else:
+            what = {int: "an integer", float: "a number", str: "a string"}[self.kind]
+            what += _span(self.low, self.high, self.open_low, self.open_high)
+        if self.many:
+            what = f"a non-empty list of {what.replace('an integer', 'integers').replace('a number', 'numbers')}"
+        if self.auto:
+            what = f"'auto' or {what}"
+        if self.optional:
+            what += " (or none)"
+        return what
+
+    @property
+    def option(self):
+        return self.cli or "--" + self.name.replace("_", "-")
+
+
+def _convert(kind, value):
+    """value as `kind`, or None when it is not one (bools are never numbers)."""
+    if kind is bool:
+        return value if isinstance(value, bool) else None
+    if kind is str:
+        return value if isinstance(value, str) else None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        return None
+    if not math.isfinite(float(value)):
+        return None
+    if isinstance(value, numbers.Integral):
+        return int(value)  # an integer stays one, also where numbers are allowed
+    if kind is int:
+        return int(value) if float(value).is_integer() else None
+    return float(value)
+
+
+def _span(low, high, open_low, open_high):
+    if low is not None and high is not None:
+        a, b = ("(" if open_low else "["), (")" if open_high else "]")
+        return f" in {a}{_num(low)}, {_num(high)}{b}"
+    if low is not None:
+        return f" {'>' if open_low else '>='} {_num(low)}"
+    if high is not None:
+        return f" {'<' if open_high else '<='} {_num(high)}"
+    return ""
+
+
+def _num(v):
+    return f"{v:g}" if isinstance(v, float) else f"{v:,}".replace(",", "_") if abs(v) >= 10**5 else str(v)
+
+
+class Params(dict):
+    """The parameters of one stage, by name."""
+
+    def __init__(self, section, *params):
+        super().__init__((p.name, p) for p in params)
+        self.section = section
+
+    def check(self, name, value, key=None):
+        return self[name].check(value, key)
+
+    def defaults(self):
+        return {n: p.default for n, p in self.items()}
+
+
+# -- the declarations -------------------------------------------------------------------------
+DEVICES = ("cpu", "cuda")
+METHODS = ("none", "classical", "ndsef", "mr-ndsef")
+COMPENSATIONS = ("none", "imu", "pf")
+WEIGHTINGS = ("events", "pixels", "polarity")
+TIME_REFS = ("mean", "mid")
+#: "taichi"/"warp": the accelerated kernels; "reference": their numpy specification
+DENOISE_BACKENDS = ("taichi", "reference")
+#: auto: per-frame choice on CPU; sparse/dense: force direct cell reads / row prefix sums
+STRATEGIES = ("auto", "sparse", "dense")
+#: lanes: CPU form (lane-parallel, private grids, no per-event atomics);
+#: events: GPU form (event-parallel with atomics); auto: lanes on CPU, events on CUDA
+SCHEDULES = ("auto", "lanes", "events")
+MAX_RADIUS = 64          # px; the counting kernels' disk tables stop here
+MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistake
+MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
+
+
+def check_device(device, key="device"):
+    """'cpu', 'cuda' or 'cuda:N'."""
+    ok = isinstance(device, str) and device.split(":")[0] in DEVICES
+    if ok and ":" in device:
+        ok = device.startswith("cuda:") and device[5:].isdigit()
+    if not ok:
+        raise ParameterError(f"{key} must be 'cpu' or 'cuda' (or 'cuda:N'), got {device!r}")
+    return device
+
+
+GLOBAL = Params(
+    "",
+    Param("device", str, "cpu", "compute device: cpu, cuda or cuda:N", checker=check_device),
+    Param("dt_us", int, 10_000, "pseudo-frame length", low=1, high=MAX_DT_US, unit="µs",
+          cli="--dt-ms", cli_scale=1000, cli_unit="ms"),
+    Param("seed", int, 0, "random seed (particle filter)", low=0, high=2**32 - 1),
+    Param("chunk_frames", int, 200, "frames per streaming chunk (also the calibration "
+          "window of the background rate)", low=1, high=10**7),
+)
+
+DENOISE = Params(
+    "denoise",
+    Param("method", str, "mr-ndsef", "denoising filter", choices=METHODS),
+    Param("radius", float, 5, "NDSEF disk radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("threshold", int, AUTO, "NDSEF density threshold (events in the disk)", low=1,
+          auto=True),
+    Param("radii", float, [3, 5, 7, 9, 11], "MR-NDSEF radii, increasing", low=0,
+          high=MAX_RADIUS, open_low=True, many=True, increasing=True, unit="px"),
+    Param("thresholds", int, AUTO, "MR-NDSEF thresholds, one per radius", low=1, many=True,
+          auto=True),
+    Param("alpha", float, 1e-3, "false-alarm probability of auto thresholds", low=0, high=1,
+          open_low=True, open_high=True),
+    Param("rate_hz", float, None, "background rate for auto thresholds (default: measured)",
+          low=0, optional=True, unit="events/pixel/s"),
+    Param("k", int, 1, "classical filter: supporting neighbours needed (1 = dv's filter)",
+          low=1, high=8),
+)
+
+EXTRACT = Params(
+    "extract",
+    Param("eps", float, 2.5, "DBSCAN radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("min_samples", int, 5, "DBSCAN min_samples (weighted events within eps)", low=1,
+          high=10**6),
+    Param("min_cluster_size", int, None, "smallest cluster reported (default min_samples)",
+          low=1, optional=True),
+    Param("weighting", str, "events", "centroid weighting", choices=WEIGHTINGS),
+    Param("time_ref", str, "mean", "centroid time: members' mean or frame mid-time",
+          choices=TIME_REFS),
+    Param("split_valley", float, 0.35, "close-pair split: profile dip below this x the lower "
+          "peak (none: never split)", low=0, high=1, open_low=True, open_high=True,
+          optional=True),
+)
+
+TRACK = Params(
+    "track",
+    Param("gate_px", float, 6.0, "largest jump of a track between frames", low=0,
+          open_low=True, unit="px"),
+    Param("init_gate_px", float, 40.0, "largest jump between a track's first two centroids",
+          low=0, open_low=True, unit="px"),
+    Param("max_gap", int, 3, "frames a track survives without a centroid", low=0, high=10**6),
+    Param("min_length", int, 3, "centroids a track needs to be confirmed", low=1, high=10**6),
+)
+
+MOTION = Params(
+    "motion",
+    Param("compensate", str, "none", "motion compensation (imu, pf need an IMU and a camera)",
+          choices=COMPENSATIONS),
+    Param("n_particles", int, 4096, "particle-filter size", low=2, high=MAX_PARTICLES,
+          cli="--particles"),
+    Param("causal", bool, False, "pf: bias known up to each time (true) or final (false)"),
+)
+
+#: options of the kernels themselves (how to compute, never what): not part of Config
+KERNEL = Params(
+    "kernel",
+    Param("backend", str, "taichi", "denoise kernels: Taichi, or their numpy specification",
+          choices=DENOISE_BACKENDS),
+    Param("strategy", str, "auto", "disk counting: per-frame choice, direct reads, row prefix sums",
+          choices=STRATEGIES),
+    Param("schedule", str, "auto", "lanes (CPU form) or events (GPU form); auto: by device",
+          choices=SCHEDULES),
+    Param("t0_us", int, None, "frame origin (default: the first event's time)",
+          low=-(1 << 62), high=1 << 62, optional=True),
+)
+
+SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION}
