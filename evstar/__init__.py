@@ -2,7 +2,11 @@
 
 Importing evstar is cheap: Taichi and Warp start only when a kernel is first used.
 """
+import os
 from importlib import import_module
+
+# Taichi prints a banner on stdout when imported; evstar's stdout is for results
+os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "0")
 
 from .camera import Camera
 from .errors import (BackendError, DataError, EvstarError, EvstarWarning, FormatError, OutputError,

@@ -21,7 +21,7 @@ def test_convert_raw_to_hdf5_and_back_to_csv(real_dir, tmp_path, capsys):
     assert io.read(tmp_path / "a.csv", sensor_size=(640, 480)).events == io.read(out).events
 
 
-def test_user_errors_exit_2_with_message(tmp_path, capsys):
-    assert main(["info", str(tmp_path / "missing.aedat4")]) == 2
+def test_input_errors_exit_3_with_message(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "missing.aedat4")]) == 3
     err = capsys.readouterr().err
     assert "evstar info: error:" in err and "missing.aedat4: no such file" in err

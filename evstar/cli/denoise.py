@@ -11,12 +11,13 @@ import time
 
 import numpy as np
 
-from .. import io
+from .. import io, parameters as P
+from ..errors import ParameterError
 from ..io.atomic import atomic_path
-from ..errors import EvstarError
 from .common import add_input_options, load
+from .options import add_options, config_from_args
 
-METHODS = ("classical", "ndsef", "mr-ndsef")
+METHODS = P.METHODS[1:]  # every filter; "none" is for the pipeline
 
 
 def add_parser(sub):
@@ -24,21 +25,10 @@ def add_parser(sub):
                        description=__doc__)
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT", help="kept events: .csv .npz .h5 .aedat4")
-    p.add_argument("--method", required=True, choices=METHODS)
-    p.add_argument("--dt-ms", type=float, default=10.0,
-                   help="pseudo-frame length (NDSEF, MR-NDSEF) or support window (classical), ms (10)")
-    p.add_argument("--k", type=int, default=1, help="classical: supporting neighbours needed (1 = dv's filter)")
-    p.add_argument("--radius", type=float, default=5.0, help="NDSEF radius, px (5)")
-    p.add_argument("--radii", type=float, nargs="+", default=[3, 5, 7, 9, 11], metavar="R",
-                   help="MR-NDSEF radii, px, increasing (3 5 7 9 11)")
-    th = p.add_mutually_exclusive_group()
-    th.add_argument("--threshold", type=int, help="NDSEF density threshold (events in the disk)")
-    th.add_argument("--thresholds", type=int, nargs="+", metavar="N", help="MR-NDSEF: one threshold per radius")
-    th.add_argument("--auto", action="store_true", help="thresholds from the background rate (default)")
-    p.add_argument("--alpha", type=float, default=1e-3, help="false-alarm probability of --auto (1e-3)")
-    p.add_argument("--rate-hz", type=float, help="background rate for --auto, events/pixel/s (default: measured)")
-    p.add_argument("--device", default="cpu", help="cpu or cuda (default cpu)")
-    p.add_argument("--backend", default="taichi", choices=("taichi", "reference"))
+    add_options(p, P.GLOBAL, ["device", "dt_us"])
+    add_options(p, P.DENOISE, method={"required": True, "choices": METHODS})
+    add_options(p, P.KERNEL, ["backend"], section="")
+    p.add_argument("--auto", action="store_true", help="thresholds from the background rate (the default)")
     p.add_argument("--mask-out", metavar="MASK.npy", help="write the keep mask (bool per input event)")
     add_input_options(p)
     p.add_argument("--to", dest="out_format", help="output format, overriding OUT's extension")
@@ -46,26 +36,17 @@ def add_parser(sub):
 
 
 def make_filter(args):
-    """The filter the options describe; option misuse is a user error."""
+    """The filter the options describe (the pipeline's factory); option misuse is a user error."""
     from .. import denoise
 
-    method = args.method
-    if args.threshold is not None and method != "ndsef":
-        raise EvstarError("--threshold is for --method ndsef (use --thresholds for mr-ndsef)")
-    if args.thresholds is not None and method != "mr-ndsef":
-        raise EvstarError("--thresholds is for --method mr-ndsef (use --threshold for ndsef)")
-    dt_us = int(round(args.dt_ms * 1000))
-    common = dict(backend=args.backend, device=args.device)
-    auto = dict(alpha=args.alpha, rate_hz=args.rate_hz)
-    try:
-        if method == "classical":
-            return denoise.ClassicalFilter(dt_us, args.k, **common)
-        if method == "ndsef":
-            return denoise.NDSEF(dt_us, args.radius, args.threshold or "auto", **auto, **common)
-        return denoise.MRNDSEF(dt_us, tuple(args.radii), tuple(args.thresholds) if args.thresholds else "auto",
-                               **auto, **common)
-    except ValueError as exc:
-        raise EvstarError(f"invalid option: {exc}") from None
+    given = {k for k, v in vars(args).items() if v is not None and v is not False}
+    for option, key, method in (("--threshold", "denoise.threshold", "ndsef"),
+                                ("--thresholds", "denoise.thresholds", "mr-ndsef")):
+        if key in given and args.__dict__["denoise.method"] != method:
+            raise ParameterError(f"{option} is for --method {method}")
+        if key in given and "auto" in given:
+            raise ParameterError(f"{option} and --auto exclude each other")
+    return denoise.from_config(config_from_args(args), backend=args.backend or "taichi")
 
 
 def run(args):
@@ -81,4 +62,4 @@ def run(args):
     n = len(keep)
     extra = f", thresholds {list(flt.thresholds_)}" if hasattr(flt, "thresholds_") else ""
     print(f"kept {int(keep.sum()):,} of {n:,} events ({100 * keep.mean() if n else 0:.1f} %) "
-          f"with {args.method}{extra} in {elapsed:.3f} s; wrote {args.output}")
+          f"with {args.__dict__['denoise.method']}{extra} in {elapsed:.3f} s; wrote {args.output}")

@@ -9,7 +9,7 @@ from __future__ import annotations
 from .. import io
 from ..pipeline import Pipeline
 from .common import add_input_options, load
-from .pipeline_options import add_pipeline_options, config_from_args
+from .options import add_pipeline_options, config_from_args
 
 
 def add_parser(sub):

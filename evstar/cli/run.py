@@ -19,7 +19,7 @@ import numpy as np
 from .. import io, report
 from ..pipeline import Pipeline
 from .common import add_input_options, load
-from .pipeline_options import add_pipeline_options, config_from_args
+from .options import add_pipeline_options, config_from_args
 
 
 def add_parser(sub):

@@ -1,0 +1,115 @@
+"""argparse options built from the declarations in evstar.parameters.
+
+An option's value is checked by its declaration while the command line is parsed, so a bad
+value ends in argparse's one-line usage error (exit 2) before any work starts. Options left
+unset keep the configuration file's value (or the declared default).
+"""
+from __future__ import annotations
+
+import argparse
+
+from .. import parameters as P
+from ..errors import EvstarError, ParameterError
+
+#: the stages' parameter sets that `evstar extract` and `evstar run` expose, by config section
+PIPELINE = {"": P.GLOBAL, "denoise": P.DENOISE, "extract": P.EXTRACT, "track": P.TRACK,
+            "motion": P.MOTION}
+
+
+def add_options(p, params, names=None, section=None, **overrides):
+    """One option per parameter of `params` (or of `names` only). The dest is the config key
+    ("denoise.radius"), so a Namespace maps onto Config.replace directly. `overrides` are
+    argparse keywords per name, e.g. method={"required": True}."""
+    section = params.section if section is None else section
+    group = p.add_argument_group(f"[{section}] options" if section else "general options")
+    for name in names or params:
+        param = params[name]
+        kw = dict(dest=f"{section}.{name}" if section else name, default=None,
+                  help=_help(param), metavar=_metavar(param))
+        if param.kind is bool:
+            kw.update(action=argparse.BooleanOptionalAction)
+            kw.pop("metavar")
+        else:
+            kw.update(type=_parser(param), nargs="+" if param.many else None)
+            if param.choices:
+                kw.update(choices=param.choices, metavar=None, type=str)
+        kw.update(overrides.get(name, {}))
+        group.add_argument(param.option, **kw)
+
+
+def add_pipeline_options(p):
+    """--config plus every parameter of every stage; --auto sets both threshold kinds to auto."""
+    p.add_argument("--config", help="configuration file (.toml or .json); options override it")
+    for section, params in PIPELINE.items():
+        add_options(p, params, section=section)
+    p.add_argument("--auto", action="store_true", help="auto thresholds (the default)")
+
+
+def config_from_args(args, base=None):
+    """The Config of --config (or `base`, or the defaults) with every option given applied."""
+    from ..config import Config
+
+    cfg = Config.load(args.config) if getattr(args, "config", None) else (base or Config())
+    changes = {k: _param(k).check(v, _param(k).option) for k, v in vars(args).items()
+               if v is not None and _param(k) is not None}
+    if getattr(args, "auto", False):
+        changes["denoise.thresholds"] = changes["denoise.threshold"] = P.AUTO
+    try:
+        return cfg.replace(**changes)
+    except ParameterError as exc:  # a check across values (e.g. thresholds per radius)
+        raise ParameterError(f"invalid options: {exc}") from None
+
+
+def _param(dest):
+    """The declaration behind an option's dest (a config key), None for other options."""
+    section, _, name = dest.rpartition(".")
+    return PIPELINE.get(section, {}).get(name)
+
+
+def _parser(param):
+    """argparse `type`: the option's text -> the parameter's value, checked element-wise."""
+    scalar = P.Param(**{**param.__dict__, "many": False, "increasing": False})
+
+    def parse(text):
+        if param.auto and text == P.AUTO:
+            return P.AUTO
+        if param.optional and text.lower() == "none":
+            return None
+        try:
+            value = _number(text, param.kind)
+            if param.cli_scale == 1:
+                return scalar.check(value, param.name)
+            return scalar.check(round(value * param.cli_scale), param.name)  # --dt-ms 2.5 -> 2500 µs
+        except (ValueError, EvstarError) as exc:
+            if param.cli_scale == 1 or isinstance(exc, ValueError) and "number" in str(exc):
+                raise argparse.ArgumentTypeError(str(exc)) from None
+            span = P._span(param.low / param.cli_scale, param.high / param.cli_scale, False, False)
+            raise argparse.ArgumentTypeError(f"must be a number{span} {param.cli_unit}, "
+                                             f"got {text}") from None
+
+    parse.__name__ = param.kind.__name__  # argparse names it in "invalid int value"
+    return parse
+
+
+def _number(text, kind):
+    if kind is str:
+        return text
+    try:
+        return int(text) if text.lstrip("-").isdigit() else float(text)
+    except ValueError:
+        raise ValueError(f"not a number: {text!r}") from None
+
+
+def _metavar(param):
+    if param.kind is str:
+        return "NAME"
+    return (param.cli_unit or param.unit or "N").upper().replace("/", "_").replace("µ", "U")
+
+
+def _help(param):
+    unit = param.cli_unit or param.unit
+    default = param.default
+    if param.cli_scale != 1 and isinstance(default, (int, float)):
+        default = f"{default / param.cli_scale:g}"
+    return (f"{param.doc}{f', {unit}' if unit and param.kind is not str else ''} "
+            f"(default {default if default is not None else 'none'})").replace("%", "%%")
