@@ -6,12 +6,16 @@ checked against the arch Taichi actually reports.
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
+import tempfile
 import threading
 
-from .errors import BackendError
+from . import parameters
+from .errors import BackendError, ParameterError
 
-DEVICES = ("cpu", "cuda")
+DEVICES = parameters.DEVICES
 _lock = threading.Lock()
 _taichi_arch = None  # "cpu" | "cuda" once initialised
 _warp_ready = False
@@ -20,17 +24,25 @@ _settings = {"cpu_threads": None, "cache_dir": None}
 
 def configure(*, cpu_threads=None, cache_dir=None):
     """Set thread count and kernel cache folder; must precede the first kernel call."""
-    if cpu_threads is not None and (int(cpu_threads) != cpu_threads or cpu_threads < 1):
-        raise ValueError(f"cpu_threads must be a positive integer, got {cpu_threads!r}")
+    if cpu_threads is not None and (isinstance(cpu_threads, bool) or int(cpu_threads) != cpu_threads
+                                    or cpu_threads < 1):
+        raise ParameterError(f"cpu_threads must be a positive integer, got {cpu_threads!r}")
     if _taichi_arch is not None or _warp_ready:
         raise BackendError("configure() must be called before any backend is initialised")
     _settings.update(cpu_threads=cpu_threads, cache_dir=cache_dir)
 
 
 def check_device(device):
-    """Normalise a user device string: 'cpu', 'cuda' or 'cuda:N'."""
-    if not isinstance(device, str) or device.split(":")[0] not in DEVICES:
-        raise ValueError(f"device must be 'cpu' or 'cuda' (or 'cuda:N'), got {device!r}")
+    """Normalise a user device string: 'cpu', 'cuda' or 'cuda:N' (ParameterError otherwise)."""
+    return parameters.check_device(device)
+
+
+def require(device):
+    """BackendError now, when `device` is CUDA and this machine has no usable CUDA GPU."""
+    device = check_device(device)
+    if device != "cpu" and not available()["cuda"]:
+        raise BackendError(f"device {device!r} requested but no CUDA GPU is usable here "
+                           "(use --device cpu)")
     return device
 
 
@@ -71,7 +83,8 @@ def warp(device="cpu"):
             if _settings["cache_dir"]:
                 wp.config.kernel_cache_dir = os.path.join(_settings["cache_dir"], "warp")
             wp.config.log_level = wp.LOG_WARNING  # no start-up banner on stdout
-            wp.init()
+            with _without_cuda_warning():
+                wp.init()
             _warp_ready = True
     names = [str(d) for d in wp.get_devices()]
     if device == "cuda":
@@ -79,6 +92,30 @@ def warp(device="cpu"):
     if device not in names:
         raise BackendError(f"Warp device {device!r} is not available (have {names})")
     return wp, device
+
+
+@contextlib.contextmanager
+def _without_cuda_warning():
+    """Warp's native code prints "Could not find or load the NVIDIA CUDA driver" on every
+    CPU-only start; evstar reports a missing GPU itself (BackendError) when one is asked for.
+    The C-level stderr is captured meanwhile and everything else in it is passed on."""
+    try:
+        saved = os.dup(2)
+    except OSError:  # no usable stderr descriptor (embedded interpreters)
+        yield
+        return
+    with tempfile.TemporaryFile() as tmp:
+        sys.stderr.flush()
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            kept = [ln for ln in tmp.read().decode(errors="replace").splitlines(keepends=True)
+                    if "Could not find or load the NVIDIA CUDA driver" not in ln]
+            sys.stderr.write("".join(kept))
 
 
 def available():

@@ -31,9 +31,10 @@ def run(n_events=1_000_000, device="cpu", repeats=3, seed=0, progress=print):
     """Rows of {stage, backend, events, median_s, first_s, meps, note}."""
     import time
 
-    from . import Config, Pipeline, denoise
+    from . import Config, Pipeline, backends, denoise
     from .motion import compensate
 
+    backends.require(device)  # before minutes of work, not after
     t = time.perf_counter()
     run_ = scene(n_events, seed=seed)
     sim_s = time.perf_counter() - t
@@ -41,8 +42,8 @@ def run(n_events=1_000_000, device="cpu", repeats=3, seed=0, progress=print):
     n = len(ev)
     rows = [_row("simulate", "numpy", n, {"median_s": sim_s, "first_s": sim_s}, "one run")]
     progress(f"scene: {n:,} events over {ev.duration_us / 1e6:.1f} s")
-    for backend in ("numpy", "warp"):
-        r = time_call(lambda: compensate(ev, imu, cam, 10_000, "imu", backend=backend, device=device),
+    for backend, dev in (("numpy", "cpu"), ("warp", device)):  # numpy is the CPU reference
+        r = time_call(lambda: compensate(ev, imu, cam, 10_000, "imu", backend=backend, device=dev),
                       repeats=repeats)
         rows.append(_row("compensate (imu)", backend, n, r))
     for name, make in (("classical", lambda: denoise.ClassicalFilter(device=device)),

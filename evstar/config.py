@@ -133,7 +133,7 @@ class Config:
         try:
             return cls.from_dict(data)
         except ParameterError as exc:
-            raise FormatError(path, str(exc)) from None
+            raise ParameterError(f"{path}: {exc}") from None
 
     def replace(self, **changes):
         """A copy with top-level or dotted keys changed, e.g. replace(**{"denoise.method": "ndsef"})."""

@@ -1,6 +1,6 @@
 import pytest
 
-from evstar import FormatError
+from evstar import FormatError, ParameterError
 from evstar.config import Config
 
 
@@ -29,7 +29,7 @@ def test_bad_values_name_the_key(data, key):
 def test_bad_file_names_file_and_key(tmp_path):
     p = tmp_path / "c.toml"
     p.write_text("[denoise]\nalpha = 2.0\n")
-    with pytest.raises(FormatError, match=r"c\.toml: config key 'denoise\.alpha'"):
+    with pytest.raises(ParameterError, match=r"c\.toml: config key 'denoise\.alpha'"):
         Config.load(p)
     p.write_text("[denoise\n")
     with pytest.raises(FormatError, match="cannot parse"):

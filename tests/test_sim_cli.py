@@ -46,7 +46,16 @@ def test_simulate_user_errors_exit_2(tmp_path, capsys):
     assert main(["simulate", str(tmp_path / "b"), "--events-name", "ev.xyz"]) == 2
     assert "unknown extension" in capsys.readouterr().err
     (tmp_path / "file").write_text("x")
-    assert main(["simulate", str(tmp_path / "file")]) == 2
+    assert main(["simulate", str(tmp_path / "file")]) == 4
     assert "not a folder" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        main(["simulate", str(tmp_path / "c"), "--rate", "4", "--sine", "10", "1"])
+    assert main(["simulate", str(tmp_path / "c"), "--rate", "4", "--sine", "10", "1"]) == 2
+    assert "not allowed with argument" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "d"), "--duration", "0"]) == 2
+    assert "argument --duration: must be a number in (0, 3600]" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+def test_simulate_a_star_too_faint_for_the_sensor_gives_noise_only(tmp_path, capsys):
+    assert main(["simulate", str(tmp_path / "a"), "--magnitude", "30", "--duration", "0.05"]) == 0
+    assert "gave no events" in capsys.readouterr().out
+    assert (sim.load_truth(tmp_path / "a" / "truth.npz").labels < 0).all()

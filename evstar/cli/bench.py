@@ -2,11 +2,17 @@
 from __future__ import annotations
 
 
+from .. import parameters as P
+from .options import add_options, checked
+
+
 def add_parser(sub):
     p = sub.add_parser("bench", help="measure throughput per stage and backend", description=__doc__)
-    p.add_argument("--events", type=int, default=1_000_000, help="scene size in events (1e6)")
-    p.add_argument("--device", default="cpu", help="cpu or cuda")
-    p.add_argument("--repeats", type=int, default=3, help="timed runs per stage (median reported)")
+    p.add_argument("--events", type=checked(int, 1000, 10**9), default=1_000_000,
+                   help="scene size in events, 1000 to 1e9 (1e6)")
+    add_options(p, P.GLOBAL, ["device"], device={"default": "cpu"})
+    p.add_argument("--repeats", type=checked(int, 1, 1000), default=3,
+                   help="timed runs per stage (median reported)")
     p.add_argument("-o", "--output", default="bench.json", help="JSON results (bench.json)")
     return p
 
@@ -14,8 +20,6 @@ def add_parser(sub):
 def run(args):
     from .. import bench, profiling
 
-    if args.events < 1000 or args.repeats < 1:
-        raise ValueError("--events must be >= 1000 and --repeats >= 1")
     rows = bench.run(args.events, args.device, args.repeats)
     profiling.write_results(args.output, rows, {"events": args.events, "device": args.device,
                                                 "repeats": args.repeats})

@@ -60,6 +60,11 @@ def config_from_args(args, base=None):
         raise ParameterError(f"invalid options: {exc}") from None
 
 
+def checked(kind, low=None, high=None, open_low=False):
+    """argparse `type` for an option that is not a stage parameter (kind, inclusive range)."""
+    return _parser(P.Param("", kind, None, "", low=low, high=high, open_low=open_low))
+
+
 def _param(dest):
     """The declaration behind an option's dest (a config key), None for other options."""
     section, _, name = dest.rpartition(".")
@@ -82,7 +87,7 @@ def _parser(param):
             return scalar.check(round(value * param.cli_scale), param.name)  # --dt-ms 2.5 -> 2500 µs
         except (ValueError, EvstarError) as exc:
             if param.cli_scale == 1 or isinstance(exc, ValueError) and "number" in str(exc):
-                raise argparse.ArgumentTypeError(str(exc)) from None
+                raise argparse.ArgumentTypeError(str(exc).strip()) from None
             span = P._span(param.low / param.cli_scale, param.high / param.cli_scale, False, False)
             raise argparse.ArgumentTypeError(f"must be a number{span} {param.cli_unit}, "
                                              f"got {text}") from None

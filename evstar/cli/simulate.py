@@ -10,7 +10,8 @@ from __future__ import annotations
 import os
 
 from .. import io
-from ..errors import EvstarError, FormatError
+from ..errors import FormatError, OutputError, ParameterError
+from .options import checked
 
 
 def add_parser(sub):
@@ -21,29 +22,30 @@ def add_parser(sub):
     p.add_argument("out_dir", metavar="OUT_DIR")
     p.add_argument("--preset", default="dvxplorer-lite", metavar="CAMERA",
                    help=f"camera: {', '.join(SENSORS)} (default: dvxplorer-lite, the paper's)")
-    p.add_argument("--focal-length", type=float, default=12.0, metavar="MM", help="lens focal length (12)")
+    p.add_argument("--focal-length", type=checked(float, 0, open_low=True), default=12.0, metavar="MM",
+                   help="lens focal length (12)")
     motion = p.add_mutually_exclusive_group()
-    motion.add_argument("--rate", type=float, metavar="DPS", help="constant turntable rate, °/s (default 10)")
-    motion.add_argument("--sine", type=float, nargs=2, metavar=("AMP_DEG", "FREQ_HZ"),
+    motion.add_argument("--rate", type=checked(float, -3600, 3600), metavar="DPS", help="constant turntable rate, °/s (default 10)")
+    motion.add_argument("--sine", type=checked(float, 0), nargs=2, metavar=("AMP_DEG", "FREQ_HZ"),
                         help="sinusoidal motion, e.g. 10 1 (the paper's)")
-    p.add_argument("--axis", type=float, nargs=3, default=(0.0, -1.0, 0.0), metavar=("X", "Y", "Z"),
+    p.add_argument("--axis", type=checked(float), nargs=3, default=(0.0, -1.0, 0.0), metavar=("X", "Y", "Z"),
                    help="rotation axis in the camera frame (default 0 -1 0: camera up)")
-    p.add_argument("--magnitude", type=float, default=3.0, help="single star's magnitude (3)")
-    p.add_argument("--stars", type=int, default=1, metavar="N",
+    p.add_argument("--magnitude", type=checked(float, -30, 30), default=3.0, help="single star's magnitude (3)")
+    p.add_argument("--stars", type=checked(int, 1, 100_000), default=1, metavar="N",
                    help="1: the paper's single-star simulator (default); N > 1: the N brightest "
                         "Hipparcos stars that come into view during the run, starting at --pointing")
-    p.add_argument("--pointing", type=float, nargs=2, default=(83.8, -5.4), metavar=("RA", "DEC"),
+    p.add_argument("--pointing", type=checked(float, -360, 360), nargs=2, default=(83.8, -5.4), metavar=("RA", "DEC"),
                    help="boresight in degrees for --stars > 1 (default: Orion, 83.8 -5.4)")
-    p.add_argument("--mag-limit", type=float, default=6.5, help="faintest catalogue magnitude (6.5)")
-    p.add_argument("--noise-hz", type=float, default=1.5, help="background activity, events/pixel/s (1.5)")
-    p.add_argument("--hot-pixels", type=int, default=5, metavar="N", help="number of hot pixels (5)")
-    p.add_argument("--threshold", type=float, default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
-    p.add_argument("--psf-sigma", type=float, default=1.0, metavar="PX", help="PSF sigma in pixels (1.0)")
-    p.add_argument("--duration", type=float, metavar="S",
+    p.add_argument("--mag-limit", type=checked(float, -30, 30), default=6.5, help="faintest catalogue magnitude (6.5)")
+    p.add_argument("--noise-hz", type=checked(float, 0, 1e6), default=1.5, help="background activity, events/pixel/s (1.5)")
+    p.add_argument("--hot-pixels", type=checked(int, 0, 10**6), default=5, metavar="N", help="number of hot pixels (5)")
+    p.add_argument("--threshold", type=checked(float, 0, 10, open_low=True), default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
+    p.add_argument("--psf-sigma", type=checked(float, 0, 100, open_low=True), default=1.0, metavar="PX", help="PSF sigma in pixels (1.0)")
+    p.add_argument("--duration", type=checked(float, 0, 3600, open_low=True), metavar="S",
                    help="seconds (default 0.5 for --rate, 1.0 for --sine, as the paper)")
-    p.add_argument("--imu-rate", type=float, default=1000.0, metavar="HZ", help="IMU sample rate (1000)")
+    p.add_argument("--imu-rate", type=checked(float, 0, 1e6, open_low=True), default=1000.0, metavar="HZ", help="IMU sample rate (1000)")
     p.add_argument("--ideal-imu", action="store_true", help="IMU without noise or bias")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=checked(int, 0, 2**32 - 1), default=0)
     p.add_argument("--events-name", default="events.h5", metavar="NAME",
                    help="events file name; its extension picks the format (events.h5)")
     return p
@@ -58,13 +60,11 @@ def scenario_from(args):
     """
     from .. import sim
 
-    if args.stars < 1:
-        raise ValueError(f"--stars must be >= 1, got {args.stars}")
     cam = sim.camera_preset(args.preset, args.focal_length)
     sensor = sim.SensorSpec(threshold_on=args.threshold, threshold_off=args.threshold,
                             noise_hz=args.noise_hz, hot_pixels=args.hot_pixels)
     imu = (sim.ImuSpec.ideal if args.ideal_imu else sim.ImuSpec)(rate_hz=args.imu_rate)
-    duration = args.duration or (1.0 if args.sine else 0.5)
+    duration = args.duration if args.duration is not None else (1.0 if args.sine else 0.5)
     if args.stars == 1:
         motion = _motion(sim, args)
         t_centre = 0.0 if args.sine else duration / 2
@@ -87,14 +87,17 @@ def run(args):
     from ..sim import save_truth, simulate
 
     if os.path.exists(args.out_dir) and not os.path.isdir(args.out_dir):
-        raise FormatError(args.out_dir, "exists and is not a folder")
+        raise OutputError(args.out_dir, "exists and is not a folder")
     events_path = os.path.join(args.out_dir, args.events_name)
-    fmt = io.format_of(events_path)
+    try:
+        fmt = io.format_of(events_path)
+    except FormatError as exc:
+        raise ParameterError(f"--events-name: {exc}") from None
     try:
         scenario = scenario_from(args)
-        result = simulate(scenario, seed=args.seed)
-    except ValueError as exc:
-        raise EvstarError(str(exc)) from None
+    except ValueError as exc:  # the simulator's own checks of a combination of options
+        raise ParameterError(str(exc)) from None
+    result = simulate(scenario, seed=args.seed)
     os.makedirs(args.out_dir, exist_ok=True)
     io.write(events_path, result.events, imu=result.imu if fmt != "csv" else None,
              camera=result.camera if fmt not in ("csv", "aedat4") else None)
@@ -102,6 +105,9 @@ def run(args):
     io.write_camera(os.path.join(args.out_dir, "camera.json"), result.camera)
     save_truth(os.path.join(args.out_dir, "truth.npz"), result.truth)
     labels = result.truth.labels
+    if not (labels >= 0).any():
+        print(f"note: the star(s) gave no events (magnitude {args.magnitude:g} is too faint for "
+              "this sensor and threshold)")
     print(f"wrote {len(result.events):,} events ({int((labels >= 0).sum()):,} from "
           f"{len(scenario.stars)} star(s), {int((labels == -1).sum()):,} noise, "
           f"{int((labels == -2).sum()):,} hot-pixel) to {events_path}")

@@ -215,7 +215,7 @@ def star_events(camera, stars, flux, trajectory, grid, spec, sigma_px, state, la
     for chunk in render_chunks(camera, stars.directions, flux, half, sigma_px, spec.min_log_change,
                                trajectory, grid):
         pix, L, star, step = chunk.pix, np.log1p(chunk.contrib), chunk.star, chunk.step
-        if step[0] == 0:  # the first grid time: nothing has changed yet
+        if len(step) and step[0] == 0:  # the first grid time: nothing has changed yet
             first = step == 0
             state.adapt(pix[first], L[first])
             pix, L, star, step = pix[~first], L[~first], star[~first], step[~first]
