@@ -44,6 +44,7 @@ class Param:
     cli_scale: float = 1
     cli_unit: str | None = None
     checker: object = None  # a function (value, key) -> value replacing the type/range test
+    valid: str | None = None  # the checker's rule in words
 
     def check(self, value, key=None):
         """The value normalised (integral floats to int, tuples to lists), or ParameterError
@@ -82,6 +83,8 @@ class Param:
 
     def expected(self):
         """What a valid value looks like, in words."""
+        if self.valid:
+            return self.valid
         if self.choices is not None:
             what = "one of " + ", ".join(repr(c) for c in self.choices)
         elif self.kind is bool:
@@ -178,7 +181,8 @@ def check_device(device, key="device"):
 
 GLOBAL = Params(
     "",
-    Param("device", str, "cpu", "compute device: cpu, cuda or cuda:N", checker=check_device),
+    Param("device", str, "cpu", "compute device: cpu, cuda or cuda:N", checker=check_device,
+          valid="'cpu', 'cuda' or 'cuda:N'"),
     Param("dt_us", int, 10_000, "pseudo-frame length", low=1, high=MAX_DT_US, unit="µs",
           cli="--dt-ms", cli_scale=1000, cli_unit="ms"),
     Param("seed", int, 0, "random seed (particle filter)", low=0, high=2**32 - 1),
@@ -252,3 +256,25 @@ KERNEL = Params(
 )
 
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION}
+
+
+def markdown():
+    """docs/parameters.md: every declared parameter as a table per section (a test keeps the
+    file equal to this text)."""
+    lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
+             "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
+             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
+    for params in (GLOBAL, *SECTIONS.values(), KERNEL):
+        title = params.section or "top level"
+        lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
+                  "|---|---|---|---|---|---|"]
+        for name, p in params.items():
+            option = "—" if params is KERNEL and name != "backend" else f"`{p.option}`"
+            lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "
+                         f"{p.doc} | {option} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(markdown(), end="")

@@ -90,3 +90,10 @@ def test_every_declaration_documents_itself():
         for param in params.values():
             assert param.doc and param.check(param.default) == param.default, param.name
     assert "radius" in Config().denoise.__doc__ and "(0, 64]" in Config().denoise.__doc__
+
+
+def test_docs_list_every_parameter_as_declared():
+    from pathlib import Path
+
+    doc = Path(__file__).parents[1] / "docs" / "parameters.md"
+    assert doc.read_text() == P.markdown(), "regenerate: python -m evstar.parameters > docs/parameters.md"
