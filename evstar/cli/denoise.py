@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from .. import io
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_path, check_output_file, check_outputs
 from ..errors import EvstarError
 from .common import add_input_options, load
 
@@ -69,6 +69,10 @@ def make_filter(args):
 
 
 def run(args):
+    for out in (args.output, args.mask_out):
+        if out is not None:
+            check_output_file(out)
+    check_outputs([args.output, args.mask_out], [args.input, args.imu, args.camera])
     flt = make_filter(args)
     rec = load(args)
     start = time.perf_counter()
