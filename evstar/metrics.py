@@ -161,8 +161,7 @@ def esr(events, packet_events=30_000, reference_events=None):
         m = (2.0 * size / 3.0) if reference_events is None else float(reference_events)
         if not 0 < m <= size:
             raise ParameterError(f"reference_events must be in (0, {size}], got {reference_events!r}")
-            ntss = np.sum(counts * (counts - 1)) / (size * (size - 1.0))
-            l_n = np.sum(1.0 - (1.0 - m / size) ** counts)  # = K − Σ over all K pixels
-            scores.append(np.sqrt(ntss * l_n))
-        return float(np.mean(scores))
-    
+        ntss = np.sum(counts * (counts - 1)) / (size * (size - 1.0))
+        l_n = np.sum(1.0 - (1.0 - m / size) ** counts)  # = K − Σ over all K pixels
+        scores.append(np.sqrt(ntss * l_n))
+    return float(np.mean(scores))
