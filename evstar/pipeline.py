@@ -25,8 +25,8 @@ from .camera import Camera
 from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
-from .imu import Imu
 from .extract import CENTROID_DTYPE, Extractor
+from .imu import Imu
 from .tracking import Tracker
 
 
@@ -131,7 +131,7 @@ class Pipeline:
         mode = self.config.motion.compensate
         _check_inputs(events, imu, camera, mode)
         if truth is not None:
-            check_truth(truth, len(events), events.width, events.height,
+            accuracy.check_truth(truth, len(events), events.width, events.height,
                         events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
         rate = self.calibration_rate(events, t0)
@@ -210,7 +210,7 @@ class Pipeline:
             raise DataError(f"{path}: no events")
         _check_inputs(first[1], imu, camera, mode)
         if truth is not None:  # the event count is known only at the end (checked there)
-            check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
+            accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
         rate = self.calibration_rate(first[1], t0)
 
@@ -230,7 +230,7 @@ class Pipeline:
             acc.add(events, keep, truth, offset)
             offset += len(events)
         if truth is not None:
-            check_truth(truth, offset, first[1].width, first[1].height, None)
+            accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result)
 
 
@@ -257,24 +257,6 @@ def _check_inputs(events, imu, camera, mode):
             (camera.width, camera.height) != (events.width, events.height):
         raise DataError(f"the camera is {camera.width}x{camera.height} px but the events' sensor "
                         f"is {events.width}x{events.height} px: a camera of another sensor")
-
-
-def check_truth(truth, n_events, width, height, t_span_us):
-    """DataError unless `truth` (evstar.sim Truth) belongs to these events: one label per
-    event (n_events; None = not known yet), the same sensor size, attitude covering the
-    event times t_span_us (None = not checked)."""
-    if n_events is not None and len(truth.labels) != n_events:
-        raise DataError(f"the truth labels {len(truth.labels):,} events but the recording has "
-                        f"{n_events:,}: a truth file of another recording")
-    cam = truth.camera
-    if (cam.width, cam.height) != (width, height):
-        raise DataError(f"the truth is of a {cam.width}x{cam.height} px sensor but the events' "
-                        f"is {width}x{height} px: a truth file of another recording")
-    if t_span_us is not None and len(truth.t_us):
-        lo, hi = int(np.min(t_span_us)), int(np.max(t_span_us))
-        if lo < truth.t_us[0] or hi > truth.t_us[-1]:
-            raise DataError(f"the truth covers {truth.t_us[0]}..{truth.t_us[-1]} µs but the events "
-                            f"span {lo}..{hi} µs: a truth file of another recording")
 
 
 # -- helpers -----------------------------------------------------------------------------

@@ -23,10 +23,11 @@ def scene():
 
 @pytest.fixture(scope="module")
 def files(scene, tmp_path_factory):
+    """The scene as events.h5 (with IMU and camera), events.csv and truth.npz."""
     d = tmp_path_factory.mktemp("inputs")
-    io.write(d / "events.h5", scene.events, imu=scene.imu, camera=scene.camera)
-    io.write(d / "events.csv", scene.events)
     sim.save_truth(d / "truth.npz", scene.truth)
+    io.write(d / "events.csv", scene.events)
+    io.write(d / "events.h5", scene.events, imu=scene.imu, camera=scene.camera)
     return d
 
 

@@ -8,7 +8,7 @@ import pytest
 import evstar
 from evstar import Config, Pipeline, io, sim
 from evstar.cli import main
-from evstar.pipeline import check_truth
+from evstar.accuracy import check_truth
 from evstar.tracking import Tracker
 
 
