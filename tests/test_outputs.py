@@ -185,7 +185,8 @@ def test_plotting_leaves_the_backend_and_pyplot_figures_alone(tmp_path):
     import matplotlib
     import matplotlib.pyplot as plt
 
-    backend = matplotlib.get_backend()
+    before = matplotlib.get_backend()
+    plt.switch_backend("svg")  # the user's choice, which matplotlib.use("Agg") would undo
     fig = plt.figure()  # the user's own open figure
     try:
         ev = random_events()
@@ -193,11 +194,12 @@ def test_plotting_leaves_the_backend_and_pyplot_figures_alone(tmp_path):
         report.plot_denoise(tmp_path / "d.png", img, img)
         report.plot_per_frame(tmp_path / "p.png", np.arange(3), {"a": np.arange(3)}, "n")
         report.plot_errors(tmp_path / "e.png", np.arange(3), np.ones(3))
-        assert matplotlib.get_backend() == backend
-        assert plt.get_fignums() == [fig.number]
+        assert matplotlib.get_backend() == "svg"
+        assert plt.get_fignums() == [fig.number] and plt.gcf() is fig
         assert all((tmp_path / n).read_bytes()[:4] == b"\x89PNG" for n in ("d.png", "p.png", "e.png"))
     finally:
         plt.close(fig)
+        plt.switch_backend(before)
 
 
 def test_accumulated_counts_events_per_pixel():
