@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import DataError
+
 
 def match(centroids, positions, match_px=3.0):
     """(star index or -1, error px) per centroid."""
@@ -55,3 +57,21 @@ def false_tracks(centroids, positions, duration_s, match_px=3.0):
     ids = np.unique(centroids["track"][centroids["track"] >= 0])
     bad = sum(np.mean(star[centroids["track"] == i] < 0) > 0.5 for i in ids)
     return bad / duration_s if duration_s > 0 else float("nan")
+
+
+def check_truth(truth, n_events, width, height, t_span_us):
+    """DataError unless `truth` (evstar.sim Truth) belongs to these events: one label per
+    event (n_events; None = not known yet), the same sensor size, attitude covering the
+    event times t_span_us (None = not checked)."""
+    if n_events is not None and len(truth.labels) != n_events:
+        raise DataError(f"the truth labels {len(truth.labels):,} events but the recording has "
+                        f"{n_events:,}: a truth file of another recording")
+    cam = truth.camera
+    if (cam.width, cam.height) != (width, height):
+        raise DataError(f"the truth is of a {cam.width}x{cam.height} px sensor but the events' "
+                        f"is {width}x{height} px: a truth file of another recording")
+    if t_span_us is not None and len(truth.t_us):
+        lo, hi = int(np.min(t_span_us)), int(np.max(t_span_us))
+        if lo < truth.t_us[0] or hi > truth.t_us[-1]:
+            raise DataError(f"the truth covers {truth.t_us[0]}..{truth.t_us[-1]} µs but the events "
+                            f"span {lo}..{hi} µs: a truth file of another recording")

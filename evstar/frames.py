@@ -26,3 +26,10 @@ def frame_bounds(frames):
     starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]])
     stops = np.r_[starts[1:], len(frames)]
     return frames[starts], starts, stops
+
+
+def accumulated(events):
+    """Event counts per pixel as a (height, width) int64 image."""
+    img = np.bincount(events.y.astype(np.int64) * events.width + events.x,
+                      minlength=events.width * events.height)
+    return img.reshape(events.height, events.width)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import poisson
 
+from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 
 
@@ -31,8 +32,8 @@ def _bool_pair(is_signal, keep):
     is_signal = np.asarray(is_signal, bool)
     keep = np.asarray(keep, bool)
     if is_signal.shape != keep.shape or is_signal.ndim != 1:
-        raise ValueError(f"is_signal and keep must be 1-D and of equal length, got "
-                         f"{is_signal.shape} and {keep.shape}")
+        raise DataError(f"is_signal and keep must be 1-D and of equal length, got "
+                        f"{is_signal.shape} and {keep.shape}")
     return is_signal, keep
 
 
@@ -87,7 +88,7 @@ def hot_pixel_scores(events, keep, hot_pixels=None):
     """
     keep = np.asarray(keep, bool)
     if len(keep) != len(events):
-        raise ValueError(f"keep has {len(keep)} entries for {len(events)} events")
+        raise DataError(f"keep has {len(keep)} entries for {len(events)} events")
     hot = find_hot_pixels(events) if hot_pixels is None else np.unique(np.asarray(hot_pixels, np.int64))
     pix = events.y.astype(np.int64) * events.width + events.x
     on_hot = np.isin(pix, hot)
@@ -109,7 +110,7 @@ def roc_from_masks(is_signal, masks):
     is_signal = np.asarray(is_signal, bool)
     n_sig, n_noise = int(is_signal.sum()), int((~is_signal).sum())
     if n_sig == 0 or n_noise == 0:
-        raise ValueError("an ROC needs both signal and noise events")
+        raise DataError("an ROC needs both signal and noise events")
     pts = [(0.0, 0.0), (1.0, 1.0)]
     for m in masks:
         _, m = _bool_pair(is_signal, m)
@@ -144,9 +145,9 @@ def esr(events, packet_events=30_000, reference_events=None):
     shorter than one packet is scored as one packet of all its events (nan below 2 events).
     """
     if not isinstance(events, Events):
-        raise TypeError(f"expected evstar.Events, got {type(events).__name__}")
+        raise ParameterTypeError(f"expected evstar.Events, got {type(events).__name__}")
     if int(packet_events) != packet_events or packet_events < 2:
-        raise ValueError(f"packet_events must be an integer >= 2, got {packet_events!r}")
+        raise ParameterError(f"packet_events must be an integer >= 2, got {packet_events!r}")
     n = len(events)
     if n < 2:
         return float("nan")
@@ -159,7 +160,7 @@ def esr(events, packet_events=30_000, reference_events=None):
         counts = counts[counts > 0]
         m = (2.0 * size / 3.0) if reference_events is None else float(reference_events)
         if not 0 < m <= size:
-            raise ValueError(f"reference_events must be in (0, {size}], got {reference_events!r}")
+            raise ParameterError(f"reference_events must be in (0, {size}], got {reference_events!r}")
         ntss = np.sum(counts * (counts - 1)) / (size * (size - 1.0))
         l_n = np.sum(1.0 - (1.0 - m / size) ** counts)  # = K − Σ over all K pixels
         scores.append(np.sqrt(ntss * l_n))

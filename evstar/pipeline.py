@@ -21,9 +21,12 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import accuracy
+from .camera import Camera
 from .config import Config
+from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
+from .imu import Imu
 from .tracking import Tracker
 
 
@@ -45,7 +48,7 @@ class Pipeline:
     def __init__(self, config=None):
         self.config = Config() if config is None else config
         if not isinstance(self.config, Config):
-            raise ValueError(f"config must be an evstar.Config, got {type(config).__name__}")
+            raise ParameterTypeError(f"config must be an evstar.Config, got {type(config).__name__}")
         self.config.validate()
 
     # -- stage factories ----------------------------------------------------------------
@@ -111,8 +114,10 @@ class Pipeline:
     def run(self, events, imu=None, camera=None, truth=None):
         """Run every stage on events held in memory."""
         mode = self.config.motion.compensate
-        if mode != "none" and (imu is None or camera is None):
-            raise ValueError(f"motion.compensate = {mode!r} needs an IMU and a camera")
+        _check_inputs(events, imu, camera, mode)
+        if truth is not None:
+            accuracy.check_truth(truth, len(events), events.width, events.height,
+                        events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
         rate = self.calibration_rate(events, t0)
         timings = {}
@@ -183,12 +188,14 @@ class Pipeline:
         from . import io
 
         mode = self.config.motion.compensate
-        if mode != "none" and (imu is None or camera is None):
-            raise ValueError(f"motion.compensate = {mode!r} needs an IMU and a camera")
+        _check_inputs(None, imu, camera, mode)
         span = self.config.chunk_frames * self.config.dt_us
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:
-            raise ValueError(f"{path}: no events")
+            raise DataError(f"{path}: no events")
+        _check_inputs(first[1], imu, camera, mode)
+        if truth is not None:  # the event count is known only at the end (checked there)
+            accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
         rate = self.calibration_rate(first[1], t0)
 
@@ -207,7 +214,34 @@ class Pipeline:
             parts.append(cents)
             acc.add(events, keep, truth, offset)
             offset += len(events)
+        if truth is not None:
+            accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result)
+
+
+# -- input checks ------------------------------------------------------------------------
+def _check_inputs(events, imu, camera, mode):
+    """Types of the run's arguments, what the compensation mode needs, matching sizes."""
+    if events is not None and not isinstance(events, Events):
+        raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__} "
+                                 "(build one with evstar.Events(t, x, y, p, width, height))")
+    for name, value, cls in (("imu", imu, Imu), ("camera", camera, Camera)):
+        if value is not None and not isinstance(value, cls):
+            raise ParameterTypeError(f"{name} must be an evstar.{cls.__name__} or None, "
+                                     f"got {type(value).__name__}")
+    if mode != "none":
+        missing = [what for what, v in (("an IMU (imu=; command line: --imu FILE, a CSV "
+                                         "t,gx,gy,gz,ax,ay,az)", imu),
+                                        ("a camera (camera=; command line: --camera FILE, a "
+                                         "JSON width, height, fx, fy, cx, cy)", camera))
+                   if v is None]
+        if missing:
+            raise ParameterError(f"motion.compensate = {mode!r} needs {' and '.join(missing)}; "
+                                 "the input holds none")
+    if events is not None and camera is not None and \
+            (camera.width, camera.height) != (events.width, events.height):
+        raise DataError(f"the camera is {camera.width}x{camera.height} px but the events' sensor "
+                        f"is {events.width}x{events.height} px: a camera of another sensor")
 
 
 # -- helpers -----------------------------------------------------------------------------
@@ -236,7 +270,7 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        from .report import accumulated
+        from .frames import accumulated
 
         self.before += accumulated(events)
         self.after += accumulated(events[keep])
@@ -244,6 +278,9 @@ class _Summary:
         series = {"before": np.ones(len(events), bool), "after": keep}
         new = {"kept": int(keep.sum())}
         if truth is not None:
+            if offset + len(events) > len(truth.labels):
+                raise DataError(f"the truth labels {len(truth.labels):,} events but the recording "
+                                f"has more: a truth file of another recording")
             sig = truth.labels[offset:offset + len(events)] >= 0
             series.update(signal_before=sig, signal_after=sig & keep, noise_before=~sig,
                           noise_after=~sig & keep)

@@ -1,4 +1,6 @@
-"""Figures a user would rather look at than read (matplotlib, written as PNG)."""
+"""Figures a user would rather look at than read (matplotlib, written as PNG).
+
+Each figure is a matplotlib Figure of its own, so plotting leaves pyplot's state alone."""
 from __future__ import annotations
 
 import pathlib
@@ -6,13 +8,15 @@ import pathlib
 import numpy as np
 
 
-def _plt():
-    import matplotlib
+def _figure(figsize):
+    """A Figure of its own (no pyplot): plotting never switches the user's backend nor adds
+    to pyplot's open figures."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    fig = Figure(figsize=figsize)
+    FigureCanvasAgg(fig)
+    return fig
 
 
 def _save(fig, path):
@@ -20,15 +24,7 @@ def _save(fig, path):
 
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
-    _plt().close(fig)
     return pathlib.Path(path)
-
-
-def accumulated(events):
-    """Event counts per pixel as a (height, width) image."""
-    img = np.bincount(events.y.astype(np.int64) * events.width + events.x,
-                      minlength=events.width * events.height)
-    return img.reshape(events.height, events.width)
 
 
 def _show(ax, img, title):
@@ -40,8 +36,8 @@ def _show(ax, img, title):
 
 def plot_denoise(path, image_before, image_after):
     """Accumulated events (per-pixel counts) before and after denoising (log colour scale)."""
-    plt = _plt()
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig = _figure((12, 4.8))
+    axes = fig.subplots(1, 2)
     _show(axes[0], image_before, f"before denoising: {int(image_before.sum()):,} events")
     _show(axes[1], image_after, f"after denoising: {int(image_after.sum()):,} events kept")
     return _save(fig, path)
@@ -49,9 +45,9 @@ def plot_denoise(path, image_before, image_after):
 
 def plot_tracks(path, image, centroids, truth_xy=None):
     """Star tracks over an accumulated image of the kept events; truth dashed when given."""
-    plt = _plt()
     height, width = image.shape
-    fig, ax = plt.subplots(figsize=(8, 6))
+    fig = _figure((8, 6))
+    ax = fig.subplots()
     _show(ax, image, "star tracks")
     for tid in np.unique(centroids["track"]):
         if tid < 0:
@@ -70,8 +66,8 @@ def plot_tracks(path, image, centroids, truth_xy=None):
 
 def plot_errors(path, t_us, errors_px, labels=None):
     """Centroid error against ground truth over time; one curve per series."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 3.8))
+    fig = _figure((8, 3.8))
+    ax = fig.subplots()
     series = errors_px if isinstance(errors_px, dict) else {labels or "error": errors_px}
     times = t_us if isinstance(t_us, dict) else {k: t_us for k in series}
     for name, err in series.items():
@@ -86,8 +82,8 @@ def plot_errors(path, t_us, errors_px, labels=None):
 
 def plot_per_frame(path, frame_t_s, curves, ylabel):
     """Per-frame curves (e.g. SNR before/after, or events before/after) against time."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 3.8))
+    fig = _figure((8, 3.8))
+    ax = fig.subplots()
     for name, y in curves.items():
         ax.plot(frame_t_s, y, lw=1, label=name)
     ax.set_xlabel("time (s)")

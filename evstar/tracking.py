@@ -11,18 +11,21 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .errors import ParameterError, ParameterTypeError
 from .frames import frame_bounds
+
+_NEEDED = ("x", "y", "frame", "track")  # the centroid fields linking reads and writes
 
 
 class Tracker:
     def __init__(self, gate_px=6.0, init_gate_px=40.0, max_gap=3, min_length=3):
         for name, v in (("gate_px", gate_px), ("init_gate_px", init_gate_px)):
             if not v > 0:
-                raise ValueError(f"{name} must be positive, got {v!r}")
+                raise ParameterError(f"{name} must be positive, got {v!r}")
         if not (int(max_gap) == max_gap and max_gap >= 0):
-            raise ValueError(f"max_gap must be a non-negative integer, got {max_gap!r}")
+            raise ParameterError(f"max_gap must be a non-negative integer, got {max_gap!r}")
         if not (int(min_length) == min_length and min_length >= 1):
-            raise ValueError(f"min_length must be a positive integer, got {min_length!r}")
+            raise ParameterError(f"min_length must be a positive integer, got {min_length!r}")
         self.gate_px, self.init_gate_px = float(gate_px), float(init_gate_px)
         self.max_gap, self.min_length = int(max_gap), int(min_length)
 
@@ -31,6 +34,11 @@ class Tracker:
 
         Tracks shorter than ``min_length`` centroids get track = -1 (unconfirmed).
         """
+        fields = getattr(getattr(centroids, "dtype", None), "names", None) or ()
+        if not isinstance(centroids, np.ndarray) or not set(_NEEDED) <= set(fields):
+            raise ParameterTypeError("centroids must be a structured array with fields "
+                                     f"{', '.join(_NEEDED)} (evstar.extract.CENTROID_DTYPE), "
+                                     f"got {type(centroids).__name__}")
         out = centroids.copy()
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])

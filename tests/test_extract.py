@@ -181,3 +181,17 @@ def test_lobed_moving_star_stays_whole():
     ev = Events(t[o], np.round(x[o]), np.round(y[o]), p[o], 200, 150)
     c = Extractor().centroids(ev)
     assert len(c) == 10 and not c["split"].any()
+
+
+def test_pixels_weighting_counts_each_distinct_pixel_once():
+    # a 3x3 star centred on (20, 30) plus a hot pixel at its corner firing 40 times
+    xs, ys = np.meshgrid(np.arange(19, 22), np.arange(29, 32))
+    x = np.r_[xs.ravel(), np.full(40, 21)]
+    y = np.r_[ys.ravel(), np.full(40, 31)]
+    t = np.arange(len(x)) * 10
+    ev = Events(t, x, y, np.ones(len(x), int), 64, 48)
+    by_pixels = Extractor(weighting="pixels", min_samples=3).centroids(ev)
+    by_events = Extractor(weighting="events", min_samples=3).centroids(ev)
+    assert len(by_pixels) == len(by_events) == 1
+    np.testing.assert_allclose([by_pixels["x"][0], by_pixels["y"][0]], [20.0, 30.0], atol=1e-9)
+    assert by_events["x"][0] > 20.5 and by_events["y"][0] > 30.5  # pulled to the hot pixel

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from evstar import Camera, DataError, Events, Imu
-from evstar.motion import ParticleFilter, StarObservations, compensate, warp_to_reference
+from evstar.motion import ParticleFilter, StarObservations, compensate, hold_ends, warp_to_reference
 from evstar_kernels.reference import so3
 
 DEG = math.pi / 180
@@ -123,7 +123,8 @@ def test_input_errors(scene):
     with pytest.raises(ValueError, match="observations"):
         compensate(ev, imu, CAMERA, DT_US, mode="pf")
     short = Imu(imu.t[:200], imu.gyro[:200])
-    with pytest.raises(DataError, match="IMU covers 0..199000 µs .* events span"):
+    with pytest.raises(DataError, match=r"IMU ends \d+ µs before the last event, more than "
+                                        "extrapolate_us = 5000 µs"):
         compensate(ev, short, CAMERA, DT_US, mode="imu")
 
 
@@ -136,3 +137,32 @@ def test_empty_stream_and_backends(scene, backend):
     a = compensate(part, imu, CAMERA, DT_US, mode="imu", backend=backend)
     b = compensate(part, imu, CAMERA, DT_US, mode="imu", backend="numpy")
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+
+
+def test_imu_end_samples_are_held_up_to_extrapolate_us():
+    imu = Imu([1000, 2000, 3000], [[1, 0, 0], [2, 0, 0], [3, 0, 0]], [[0, 0, 9], [0, 0, 8], [0, 0, 7]],
+              time_offset_us=100)
+    held = hold_ends(imu, 600, 4100, extrapolate_us=1000)
+    np.testing.assert_array_equal(held.t_cam, [600, 1100, 2100, 3100, 4100])
+    np.testing.assert_array_equal(held.gyro[:, 0], [1, 1, 2, 3, 3])  # the nearest sample's rate
+    np.testing.assert_array_equal(held.accel[:, 2], [9, 9, 8, 7, 7])
+    assert hold_ends(imu, 1100, 3100, 0) is imu  # covered: unchanged
+    with pytest.raises(DataError, match="IMU starts 1001 µs after the first event, more than "
+                                        "extrapolate_us = 1000 µs"):
+        hold_ends(imu, 99, 3100, extrapolate_us=1000)
+
+
+def test_real_davis_imu_starting_after_the_events_compensates(real_dir):
+    """emlb_demo-01: the IMU starts 691 µs after the first event and ends 856 µs before the last."""
+    from evstar import Config, Pipeline, io
+
+    rec = io.read(real_dir / "emlb_demo-01.aedat4")
+    camera = Camera.from_fov(rec.events.width, rec.events.height, 70.0)
+    comp = compensate(rec.events, rec.imu, camera, 10_000, "imu")
+    assert np.all(np.isfinite(comp.x)) and comp.inside.mean() > 0.99
+    assert 0 < np.abs(comp.x - rec.events.x).max() < 1.0  # a slow hand-held rotation
+    with pytest.raises(DataError, match="IMU starts 691 µs after the first event"):
+        compensate(rec.events, rec.imu, camera, 10_000, "imu", extrapolate_us=500)
+    cfg = Config().replace(**{"motion.compensate": "imu"})
+    result = Pipeline(cfg).run(rec.events, rec.imu, camera)
+    assert result.compensation.mode == "imu" and result.metrics["events"] == len(rec.events)

@@ -49,9 +49,9 @@ def test_pipeline_quality_on_the_paper_scene(scene):
 
 
 def test_compensation_needs_imu_and_camera(scene):
-    with pytest.raises(ValueError, match="needs an IMU and a camera"):
+    with pytest.raises(evstar.ParameterError, match="needs an IMU .* and a camera"):
         Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(scene.events)
-    with pytest.raises(ValueError, match="evstar.Config"):
+    with pytest.raises(evstar.ParameterTypeError, match="evstar.Config"):
         Pipeline({"dt_us": 5})
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .. import io
+from ..io.atomic import check_output_file, check_outputs
 from .common import add_input_options, load
 
 
@@ -15,6 +16,8 @@ def add_parser(sub):
 
 
 def run(args):
+    check_output_file(args.output)
+    check_outputs([args.output], [args.input, args.imu, args.camera])
     rec = load(args)
     io.write(args.output, rec.events, imu=rec.imu, camera=rec.camera, format=args.out_format)
     print(f"wrote {len(rec.events):,} events to {args.output}")

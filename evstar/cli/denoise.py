@@ -13,7 +13,7 @@ import numpy as np
 
 from .. import io, parameters as P
 from ..errors import ParameterError
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_path, check_output_file, check_outputs
 from .common import add_input_options, load
 from .options import add_options, config_from_args
 
@@ -50,6 +50,10 @@ def make_filter(args):
 
 
 def run(args):
+    for out in (args.output, args.mask_out):
+        if out is not None:
+            check_output_file(out)
+    check_outputs([args.output, args.mask_out], [args.input, args.imu, args.camera])
     flt = make_filter(args)
     rec = load(args)
     start = time.perf_counter()

@@ -9,11 +9,12 @@
     result.bias, result.q_cw, result.corrected_imu(imu)
 """
 from .compensate import MODES, Compensation, compensate
-from .imu_integration import AttitudeTrack, Kinematics, check_coverage, integrate_accel, interpolate
+from .imu_integration import (AttitudeTrack, Kinematics, check_coverage, hold_ends, integrate_accel,
+                              interpolate)
 from .observations import StarObservations
 from .particle_filter import FilterResult, ParticleFilter
 from .warping import frame_reference_times, rotate_pixels, warp_to_reference
 
 __all__ = ["MODES", "Compensation", "compensate", "AttitudeTrack", "Kinematics", "check_coverage",
-           "integrate_accel", "interpolate", "StarObservations", "FilterResult", "ParticleFilter",
+           "hold_ends", "integrate_accel", "interpolate", "StarObservations", "FilterResult", "ParticleFilter",
            "frame_reference_times", "rotate_pixels", "warp_to_reference"]

@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
-from .imu_integration import AttitudeTrack, check_coverage
+from .imu_integration import AttitudeTrack, check_coverage, hold_ends
 from .particle_filter import ParticleFilter
 from .warping import frame_reference_times, warp_to_reference
 
 MODES = ("none", "imu", "pf")
+EXTRAPOLATE_US = 5000  # µs the IMU's end samples are held for beyond its span
 
 
 class Compensation:
@@ -55,7 +57,7 @@ class Compensation:
 
 def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, observations=None,
                particle_filter=None, filter_result=None, causal=True, t0_us=None, reference="mid",
-               backend="numpy", device="cpu"):
+               extrapolate_us=EXTRAPOLATE_US, backend="numpy", device="cpu"):
     """Warp `events` to their frames' reference times.
 
     events: evstar.Events; imu: evstar.Imu covering the events (modes 'imu', 'pf');
@@ -64,17 +66,20 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
     `observations` (see evstar.motion.StarObservations) with an optional `particle_filter`
     (a ParticleFilter; default ParticleFilter()), or a `filter_result` from an earlier run;
     causal: use at each time the bias estimated up to then (True, online) or the final
-    estimate throughout (False, offline). backend 'numpy' | 'warp' and device 'cpu' | 'cuda'
+    estimate throughout (False, offline). extrapolate_us: events up to this many µs before
+    the first or after the last IMU sample use that sample's rate (held); further, a
+    DataError. backend 'numpy' | 'warp' and device 'cpu' | 'cuda'
     choose where the warping runs (the particle filter has its own device setting).
     """
     if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+        raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
     frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
     if mode == "none":
         return Compensation(events, mode, events.x, events.y, frame, t_ref)
     if imu is None or camera is None:
-        raise ValueError(f"mode={mode!r} needs an imu and a camera")
+        raise ParameterError(f"mode={mode!r} needs an imu and a camera")
     if len(events):
+        imu = hold_ends(imu, events.t[0], events.t[-1], extrapolate_us)
         check_coverage(imu, events.t[0], events.t[-1])
     result = None
     if mode == "pf":
@@ -89,9 +94,9 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
 
 def _run_filter(particle_filter, imu, observations, camera):
     if observations is None:
-        raise ValueError("mode='pf' needs observations (star centroids t, track, x, y) "
-                         "or a filter_result")
+        raise ParameterError("mode='pf' needs observations (star centroids t, track, x, y) "
+                             "or a filter_result")
     pf = ParticleFilter() if particle_filter is None else particle_filter
     if not isinstance(pf, ParticleFilter):
-        raise ValueError(f"particle_filter must be a ParticleFilter, got {type(pf).__name__}")
+        raise ParameterTypeError(f"particle_filter must be a ParticleFilter, got {type(pf).__name__}")
     return pf.run(imu, observations, camera)

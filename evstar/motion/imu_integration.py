@@ -13,14 +13,14 @@ import numpy as np
 
 from evstar_kernels.reference import so3
 
-from ..errors import DataError
+from ..errors import DataError, ParameterError, ParameterTypeError
 from ..imu import Imu
 
 
 def check_coverage(imu, t_start_us, t_stop_us, what="the events"):
     """Raise DataError unless the IMU (camera clock) spans [t_start_us, t_stop_us] with finite data."""
     if not isinstance(imu, Imu):
-        raise TypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
+        raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
     if len(imu) < 2:
         raise DataError(f"IMU has {len(imu)} sample(s); motion compensation needs at least 2")
     if not imu.covers(int(np.floor(t_start_us)), int(np.ceil(t_stop_us))):
@@ -33,6 +33,37 @@ def check_coverage(imu, t_start_us, t_stop_us, what="the events"):
     if np.any(np.diff(imu.t) <= 0):
         i = int(np.flatnonzero(np.diff(imu.t) <= 0)[0]) + 1
         raise DataError(f"IMU timestamps must increase strictly; sample {i} repeats {imu.t[i]} µs")
+
+
+def hold_ends(imu, t_start_us, t_stop_us, extrapolate_us):
+    """The IMU extended to cover [t_start_us, t_stop_us] by holding its first and last sample
+    (the nearest sample's rate) for up to `extrapolate_us` µs beyond either end; DataError
+    naming the gap when the events reach further. Sensors often start the IMU a little
+    after the events (the DAVIS346 of the E-MLB sample: 0.7 ms)."""
+    if not isinstance(imu, Imu):
+        raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
+    if not (np.isfinite(extrapolate_us) and extrapolate_us >= 0):
+        raise ParameterError(f"extrapolate_us must be finite and >= 0, got {extrapolate_us!r}")
+    if len(imu) == 0:
+        return imu
+    tc = imu.t_cam
+    before, after = int(tc[0]) - int(np.floor(t_start_us)), int(np.ceil(t_stop_us)) - int(tc[-1])
+    for gap, where in ((before, "starts {} µs after the first"), (after, "ends {} µs before the last")):
+        if gap > extrapolate_us:
+            raise DataError(f"the IMU {where.format(gap)} event, more than extrapolate_us = {extrapolate_us:g} µs "
+                            f"(IMU {tc[0]}..{tc[-1]} µs, events {t_start_us:.0f}..{t_stop_us:.0f} µs)")
+    head = [0] if before > 0 else []
+    tail = [len(imu) - 1] if after > 0 else []
+    if not head and not tail:
+        return imu
+    rows = np.r_[head, np.arange(len(imu)), tail].astype(np.int64)
+    t = imu.t[rows].copy()
+    if head:
+        t[0] -= before
+    if tail:
+        t[-1] += after
+    return Imu(t, imu.gyro[rows], imu.accel[rows], R_cam_imu=imu.R_cam_imu,
+               time_offset_us=imu.time_offset_us)
 
 
 def interpolate(imu, t_us):

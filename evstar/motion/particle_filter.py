@@ -25,7 +25,7 @@ import numpy as np
 from evstar_kernels.reference import particle_filter as ref
 from evstar_kernels.reference import so3
 
-from ..errors import DataError
+from ..errors import DataError, ParameterError
 from ..imu import Imu
 from .imu_integration import AttitudeTrack, check_coverage, interpolate
 from .observations import StarObservations
@@ -99,26 +99,26 @@ class ParticleFilter:
                  attitude_prior=0.0, pixel_sigma=0.3, gate=5.0, resample_threshold=0.5,
                  star_refine=10):
         if int(n_particles) != n_particles or n_particles < 2:
-            raise ValueError(f"n_particles must be an integer >= 2, got {n_particles!r}")
+            raise ParameterError(f"n_particles must be an integer >= 2, got {n_particles!r}")
         if int(seed) != seed or not 0 <= seed < 2**32:
-            raise ValueError(f"seed must be an integer in [0, 2**32), got {seed!r}")
+            raise ParameterError(f"seed must be an integer in [0, 2**32), got {seed!r}")
         if backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+            raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
         for name, v in (("gyro_noise", gyro_noise), ("bias_walk", bias_walk),
                         ("attitude_prior", attitude_prior)):
             if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
+                raise ParameterError(f"{name} must be finite and >= 0, got {v!r}")
         bp = np.broadcast_to(np.asarray(bias_prior, dtype=np.float64), (3,))
         if not np.all(np.isfinite(bp) & (bp >= 0)):
-            raise ValueError("bias_prior must be finite and >= 0 (scalar or 3 values), "
-                             f"got {bias_prior!r}")
+            raise ParameterError("bias_prior must be finite and >= 0 (scalar or 3 values), "
+                                 f"got {bias_prior!r}")
         for name, v in (("pixel_sigma", pixel_sigma), ("gate", gate)):
             if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {v!r}")
+                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
         if not 0 <= resample_threshold <= 1:
-            raise ValueError(f"resample_threshold must lie in [0, 1], got {resample_threshold!r}")
+            raise ParameterError(f"resample_threshold must lie in [0, 1], got {resample_threshold!r}")
         if int(star_refine) != star_refine or star_refine < 1:
-            raise ValueError(f"star_refine must be an integer >= 1, got {star_refine!r}")
+            raise ParameterError(f"star_refine must be an integer >= 1, got {star_refine!r}")
         self.star_refine = int(star_refine)
         self.n_particles, self.seed = int(n_particles), int(seed)
         self.device, self.backend = device, backend
@@ -142,7 +142,7 @@ class ParticleFilter:
         t0 = int(obs.t_us[0] if t_start_us is None else t_start_us)
         t1 = int(obs.t_us[-1] if t_stop_us is None else t_stop_us)
         if t1 < t0:
-            raise ValueError(f"t_stop_us ({t1}) precedes t_start_us ({t0})")
+            raise DataError(f"t_stop_us ({t1}) precedes t_start_us ({t0})")
         check_coverage(imu, t0, t1, what="the observations")
         keep = (obs.t_us >= t0) & (obs.t_us <= t1)
         if not keep.any():

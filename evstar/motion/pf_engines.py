@@ -9,6 +9,7 @@ import numpy as np
 
 from evstar_kernels.reference import particle_filter as ref
 
+from ..errors import ParameterError
 from .. import backends
 
 BACKENDS = ("warp", "reference")
@@ -55,10 +56,10 @@ def make_engine(backend, device, q, b):
     """Particles on `backend` ('warp' | 'reference'); the reference runs on the CPU only."""
     if backend == "reference":
         if backends.check_device(device) != "cpu":
-            raise ValueError(f"backend='reference' runs on the CPU only, got device={device!r}")
+            raise ParameterError(f"backend='reference' runs on the CPU only, got device={device!r}")
         return ReferenceParticles(q, b)
     if backend == "warp":
         _, dev = backends.warp(device)
         from evstar_kernels.warp.particle_launch import WarpParticles
         return WarpParticles(q, b, device=dev)
-    raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")

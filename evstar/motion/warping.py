@@ -13,6 +13,7 @@ import numpy as np
 
 from evstar_kernels.reference import so3
 
+from ..errors import ParameterError
 from .. import backends
 
 REFERENCES = ("mid", "start")
@@ -24,9 +25,9 @@ _UNDISTORT_ITERATIONS = 5  # as Camera.unproject
 def frame_reference_times(t_us, dt_us, t0_us=None, reference="mid"):
     """(frame index int64, reference time float64 µs) of each timestamp."""
     if int(dt_us) != dt_us or dt_us <= 0:
-        raise ValueError(f"dt_us must be a positive integer number of µs, got {dt_us!r}")
+        raise ParameterError(f"dt_us must be a positive integer number of µs, got {dt_us!r}")
     if reference not in REFERENCES:
-        raise ValueError(f"reference must be one of {REFERENCES}, got {reference!r}")
+        raise ParameterError(f"reference must be one of {REFERENCES}, got {reference!r}")
     t = np.asarray(t_us, dtype=np.int64)
     t0 = (int(t[0]) if len(t) else 0) if t0_us is None else int(t0_us)
     frame = (t - t0) // int(dt_us)
@@ -58,7 +59,7 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
     backend 'numpy' | 'warp' (device 'cpu' | 'cuda'); both agree to ~1e-9 px.
     """
     if backend not in WARP_BACKENDS:
-        raise ValueError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
+        raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
     t = attitude.check_times(t_us, extrapolate_us)
     t_ref = np.asarray(t_ref_us, dtype=np.float64)
     refs, ref_index = _distinct_times(t_ref)
@@ -66,7 +67,7 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
     if backend == "warp":
         return _warp_kernel(t, x, y, ref_index, q_ref, attitude, camera, device)
     if backends.check_device(device) != "cpu":
-        raise ValueError(f"backend='numpy' runs on the CPU only, got device={device!r}")
+        raise ParameterError(f"backend='numpy' runs on the CPU only, got device={device!r}")
     xw, yw = np.empty(len(t)), np.empty(len(t))
     for s in range(0, len(t), _CHUNK):
         sl = slice(s, s + _CHUNK)

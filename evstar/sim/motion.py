@@ -176,10 +176,6 @@ class SampledTrajectory(Trajectory):
         steps = _log(self.R[1:] @ self.R[:-1].transpose(0, 2, 1))
         self._w = -steps / np.diff(t)[:, None]
 
-    @classmethod
-    def from_quaternions(cls, t_s, quat_xyzw):
-        return cls(t_s, Rotation.from_quat(quat_xyzw).as_matrix())
-
     def _interval(self, t):
         return np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 2)
 

@@ -75,9 +75,6 @@ class StarField:
     def flux(self, flux_mag3=FLUX_MAG3):
         return star_flux(self.magnitudes, flux_mag3)
 
-    def subset(self, index):
-        return StarField(self.directions[index], self.magnitudes[index], self.hip[index])
-
     def __repr__(self):
         mags = f", mag {self.magnitudes.min():.2f}..{self.magnitudes.max():.2f}" if len(self) else ""
         return f"StarField(n={len(self)}{mags})"

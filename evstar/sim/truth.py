@@ -76,11 +76,6 @@ class Truth:
     def n_stars(self):
         return len(self.stars)
 
-    def star_table(self):
-        """Columns of the star table as a dict of arrays (id, hip, magnitude, flux, ra, dec)."""
-        return dict(id=np.arange(self.n_stars), hip=self.stars.hip, magnitude=self.stars.magnitudes,
-                    flux=self.star_flux, ra_deg=self.stars.ra_deg, dec_deg=self.stars.dec_deg)
-
     def __repr__(self):
         n = len(self.labels)
         sig = int((self.labels >= 0).sum())

@@ -1,0 +1,169 @@
+"""The output folder of a pipeline run: tables, metrics, configuration and figures.
+
+``write_run(outdir, result, config, truth)`` writes every file into a hidden temporary
+folder beside `outdir` and moves them in together once all are written, so a folder never
+holds a half-written run. A rerun replaces the files of the earlier run, and removes those
+of its files this run does not write (e.g. errors.png of a run with truth); other files in
+the folder are never touched. Temporary folders of runs killed before they finished carry
+the dead process's id and are removed by the next run writing beside them.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import shutil
+import tempfile
+
+import numpy as np
+
+from . import report
+from .errors import EvstarError, OutputError
+from .io.atomic import check_output_dir
+from .metrics import snr_db
+
+#: every file a run writes (errors.png only with truth)
+RUN_FILES = ("centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml",
+             "denoise.png", "tracks.png", "per_frame.png", "errors.png")
+_TMP_TAG = ".evstar-tmp-"  # temporary folders: .{outdir name}.evstar-tmp-{pid}-{random}
+
+
+def run_files(outdir):
+    """The paths a run into `outdir` may write (to check them against the inputs)."""
+    return [pathlib.Path(outdir) / name for name in RUN_FILES]
+
+
+def write_run(outdir, result, config, truth=None):
+    """Write a pipeline Result (with the Config used and the optional simulator Truth) into
+    `outdir`, created if needed; returns its path."""
+    outdir = check_output_dir(outdir)
+    outdir.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(outdir)
+    tmp = pathlib.Path(tempfile.mkdtemp(prefix=f".{outdir.name}{_TMP_TAG}{os.getpid()}-",
+                                        dir=outdir.parent))
+    try:
+        _write_all(tmp, result, config, truth)
+        outdir.mkdir(exist_ok=True)
+        written = {f.name for f in tmp.iterdir()}
+        for name in sorted(written):
+            os.replace(tmp / name, outdir / name)
+        for name in set(RUN_FILES) - written:  # left by an earlier run: would mislead
+            (outdir / name).unlink(missing_ok=True)
+    except OSError as exc:
+        if isinstance(exc, EvstarError):
+            raise
+        raise OutputError(outdir, f"cannot write: {exc.strerror or exc}") from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return outdir
+
+
+def _write_all(folder, result, config, truth):
+    from . import io
+
+    io.write_centroids(folder / "centroids.csv", result.centroids)
+    track_table(result.centroids).to_csv(folder / "tracks.csv", index=False, float_format="%.4f")
+    (folder / "metrics.json").write_text(json.dumps(result.metrics, indent=2, default=_json) + "\n")
+    (folder / "profile.json").write_text(json.dumps(result.timings_s, indent=2) + "\n")
+    (folder / "config.toml").write_text(config.to_toml())
+    figures(folder, result, truth)
+
+
+def remove_stale_temporaries(outdir):
+    """Remove the temporary folders of earlier runs into `outdir` whose process is gone."""
+    outdir = pathlib.Path(outdir)
+    prefix = f".{outdir.name}{_TMP_TAG}"
+    parent = outdir.absolute().parent
+    if not parent.is_dir():
+        return
+    for path in parent.iterdir():
+        if not (path.name.startswith(prefix) and path.is_dir()):
+            continue
+        pid = path.name[len(prefix):].split("-", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _alive(pid):
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    return True
+
+
+def figures(folder, result, truth=None):
+    """denoise.png, tracks.png, per_frame.png and, with truth, errors.png."""
+    folder = pathlib.Path(folder)
+    report.plot_denoise(folder / "denoise.png", result.image_before, result.image_after)
+    c = result.centroids
+    truth_xy = None if truth is None else truth.star_position(truth.t_us).transpose(1, 0, 2)
+    report.plot_tracks(folder / "tracks.png", result.image_after, c, truth_xy)
+    fc = result.frame_counts
+    if fc:
+        if "signal_before" in fc:
+            curves = {f"SNR {w} (dB)": per_frame_snr_db(fc[f"signal_{w}"], fc[f"noise_{w}"])
+                      for w in ("before", "after")}
+            ylabel = "SNR per frame (dB)"
+        else:
+            curves, ylabel = {"events before": fc["before"], "events after": fc["after"]}, "events per frame"
+        report.plot_per_frame(folder / "per_frame.png", fc["t_s"], curves, ylabel)
+    if truth is not None and len(c):
+        from .accuracy import match
+
+        star, err = match(c, truth.star_position)
+        ok = star >= 0
+        report.plot_errors(folder / "errors.png", c["t"][ok], err[ok], labels="centroid error")
+
+
+def per_frame_snr_db(signal, noise):
+    """metrics.snr_db of each frame's counts (inf where no noise is left, nan where empty)."""
+    return np.array([snr_db(s, n) for s, n in zip(signal, noise)], dtype=np.float64)
+
+
+def track_table(centroids):
+    """One row per confirmed track: first/last time and position, velocity, mean events."""
+    import pandas as pd
+
+    rows = []
+    for tid in np.unique(centroids["track"][centroids["track"] >= 0]):
+        c = centroids[centroids["track"] == tid]
+        dt = (c["t"][-1] - c["t"][0]) * 1e-6
+        rows.append({"track": int(tid), "t_first": int(c["t"][0]), "t_last": int(c["t"][-1]),
+                     "n_centroids": len(c), "x_first": c["x"][0], "y_first": c["y"][0],
+                     "x_last": c["x"][-1], "y_last": c["y"][-1],
+                     "vx_px_s": (c["x"][-1] - c["x"][0]) / dt if dt > 0 else 0.0,
+                     "vy_px_s": (c["y"][-1] - c["y"][0]) / dt if dt > 0 else 0.0,
+                     "mean_events": float(c["n_events"].mean())})
+    cols = ["track", "t_first", "t_last", "n_centroids", "x_first", "y_first", "x_last", "y_last",
+            "vx_px_s", "vy_px_s", "mean_events"]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def summary_text(result, outdir):
+    """The few lines `evstar run` prints: counts, SNR and errors (with truth), throughput."""
+    m = result.metrics
+    total = sum(result.timings_s.values())
+    lines = [f"events        {m['events']:,} ({m['events_kept']:,} kept)",
+             f"centroids     {m['centroids']:,} in {m['tracks']} track(s)"]
+    if "snr_before_db" in m:
+        e = m["centroid_error_px"]
+        lines += [f"SNR           {m['snr_before_db']:.1f} dB -> {m['snr_after_db']:.1f} dB "
+                  f"(signal retained {100 * m['signal_retained']:.1f} %)",
+                  f"centroid err  mean {e['mean']:.3f} px, max {e['max']:.3f} px ({e['n']} matched)"]
+    stages = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings_s.items())
+    lines += [f"throughput    {m['events'] / max(total, 1e-9) / 1e6:.2f} M events/s ({stages})",
+              f"wrote         {outdir}/"]
+    return "\n".join(lines)
+
+
+def _json(v):
+    if isinstance(v, (np.integer, np.floating)):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(type(v))

@@ -1,0 +1,82 @@
+"""Pipeline inputs: wrong types, inputs of different recordings and a missing IMU or camera
+are evstar errors naming what is wrong (never AttributeError or NaN metrics)."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+import evstar
+from evstar import Config, Pipeline, io, sim
+from evstar.cli import main
+from evstar.accuracy import check_truth
+from evstar.tracking import Tracker
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return sim.simulate(sim.paper_preset(16.0, duration_s=0.1), seed=7)
+
+
+@pytest.fixture(scope="module")
+def other():
+    return sim.simulate(sim.paper_preset(16.0, duration_s=0.12), seed=8)
+
+
+def test_wrong_argument_types_name_the_argument(scene):
+    with pytest.raises(evstar.ParameterTypeError, match="events must be an evstar.Events, got ndarray"):
+        Pipeline().run(np.zeros(10))
+    with pytest.raises(evstar.ParameterTypeError, match="imu must be an evstar.Imu"):
+        Pipeline().run(scene.events, imu=np.zeros((3, 7)))
+    with pytest.raises(evstar.ParameterTypeError, match="centroids must be a structured array"):
+        Tracker().link(None)
+    with pytest.raises(evstar.ParameterTypeError, match="centroids"):
+        Tracker().link(np.zeros(3))
+
+
+def test_camera_of_another_sensor_is_a_data_error(scene):
+    cam = dataclasses.replace(scene.camera, width=scene.camera.width + 2)
+    cfg = Config().replace(**{"motion.compensate": "imu"})
+    with pytest.raises(evstar.DataError, match="camera is 322x240 px but the events' sensor is 320x240"):
+        Pipeline(cfg).run(scene.events, scene.imu, cam)
+
+
+def test_truth_of_another_recording_is_a_data_error(scene, other, tmp_path):
+    with pytest.raises(evstar.DataError, match="another recording"):
+        Pipeline().run(scene.events, truth=other.truth)
+    ev = scene.events
+    n, w, h = len(ev), ev.width, ev.height
+    check_truth(scene.truth, n, w, h, ev.t[[0, -1]])  # its own truth passes
+    with pytest.raises(evstar.DataError, match=f"labels {len(scene.truth.labels):,} events .* {n + 1:,}"):
+        check_truth(scene.truth, n + 1, w, h, None)
+    with pytest.raises(evstar.DataError, match="320x240 px sensor but the events' is 640x480"):
+        check_truth(scene.truth, n, 640, 480, None)
+    with pytest.raises(evstar.DataError, match="covers 0..100000 µs but the events span 0..200000"):
+        check_truth(scene.truth, n, w, h, [0, 200_000])
+    # streamed: the label count is checked chunk by chunk and at the end
+    io.write(tmp_path / "e.h5", ev)
+    with pytest.raises(evstar.DataError, match="another recording"):
+        Pipeline(Config(chunk_frames=3)).run_file(tmp_path / "e.h5", truth=other.truth, progress=False)
+
+
+def test_cli_run_rejects_the_truth_of_another_recording(scene, other, tmp_path, capsys):
+    io.write(tmp_path / "e.h5", scene.events)
+    sim.save_truth(tmp_path / "other.npz", other.truth)
+    assert main(["run", str(tmp_path / "e.h5"), "--truth", str(tmp_path / "other.npz"),
+                 "-o", str(tmp_path / "out"), "--no-progress"]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "another recording" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name,missing", [("expelliarmus_evt2_sample.raw", "--imu FILE"),
+                                          ("emlb_demo-01.aedat4", "--camera FILE")])
+def test_compensation_without_imu_or_camera_says_how_to_give_it(real_dir, tmp_path, capsys, name,
+                                                                missing):
+    for command in (["extract", str(real_dir / name), "-o", str(tmp_path / "c.csv")],
+                    ["run", str(real_dir / name), "-o", str(tmp_path / "o"), "--no-progress"]):
+        assert main(command + ["--compensate", "imu"]) != 0
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and "motion.compensate = 'imu' needs" in err
+        assert missing in err, err
+    assert list(tmp_path.iterdir()) == []
+
