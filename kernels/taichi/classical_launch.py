@@ -17,7 +17,7 @@ def classical_filter(ti, t, x, y, width, height, dt_us, k, *, schedule, scratch,
     keep = np.empty(n, np.uint8)
     if n:
         run = _classical_lanes if schedule == "lanes" else _classical_events
-        with scratch:
+        with launch.RUNTIME_LOCK, scratch:
             run(ti, (t, x, y, width, height), dt_us, k, scratch, on_launch, support, keep)
     return support, keep.view(bool)
 

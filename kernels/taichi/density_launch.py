@@ -32,7 +32,7 @@ def count_density(ti, x, y, width, height, offsets, radii, thresholds, *, strate
     keep = np.empty(n, np.uint8)
     if n:
         run = _counts_lanes if schedule == "lanes" else _counts_events
-        with scratch:
+        with launch.RUNTIME_LOCK, scratch:
             run(ti, (x, y, width, height), offsets, disks(radii), np.asarray(thresholds, np.int32),
                 strategy, scratch, on_launch, counts, keep)
     return keep.view(bool), counts

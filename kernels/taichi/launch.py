@@ -3,6 +3,8 @@
 Module settings (tests shrink them to exercise many launches and batches):
 MAX_LAUNCH_EVENTS, EVENT_GRID_BYTES, DEVICE_ARRAYS.
 """
+import threading
+
 import numpy as np
 
 #: Taichi loop bounds are i32: one launch takes at most this many events
@@ -11,6 +13,9 @@ MAX_LAUNCH_EVENTS = 1 << 30
 EVENT_GRID_BYTES = 256 << 20
 #: tests set True to run the CUDA data path (ti.ndarray) on the CPU
 DEVICE_ARRAYS = False
+#: Taichi's runtime is one per process and not thread-safe (a kernel called while another
+#: thread's kernel compiles or runs fails), so the launchers' calls take turns
+RUNTIME_LOCK = threading.Lock()
 
 
 class Arrays:

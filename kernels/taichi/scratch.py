@@ -34,9 +34,14 @@ class Scratch:
             self._arrays[name] = held = (key, make())
         return held[1]
 
-    def names(self):
-        """The names of the arrays held now."""
-        return sorted(self._arrays)
+    @property
+    def dirty(self):
+        """True after a call that did not finish (its arrays are dropped on the next call)."""
+        return self._dirty
+
+    def arrays(self):
+        """The arrays held now, by name."""
+        return {name: arr for name, (_, arr) in self._arrays.items()}
 
     def release(self):
         """Free every array (waits for a running call to end)."""
