@@ -179,12 +179,13 @@ def test_tile_counts_match_reference(seed, n, geometry, strategy, th, hot):
 def test_every_survivor_layout_matches_reference():
     """Sparse frames whose survivors are counted in each layout the cost model can pick:
     tiles (survivors on few pixels), full counts folded from the tiles, and row prefix sums."""
-    from evstar_kernels.taichi import frame_counts, frame_grids
+    from evstar_kernels.taichi import frame_costs, frame_grids
+    from evstar_kernels.taichi.disk_reads import disk_padding
 
     w, h, radii = 120, 90, (4, 6, 9)
     disks = density_launch.disks(radii)
-    geo = frame_grids.Geometry(w, h, frame_counts.disk_padding(disks))
-    costs = frame_counts.disk_costs(disks, geo, "u16x4")
+    geo = frame_grids.Geometry(w, h, disk_padding(disks))
+    costs = frame_costs.disk_costs(disks, geo, "u16x4")
     n = costs.dense_min - 1  # the biggest sparse frame
     # survivor pixels from which folding pays, and from which prefix sums do
     to_full = costs.fold * n / (costs.rest_sparse - costs.rest_direct)

@@ -7,7 +7,8 @@ the keep mask and per-radius counts of `evstar_kernels.reference.denoise.mr_ndse
 import numpy as np
 
 from ..reference.denoise import disk_rows
-from . import event_counts, frame_counts, frame_grids
+from . import event_counts, frame_costs, frame_counts, frame_grids
+from .disk_reads import disk_padding
 from . import launch
 
 _CELL_DTYPES = {"u16x4": (np.uint64, 4), "i32": (np.int32, 1)}  # dtype, cells per element
@@ -72,9 +73,9 @@ def _counts_lanes(ti, stream, offsets, disks, th, strategy, scratch, on_launch, 
 
 def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch, counts, keep):
     x, y, width, height = stream
-    geo = frame_grids.Geometry(width, height, frame_counts.disk_padding(disks))
-    direct = frame_counts.direct_costs(disks, geo, "i32")
-    dense_min = {"auto": frame_counts.prefix_break_even(direct, disks, geo),
+    geo = frame_grids.Geometry(width, height, disk_padding(disks))
+    direct = frame_costs.direct_costs(disks, geo, "i32")
+    dense_min = {"auto": frame_costs.prefix_break_even(direct, disks, geo),
                  "sparse": _NEVER, "dense": 0}[strategy]
     bin_frames, prefix_rows, count, unbin_frames = event_counts.count_events_kernels(disks, width, height)
     arrays = launch.Arrays(ti)

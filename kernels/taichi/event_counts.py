@@ -11,7 +11,7 @@ import functools
 import taichi as ti
 
 from . import frame_grids as fg
-from .frame_counts import disk_padding, make_disk_count
+from .disk_reads import disk_padding, make_disk_count
 
 u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
 i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
