@@ -61,10 +61,11 @@ def simulate(name, n_events, seed=0):
     return ev
 
 
-def extra_memory(fn):
+def extra_memory(fn, flt=None):
     """Peak bytes of the numpy arrays fn() allocates (tracemalloc), the filter's reusable
-    scratch grids included (dropped first so the call allocates them again)."""
-    denoise._scratch.clear()
+    scratch grids included (released first so the call allocates them again)."""
+    if flt is not None:
+        flt.release()
     gc.collect()
     tracemalloc.start()
     try:
@@ -117,7 +118,7 @@ BACKENDS = {
 }
 
 
-def bench_row(scene, name, backend, events, run_fn, repeats, compile_fn=None):
+def bench_row(scene, name, backend, events, run_fn, repeats, compile_fn=None, flt=None):
     first = None
     if compile_fn is not None:
         t0 = time.perf_counter()
@@ -134,7 +135,7 @@ def bench_row(scene, name, backend, events, run_fn, repeats, compile_fn=None):
         cpus.append(time.process_time() - c0)
     timing = {"median_s": float(np.median(walls)), "runs_s": walls}
     cpu = float(np.median(cpus))
-    mem = None if backend == "dv-processing" else extra_memory(run_fn)
+    mem = None if backend == "dv-processing" else extra_memory(run_fn, flt)
     med = timing["median_s"]
     row = dict(scene=scene, filter=name, backend=backend, events=len(events),
                input_mb=events.nbytes / 1e6, median_s=med, mev_s=len(events) / med / 1e6,
@@ -182,7 +183,7 @@ def main(argv=None):
                 ev = events[:REFERENCE_EVENTS] if backend == "reference" else events
                 compile_fn = None if backend == "reference" else (lambda: flt.apply(small))
                 rows.append(bench_row(scene, name, backend, ev, lambda: flt.apply(ev), args.repeats,
-                                      compile_fn))
+                                      compile_fn, flt))
     rank = {b: i for i, b in enumerate(["taichi-cpu", "taichi-cpu-events", "reference", "dv-processing"])}
     rows.sort(key=lambda r: (list(scenes).index(r["scene"]), list(FILTERS).index(r["filter"]),
                              rank[r["backend"]]))

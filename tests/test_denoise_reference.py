@@ -16,7 +16,7 @@ def stream(draw_or_rng, n, width, height, max_step, t_start=0):
 
 
 def classical_loop(t, x, y, width, height, dt):
-    """DESIGN.md's classical filter, literally: one event at a time, map starting at 0."""
+    """The classical filter of docs/kernels.md, literally: one event at a time, map starting at 0."""
     last = np.zeros((height, width), np.int64)
     support = []
     for ti, xi, yi in zip(t, x, y):

@@ -5,6 +5,7 @@ from hypothesis import given, settings, strategies as st
 
 import evstar
 from evstar import denoise
+from evstar_kernels.taichi import density_launch, launch
 
 SENSORS = [(1, 1), (7, 5), (40, 30)]
 # (sensor, radii) pairs: each pair compiles its own kernels, so the list is kept short
@@ -85,14 +86,14 @@ def test_streams_longer_than_one_launch(monkeypatch):
     ref_mr = mr_pair((3, 5, 7), (2, 4, 6))[0]
     ref_cl = denoise.ClassicalFilter(700, 2, backend="reference")
     expect_mr, expect_cl = ref_mr.apply(ev), ref_cl.apply(ev)
-    monkeypatch.setattr(denoise, "_MAX_LAUNCH_EVENTS", 333)
+    monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", 333)
     mr = denoise.MRNDSEF(1_000, (3, 5, 7), (2, 4, 6))
     cl = denoise.ClassicalFilter(700, 2)
     np.testing.assert_array_equal(mr.apply(ev), expect_mr)
     np.testing.assert_array_equal(mr.counts_, ref_mr.counts_)
     np.testing.assert_array_equal(cl.apply(ev), expect_cl)
     np.testing.assert_array_equal(cl.counts_, ref_cl.counts_)
-    assert len(list(denoise._frame_launches(denoise.ref.frame_offsets(ev.t, 1_000)))) > 5
+    assert len(list(launch.frame_launches(denoise.ref.frame_offsets(ev.t, 1_000)))) > 5
 
 
 def test_frames_too_big_for_16_bit_cells():
@@ -117,7 +118,7 @@ def test_ndsef_and_auto_thresholds_match_reference():
 @pytest.fixture(params=[False, True], ids=["numpy-arrays", "device-arrays"])
 def device_arrays(request, monkeypatch):
     """The event-parallel (GPU) form, with the CUDA data path (Taichi ndarrays) run on CPU."""
-    monkeypatch.setattr(denoise, "_DEVICE_ARRAYS", request.param)
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", request.param)
     return request.param
 
 
@@ -146,8 +147,8 @@ def test_event_parallel_data_path_batches_and_launches(device_arrays, monkeypatc
     ref_cl = denoise.ClassicalFilter(700, 2, backend="reference")
     expect_mr, expect_cl = ref_mr.apply(ev), ref_cl.apply(ev)
     # small scratch budgets and launches: many batches of frames / buckets per launch
-    monkeypatch.setattr(denoise, "_EVENT_GRID_BYTES", 100_000)
-    monkeypatch.setattr(denoise, "_MAX_LAUNCH_EVENTS", 1_000)
+    monkeypatch.setattr(launch, "EVENT_GRID_BYTES", 100_000)
+    monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", 1_000)
     for strategy in denoise.STRATEGIES:
         mr = denoise.MRNDSEF(1_000, (3, 5, 7), (2, 4, 6), strategy=strategy, schedule="events")
         np.testing.assert_array_equal(mr.apply(ev), expect_mr)
@@ -178,12 +179,13 @@ def test_tile_counts_match_reference(seed, n, geometry, strategy, th, hot):
 def test_every_survivor_layout_matches_reference():
     """Sparse frames whose survivors are counted in each layout the cost model can pick:
     tiles (survivors on few pixels), full counts folded from the tiles, and row prefix sums."""
-    from evstar_kernels.taichi import frame_counts, frame_grids
+    from evstar_kernels.taichi import frame_costs, frame_grids
+    from evstar_kernels.taichi.disk_reads import disk_padding
 
     w, h, radii = 120, 90, (4, 6, 9)
-    disks = denoise._disks(radii)
-    geo = frame_grids.Geometry(w, h, frame_counts.disk_padding(disks))
-    costs = frame_counts.disk_costs(disks, geo, "u16x4")
+    disks = density_launch.disks(radii)
+    geo = frame_grids.Geometry(w, h, disk_padding(disks))
+    costs = frame_costs.disk_costs(disks, geo, "u16x4")
     n = costs.dense_min - 1  # the biggest sparse frame
     # survivor pixels from which folding pays, and from which prefix sums do
     to_full = costs.fold * n / (costs.rest_sparse - costs.rest_direct)

@@ -1,4 +1,4 @@
-"""Denoising filters in plain numpy: the executable specification (DESIGN.md, "Algorithms").
+"""Denoising filters in plain numpy: the executable specification (docs/kernels.md).
 
 Every accelerated backend is tested against these functions, bit-exact for masks and counts.
 They are written for clarity and independence from the accelerated kernels (sorting and
@@ -50,7 +50,7 @@ def disk_rows(radius):
     """Rows of the lattice disk {(dx, dy): dx² + dy² < r²} as (dy, half_width) arrays.
 
     The half-width of row dy is the largest integer w with w² < r² − dy² (strict, so a
-    pixel exactly at distance r is outside, as in DESIGN.md's ⌊√(r² − dy² − ε)⌋).
+    pixel exactly at distance r is outside: ⌊√(r² − dy² − ε)⌋, docs/kernels.md).
     """
     r2 = float(radius) ** 2
     dys, ws = [], []
@@ -144,12 +144,6 @@ def disk_counts(frame, x, y, width, height, radius, select=None):
         total += np.where(ok, c, 0)
     out[sel] = total
     return out
-
-
-def ndsef(frame, x, y, width, height, radius, threshold):
-    """NDSEF: keep iff p(e) >= threshold. Returns (keep mask, counts)."""
-    counts = disk_counts(frame, x, y, width, height, radius)
-    return counts >= threshold, counts
 
 
 def mr_ndsef(frame, x, y, width, height, radii, thresholds):

@@ -1,7 +1,7 @@
 """Rotations in numpy: hat/exp/log maps, quaternions (x, y, z, w — scalar last, as scipy and
 Warp), slerp and gyro integration. Every function takes stacked inputs (..., 3) or (..., 4).
 
-Convention of the gyro integration (evstar's DESIGN.md): R_cw maps world vectors into the
+Convention of the gyro integration (docs/design.md, "Conventions"): R_cw maps world vectors into the
 camera, the gyro measures the body rate ω in the camera frame and dR_cw/dt = −[ω]× R_cw, so a
 step of constant rate gives R_cw(t + dt) = Exp(−ω·dt) · R_cw(t).
 

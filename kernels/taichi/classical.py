@@ -29,6 +29,9 @@ u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 def classical_ranges(t: i64_1d, x: u16_1d, y: u16_1d, unit_lb: i32_1d, unit_lo: i32_1d,
                      unit_hi: i32_1d, dt: ti.i64, k_min: ti.i32, maps: i64_3d, busy: i32_1d,
                      support: i8_1d, keep: u8_1d):
+    """Filter each unit's range after replaying its lookback (see the module doc).
+
+    Specification: `evstar_kernels.reference.denoise.classical_support` (keep: >= k_min)."""
     n_slots = busy.shape[0]
     for u in range(unit_lo.shape[0]):
         if unit_hi[u] > unit_lo[u]:

@@ -23,7 +23,10 @@ from .classical import BORDER, i8_1d, i32_1d, i64_1d, u8_1d, u16_1d  # noqa: F40
 
 @functools.lru_cache(maxsize=None)
 def classical_bucket_kernels(width, height):
-    """(fill, evaluate, clear) kernels for one sensor size."""
+    """(fill, evaluate, clear) kernels for one sensor size.
+
+    Specification: `evstar_kernels.reference.denoise.classical_support` (support; keep is
+    support >= k_min)."""
     stride = width + 2
     plane = (height + 2) * stride
 

@@ -11,7 +11,7 @@ import functools
 import taichi as ti
 
 from . import frame_grids as fg
-from .frame_counts import disk_padding, make_disk_count
+from .disk_reads import disk_padding, make_disk_count
 
 u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
 i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
@@ -34,7 +34,9 @@ def frame_of(offsets: ti.template(), f0: ti.i32, f1: ti.i32, e: ti.i32) -> ti.i3
 
 @functools.lru_cache(maxsize=None)
 def count_events_kernels(disks, width, height):
-    """(bin, prefix_rows, count, unbin) kernels for one sensor size and set of disks."""
+    """(bin, prefix_rows, count, unbin) kernels for one sensor size and set of disks.
+
+    Specification: `evstar_kernels.reference.denoise.mr_ndsef` (bit-exact masks and counts)."""
     n_radii = len(disks)
     geo = fg.Geometry(width, height, disk_padding(disks))
     disk_count = make_disk_count(disks, geo, "i32")

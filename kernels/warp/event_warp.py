@@ -24,6 +24,10 @@ def warp_events(t: wp.array(dtype=wp.float64), x: wp.array(dtype=wp.float64),
                 fx: wp.float64, fy: wp.float64, cx: wp.float64, cy: wp.float64,
                 k1: wp.float64, k2: wp.float64, undistort_iterations: int,
                 out_x: wp.array(dtype=wp.float64), out_y: wp.array(dtype=wp.float64)):
+    """(out_x, out_y)[i] = event i moved to its reference attitude ref_q[ref_index[i]].
+
+    Specification: `evstar.motion.warping.warp_to_reference` with backend="numpy" (its
+    numpy form lives beside the estimator, not in evstar_kernels.reference)."""
     i = wp.tid()
     ti = t[i]
     n = node_t.shape[0]

@@ -33,7 +33,9 @@ def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                     seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
                     walk_sigma: wp.float64):
     """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
-    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step)."""
+    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step).
+
+    Specification: `evstar_kernels.reference.particle_filter.predict`."""
     i = wp.tid()
     p = wp.uint32(i)
     qi = q[i]
@@ -58,7 +60,9 @@ def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                   omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
                   step_normals: wp.array2d(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
                   gyro_noise: wp.float64, walk_sigma: wp.float64):
-    """predict_counter with the normals supplied: step_normals (K, N), walk_normals (N)."""
+    """predict_counter with the normals supplied: step_normals (K, N), walk_normals (N).
+
+    Specification: `evstar_kernels.reference.particle_filter.predict` (step_normals=, walk_normals=)."""
     i = wp.tid()
     qi = q[i]
     bi = b[i]
@@ -75,7 +79,9 @@ def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
 @wp.kernel
 def counter_normals(seed: wp.uint32, step: wp.uint32, component0: wp.uint32,
                     out: wp.array2d(dtype=wp.float64)):
-    """out[i, c] = normal of (seed, particle i, step, component0 + c)."""
+    """out[i, c] = normal of (seed, particle i, step, component0 + c).
+
+    Specification: `evstar_kernels.reference.particle_filter.counter_normals`."""
     i, c = wp.tid()
     out[i, c] = counter_normal(counter_key(seed, wp.uint32(i), step), component0 + wp.uint32(c))
 
@@ -85,7 +91,9 @@ def add_log_likelihood(q: wp.array(dtype=wp.vec4d), stars: wp.array(dtype=wp.vec
                        uv: wp.array(dtype=wp.vec2d), fx: wp.float64, fy: wp.float64,
                        cx: wp.float64, cy: wp.float64, inv_sigma: wp.float64, gate2: wp.float64,
                        logw: wp.array(dtype=wp.float64)):
-    """logw += Σ_j −½·min(|pinhole(R(q)·d_j) − uv_j|²/σ², gate²); a star behind costs gate²/2."""
+    """logw += Σ_j −½·min(|pinhole(R(q)·d_j) − uv_j|²/σ², gate²); a star behind costs gate²/2.
+
+    Specification: `evstar_kernels.reference.particle_filter.log_likelihood`."""
     i = wp.tid()
     qi = q[i]
     acc = wp.float64(0.0)
@@ -104,7 +112,9 @@ def add_log_likelihood(q: wp.array(dtype=wp.vec4d), stars: wp.array(dtype=wp.vec
 def weight_sums_sequential(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=wp.vec4d),
                            b: wp.array(dtype=wp.vec3d), q_ref: wp.vec4d,
                            cdf: wp.array(dtype=wp.float64), sums: wp.array(dtype=wp.float64)):
-    """One thread, index order: cdf = cumsum(w), sums = [Σw, Σw², Σ w·s·q, Σ w·b] (CPU path)."""
+    """One thread, index order: cdf = cumsum(w), sums = [Σw, Σw², Σ w·s·q, Σ w·b] (CPU path).
+
+    Specification: `evstar_kernels.reference.particle_filter.weight_sums` (bit-identical)."""
     n = logw.shape[0]
     m = logw[0]
     for i in range(1, n):
@@ -136,6 +146,9 @@ def weight_sums_sequential(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=w
 
 @wp.kernel
 def log_weight_max(logw: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.float64)):
+    """out[0] = max(logw) by atomics: the shift of weight_terms (GPU path).
+
+    Specification: the max that `evstar_kernels.reference.particle_filter.weight_sums` subtracts."""
     i = wp.tid()
     wp.atomic_max(out, 0, logw[i])
 
@@ -144,7 +157,9 @@ def log_weight_max(logw: wp.array(dtype=wp.float64), out: wp.array(dtype=wp.floa
 def weight_terms(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=wp.vec4d),
                  b: wp.array(dtype=wp.vec3d), q_ref: wp.vec4d, max_logw: wp.array(dtype=wp.float64),
                  w_out: wp.array(dtype=wp.float64), sums: wp.array(dtype=wp.float64)):
-    """Parallel form of weight_sums_sequential (GPU path): sums by atomics, cdf by a scan."""
+    """Parallel form of weight_sums_sequential (GPU path): sums by atomics, cdf by a scan.
+
+    Specification: `evstar_kernels.reference.particle_filter.weight_sums` (equal to rounding)."""
     i = wp.tid()
     w = wp.exp(logw[i] - max_logw[0])
     qi = q[i]
@@ -167,7 +182,9 @@ def systematic_resample(cdf: wp.array(dtype=wp.float64), u0: wp.float64,
                         q_in: wp.array(dtype=wp.vec4d), b_in: wp.array(dtype=wp.vec3d),
                         q_out: wp.array(dtype=wp.vec4d), b_out: wp.array(dtype=wp.vec3d),
                         parent: wp.array(dtype=wp.int32)):
-    """Child j copies the first particle i with cdf[i] > (u0 + j)/N · cdf[N−1] (binary search)."""
+    """Child j copies the first particle i with cdf[i] > (u0 + j)/N · cdf[N−1] (binary search).
+
+    Specification: `evstar_kernels.reference.particle_filter.systematic_resample`."""
     j = wp.tid()
     n = cdf.shape[0]
     pos = (u0 + wp.float64(j)) / wp.float64(n) * cdf[n - 1]
