@@ -240,7 +240,29 @@ MOTION = Params(
     Param("n_particles", int, 4096, "particle-filter size", low=2, high=MAX_PARTICLES,
           cli="--particles"),
     Param("causal", bool, False, "pf: bias known up to each time (true) or final (false)"),
+    Param("extrapolate_us", int, 5000, "events this far outside the IMU's span use its end "
+          "samples' rates (held); further out is an error", low=0, high=10_000_000, unit="µs"),
 )
+
+_DEG = math.pi / 180
+#: the particle filter's model (evstar.motion.ParticleFilter); not part of Config
+PARTICLE_FILTER = Params(
+    "particle_filter",
+    Param("backend", str, "warp", "particle kernels: Warp, or their numpy specification",
+          choices=("warp", "reference")),
+    Param("gyro_noise", float, 0.02 * _DEG, "gyro white noise", low=0, unit="rad/s"),
+    Param("bias_walk", float, 0.02 * _DEG, "gyro bias random walk", low=0, unit="rad/s/√s"),
+    Param("attitude_prior", float, 0.0, "initial attitude spread", low=0, unit="rad"),
+    Param("pixel_sigma", float, 0.3, "centroid noise of the likelihood", low=0, open_low=True,
+          unit="px"),
+    Param("gate", float, 5.0, "likelihood gate, in pixel_sigma", low=0, open_low=True),
+    Param("resample_threshold", float, 0.5, "resample below this effective sample fraction",
+          low=0, high=1),
+    Param("star_refine", int, 10, "centroids averaged into a star's direction", low=1,
+          high=10**6),
+)
+#: where the event warping runs: Warp kernels, or the numpy specification
+WARP_BACKENDS = ("reference", "warp")
 
 #: options of the kernels themselves (how to compute, never what): not part of Config
 KERNEL = Params(
@@ -264,12 +286,13 @@ def markdown():
     lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
              "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
-    for params in (GLOBAL, *SECTIONS.values(), KERNEL):
+    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            option = "—" if params is KERNEL and name != "backend" else f"`{p.option}`"
+            cli = params not in (KERNEL, PARTICLE_FILTER) or (params is KERNEL and name == "backend")
+            option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "
                          f"{p.doc} | {option} |")
         lines.append("")

@@ -81,7 +81,8 @@ class Pipeline:
         # always the Warp warp: chunks and whole runs must round identically
         return compensate(events, imu, camera, self.config.dt_us, mode, t0_us=t0_us,
                           filter_result=filter_result, causal=self.config.motion.causal,
-                          backend="warp", device=self.config.device)
+                          extrapolate_us=self.config.motion.extrapolate_us, backend="warp",
+                          device=self.config.device)
 
     def _chunk(self, events, imu, camera, t0_us, rate, mode, filter_result, context=None):
         """(keep mask, centroids, timings, compensation) of one chunk; `context` are earlier

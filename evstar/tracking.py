@@ -11,23 +11,19 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .errors import ParameterError, ParameterTypeError
+from .errors import ParameterTypeError
 from .frames import frame_bounds
+from .parameters import TRACK as T
 
 _NEEDED = ("x", "y", "frame", "track")  # the centroid fields linking reads and writes
 
 
 class Tracker:
-    def __init__(self, gate_px=6.0, init_gate_px=40.0, max_gap=3, min_length=3):
-        for name, v in (("gate_px", gate_px), ("init_gate_px", init_gate_px)):
-            if not v > 0:
-                raise ParameterError(f"{name} must be positive, got {v!r}")
-        if not (int(max_gap) == max_gap and max_gap >= 0):
-            raise ParameterError(f"max_gap must be a non-negative integer, got {max_gap!r}")
-        if not (int(min_length) == min_length and min_length >= 1):
-            raise ParameterError(f"min_length must be a positive integer, got {min_length!r}")
-        self.gate_px, self.init_gate_px = float(gate_px), float(init_gate_px)
-        self.max_gap, self.min_length = int(max_gap), int(min_length)
+    def __init__(self, gate_px=T["gate_px"].default, init_gate_px=T["init_gate_px"].default,
+                 max_gap=T["max_gap"].default, min_length=T["min_length"].default):
+        self.gate_px = float(T.check("gate_px", gate_px))
+        self.init_gate_px = float(T.check("init_gate_px", init_gate_px))
+        self.max_gap, self.min_length = T.check("max_gap", max_gap), T.check("min_length", min_length)
 
     def link(self, centroids):
         """Return a copy of `centroids` with the ``track`` field filled (time-sorted input).

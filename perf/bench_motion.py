@@ -66,7 +66,7 @@ def bench_predict(n, device, steps, repeats):
                 unit="IMU steps/s")
 
 
-def bench_warping(n_events, repeats, backend="numpy", device="cpu"):
+def bench_warping(n_events, repeats, backend="reference", device="cpu"):
     rng = np.random.default_rng(1)
     duration = 1_000_000
     t = np.sort(rng.integers(0, duration, n_events))

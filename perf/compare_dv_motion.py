@@ -138,7 +138,7 @@ def throughput_rows(run, repeats):
     ev, t0 = run.events, int(run.events.t[0])
     n_frames = int((ev.t[-1] - t0) // DT_US) + 1
     rows = []
-    for backend in ("numpy", "warp"):
+    for backend in ("reference", "warp"):
         t = profiling.time_call(lambda: motion.compensate(ev, run.imu, run.camera, DT_US, "imu", t0_us=t0,
                                                           backend=backend), repeats=repeats)
         rows.append(dict(variant=f"evstar compensate ({backend}, CPU)", median_s=t["median_s"],

@@ -109,7 +109,7 @@ def test_warp_kernel_agrees_with_numpy(camera):
     _, t_ref = frame_reference_times(t, 10_000, t0_us=-5000)
     track = imu_track(rate_hz=800, offset_us=1000)
     kw = dict(extrapolate_us=10_000)
-    xn, yn = warp_to_reference(t, x, y, t_ref, track, camera, backend="numpy", **kw)
+    xn, yn = warp_to_reference(t, x, y, t_ref, track, camera, backend="reference", **kw)
     xw, yw = warp_to_reference(t, x, y, t_ref, track, camera, backend="warp", device="cpu", **kw)
     np.testing.assert_allclose(xw, xn, atol=1e-9)
     np.testing.assert_allclose(yw, yn, atol=1e-9)

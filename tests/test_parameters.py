@@ -7,6 +7,8 @@ from evstar import denoise, parameters as P
 from evstar.cli import main
 from evstar.config import Config
 from evstar.extract import Extractor
+from evstar.motion import ParticleFilter
+from evstar.tracking import Tracker
 
 
 def bad_values(param):
@@ -43,7 +45,12 @@ CLASSES = [(denoise.NDSEF, "radius", P.DENOISE), (denoise.NDSEF, "threshold", P.
            (denoise.MRNDSEF, "radii", P.DENOISE), (denoise.ClassicalFilter, "k", P.DENOISE),
            (denoise.ClassicalFilter, "device", P.GLOBAL), (Extractor, "eps", P.EXTRACT),
            (Extractor, "min_samples", P.EXTRACT), (Extractor, "weighting", P.EXTRACT),
-           (Extractor, "split_valley", P.EXTRACT), (Extractor, "dt_us", P.GLOBAL)]
+           (Extractor, "split_valley", P.EXTRACT), (Extractor, "dt_us", P.GLOBAL),
+           (Tracker, "gate_px", P.TRACK), (Tracker, "max_gap", P.TRACK),
+           (Tracker, "min_length", P.TRACK), (ParticleFilter, "n_particles", P.MOTION),
+           (ParticleFilter, "seed", P.GLOBAL), (ParticleFilter, "pixel_sigma", P.PARTICLE_FILTER),
+           (ParticleFilter, "resample_threshold", P.PARTICLE_FILTER),
+           (ParticleFilter, "star_refine", P.PARTICLE_FILTER)]
 
 
 @pytest.mark.parametrize("cls,name,params", CLASSES)
@@ -86,7 +93,7 @@ def test_cli_rejects_bad_options_in_one_line_before_any_work(tmp_path, capsys, a
 
 
 def test_every_declaration_documents_itself():
-    for params in (*P.SECTIONS.values(), P.GLOBAL, P.KERNEL):
+    for params in (*P.SECTIONS.values(), P.GLOBAL, P.KERNEL, P.PARTICLE_FILTER):
         for param in params.values():
             assert param.doc and param.check(param.default) == param.default, param.name
     assert "radius" in Config().denoise.__doc__ and "(0, 64]" in Config().denoise.__doc__

@@ -13,14 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import parameters as P
 from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
 from .imu_integration import AttitudeTrack, check_coverage, hold_ends
 from .particle_filter import ParticleFilter
 from .warping import frame_reference_times, warp_to_reference
 
-MODES = ("none", "imu", "pf")
-EXTRAPOLATE_US = 5000  # µs the IMU's end samples are held for beyond its span
+MODES = P.COMPENSATIONS
+EXTRAPOLATE_US = P.MOTION["extrapolate_us"].default
 
 
 class Compensation:
@@ -57,7 +58,7 @@ class Compensation:
 
 def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, observations=None,
                particle_filter=None, filter_result=None, causal=True, t0_us=None, reference="mid",
-               extrapolate_us=EXTRAPOLATE_US, backend="numpy", device="cpu"):
+               extrapolate_us=EXTRAPOLATE_US, backend="reference", device="cpu"):
     """Warp `events` to their frames' reference times.
 
     events: evstar.Events; imu: evstar.Imu covering the events (modes 'imu', 'pf');
@@ -68,11 +69,11 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
     causal: use at each time the bias estimated up to then (True, online) or the final
     estimate throughout (False, offline). extrapolate_us: events up to this many µs before
     the first or after the last IMU sample use that sample's rate (held); further, a
-    DataError. backend 'numpy' | 'warp' and device 'cpu' | 'cuda'
+    DataError. backend 'reference' (numpy) | 'warp' and device 'cpu' | 'cuda'
     choose where the warping runs (the particle filter has its own device setting).
     """
-    if mode not in MODES:
-        raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
+    mode = P.MOTION.check("compensate", mode, "mode")
+    extrapolate_us = P.MOTION.check("extrapolate_us", extrapolate_us)
     frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
     if mode == "none":
         return Compensation(events, mode, events.x, events.y, frame, t_ref)

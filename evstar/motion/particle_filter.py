@@ -29,7 +29,8 @@ from ..errors import DataError, ParameterError
 from ..imu import Imu
 from .imu_integration import AttitudeTrack, check_coverage, interpolate
 from .observations import StarObservations
-from .pf_engines import BACKENDS, make_engine
+from ..parameters import GLOBAL as G, MOTION as M, PARTICLE_FILTER as PF
+from .pf_engines import make_engine
 
 DEG = math.pi / 180.0
 
@@ -94,38 +95,26 @@ class ParticleFilter:
     wander more (perf/paper_fig8_motion.py).
     """
 
-    def __init__(self, n_particles=4096, *, seed=0, device="cpu", backend="warp",
-                 gyro_noise=0.02 * DEG, bias_walk=0.02 * DEG, bias_prior=0.5 * DEG,
-                 attitude_prior=0.0, pixel_sigma=0.3, gate=5.0, resample_threshold=0.5,
-                 star_refine=10):
-        if int(n_particles) != n_particles or n_particles < 2:
-            raise ParameterError(f"n_particles must be an integer >= 2, got {n_particles!r}")
-        if int(seed) != seed or not 0 <= seed < 2**32:
-            raise ParameterError(f"seed must be an integer in [0, 2**32), got {seed!r}")
-        if backend not in BACKENDS:
-            raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")
-        for name, v in (("gyro_noise", gyro_noise), ("bias_walk", bias_walk),
-                        ("attitude_prior", attitude_prior)):
-            if not (np.isfinite(v) and v >= 0):
-                raise ParameterError(f"{name} must be finite and >= 0, got {v!r}")
+    def __init__(self, n_particles=M["n_particles"].default, *, seed=G["seed"].default,
+                 device="cpu", backend=PF["backend"].default, gyro_noise=PF["gyro_noise"].default,
+                 bias_walk=PF["bias_walk"].default, bias_prior=0.5 * DEG,
+                 attitude_prior=PF["attitude_prior"].default, pixel_sigma=PF["pixel_sigma"].default,
+                 gate=PF["gate"].default, resample_threshold=PF["resample_threshold"].default,
+                 star_refine=PF["star_refine"].default):
+        self.n_particles, self.seed = M.check("n_particles", n_particles), G.check("seed", seed)
+        self.device, self.backend = G.check("device", device), PF.check("backend", backend)
+        self.gyro_noise = PF.check("gyro_noise", gyro_noise)
+        self.bias_walk = PF.check("bias_walk", bias_walk)
         bp = np.broadcast_to(np.asarray(bias_prior, dtype=np.float64), (3,))
         if not np.all(np.isfinite(bp) & (bp >= 0)):
             raise ParameterError("bias_prior must be finite and >= 0 (scalar or 3 values), "
                                  f"got {bias_prior!r}")
-        for name, v in (("pixel_sigma", pixel_sigma), ("gate", gate)):
-            if not (np.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} must be finite and > 0, got {v!r}")
-        if not 0 <= resample_threshold <= 1:
-            raise ParameterError(f"resample_threshold must lie in [0, 1], got {resample_threshold!r}")
-        if int(star_refine) != star_refine or star_refine < 1:
-            raise ParameterError(f"star_refine must be an integer >= 1, got {star_refine!r}")
-        self.star_refine = int(star_refine)
-        self.n_particles, self.seed = int(n_particles), int(seed)
-        self.device, self.backend = device, backend
-        self.gyro_noise, self.bias_walk = float(gyro_noise), float(bias_walk)
-        self.bias_prior, self.attitude_prior = bp.copy(), float(attitude_prior)
-        self.pixel_sigma, self.gate = float(pixel_sigma), float(gate)
-        self.resample_threshold = float(resample_threshold)
+        self.bias_prior = bp.copy()
+        self.attitude_prior = float(PF.check("attitude_prior", attitude_prior))
+        self.pixel_sigma = float(PF.check("pixel_sigma", pixel_sigma))
+        self.gate = float(PF.check("gate", gate))
+        self.resample_threshold = float(PF.check("resample_threshold", resample_threshold))
+        self.star_refine = PF.check("star_refine", star_refine)
 
     # -- public ---------------------------------------------------------------------------------
     def run(self, imu, observations, camera, *, q0=None, b0=None, t_start_us=None, t_stop_us=None):

@@ -11,8 +11,9 @@ from evstar_kernels.reference import particle_filter as ref
 
 from ..errors import ParameterError
 from .. import backends
+from ..parameters import PARTICLE_FILTER
 
-BACKENDS = ("warp", "reference")
+BACKENDS = PARTICLE_FILTER["backend"].choices
 
 
 class ReferenceParticles:

@@ -5,7 +5,7 @@ Frames follow DESIGN.md: frame k holds t in [t0 + k·dt, t0 + (k+1)·dt); its re
 is the frame's mid-time t0 + (k + ½)·dt (``reference="mid"``) or its start
 (``reference="start"``). Stars are at infinity, so only rotation moves them; lens
 distortion, when the camera has some, is removed before the rotation and applied after.
-Backends: 'numpy' (vectorised; the reference) and 'warp' (one kernel launch, CPU or CUDA).
+Backends: 'reference' (numpy, vectorised: the specification) and 'warp' (one kernel launch, CPU or CUDA).
 """
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ import numpy as np
 from evstar_kernels.reference import so3
 
 from ..errors import ParameterError
-from .. import backends
+from .. import backends, parameters as P
 
 REFERENCES = ("mid", "start")
-WARP_BACKENDS = ("numpy", "warp")
+WARP_BACKENDS = P.WARP_BACKENDS
 _CHUNK = 1 << 20  # events per vectorised numpy pass: bounds the temporaries to ~100 MB
 _UNDISTORT_ITERATIONS = 5  # as Camera.unproject
 
@@ -53,10 +53,10 @@ def rotate_pixels(x, y, q_rel, camera):
 
 
 def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0, *,
-                      backend="numpy", device="cpu"):
+                      backend="reference", device="cpu"):
     """Warp events (t_us, x, y) to their reference times with an AttitudeTrack: (xw, yw) float64.
 
-    backend 'numpy' | 'warp' (device 'cpu' | 'cuda'); both agree to ~1e-9 px.
+    backend 'reference' | 'warp' (device 'cpu' | 'cuda'); both agree to ~1e-9 px.
     """
     if backend not in WARP_BACKENDS:
         raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
@@ -67,7 +67,7 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
     if backend == "warp":
         return _warp_kernel(t, x, y, ref_index, q_ref, attitude, camera, device)
     if backends.check_device(device) != "cpu":
-        raise ParameterError(f"backend='numpy' runs on the CPU only, got device={device!r}")
+        raise ParameterError(f"backend='reference' runs on the CPU only, got device={device!r}")
     xw, yw = np.empty(len(t)), np.empty(len(t))
     for s in range(0, len(t), _CHUNK):
         sl = slice(s, s + _CHUNK)
