@@ -13,7 +13,7 @@ Variants:
 - dv: MotionCompensator.generateEvents(frame mid-time), integer pixels as dv returns them
   (PixelMotionPredictor casts the float position to int16, i.e. truncates toward zero);
 - dv + 0.5 px: dv's centroids shifted by half a pixel in x and y (undoes the truncation on
-  average, under the pixel-centre convention of DESIGN.md);
+  average, under the pixel-centre convention of docs/design.md);
 - none: no compensation, centroid at the events' mean time (evstar's default), for reference.
 
 Throughput: events per second of the compensation alone, median of --repeats runs after a

@@ -2,7 +2,7 @@
 integration with the exponential map (attitude at any time by slerp), and the paper's
 accelerometer double integration.
 
-Conventions (DESIGN.md): times are camera-clock µs (`Imu.t_cam`); rates and accelerations are
+Conventions (docs/design.md): times are camera-clock µs (`Imu.t_cam`); rates and accelerations are
 in the camera frame (`Imu.gyro_cam`, `Imu.accel_cam`); R_cw maps world vectors into the
 camera and dR_cw/dt = −[ω]× R_cw. Between two samples the rate is taken as their mean (the
 rate is linear in time between samples, so this is the exact mean rate of each interval).

@@ -1,6 +1,6 @@
 """ParticleFilter: attitude and gyro bias on SO(3) from the gyro and tracked star centroids.
 
-Model (DESIGN.md). Each particle holds the attitude q (R_cw) and the gyro bias b (camera
+Model (docs/design.md). Each particle holds the attitude q (R_cw) and the gyro bias b (camera
 frame; the gyro reads ω + b + noise). Prediction runs every IMU step with the rate
 (ω_meas − b)·dt plus gyro noise of density `gyro_noise` through the exponential map; the
 bias takes a random walk of density `bias_walk` once per prediction block (between two

@@ -1,7 +1,7 @@
 """Event warping: move each event to its pseudo-frame's reference time through
 u' = π(K · R(t_ref ← t) · K⁻¹ ũ), with float (sub-pixel) output.
 
-Frames follow DESIGN.md: frame k holds t in [t0 + k·dt, t0 + (k+1)·dt); its reference time
+Frames follow docs/design.md: frame k holds t in [t0 + k·dt, t0 + (k+1)·dt); its reference time
 is the frame's mid-time t0 + (k + ½)·dt (``reference="mid"``) or its start
 (``reference="start"``). Stars are at infinity, so only rotation moves them; lens
 distortion, when the camera has some, is removed before the rotation and applied after.

@@ -1,6 +1,6 @@
 """IMU model: gyroscope and accelerometer on the camera, with noise, bias and calibration.
 
-Truth first, in the camera frame and clock (DESIGN.md): the gyro reads the body rate ω with
+Truth first, in the camera frame and clock (docs/design.md): the gyro reads the body rate ω with
 dR_cw/dt = −[ω]× R_cw; the accelerometer reads the specific force f = a − g, where a is the
 acceleration of a point `lever_arm_m` away from the rotation centre (ω̇ × r + ω × (ω × r)) and
 g is gravity, fixed in the world frame. Then the sensor: readings are rotated into the IMU

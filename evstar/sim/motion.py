@@ -1,6 +1,6 @@
 """Camera attitude trajectories: turntable at a constant rate, sinusoid, user-supplied.
 
-Conventions (DESIGN.md): R_cw(t) maps world vectors into the camera frame (x right, y down,
+Conventions (docs/design.md): R_cw(t) maps world vectors into the camera frame (x right, y down,
 z along the optical axis); ω(t) is the body rate in the camera frame, what an ideal gyro
 aligned with the camera reads, and dR_cw/dt = −[ω]× R_cw. Times are seconds from the start
 of the simulation.

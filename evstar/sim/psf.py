@@ -1,6 +1,6 @@
 """Star point-spread function: a Gaussian integrated over each pixel's square.
 
-Pixel i covers [i - 0.5, i + 0.5) (DESIGN.md), so the fraction of a star's flux that lands
+Pixel i covers [i - 0.5, i + 0.5) (docs/design.md), so the fraction of a star's flux that lands
 on pixel (i, j) is the product of two 1-D erf differences — separable, which lets the
 simulator build a window from 2·(W + 1) erf calls instead of W² integrals.
 """
