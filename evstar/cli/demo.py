@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import pathlib
 
-from .. import io
+from .. import parameters as P
+from .options import add_options, checked
+
 
 
 def add_parser(sub):
     p = sub.add_parser("demo", help="simulate the default scene and run the whole pipeline",
                        description=__doc__)
     p.add_argument("-o", "--output", default="out/demo", metavar="OUTDIR", help="(out/demo)")
-    p.add_argument("--rate", type=float, default=20.0, help="slew rate, °/s (20)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--device", default="cpu", help="cpu or cuda")
-    p.add_argument("--compensate", default="pf", choices=("none", "imu", "pf"))
+    p.add_argument("--rate", type=checked(float, -3600, 3600), default=20.0, help="slew rate, °/s (20)")
+    add_options(p, P.GLOBAL, ["device", "seed"], device={"default": "cpu"}, seed={"default": 1})
+    add_options(p, P.MOTION, ["compensate"], section="", compensate={"default": "pf"})
     return p
 
 
@@ -23,9 +24,12 @@ def run(args):
 
     from .. import Config, sim
     from ..pipeline import Pipeline
-    from .run import summarise, write_outputs
+    from .. import io, outputs
+
+    from ..io.atomic import check_output_dir
 
     out = pathlib.Path(args.output)
+    check_output_dir(out)
     bias = tuple(np.radians([0.3, -0.2, 0.25]))   # a realistic MEMS gyro bias, °/s -> rad/s
     scenario = sim.paper_preset(args.rate, imu=sim.ImuSpec(gyro_bias=bias))
     run_ = sim.simulate(scenario, seed=args.seed)
@@ -38,8 +42,8 @@ def run(args):
     sim.save_truth(out / "truth.npz", run_.truth)
     cfg = Config(device=args.device, seed=args.seed).replace(**{"motion.compensate": args.compensate})
     result = Pipeline(cfg).run(run_.events, run_.imu, run_.camera, truth=run_.truth)
-    write_outputs(out, result, cfg, run_.truth)
+    outputs.write_run(out, result, cfg, run_.truth)
     if "pf_final_bias_dps" in result.metrics:
         est = np.round(result.metrics["pf_final_bias_dps"], 3).tolist()
         print(f"gyro bias     true {[0.3, -0.2, 0.25]} °/s, particle filter {est} °/s")
-    summarise(result, out)
+    print(outputs.summary_text(result, out))

@@ -9,11 +9,8 @@ from __future__ import annotations
 
 import time
 
-import numpy as np
-
-from .. import io, parameters as P
+from .. import parameters as P
 from ..errors import ParameterError
-from ..io.atomic import atomic_path, check_output_file, check_outputs
 from .common import add_input_options, load
 from .options import add_options, config_from_args
 
@@ -50,6 +47,11 @@ def make_filter(args):
 
 
 def run(args):
+    import numpy as np
+
+    from .. import io
+    from ..io.atomic import atomic_path, check_output_file, check_outputs
+
     for out in (args.output, args.mask_out):
         if out is not None:
             check_output_file(out)

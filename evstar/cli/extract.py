@@ -6,9 +6,6 @@ CSV header `t,x,y,track,n_events,frame` (t in µs; track -1 = unconfirmed) follo
 """
 from __future__ import annotations
 
-from .. import io
-from ..io.atomic import check_output_file, check_outputs
-from ..pipeline import Pipeline
 from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
@@ -23,6 +20,10 @@ def add_parser(sub):
 
 
 def run(args):
+    from .. import io
+    from ..io.atomic import check_output_file, check_outputs
+    from ..pipeline import Pipeline
+
     check_output_file(args.output)
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)

@@ -11,9 +11,6 @@ from __future__ import annotations
 
 import os
 
-from .. import io, outputs
-from ..io.atomic import check_output_dir, check_outputs
-from ..pipeline import Pipeline
 from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
@@ -33,6 +30,9 @@ def add_parser(sub):
 
 
 def run(args):
+    from .. import outputs
+    from ..io.atomic import check_output_dir, check_outputs
+    from ..pipeline import Pipeline
     from ..sim import load_truth
 
     check_output_dir(args.output)
@@ -49,12 +49,13 @@ def run(args):
     else:
         rec = load(args)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
-    write_outputs(args.output, result, cfg, truth)
-    summarise(result, args.output)
+    outputs.write_run(args.output, result, cfg, truth)
+    print(outputs.summary_text(result, args.output))
 
 
 def load_aux(args):
     """IMU and camera for a streamed input (from their own files)."""
+    from .. import io
     from ..recording import Recording
 
     rec = Recording(events=None)
@@ -62,9 +63,3 @@ def load_aux(args):
     rec.imu = io.read_imu(args.imu) if args.imu else None
     return rec
 
-
-write_outputs = outputs.write_run  # `evstar demo` writes the same folder
-
-
-def summarise(result, outdir):
-    print(outputs.summary_text(result, outdir))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import os
 
-from .. import io
 from ..errors import FormatError, OutputError, ParameterError
 from .options import checked
 
@@ -84,6 +83,7 @@ def _motion(sim, args, R0=None):
 
 
 def run(args):
+    from .. import io
     from ..sim import save_truth, simulate
 
     if os.path.exists(args.out_dir) and not os.path.isdir(args.out_dir):

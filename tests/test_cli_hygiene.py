@@ -1,0 +1,47 @@
+"""The command line keeps stdout for results and starts fast: no banners, no stray warnings,
+no heavy imports before a sub-command runs (`evstar --help` time is measured in
+perf/bench_startup.py)."""
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("sklearn", "scipy", "taichi", "warp", "pandas", "h5py", "matplotlib", "faery")
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "evstar", *args], capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_building_every_option_imports_nothing_heavy():
+    code = ("import sys; from evstar.cli import build_parser; build_parser(); "
+            f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and out.stdout.strip() == "[]", out.stdout + out.stderr
+
+
+def test_stdout_holds_the_result_line_only(real_dir, tmp_path):
+    res = run("denoise", str(real_dir / "emlb_demo-01.aedat4"), str(tmp_path / "o.h5"),
+              "--method", "ndsef")
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("kept ") and res.stdout.count("\n") == 1   # no Taichi banner
+    assert "CUDA" not in res.stderr and "Taichi" not in res.stderr
+
+
+@pytest.mark.parametrize("argv,code,text", [
+    (["denoise", "missing.h5", "o.h5", "--method", "ndsef"], 3, "missing.h5: no such file"),
+    (["denoise", "a.h5", "o.h5", "--method", "median"], 2, "invalid choice: 'median'"),
+    (["bench", "--device", "cuda", "--events", "1000"], 5, "no CUDA GPU"),
+])
+def test_failures_are_one_line_with_their_exit_code(tmp_path, argv, code, text):
+    res = subprocess.run([sys.executable, "-m", "evstar", *argv], capture_output=True, text=True,
+                         cwd=tmp_path, timeout=300)
+    assert res.returncode == code and text in res.stderr
+    assert res.stderr.count("\n") == 1 and "Traceback" not in res.stderr
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "evstar", "--debug", "info", "missing.h5"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode != 0 and "Traceback" in res.stderr
