@@ -14,6 +14,14 @@ windows can come and go. Initial references sit a uniform random fraction of a t
 away from the current level (the state a pixel is left in by its last event), so event
 counts vary smoothly with contrast.
 
+Photoreceptor bandwidth (off unless SensorSpec.cutoff_hz_max is set): the detector sees
+each pixel's log intensity through a first-order low-pass whose cutoff follows the pixel's
+intensity I (sky background = 1), f_c = clip(cutoff_hz_background · I, cutoff_hz_background,
+cutoff_hz_max), as a photoreceptor's bandwidth follows its photocurrent (v2e). A dim pixel
+responds late and relaxes slowly, so a moving star's events trail it. Filtered values are
+exact at the grid times for the linear input; pixels start settled, and a pixel a window has
+left is followed with background samples until its output has relaxed.
+
 Pixels are independent, so a chunk of grid steps is processed column by column: column c
 holds every pixel's c-th sample in the chunk. A moving star visits a pixel for a few dozen
 grid steps, so a chunk of thousands of steps costs a few dozen vectorised passes.
@@ -177,12 +185,12 @@ class _Photoreceptor:
         return y0, y1
 
     def tail_s(self, flux, sigma_px):
-        """How long a pixel left by a star (outside its window) must still be followed: until
-        its output, at most the brightest star's peak log intensity, has relaxed to within
+        """Per star, how long a pixel it leaves (outside its window) must still be followed:
+        until the output, at most the star's peak log intensity, has relaxed to within
         min_log_change of the background at the background cutoff."""
-        peak = math.log1p(float(np.max(flux)) * float(pixel_profile(0.0, 0.0, 1, sigma_px)[0]) ** 2)
-        ratio = peak / self.spec.min_log_change
-        return math.log(ratio) / (2 * math.pi * self.spec.cutoff_hz_background) if ratio > 1 else 0.0
+        peak = np.log1p(np.asarray(flux, np.float64) * float(pixel_profile(0.0, 0.0, 1, sigma_px)[0]) ** 2)
+        ratio = np.maximum(peak / self.spec.min_log_change, 1.0)
+        return np.log(ratio) / (2 * math.pi * self.spec.cutoff_hz_background)
 
 
 class _Emitted:
@@ -318,7 +326,7 @@ def _shot_noise(rng, chunk, grid, rate_hz, out):
 
 
 class _Tails:
-    """Follows each pixel for tail_s after a star's window leaves it, with background samples
+    """Follows each pixel for tail_s[star] after a star's window leaves it, with background samples
     (contrib 0) at the grid times, so that its low-passed log intensity relaxes through the
     detector: the OFF events that trail a star. Tails crossing a chunk's end carry over."""
 
@@ -330,11 +338,11 @@ class _Tails:
         """The chunk with the tail samples of its grid steps, step-major."""
         k_first, k_last = chunk.span
         big = len(self.grid) + 1
-        order = np.lexsort((chunk.step, chunk.pix))
-        ps, ks, ss = chunk.pix[order], chunk.step[order], chunk.star[order]
+        order = np.argsort(chunk.pix, kind="stable")        # by pixel, then step (step-major)
+        ps, ks, ss = chunk.pix[order].astype(np.int64), chunk.step[order], chunk.star[order]
         ends = np.ones(len(ps), bool)                    # where a pixel's run of steps ends
         ends[:-1] = (ps[1:] != ps[:-1]) | (ks[1:] != ks[:-1] + 1)
-        tail_end = np.searchsorted(self.grid, self.grid[ks[ends]] + self.tail_s, side="right") - 1
+        tail_end = np.searchsorted(self.grid, self.grid[ks[ends]] + self.tail_s[ss[ends]], side="right") - 1
         cp, cs, ce = self.carry
         pix = np.concatenate([cp, ps[ends]])
         star = np.concatenate([cs, ss[ends]])
@@ -351,11 +359,20 @@ class _Tails:
             return chunk
         first = np.cumsum(n) - n
         steps = np.repeat(k0, n) + 1 + np.arange(int(n.sum())) - np.repeat(first, n)
-        step = np.concatenate([chunk.step, steps])
-        by_step = np.argsort(step, kind="stable")
-        return Chunk(np.concatenate([chunk.pix, np.repeat(pix, n)])[by_step],
-                     np.concatenate([chunk.contrib, np.zeros(len(steps))])[by_step],
-                     np.concatenate([chunk.star, np.repeat(star, n)])[by_step], step[by_step], chunk.span)
+        by_step = np.argsort(steps, kind="stable")
+        steps = steps[by_step]
+        # splice the tail samples in after the chunk's own samples of the same step
+        at = np.searchsorted(chunk.step, steps, side="right") + np.arange(len(steps))
+        mine = np.ones(len(chunk.step) + len(steps), bool)
+        mine[at] = False
+
+        def spliced(own, tail):
+            col = np.empty(len(mine), np.result_type(own.dtype, tail.dtype))
+            col[mine], col[at] = own, tail
+            return col
+        return Chunk(spliced(chunk.pix, np.repeat(pix, n)[by_step]),
+                     spliced(chunk.contrib, np.zeros(len(steps))),
+                     spliced(chunk.star, np.repeat(star, n)[by_step]), spliced(chunk.step, steps), chunk.span)
 
 
 def _process(state, pix, L, star, step, grid, refractory_s, out, layout):
