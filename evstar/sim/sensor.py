@@ -294,6 +294,8 @@ def star_events(camera, stars, flux, trajectory, grid, spec, sigma_px, state, la
     out = _Emitted()
     if len(stars) == 0:
         return out.arrays()
+    if spec.shot_noise_hz > 0 and rng is None:
+        raise ParameterError("star_events: shot noise needs a random generator (rng)")
     half = np.array([window_half_width(f, sigma_px, spec.min_log_change) for f in flux])
     refractory_s = spec.refractory_us * 1e-6
     tails = _Tails(state.filter.tail_s(flux, sigma_px), grid) if state.filter is not None else None
@@ -360,19 +362,26 @@ class _Tails:
         first = np.cumsum(n) - n
         steps = np.repeat(k0, n) + 1 + np.arange(int(n.sum())) - np.repeat(first, n)
         by_step = np.argsort(steps, kind="stable")
-        steps = steps[by_step]
-        # splice the tail samples in after the chunk's own samples of the same step
-        at = np.searchsorted(chunk.step, steps, side="right") + np.arange(len(steps))
-        mine = np.ones(len(chunk.step) + len(steps), bool)
-        mine[at] = False
+        step, pix_, contrib, star_ = merge_sorted(
+            (chunk.step, chunk.pix, chunk.contrib, chunk.star),
+            (steps[by_step], np.repeat(pix, n)[by_step], np.zeros(len(steps)), np.repeat(star, n)[by_step]))
+        return Chunk(pix_, contrib, star_, step, chunk.span)
 
-        def spliced(own, tail):
-            col = np.empty(len(mine), np.result_type(own.dtype, tail.dtype))
-            col[mine], col[at] = own, tail
-            return col
-        return Chunk(spliced(chunk.pix, np.repeat(pix, n)[by_step]),
-                     spliced(chunk.contrib, np.zeros(len(steps))),
-                     spliced(chunk.star, np.repeat(star, n)[by_step]), spliced(chunk.step, steps), chunk.span)
+
+def merge_sorted(big, small):
+    """Merge two tuples of arrays sorted by their first; the small one is spliced in, after
+    equal keys of the big one."""
+    tb, ts = big[0], small[0]
+    pos = np.searchsorted(tb, ts, side="right") + np.arange(len(ts))
+    n = len(tb) + len(ts)
+    from_big = np.ones(n, bool)
+    from_big[pos] = False
+    out = []
+    for a, b in zip(big, small):
+        col = np.empty(n, np.result_type(a.dtype, b.dtype))
+        col[from_big], col[pos] = a, b
+        out.append(col)
+    return tuple(out)
 
 
 def _process(state, pix, L, star, step, grid, refractory_s, out, layout):

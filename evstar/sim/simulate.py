@@ -24,7 +24,7 @@ from .imu_model import simulate_imu
 from .noise import background_activity, hot_pixels, leak_events
 from .render import time_grid
 from .scene import Scenario
-from .sensor import PixelState, star_events
+from .sensor import PixelState, merge_sorted, star_events
 from .truth import HOT_PIXEL, NOISE, Truth
 
 
@@ -44,21 +44,6 @@ class Simulation:
 def _to_us(t_s, t_start_us, t_end_us):
     t = t_start_us + np.floor(t_s * 1e6).astype(np.int64)
     return np.minimum(t, t_end_us - 1)
-
-
-def _merge(big, small):
-    """Merge two time-sorted (t, pix, p, label) tuples; the small one is spliced in."""
-    tb, ts = big[0], small[0]
-    pos = np.searchsorted(tb, ts, side="right") + np.arange(len(ts))
-    n = len(tb) + len(ts)
-    from_big = np.ones(n, bool)
-    from_big[pos] = False
-    out = []
-    for a, b in zip(big, small):
-        col = np.empty(n, np.result_type(a.dtype, b.dtype))
-        col[from_big], col[pos] = a, b
-        out.append(col)
-    return tuple(out)
 
 
 def _signal(scn, state, flux, grid, t_end_us, rng, rng_shot):
@@ -119,7 +104,7 @@ def _events(scn, rng_thr, rng_sig, rng_hot, rng_bg, rng_drop, rng_shot):
                        scn.duration_s)
     signal = _signal(scn, state, scn.stars.flux(scn.flux_mag3), grid, t_end_us, rng_sig, rng_shot)
     if len(leak[0]):
-        signal = _merge(signal, (_to_us(leak[0], scn.t_start_us, t_end_us), leak[1], leak[2],
+        signal = merge_sorted(signal, (_to_us(leak[0], scn.t_start_us, t_end_us), leak[1], leak[2],
                                  np.full(len(leak[0]), NOISE, np.int32)))
     t_hot, pix_hot, pol_hot, hot_where = hot_pixels(rng_hot, n_pix, spec.hot_pixels, spec.hot_pixel_hz,
                                                     scn.duration_s, spec.refractory_us * 1e-6)
@@ -127,7 +112,7 @@ def _events(scn, rng_thr, rng_sig, rng_hot, rng_bg, rng_drop, rng_shot):
     t_bg, pix_bg, pol_bg = background_activity(rng_bg, n_pix, spec.noise_hz, scn.duration_s,
                                                spec.noise_on_fraction)
     bg = (_to_us(t_bg, scn.t_start_us, t_end_us), pix_bg, pol_bg, np.full(len(t_bg), NOISE, np.int32))
-    t, pix, pol, labels = _merge(bg, _merge(signal, hot))
+    t, pix, pol, labels = merge_sorted(bg, merge_sorted(signal, hot))
     if spec.dropout > 0:
         keep = rng_drop.random(len(t)) >= spec.dropout
         t, pix, pol, labels = t[keep], pix[keep], pol[keep], labels[keep]
