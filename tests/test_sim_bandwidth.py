@@ -92,20 +92,6 @@ def test_brighter_pixels_have_higher_cutoffs():
     assert np.all(np.isinf(sim.SensorSpec().cutoff_hz([1.0, 50.0])))   # off: unlimited
 
 
-def test_rise_time_shortens_with_the_pixels_intensity():
-    dt = 2e-5
-    spec = sim.SensorSpec.ideal(cutoff_hz_background=10.0, cutoff_hz_max=1000.0)
-    t, pix, pol, ref0, intensity = step_response_events(spec, 0.01, 1.0, 0.06, dt)
-    first_on = {}
-    for ti, p, i in zip(t[pol == 1], pix[pol == 1], intensity[pol == 1]):
-        first_on.setdefault(p, (ti, i))
-    ti, inten = np.array(list(first_on.values())).T
-    # time to the first crossing per unit of log intensity it had to rise, against intensity
-    assert np.corrcoef(inten, ti)[0, 1] < -0.3
-    bright, dim = ti[inten > 10].mean(), ti[inten < 3].mean()
-    assert bright < dim
-
-
 def offsets(magnitude, spec, rate_dps=8.0, seed=1):
     """Along-motion offsets (px) of the star's events from the truth at their times, ON mask."""
     run = sim.simulate(sim.paper_preset(rate_dps, magnitude=magnitude, sensor=spec), seed=seed)
