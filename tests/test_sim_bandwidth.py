@@ -135,6 +135,59 @@ def test_one_millisecond_grid_is_fine_enough_for_the_low_pass():
     assert np.allclose(d0, d1, atol=0.01)
 
 
+def filtered_samples(samples, grid, spec, tail_s):
+    """The photoreceptor as a plain loop: per pixel, its window samples plus background ones
+    for tail_s after each run of them, low-passed sample by sample (exact ramp response)."""
+    out = {}
+    for pix, seq in samples.items():
+        steps = {k: (L, star) for k, L, star in seq}
+        k, u, y, filtered = seq[0][0], 0.0, 0.0, []        # at the background until then
+        while k < len(grid):
+            if k in steps:
+                u1, star = steps[k]
+                last_seen = k
+            elif grid[k] <= grid[last_seen] + tail_s[star]:
+                u1 = 0.0
+            else:
+                k = min([j for j in steps if j > k], default=len(grid))
+                continue
+            if k == 0:
+                y = u1                                             # settled at the start
+            elif not filtered or k - 1 == filtered[-1][0]:
+                w = 2 * math.pi * float(spec.cutoff_hz(math.exp((u + u1) / 2)))
+                x = w * (grid[k] - grid[k - 1])
+                y = u1 + (y - u) * math.exp(-x) - (u1 - u) * -math.expm1(-x) / x
+            else:
+                raise AssertionError("a single star passing once leaves no gaps")
+            u = u1
+            filtered.append((k, y, star))
+            k += 1
+        out[pix] = filtered
+    return out
+
+
+@pytest.mark.parametrize("refractory_us", [0.0, 300.0])
+def test_low_pass_detection_matches_a_per_pixel_loop(refractory_us):
+    """The vectorised photoreceptor, tails and detector against the per-pixel loops."""
+    from test_sim_sensor import reference_events, samples_of
+
+    spec = sim.SensorSpec.ideal(threshold_mismatch=0.03, refractory_us=refractory_us,
+                                cutoff_hz_background=30.0, cutoff_hz_max=2000.0)
+    scn = sim.paper_preset(16.0, duration_s=0.1, magnitude=4.0, sensor=spec)
+    flux = scn.stars.flux(scn.flux_mag3)
+    grid = time_grid(scn.trajectory, scn.camera, scn.duration_s, scn.grid_step_px)
+    state = PixelState(scn.camera.width * scn.camera.height, spec, np.random.default_rng(3))
+    samples = filtered_samples(samples_of(scn, flux, grid, spec), grid, spec,
+                               state.filter.tail_s(flux, 1.0))
+    expected = reference_events(copy.deepcopy(state), samples, grid, refractory_us * 1e-6)
+    t, pix, pol, star = star_events(scn.camera, scn.stars, flux, scn.trajectory, grid, spec, 1.0, state)
+    order = np.lexsort((t, pix))
+    got = np.column_stack([pix[order], t[order], pol[order], star[order]])
+    assert len(got) == len(expected) > 500
+    assert np.array_equal(got[:, [0, 2, 3]], expected[:, [0, 2, 3]])
+    assert np.abs(got[:, 1] - expected[:, 1]).max() < 1e-9
+
+
 def test_low_pass_orders_give_identical_events():
     spec = sim.SensorSpec.dark_sky(jitter_us=0.0, noise_hz=0.0, hot_pixels=0, refractory_us=300.0)
     scn = sim.paper_preset(20.0, duration_s=0.2, sensor=spec)
