@@ -14,7 +14,7 @@ from .options import checked
 
 
 def add_parser(sub):
-    from ..sim.presets import SENSORS
+    from ..sim.presets import SENSOR_MODELS, SENSORS
 
     p = sub.add_parser("simulate", help="simulate stars seen by an event camera on a turntable",
                        description=__doc__)
@@ -36,6 +36,9 @@ def add_parser(sub):
     p.add_argument("--pointing", type=checked(float, -360, 360), nargs=2, default=(83.8, -5.4), metavar=("RA", "DEC"),
                    help="boresight in degrees for --stars > 1 (default: Orion, 83.8 -5.4)")
     p.add_argument("--mag-limit", type=checked(float, -30, 30), default=6.5, help="faintest catalogue magnitude (6.5)")
+    p.add_argument("--sensor", type=str, choices=SENSOR_MODELS, default="default",
+                   help="sensor model: default (no pixel bandwidth limit) or dark-sky (photoreceptor "
+                        "low-pass 30 Hz at the sky background up to 2 kHz, 0.1 Hz leak)")
     p.add_argument("--noise-hz", type=checked(float, 0, 1e6), default=1.5, help="background activity, events/pixel/s (1.5)")
     p.add_argument("--hot-pixels", type=checked(int, 0, 10**6), default=5, metavar="N", help="number of hot pixels (5)")
     p.add_argument("--threshold", type=checked(float, 0, 10, open_low=True), default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
@@ -60,8 +63,8 @@ def scenario_from(args):
     from .. import sim
 
     cam = sim.camera_preset(args.preset, args.focal_length)
-    sensor = sim.SensorSpec(threshold_on=args.threshold, threshold_off=args.threshold,
-                            noise_hz=args.noise_hz, hot_pixels=args.hot_pixels)
+    sensor = sim.sensor_model(args.sensor, threshold_on=args.threshold, threshold_off=args.threshold,
+                              noise_hz=args.noise_hz, hot_pixels=args.hot_pixels)
     imu = (sim.ImuSpec.ideal if args.ideal_imu else sim.ImuSpec)(rate_hz=args.imu_rate)
     duration = args.duration if args.duration is not None else (1.0 if args.sine else 0.5)
     if args.stars == 1:

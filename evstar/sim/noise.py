@@ -7,6 +7,12 @@ come out sorted, no sort of millions of events) and a uniform pixel per event.
 
 A hot pixel fires far more often, as a renewal process whose gaps are the refractory period
 plus an exponential wait, so that its mean rate is `hot_pixel_hz`.
+
+Leak (v2e's model): every pixel's reference drifts down by leak_hz · θ_on (nominal) per
+second, so a pixel under constant light emits an ON event each time the drift covers its own
+θ_on: a periodic train at leak_hz · θ_on / (its θ_on). Trains start in steady state: each
+pixel is as far into its period as its initial reference is into (−θ_off, θ_on), a uniform
+fraction.
 """
 from __future__ import annotations
 
@@ -53,3 +59,18 @@ def hot_pixels(rng, n_pixels, count, rate_hz, duration_s, refractory_s):
     order = np.argsort(t, kind="stable")
     pol = (rng.random(len(t)) < 0.5).astype(np.int8)
     return t[order], pix[order], pol, where
+
+
+def leak_events(ref, c_on, c_off, leak_hz, theta_on, duration_s):
+    """(t seconds sorted, pixel index, polarity int8) of the leak of pixels whose references
+    are `ref` (background log intensity 0) and thresholds c_on, c_off at the start."""
+    if leak_hz <= 0 or duration_s <= 0:
+        return np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int8)
+    period = c_on / (leak_hz * theta_on)
+    first = (c_on + ref) / (c_on + c_off) * period    # ref's place in (−θ_on, θ_off): uniform
+    n = np.maximum(np.ceil((duration_s - first) / period), 0).astype(np.int64)
+    pix = np.repeat(np.arange(len(ref)), n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    t = first[pix] + k * period[pix]
+    order = np.argsort(t, kind="stable")
+    return t[order], pix[order], np.ones(len(t), np.int8)

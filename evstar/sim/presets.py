@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..camera import Camera
+from ..errors import ParameterError
 from .motion import ConstantRate, Sinusoid
 from .scene import Scenario
 from .sensor import SensorSpec
@@ -43,6 +44,18 @@ SENSORS = {
     "evk4": SensorPreset("evk4", 1280, 720, 4.86),                      # Prophesee EVK4 (Sony IMX636)
 }
 ALIASES = {"imx636": "evk4", "dvxplorer_lite": "dvxplorer-lite", "dvx-lite": "dvxplorer-lite"}
+
+
+#: sensor models by name (`evstar simulate --sensor`): the default has no photoreceptor
+#: bandwidth limit; dark-sky low-passes each pixel with an intensity-dependent cutoff and leaks
+SENSOR_MODELS = {"default": SensorSpec, "dark-sky": SensorSpec.dark_sky}
+
+
+def sensor_model(name, **overrides):
+    """The SensorSpec of a named sensor model, with `overrides` of its fields."""
+    if name not in SENSOR_MODELS:
+        raise ParameterError(f"unknown sensor model {name!r}; known: {', '.join(SENSOR_MODELS)}")
+    return SENSOR_MODELS[name](**overrides)
 
 
 def sensor_preset(name):

@@ -53,13 +53,14 @@ def footprint(flux, h, sigma, min_log_change):
 
 @dataclass
 class Chunk:
-    """Window samples of consecutive grid steps, step-major: pixel index, flux over the
-    background, star index and grid step of each."""
+    """Window samples of grid steps span[0] .. span[1], step-major: pixel index, flux over
+    the background, star index and grid step of each."""
 
     pix: np.ndarray
     contrib: np.ndarray
     star: np.ndarray
     step: np.ndarray
+    span: tuple = (0, -1)
 
 
 def _samples_per_step(camera, dirs, flux, half, sigma, min_log_change, trajectory, grid):
@@ -76,14 +77,17 @@ def _samples_per_step(camera, dirs, flux, half, sigma, min_log_change, trajector
 
 
 def render_chunks(camera, dirs, flux, half, sigma, min_log_change, trajectory, grid):
-    """Yield the Chunks covering every grid step (memory-bounded)."""
+    """Yield the Chunks covering every grid step (memory-bounded), empty ones included."""
     per_step = _samples_per_step(camera, dirs, flux, half, sigma, min_log_change, trajectory, grid)
     size = max(2, CHUNK_ENTRIES // max(per_step, 1))
     for k0 in range(0, len(grid), size):
         ks = np.arange(k0, min(len(grid), k0 + size))
         chunk = _render(camera, dirs, flux, half, sigma, min_log_change, trajectory.rotation(grid[ks]), ks)
-        if chunk is not None:
-            yield chunk
+        if chunk is None:  # no star in view: an empty chunk still marks the steps' passing
+            empty = np.zeros(0, np.int64)
+            chunk = Chunk(empty, np.zeros(0), empty, empty)
+        chunk.span = (int(ks[0]), int(ks[-1]))
+        yield chunk
 
 
 def _render(camera, dirs, flux, half, sigma, min_log_change, R, ks):

@@ -1,12 +1,13 @@
 """simulate(scenario, seed): events, IMU, camera and ground truth of one run.
 
 Every random component draws from its own stream spawned from the seed (pixel thresholds,
-signal jitter, hot pixels, background, dropout, IMU), so a run is reproducible and changing
-one setting does not reshuffle the others' randomness.
+signal jitter, hot pixels, background, dropout, IMU, shot noise), so a run is reproducible
+and changing one setting does not reshuffle the others' randomness.
 
-Events are time-sorted (ties by pixel); star events come from :mod:`.sensor`, noise and hot
-pixels from :mod:`.noise`, which do not interact with the star's pixels (at Hz rates the
-overlap is negligible). Timestamps are whole microseconds from `t_start_us`.
+Events are time-sorted (ties by pixel); star events (and shot noise) come from
+:mod:`.sensor`, noise, leak and hot pixels from :mod:`.noise`, which do not interact with
+the star's pixels (at Hz rates the overlap is negligible). Timestamps are whole microseconds
+from `t_start_us`.
 """
 from __future__ import annotations
 
@@ -20,10 +21,10 @@ from ..camera import Camera
 from ..events import Events
 from ..imu import Imu
 from .imu_model import simulate_imu
-from .noise import background_activity, hot_pixels
+from .noise import background_activity, hot_pixels, leak_events
 from .render import time_grid
 from .scene import Scenario
-from .sensor import PixelState, star_events
+from .sensor import PixelState, merge_sorted, star_events
 from .truth import HOT_PIXEL, NOISE, Truth
 
 
@@ -45,24 +46,9 @@ def _to_us(t_s, t_start_us, t_end_us):
     return np.minimum(t, t_end_us - 1)
 
 
-def _merge(big, small):
-    """Merge two time-sorted (t, pix, p, label) tuples; the small one is spliced in."""
-    tb, ts = big[0], small[0]
-    pos = np.searchsorted(tb, ts, side="right") + np.arange(len(ts))
-    n = len(tb) + len(ts)
-    from_big = np.ones(n, bool)
-    from_big[pos] = False
-    out = []
-    for a, b in zip(big, small):
-        col = np.empty(n, np.result_type(a.dtype, b.dtype))
-        col[from_big], col[pos] = a, b
-        out.append(col)
-    return tuple(out)
-
-
-def _signal(scn, state, flux, grid, t_end_us, rng):
+def _signal(scn, state, flux, grid, t_end_us, rng, rng_shot):
     t_s, pix, pol, star = star_events(scn.camera, scn.stars, flux, scn.trajectory, grid,
-                                      scn.sensor, scn.psf_sigma_px, state)
+                                      scn.sensor, scn.psf_sigma_px, state, rng=rng_shot)
     if scn.sensor.jitter_us > 0:
         t_s = t_s + rng.standard_normal(len(t_s)) * (scn.sensor.jitter_us * 1e-6)
     keep = (t_s >= 0) & (t_s < scn.duration_s)
@@ -90,8 +76,8 @@ def simulate(scenario, seed=0):
         raise ValueError(f"scenario must be an evstar.sim.Scenario, got {type(scenario).__name__}")
     if int(seed) != seed or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(6)]
-    events, labels, hot_where, grid = _events(scenario, *rngs[:5])
+    rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(7)]
+    events, labels, hot_where, grid = _events(scenario, *rngs[:5], rngs[6])
     imu, gyro_bias, accel_bias = simulate_imu(scenario.trajectory, scenario.imu, scenario.duration_s,
                                               scenario.t_start_us, rngs[5])
     t_us, quat, omega, xy = _truth_tables(scenario)
@@ -107,21 +93,26 @@ def simulate(scenario, seed=0):
     return Simulation(events, imu, scn.camera, truth, scn, int(seed))
 
 
-def _events(scn, rng_thr, rng_sig, rng_hot, rng_bg, rng_drop):
+def _events(scn, rng_thr, rng_sig, rng_hot, rng_bg, rng_drop, rng_shot):
     """All events, time-sorted, with their labels; the hot pixels; the simulation grid."""
     spec, cam = scn.sensor, scn.camera
     n_pix = cam.width * cam.height
     t_end_us = scn.t_start_us + int(round(scn.duration_s * 1e6))
     grid = time_grid(scn.trajectory, cam, scn.duration_s, scn.grid_step_px)
     state = PixelState(n_pix, spec, rng_thr)
-    signal = _signal(scn, state, scn.stars.flux(scn.flux_mag3), grid, t_end_us, rng_sig)
+    leak = leak_events(state.ref, state.c_on, state.c_off, spec.leak_hz, spec.threshold_on,
+                       scn.duration_s)
+    signal = _signal(scn, state, scn.stars.flux(scn.flux_mag3), grid, t_end_us, rng_sig, rng_shot)
+    if len(leak[0]):
+        signal = merge_sorted(signal, (_to_us(leak[0], scn.t_start_us, t_end_us), leak[1], leak[2],
+                                 np.full(len(leak[0]), NOISE, np.int32)))
     t_hot, pix_hot, pol_hot, hot_where = hot_pixels(rng_hot, n_pix, spec.hot_pixels, spec.hot_pixel_hz,
                                                     scn.duration_s, spec.refractory_us * 1e-6)
     hot = (_to_us(t_hot, scn.t_start_us, t_end_us), pix_hot, pol_hot, np.full(len(t_hot), HOT_PIXEL, np.int32))
     t_bg, pix_bg, pol_bg = background_activity(rng_bg, n_pix, spec.noise_hz, scn.duration_s,
                                                spec.noise_on_fraction)
     bg = (_to_us(t_bg, scn.t_start_us, t_end_us), pix_bg, pol_bg, np.full(len(t_bg), NOISE, np.int32))
-    t, pix, pol, labels = _merge(bg, _merge(signal, hot))
+    t, pix, pol, labels = merge_sorted(bg, merge_sorted(signal, hot))
     if spec.dropout > 0:
         keep = rng_drop.random(len(t)) >= spec.dropout
         t, pix, pol, labels = t[keep], pix[keep], pol[keep], labels[keep]
