@@ -13,10 +13,7 @@ from dataclasses import dataclass
 
 from ..camera import Camera
 from ..errors import ParameterError
-from .motion import ConstantRate, Sinusoid
-from .scene import Scenario
 from .sensor import SensorSpec
-from .targets import star_at_pixel
 
 DEFAULT_FOCAL_LENGTH_MM = 12.0
 PAPER_RATES_DPS = (4.0, 8.0, 12.0, 16.0, 20.0)
@@ -32,7 +29,7 @@ class SensorPreset:
     def camera(self, focal_length_mm=DEFAULT_FOCAL_LENGTH_MM):
         """Pinhole camera for this sensor behind a lens of `focal_length_mm`, centred."""
         if not focal_length_mm > 0:
-            raise ValueError(f"focal_length_mm must be positive, got {focal_length_mm!r}")
+            raise ParameterError(f"focal_length_mm must be positive, got {focal_length_mm!r}")
         f_px = focal_length_mm * 1000.0 / self.pixel_pitch_um
         return Camera(self.width, self.height, f_px, f_px, (self.width - 1) / 2, (self.height - 1) / 2)
 
@@ -77,6 +74,10 @@ def paper_preset(rate_dps, *, duration_s=0.5, magnitude=3.0, camera="dvxplorer-l
     The star crosses the image centre at mid-duration, so a 0.5 s stream at 20 °/s spans
     ±5° (±57 px on the default camera). Keyword options override Scenario fields.
     """
+    from .motion import ConstantRate
+    from .scene import Scenario
+    from .targets import star_at_pixel
+
     cam = camera_preset(camera, focal_length_mm) if isinstance(camera, str) else camera
     motion = ConstantRate(rate_dps)
     mid = motion.rotation(duration_s / 2)[0]
@@ -88,6 +89,10 @@ def paper_sinusoid(amplitude_deg=10.0, freq_hz=1.0, *, duration_s=1.0, magnitude
                    camera="dvxplorer-lite", focal_length_mm=DEFAULT_FOCAL_LENGTH_MM, sensor=None,
                    **scenario_options):
     """The paper's sinusoidal run (10° amplitude, 1 Hz): the star swings through the centre."""
+    from .motion import Sinusoid
+    from .scene import Scenario
+    from .targets import star_at_pixel
+
     cam = camera_preset(camera, focal_length_mm) if isinstance(camera, str) else camera
     motion = Sinusoid(amplitude_deg, freq_hz)
     stars = star_at_pixel(cam, motion.rotation(0.0)[0], (cam.cx, cam.cy), magnitude)
