@@ -8,47 +8,21 @@ Modules: targets (stars, Hipparcos fields), presets (camera sensors, sensor mode
 motion (trajectories), psf, sensor (change detection), noise (background, hot pixels),
 imu_model, truth (labels, attitude, star positions; truth.npz), scene (Scenario), simulate.
 """
-from importlib import import_module
+from .imu_model import ImuSpec
+from .motion import (ConstantRate, FunctionTrajectory, SampledTrajectory, Sinusoid, Trajectory,
+                     attitude_from_radec)
+from .presets import (PAPER_RATES_DPS, SENSOR_MODELS, SENSORS, camera_preset, paper_preset,
+                      paper_sinusoid, sensor_model, sensor_preset)
+from .scene import Scenario
+from .sensor import SensorSpec
+from .simulate import Simulation, simulate
+from .targets import (FLUX_MAG3, StarField, hipparcos_field, hipparcos_field_along, single_star,
+                      star_at_pixel, star_flux)
+from .truth import HOT_PIXEL, NOISE, Truth, load_truth, save_truth
 
-# name -> the module of this package that defines it
-_EXPORTS = {
-    "ImuSpec": "imu_model",
-    "ConstantRate": "motion",
-    "FunctionTrajectory": "motion",
-    "SampledTrajectory": "motion",
-    "Sinusoid": "motion",
-    "Trajectory": "motion",
-    "attitude_from_radec": "motion",
-    "PAPER_RATES_DPS": "presets",
-    "SENSOR_MODELS": "presets",
-    "SENSORS": "presets",
-    "camera_preset": "presets",
-    "paper_preset": "presets",
-    "paper_sinusoid": "presets",
-    "sensor_model": "presets",
-    "sensor_preset": "presets",
-    "Scenario": "scene",
-    "SensorSpec": "sensor",
-    "Simulation": "simulate",
-    "simulate": "simulate",
-    "FLUX_MAG3": "targets",
-    "StarField": "targets",
-    "hipparcos_field": "targets",
-    "hipparcos_field_along": "targets",
-    "single_star": "targets",
-    "star_at_pixel": "targets",
-    "star_flux": "targets",
-    "HOT_PIXEL": "truth",
-    "NOISE": "truth",
-    "Truth": "truth",
-    "load_truth": "truth",
-    "save_truth": "truth",
-}
-__all__ = list(_EXPORTS)
-
-
-def __getattr__(name):
-    # lazy: `import evstar.sim` (and the CLI's option tables) must not import scipy
-    if name in _EXPORTS:
-        return getattr(import_module(f".{_EXPORTS[name]}", __name__), name)
-    raise AttributeError(f"module 'evstar.sim' has no attribute {name!r}")
+__all__ = ["ImuSpec", "ConstantRate", "FunctionTrajectory", "SampledTrajectory", "Sinusoid",
+           "Trajectory", "attitude_from_radec", "PAPER_RATES_DPS", "SENSOR_MODELS", "SENSORS",
+           "camera_preset", "paper_preset", "paper_sinusoid", "sensor_model", "sensor_preset",
+           "Scenario", "SensorSpec", "Simulation", "simulate", "FLUX_MAG3", "StarField", "hipparcos_field",
+           "hipparcos_field_along", "single_star", "star_at_pixel", "star_flux", "HOT_PIXEL", "NOISE",
+           "Truth", "load_truth", "save_truth"]
