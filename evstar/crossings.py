@@ -62,3 +62,50 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
     out["t"], out["pairs"] = mean, k
     out["t_spread"] = np.sqrt(np.maximum(sq[keep] / k - mean ** 2, 0.0))
     return out[np.argsort(out["t"], kind="stable")]
+
+
+def near_pixels(x, y, width, height, radius_px):
+    """Bool (height, width): pixels within `radius_px` (square) of any pixel in (x, y) —
+    where a star's flank events are, including those a density filter dropped."""
+    from scipy import ndimage
+
+    img = np.zeros((height, width), bool)
+    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = True
+    r = int(np.ceil(radius_px))
+    return ndimage.binary_dilation(img, np.ones((2 * r + 1, 2 * r + 1), bool)) if r else img
+
+
+def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
+    """Assign crossings to tracks and project them on each track's motion.
+
+    tracks: rows with t (µs), track, x, y, vx, vy (px, px/s), sorted by track then time (e.g.
+    evstar.smoothing's estimates). A crossing belongs to the track whose position at the
+    crossing's time is nearest, within `max_offset_px`, while the track moves at least
+    `min_speed_px_s` (a star that stands still crosses nothing). Returns (index into
+    crossings, track id, unit motion direction (n, 2), along residual px = (pixel − track
+    position)·direction) for the assigned crossings.
+    """
+    t = crossings["t"]
+    q = np.column_stack([crossings["x"], crossings["y"]]).astype(np.float64)
+    best = np.full(len(t), np.inf)
+    owner = np.full(len(t), -1, np.int64)
+    u = np.zeros((len(t), 2))
+    resid = np.zeros(len(t))
+    for tid in np.unique(tracks["track"]):
+        tr = tracks[tracks["track"] == tid]
+        inside = (t >= tr["t"][0]) & (t <= tr["t"][-1])
+        if not inside.any() or len(tr) < 2:
+            continue
+        ti = t[inside]
+        pos = np.column_stack([np.interp(ti, tr["t"], tr["x"]), np.interp(ti, tr["t"], tr["y"])])
+        vel = np.column_stack([np.interp(ti, tr["t"], tr["vx"]), np.interp(ti, tr["t"], tr["vy"])])
+        speed = np.linalg.norm(vel, axis=1)
+        d = q[inside] - pos
+        dist = np.linalg.norm(d, axis=1)
+        win = (dist < np.minimum(best[inside], max_offset_px)) & (speed >= min_speed_px_s)
+        idx = np.flatnonzero(inside)[win]
+        best[idx], owner[idx] = dist[win], tid
+        u[idx] = vel[win] / speed[win, None]
+        resid[idx] = (d[win] * u[idx]).sum(1)
+    got = np.flatnonzero(owner >= 0)
+    return got, owner[got], u[got], resid[got]
