@@ -31,7 +31,8 @@ _RING[1, 1] = False
 
 class HotPixelMap:
     """Running hot-pixel map of a width × height sensor: :meth:`update` with events in
-    time order, then :attr:`mask` (bool, height × width) or :meth:`is_hot`."""
+    time order, then :attr:`mask` (bool, height × width) or :meth:`is_hot`. The mask is
+    derived when read (and cached until the next update), so updating costs a bincount."""
 
     def __init__(self, width, height, *, window_us=1_000_000, alpha=1e-6, neighbour_ratio=4.0):
         if not (int(width) == width > 0 and int(height) == height > 0):
@@ -40,40 +41,45 @@ class HotPixelMap:
         self.window_us = HOTPIXELS.check("window_us", window_us)
         self.alpha = HOTPIXELS.check("alpha", alpha)
         self.neighbour_ratio = HOTPIXELS.check("neighbour_ratio", neighbour_ratio)
-        self._bins = np.zeros((_BINS, self.height, self.width), np.int64)
+        self._bins = np.zeros((_BINS, self.height * self.width), np.int32)
+        self._total = np.zeros(self.height * self.width, np.int64)
         self._bin_id = None          # index (time // bin length) of the newest bin
-        self.mask = np.zeros((self.height, self.width), bool)
+        self._mask = None            # cached mask; None when counts changed
 
     @property
     def counts(self):
         """Events per pixel in the current window (height × width)."""
-        return self._bins.sum(0)
+        return self._total.reshape(self.height, self.width)
+
+    @property
+    def mask(self):
+        """Bool (height × width): the hot pixels of the current window."""
+        if self._mask is None:
+            self._mask = hot_pixels(self.counts, self.alpha, self.neighbour_ratio)
+        return self._mask
 
     def update(self, events):
-        """Add time-sorted events (evstar.Events or anything with t, x, y arrays); returns
-        the updated mask."""
+        """Add time-sorted events (evstar.Events or anything with t, x, y arrays); returns self."""
         t = np.asarray(events.t, np.int64)
-        if len(t):
-            bin_len = max(self.window_us // _BINS, 1)
-            ids = t // bin_len
-            for b in np.unique(ids):
-                sel = ids == b
-                self._advance(int(b))
-                flat = np.asarray(events.y)[sel].astype(np.int64) * self.width \
-                    + np.asarray(events.x)[sel]
-                self._bins[b % _BINS] += np.bincount(flat, minlength=self.width * self.height) \
-                    .reshape(self.height, self.width)
-            self.mask = hot_pixels(self.counts, self.alpha, self.neighbour_ratio)
-        return self.mask
+        if not len(t):
+            return self
+        ids = t // max(self.window_us // _BINS, 1)
+        cuts = np.flatnonzero(np.diff(ids)) + 1
+        flat = np.asarray(events.y, np.int64) * self.width + np.asarray(events.x, np.int64)
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(t)]):
+            self._advance(int(ids[a]))
+            add = np.bincount(flat[a:b], minlength=self.width * self.height)
+            self._bins[ids[a] % _BINS] += add.astype(np.int32)
+            self._total += add
+        self._mask = None
+        return self
 
     def _advance(self, b):
         """Make bin `b` the newest, clearing the bins that fall out of the window."""
         if self._bin_id is not None and b > self._bin_id:
-            if b - self._bin_id >= _BINS:
-                self._bins[:] = 0
-            else:
-                for k in range(self._bin_id + 1, b + 1):
-                    self._bins[k % _BINS] = 0
+            for k in range(self._bin_id + 1, min(b, self._bin_id + _BINS) + 1):
+                self._total -= self._bins[k % _BINS]
+                self._bins[k % _BINS] = 0
         if self._bin_id is None or b > self._bin_id:
             self._bin_id = b
 
@@ -95,11 +101,16 @@ class HotPixelMap:
 def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
     """Bool mask of the hot pixels of a count image (see the module docstring)."""
     counts = np.asarray(counts, np.float64)
-    box = ndimage.uniform_filter(counts, _BOX, mode="constant") * _BOX**2
-    lam = np.maximum((box - counts) / (_BOX**2 - 1), _MIN_LAMBDA)
-    improbable = stats.poisson.sf(counts - 1, lam) <= alpha      # P(X >= count)
     brightest = ndimage.maximum_filter(counts, footprint=_RING, mode="constant")
-    return improbable & (counts >= neighbour_ratio * brightest) & (counts > 0)
+    # the neighbour test first: it leaves a handful of pixels for the costly Poisson tail
+    iy, ix = np.nonzero((counts >= neighbour_ratio * brightest) & (counts > 0))
+    box = ndimage.uniform_filter(counts, _BOX, mode="constant") * _BOX**2
+    c = counts[iy, ix]
+    lam = np.maximum((box[iy, ix] - c) / (_BOX**2 - 1), _MIN_LAMBDA)
+    hot = stats.poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
+    out = np.zeros(counts.shape, bool)
+    out[iy[hot], ix[hot]] = True
+    return out
 
 
 def remove_hot_centroids(centroids, hot, max_spread_px=0.5):

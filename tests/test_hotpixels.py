@@ -39,7 +39,7 @@ def test_running_window_forgets_a_pixel_that_stops():
     n = 200
     ev = evstar.Events(np.arange(n) * 2_000, np.full(n, 10), np.full(n, 7), np.ones(n, int), 32, 24)
     hot = HotPixelMap(32, 24, window_us=400_000)
-    assert hot.update(ev)[7, 10] and hot.is_hot(10.2, 6.8) and not hot.is_hot(11, 7)
+    assert hot.update(ev).mask[7, 10] and hot.is_hot(10.2, 6.8) and not hot.is_hot(11, 7)
     later = evstar.Events(np.array([1_000_000]), np.array([3]), np.array([3]), np.array([1]), 32, 24)
     hot.update(later)                       # 600 ms after its last event: out of the window
     assert not hot.mask.any() and hot.counts.sum() == 1
