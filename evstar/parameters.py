@@ -266,6 +266,9 @@ ESTIMATE = Params(
           unit="px"),
     Param("min_events", int, 8, "centroids of fewer events take their track's median spread",
           low=1, high=10**6),
+    Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "
+          "smoothed track is dropped and the track refitted (none: keep all)", low=0,
+          open_low=True, optional=True),
 )
 
 HOTPIXELS = Params(

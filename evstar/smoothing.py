@@ -19,6 +19,9 @@ Rauch–Tung–Striebel smoother.
   (e.g. :func:`imu_velocity_prior` from gyro rates), is the model's control input: the
   filter runs on the positions minus the prior's integrated displacement, so its velocity
   state is only the prior's error (a gyro bias) and turnarounds cost nothing.
+* A centroid farther than ``outlier_sigma`` × its σ from the smoothed track (half of a
+  star the extractor cut in two, a noise cluster the tracker took) is flagged ``outlier``
+  and the track refitted without it; its frame keeps the refitted position.
 * Frames of a track's life without a centroid are "coasted": the smoothed position at the
   frame's mid-time, flagged, when it lies within ``coast_ms`` of a measurement on either
   side; farther from both, nothing is reported for that frame.
@@ -35,10 +38,15 @@ from .parameters import AUTO, ESTIMATE
 ESTIMATE_DTYPE = np.dtype([
     ("t", "<i8"), ("frame", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
     ("vx", "<f8"), ("vy", "<f8"), ("sigma_x", "<f8"), ("sigma_y", "<f8"),
-    ("n_events", "<i4"), ("centroid", "<i8"), ("coasted", "?"), ("source", "<U8")])
+    ("n_events", "<i4"), ("centroid", "<i8"), ("coasted", "?"), ("outlier", "?"),
+    ("source", "<U8")])
 MEASURED, COASTED = "measured", "coasted"
 _Q_GRID = np.r_[0.0, np.logspace(-2, 9, 45)]   # px²/s³ candidates for the q estimate
 _V0_VAR = 1e8                          # (px/s)²: the first velocity is unknown
+_OUTLIER_PASSES = 4                    # fits per track at most (outliers dropped between)
+_IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
+_HUBER_C = 3.0                         # σ: innovations beyond it count linearly in the q fit
+_PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 
 
 class TrackSmoother:
@@ -49,7 +57,8 @@ class TrackSmoother:
     """
 
     def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
-                 coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8):
+                 coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
+                 outlier_sigma=4.0):
         from .frames import check_dt
 
         self.dt_us = check_dt(dt_us)
@@ -59,6 +68,7 @@ class TrackSmoother:
         self.sigma_floor_px = ESTIMATE.check("sigma_floor_px", sigma_floor_px)
         self.psf_sigma_px = ESTIMATE.check("psf_sigma_px", psf_sigma_px)
         self.min_events = ESTIMATE.check("min_events", min_events)
+        self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
 
     # -- measurement noise --------------------------------------------------------------
     def measurement_sigma(self, centroids):
@@ -112,8 +122,7 @@ class TrackSmoother:
         shift = _prior_displacement(velocity_prior, t_all, t_meas, z)
         resid = z - shift[measured]
         ts = (t_all - t_all[0]) * 1e-6
-        q = self._q(ts[measured], resid, sigma)
-        x, P = _kalman_rts(ts, resid, sigma, measured, q)
+        x, P, outlier = self._fit(ts, resid, sigma, measured)
         out = np.zeros(len(t_all), ESTIMATE_DTYPE)
         out["t"], out["track"] = t_all, cents["track"][0]
         out["frame"] = np.concatenate([frames, coast_f])[order]
@@ -125,8 +134,34 @@ class TrackSmoother:
         out["centroid"] = np.concatenate([idx, np.full(len(coast_f), -1)])[order]
         out["n_events"] = np.concatenate([cents["n_events"], np.zeros(len(coast_f), int)])[order]
         out["coasted"] = ~measured
+        out["outlier"][measured] = outlier
         out["source"] = np.where(measured, MEASURED, COASTED)
         return out
+
+    def _fit(self, ts, resid, sigma, measured):
+        """Smoothed states and covariances, and the outlier flag per measurement: a centroid
+        whose standardised residual from the smoothed track exceeds outlier_sigma (either axis)
+        is dropped and the track fitted again (a star cut in two by the extractor, a noise
+        cluster taken by the track), at most _OUTLIER_PASSES times."""
+        outlier = np.zeros(len(resid), bool)
+        for _ in range(_OUTLIER_PASSES):
+            sig = np.where(outlier, _IGNORED_SIGMA, sigma)
+            keep = ~outlier
+            q = self._q(ts[measured][keep], resid[keep], sigma[keep])
+            x, P = _kalman_rts(ts, resid, sig, measured, q)
+            if self.outlier_sigma is None:
+                break
+            # standardised residuals: the residual from the smoothed track over its own σ
+            # (R − P: a point the fit follows closely has a small residual and a small σ)
+            var = sigma[:, None] ** 2 - P[measured][:, [0, 2], [0, 2]]
+            d = resid - x[measured][:, [0, 2]]
+            res = (np.abs(d) / np.sqrt(np.maximum(var, 1e-6 * sigma[:, None] ** 2))).max(1)
+            new = (res > self.outlier_sigma) & ~outlier
+            # never more than a quarter of a track: beyond that the model, not the data, is off
+            if not new.any() or (outlier | new).sum() > len(resid) // 4:
+                break
+            outlier |= new
+        return x, P, outlier
 
     def _coast_frames(self, t_meas, frames, t0_us):
         """Frames between the track's first and last centroid that have none, whose
@@ -176,12 +211,18 @@ def _innovation_loglik(ts, z, sigma):
         s = p00 + sigma[k] ** 2
         y = z[k] - p
         if k >= 2:
-            ll -= 0.5 * (np.log(s) + y * y / s)
+            ll -= 0.5 * np.log(s) + _huber(y * y / s)
         k0, k1 = p00 / s, p01 / s
         p, v = p + k0 * y, v + k1 * y
         p11 = p11 - k1 * p01
         p00, p01 = (1 - k0) * p00, (1 - k0) * p01
     return ll.sum(1)
+
+
+def _huber(u):
+    """−log-likelihood of a squared normalised innovation u, Gaussian up to _HUBER_C σ and
+    linear beyond it, so one jump (a cut star, a stray cluster) does not decide q."""
+    return np.where(u <= _HUBER_C**2, u / 2, _HUBER_C * np.sqrt(u) - _HUBER_C**2 / 2)
 
 
 def _kalman_rts(ts, z, sigma, measured, q):
@@ -222,16 +263,19 @@ def _prior_velocity(prior, t_us, x, y):
 
 
 def _prior_displacement(prior, t_all, t_meas, z):
-    """(n, 2) px the prior moves a star from t_all[0] to each t_all (trapezoid rule),
-    evaluated along the measured positions (interpolated in time)."""
+    """(n, 2) px the prior moves a star from t_all[0] to each t_all: the trapezoid rule on
+    a grid of at most _PRIOR_STEP_S (so a prior from noisy gyro samples is averaged over
+    each interval, not read at its two ends), along the measured positions interpolated."""
     if prior is None:
         return np.zeros((len(t_all), 2))
-    x = np.interp(t_all, t_meas, z[:, 0])
-    y = np.interp(t_all, t_meas, z[:, 1])
-    v = _prior_velocity(prior, t_all, x, y)
-    h = np.diff(t_all) * 1e-6
-    steps = (v[1:] + v[:-1]) / 2 * h[:, None]
-    return np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])
+    t = np.asarray(t_all, float)
+    n_sub = np.maximum(np.ceil(np.diff(t) * 1e-6 / _PRIOR_STEP_S), 1).astype(np.int64)
+    starts = np.r_[0, np.cumsum(n_sub)]            # node index of each t_all on the fine grid
+    frac = np.arange(starts[-1]) - np.repeat(starts[:-1], n_sub)
+    fine = np.r_[np.repeat(t[:-1], n_sub) + frac * np.repeat(np.diff(t) / n_sub, n_sub), t[-1:]]
+    v = _prior_velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]), np.interp(fine, t_meas, z[:, 1]))
+    steps = (v[1:] + v[:-1]) / 2 * (np.diff(fine) * 1e-6)[:, None]
+    return np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])[starts]
 
 
 def _check_sigma(sigma, centroids):
