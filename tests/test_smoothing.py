@@ -154,3 +154,27 @@ def test_bad_sigma_and_prior_rejected():
         TrackSmoother(DT).smooth(cents, t0_us=0, sigma=np.zeros(10))
     with pytest.raises(ValueError, match="velocity_prior"):
         TrackSmoother(DT).smooth(cents, t0_us=0, velocity_prior=lambda t, x, y: np.zeros(3))
+
+
+def test_an_outlier_is_flagged_and_does_not_pull_the_track():
+    rng = np.random.default_rng(7)
+    cents = centroids(np.arange(40), line, 0.1, rng)
+    cents["x"][20] += 2.0                                # half of a cut star, 20 σ off
+    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    assert est["outlier"].tolist() == [i == 20 for i in range(40)]
+    err = np.hypot(*(np.column_stack([est["x"], est["y"]]) - line(est["t"] * 1e-6)).T)
+    assert err.max() < 0.1
+    kept = TrackSmoother(DT, outlier_sigma=None).smooth(cents, t0_us=0)
+    assert not kept["outlier"].any()
+    assert np.hypot(*(np.column_stack([kept["x"], kept["y"]]) - line(kept["t"] * 1e-6)).T).max() > 0.1
+
+
+def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
+    run = sim.simulate(sim.paper_preset(4.0, magnitude=5.0, duration_s=0.3), seed=3)
+    res = evstar.Pipeline(evstar.Config()).run(run.events, run.imu, run.camera, truth=run.truth)
+    raw = res.centroids[res.centroids["track"] >= 0]
+    assert len(raw) > 20
+    est = TrackSmoother(DT).smooth(raw, t0_us=int(run.events.t[0]))
+    _, e_raw = evstar.accuracy.match(raw, run.truth.star_position)
+    _, e_est = evstar.accuracy.match(est, run.truth.star_position)
+    assert e_est.mean() < 0.5 * e_raw.mean() and e_est.max() < e_raw.max()
