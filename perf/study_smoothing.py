@@ -8,7 +8,10 @@ evstar.Pipeline(Config()) (MR-NDSEF, no motion compensation, 10 ms frames). Per 
 * smoothed: TrackSmoother defaults (q per track by maximum likelihood, coast 30 ms);
 * smoothed + IMU: the same with the gyro-derived velocity prior (imu_velocity_prior);
 * frames: the fraction of frames with the star inside the sensor that have a position
-  within 3 px of the truth (raw: a confirmed centroid; smoothed: measured or coasted).
+  within 3 px of the truth (raw: a confirmed centroid; smoothed: measured or coasted);
+* hot: all centroids (confirmed or not) on one of the simulator's hot pixels (default
+  sensor: 5 at 100 Hz), before → after remove_hot_centroids with a HotPixelMap of the whole
+  run's events, and the star centroids (within 3 px of the truth) that removal lost.
 
 Development used seeds 1 and 2 at the default PSF (σ 1 px). Held out (not looked at while
 developing, reported apart): seed 11 at PSF σ 1 px, and seed 1 at PSF σ 1.4 px.
@@ -28,6 +31,7 @@ import numpy as np
 
 import evstar
 from evstar import accuracy, sim
+from evstar.hotpixels import HotPixelMap, remove_hot_centroids
 from evstar.smoothing import TrackSmoother, imu_velocity_prior
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
@@ -60,6 +64,21 @@ def frame_fraction(rows, err, truth, camera, t0, n_frames):
     return float((have & inside).sum() / max(inside.sum(), 1))
 
 
+def hot_pixel_centroids(run, cents):
+    hot = HotPixelMap(run.camera.width, run.camera.height).update(run.events)
+    kept = remove_hot_centroids(cents, hot)
+
+    def on_truth_hot(c):
+        pix = np.floor(c["y"] + 0.5).astype(np.int64) * run.camera.width + np.floor(c["x"] + 0.5).astype(np.int64)
+        return int(np.isin(pix, run.truth.hot_pixels).sum())
+
+    star = lambda c: int((errors(c, run.truth) <= MATCH_PX).sum())   # noqa: E731
+    return dict(before=on_truth_hot(cents), after=on_truth_hot(kept), star_lost=star(cents) - star(kept),
+                map_found=int(np.isin(hot.pixels, run.truth.hot_pixels).sum()),
+                map_false=int((~np.isin(hot.pixels, run.truth.hot_pixels)).sum()),
+                true_hot=int(len(run.truth.hot_pixels)))
+
+
 def stats(err):
     return dict(mean=float(err.mean()) if len(err) else float("nan"),
                 max=float(err.max()) if len(err) else float("nan"), n=int(len(err)))
@@ -77,6 +96,7 @@ def one_run(motion, magnitude, seed, psf):
     variants = {"raw": raw, "smoothed": sm.smooth(raw, t0_us=t0),
                 "smoothed+imu": sm.smooth(raw, t0_us=t0,
                                           velocity_prior=imu_velocity_prior(run.imu, run.camera))}
+    out["hot"] = hot_pixel_centroids(run, res.centroids)
     for name, rows in variants.items():
         err = errors(rows, run.truth)
         out[name] = stats(err)
@@ -85,6 +105,7 @@ def one_run(motion, magnitude, seed, psf):
             meas = ~rows["coasted"]
             out[name]["measured"] = stats(err[meas])
             out[name]["coasted"] = int((~meas).sum())
+            out[name]["outliers"] = int(rows["outlier"].sum())
             out[name]["sigma_px"] = float(np.mean(np.hypot(rows["sigma_x"], rows["sigma_y"]))) \
                 if len(rows) else float("nan")
     return out
@@ -92,14 +113,18 @@ def one_run(motion, magnitude, seed, psf):
 
 def table(rows):
     lines = ["| set | motion | mag | seed | PSF σ | tracks | raw mean / max px | smoothed mean / max px "
-             "| +IMU prior mean / max px | coasted | frames raw → smoothed |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| +IMU prior mean / max px | coasted | outliers | frames raw → smoothed | hot map found / true "
+             "(false) | hot-pixel centroids before → after (star lost) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     f = lambda s: f"{s['mean']:.3f} / {s['max']:.3f}"   # noqa: E731
     for r in rows:
         motion = "sinusoid" if r["motion"] == "sin" else f"{r['motion']:g} °/s"
         lines.append(f"| {r['set']} | {motion} | {r['magnitude']:g} | {r['seed']} | {r['psf_sigma_px']:g} "
                      f"| {r['tracks']} | {f(r['raw'])} | {f(r['smoothed'])} | {f(r['smoothed+imu'])} "
-                     f"| {r['smoothed']['coasted']} | {r['raw']['frames']:.2f} → {r['smoothed']['frames']:.2f} |")
+                     f"| {r['smoothed']['coasted']} | {r['smoothed']['outliers']} "
+                     f"| {r['raw']['frames']:.2f} → {r['smoothed']['frames']:.2f} "
+                     f"| {r['hot']['map_found']} / {r['hot']['true_hot']} ({r['hot']['map_false']}) "
+                     f"| {r['hot']['before']} → {r['hot']['after']} ({r['hot']['star_lost']}) |")
     return "\n".join(lines)
 
 
