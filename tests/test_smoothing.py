@@ -141,7 +141,8 @@ def test_imu_prior_gives_the_image_velocity_of_a_simulated_star():
 @pytest.mark.parametrize("name, value", [("coast_ms", -1), ("process_noise", "fast"),
                                          ("process_noise", -2.0), ("sigma_floor_px", 0),
                                          ("psf_sigma_px", -1.0), ("min_events", 0),
-                                         ("process_noise_min", float("nan"))])
+                                         ("process_noise_min", float("nan")),
+                                         ("outlier_sigma", 0)])
 def test_bad_parameters_rejected_by_name(name, value):
     with pytest.raises(evstar.ParameterError, match=name):
         TrackSmoother(DT, **{name: value})
