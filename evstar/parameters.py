@@ -269,8 +269,9 @@ ESTIMATE = Params(
     Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "
           "smoothed track is dropped and the track refitted (none: keep all)", low=0,
           open_low=True, optional=True),
-    Param("gather_radius_px", float, 3.0, "re-extraction: events this close to a track's "
-          "predicted position are its", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("gather_radius_px", float, 4.0, "re-extraction: events this close to a track's "
+          "predicted position are its (>= 4 PSF sigmas: a cut through the PSF's wings at "
+          "whole pixels biases)", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
     Param("gather_min_events", int, 3, "re-extraction: frames are pooled until a window "
           "holds this many events", low=1, high=10**6),
     Param("gather_max_frames", int, 5, "re-extraction: longest window (a sparser stretch "

@@ -8,7 +8,7 @@ evstar.Pipeline(Config()) (MR-NDSEF, no motion compensation, 10 ms frames). Per 
 * smoothed: TrackSmoother defaults (q per track by maximum likelihood, coast 30 ms);
 * smoothed + IMU: the same with the gyro-derived velocity prior (imu_velocity_prior);
 * re-extracted: the run's events gathered along the smoothed tracks (reextract_tracks,
-  defaults: 3 px, >= 3 events, <= 5 frames per window), smoothed again;
+  defaults: 4 px, >= 3 events, <= 5 frames per window), smoothed again;
 * frames: the fraction of frames with the star inside the sensor that have a position
   within 3 px of the truth (raw: a confirmed centroid; smoothed: measured or coasted);
 * hot: all centroids (confirmed or not) on one of the simulator's hot pixels (default
