@@ -43,6 +43,7 @@ ESTIMATE_DTYPE = np.dtype([
 MEASURED, COASTED = "measured", "coasted"
 _Q_GRID = np.r_[0.0, np.logspace(-2, 9, 45)]   # px²/s³ candidates for the q estimate
 _V0_VAR = 1e8                          # (px/s)²: the first velocity is unknown
+_DIFFUSE = 1e8                         # px², (px/s)²: the filter's prior knows nothing
 _OUTLIER_PASSES = 4                    # fits per track at most (outliers dropped between)
 _IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
 _HUBER_C = 3.0                         # σ: innovations beyond it count linearly in the q fit
@@ -231,11 +232,9 @@ def _kalman_rts(ts, z, sigma, measured, q):
     n = len(ts)
     kf = KalmanFilter(dim_x=4, dim_z=2)
     kf.H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
-    v0 = np.zeros(2)
-    if len(z) > 1 and ts[measured][1] > ts[measured][0]:
-        v0 = (z[1] - z[0]) / (ts[measured][1] - ts[measured][0])
-    kf.x = np.array([z[0, 0], v0[0], z[0, 1], v0[1]])
-    kf.P = np.diag([sigma[0] ** 2, _V0_VAR, sigma[0] ** 2, _V0_VAR])
+    # a diffuse start about the first centroid: the first update brings it in (once)
+    kf.x = np.array([z[0, 0], 0.0, z[0, 1], 0.0])
+    kf.P = np.eye(4) * _DIFFUSE
     h = np.r_[0.0, np.diff(ts)]
     Fs = np.tile(np.eye(4), (n, 1, 1))
     Fs[:, 0, 1] = Fs[:, 2, 3] = h

@@ -179,3 +179,15 @@ def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
     _, e_raw = evstar.accuracy.match(raw, run.truth.star_position)
     _, e_est = evstar.accuracy.match(est, run.truth.star_position)
     assert e_est.mean() < 0.5 * e_raw.mean() and e_est.max() < e_raw.max()
+
+
+def test_short_tracks_and_no_tracks():
+    rng = np.random.default_rng(9)
+    assert len(TrackSmoother(DT).smooth(np.zeros(0, CENTROID_DTYPE))) == 0
+    one = centroids([5], line, 0.2, rng)
+    est = TrackSmoother(DT).smooth(one, t0_us=0)
+    assert len(est) == 1 and est["x"][0] == pytest.approx(one["x"][0], abs=1e-6)
+    assert est["sigma_x"][0] == pytest.approx(0.2, rel=1e-3)   # nothing to pool: its own σ
+    two = centroids([5, 8], line, 0.2, rng)
+    est = TrackSmoother(DT).smooth(two, t0_us=0)
+    assert est["frame"].tolist() == [5, 6, 7, 8] and est["coasted"].tolist() == [False, True, True, False]
