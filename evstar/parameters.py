@@ -277,6 +277,45 @@ KERNEL = Params(
           low=-(1 << 62), high=1 << 62, optional=True),
 )
 
+ESTIMATE = Params(
+    "estimate",
+    Param("process_noise", float, AUTO, "track smoother: white-acceleration spectral density q "
+          "(auto: estimated per track from its centroids)", low=0, auto=True, unit="px²/s³"),
+    Param("process_noise_min", float, 1.0, "floor of an estimated q (a straight track's q "
+          "estimate can be 0)", low=0, unit="px²/s³"),
+    Param("coast_ms", float, 30.0, "report a frame without a centroid only within this of "
+          "a measurement (before or after)", low=0, high=MAX_DT_US / 1000, unit="ms"),
+    Param("sigma_floor_px", float, 0.02, "smallest per-axis measurement sigma of a centroid",
+          low=0, open_low=True, unit="px"),
+    Param("psf_sigma_px", float, None, "measurement sigma = this / sqrt(events) (default: "
+          "the centroid's spread / sqrt(2 events))", low=0, open_low=True, optional=True,
+          unit="px"),
+    Param("min_events", int, 8, "centroids of fewer events take their track's median spread",
+          low=1, high=10**6),
+    Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "
+          "smoothed track is dropped and the track refitted (none: keep all)", low=0,
+          open_low=True, optional=True),
+    Param("gather_radius_px", float, 4.0, "re-extraction: events this close to a track's "
+          "predicted position are its (>= 4 PSF sigmas: a cut through the PSF's wings at "
+          "whole pixels biases)", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("gather_min_events", int, 3, "re-extraction: frames are pooled until a window "
+          "holds this many events", low=1, high=10**6),
+    Param("gather_max_frames", int, 5, "re-extraction: longest window (a sparser stretch "
+          "gives no centroid)", low=1, high=10**6),
+)
+
+HOTPIXELS = Params(
+    "hotpixels",
+    Param("window_us", int, 1_000_000, "hot-pixel map: counting window", low=1,
+          high=MAX_DT_US, unit="µs", cli="--hot-window-ms", cli_scale=1000, cli_unit="ms"),
+    Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
+          low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
+    Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
+          "brightest 8-neighbour's", low=1),
+    Param("max_spread_px", float, 0.5, "a centroid on a hot pixel is dropped when its spread "
+          "is at most this", low=0, unit="px"),
+)
+
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION}
 
 

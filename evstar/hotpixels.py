@@ -1,0 +1,127 @@
+"""Hot pixels: pixels that fire alone, far above their neighbours, over a long window.
+
+A hot pixel fires at tens to hundreds of Hz by itself; in a pseudo-frame its events can
+form a one-pixel "star" (spread 0). Over a long window (``window_us``, 1 s by default) a
+pixel is hot when its count
+
+* is improbable under the local background: P(Poisson(λ) ≥ count) ≤ ``alpha``, with λ the
+  mean count of the surrounding 9 × 9 pixels (the pixel itself left out), and
+* is at least ``neighbour_ratio`` × the count of its brightest 8-neighbour.
+
+A star's pixel fails the second test: the PSF spreads a star over several pixels and a
+moving star lights its neighbours in turn (a static star gives no events at all), so a
+star pixel's brightest neighbour has a count of its own order.
+
+The map is running: counts are kept in ``_BINS`` sub-windows, the oldest dropped as time
+passes, and the mask is re-derived from the window's total after each update.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage, stats
+
+from .parameters import HOTPIXELS
+
+_BINS = 4          # sub-windows of the running window: the map forgets in steps of window/4
+_BOX = 9           # px side of the background neighbourhood
+_MIN_LAMBDA = 0.1  # counts: the background is never taken as quieter than this
+_RING = np.ones((3, 3), bool)
+_RING[1, 1] = False
+
+
+class HotPixelMap:
+    """Running hot-pixel map of a width × height sensor: :meth:`update` with events in
+    time order, then :attr:`mask` (bool, height × width) or :meth:`is_hot`. The mask is
+    derived when read (and cached until the next update), so updating costs a bincount."""
+
+    def __init__(self, width, height, *, window_us=1_000_000, alpha=1e-6, neighbour_ratio=4.0):
+        if not (int(width) == width > 0 and int(height) == height > 0):
+            raise ValueError(f"width and height must be positive integers, got {width!r}, {height!r}")
+        self.width, self.height = int(width), int(height)
+        self.window_us = HOTPIXELS.check("window_us", window_us)
+        self.alpha = HOTPIXELS.check("alpha", alpha)
+        self.neighbour_ratio = HOTPIXELS.check("neighbour_ratio", neighbour_ratio)
+        self._bins = np.zeros((_BINS, self.height * self.width), np.int32)
+        self._total = np.zeros(self.height * self.width, np.int64)
+        self._bin_id = None          # index (time // bin length) of the newest bin
+        self._mask = None            # cached mask; None when counts changed
+
+    @property
+    def counts(self):
+        """Events per pixel in the current window (height × width)."""
+        return self._total.reshape(self.height, self.width)
+
+    @property
+    def mask(self):
+        """Bool (height × width): the hot pixels of the current window."""
+        if self._mask is None:
+            self._mask = hot_pixels(self.counts, self.alpha, self.neighbour_ratio)
+        return self._mask
+
+    def update(self, events):
+        """Add time-sorted events (evstar.Events or anything with t, x, y arrays); returns self."""
+        t = np.asarray(events.t, np.int64)
+        if not len(t):
+            return self
+        ids = t // max(self.window_us // _BINS, 1)
+        cuts = np.flatnonzero(np.diff(ids)) + 1
+        flat = np.asarray(events.y, np.int64) * self.width + np.asarray(events.x, np.int64)
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(t)]):
+            self._advance(int(ids[a]))
+            add = np.bincount(flat[a:b], minlength=self.width * self.height)
+            self._bins[ids[a] % _BINS] += add.astype(np.int32)
+            self._total += add
+        self._mask = None
+        return self
+
+    def _advance(self, b):
+        """Make bin `b` the newest, clearing the bins that fall out of the window."""
+        if self._bin_id is not None and b > self._bin_id:
+            for k in range(self._bin_id + 1, min(b, self._bin_id + _BINS) + 1):
+                self._total -= self._bins[k % _BINS]
+                self._bins[k % _BINS] = 0
+        if self._bin_id is None or b > self._bin_id:
+            self._bin_id = b
+
+    def is_hot(self, x, y):
+        """Whether the pixels nearest to (x, y) are hot (bool array; False off the sensor)."""
+        ix = np.floor(np.asarray(x, float) + 0.5).astype(np.int64)
+        iy = np.floor(np.asarray(y, float) + 0.5).astype(np.int64)
+        inside = (ix >= 0) & (ix < self.width) & (iy >= 0) & (iy < self.height)
+        out = np.zeros(np.shape(ix), bool)
+        out[inside] = self.mask[iy[inside], ix[inside]]
+        return out
+
+    @property
+    def pixels(self):
+        """Hot pixel indices y·width + x (as evstar.sim's truth.hot_pixels), sorted."""
+        return np.flatnonzero(self.mask.ravel())
+
+
+def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
+    """Bool mask of the hot pixels of a count image (see the module docstring)."""
+    counts = np.asarray(counts, np.float64)
+    brightest = ndimage.maximum_filter(counts, footprint=_RING, mode="constant")
+    # the neighbour test first: it leaves a handful of pixels for the costly Poisson tail
+    iy, ix = np.nonzero((counts >= neighbour_ratio * brightest) & (counts > 0))
+    box = ndimage.uniform_filter(counts, _BOX, mode="constant") * _BOX**2
+    c = counts[iy, ix]
+    lam = np.maximum((box[iy, ix] - c) / (_BOX**2 - 1), _MIN_LAMBDA)
+    hot = stats.poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
+    out = np.zeros(counts.shape, bool)
+    out[iy[hot], ix[hot]] = True
+    return out
+
+
+def remove_hot_centroids(centroids, hot, max_spread_px=0.5):
+    """Copy of `centroids` without those on a hot pixel (`hot`: a HotPixelMap or a bool
+    mask) whose spread is at most `max_spread_px` (a star on a hot pixel stays)."""
+    max_spread_px = HOTPIXELS.check("max_spread_px", max_spread_px)
+    mask = hot.mask if isinstance(hot, HotPixelMap) else np.asarray(hot, bool)
+    h, w = mask.shape
+    ix = np.floor(centroids["x"] + 0.5).astype(np.int64)
+    iy = np.floor(centroids["y"] + 0.5).astype(np.int64)
+    inside = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
+    on_hot = np.zeros(len(centroids), bool)
+    on_hot[inside] = mask[iy[inside], ix[inside]]
+    return centroids[~(on_hot & (centroids["spread"] <= max_spread_px))]

@@ -1,0 +1,310 @@
+"""Multi-frame position estimates along tracks: a Kalman filter + RTS smoother per track.
+
+One frame's centroid of a star with N events cannot beat σ_PSF/√N; a track's centroids,
+pooled by a motion model, can. Per confirmed track (``track >= 0``) this runs, in
+continuous time (the centroids' own timestamps, irregular where frames are missed), a
+constant-velocity model per image axis — state (position, velocity), process noise white
+acceleration of spectral density q (px²/s³) — through filterpy's KalmanFilter and its
+Rauch–Tung–Striebel smoother.
+
+* q is estimated per track from the data (``process_noise="auto"``): the value on a log
+  grid that maximises the likelihood of the track's innovation sequence (the filter is run
+  for every grid value at once). A constant-rate slew is straight in the image (q ≈ 0,
+  floored at ``process_noise_min``); a turnaround raises q and the smoother follows it
+  more loosely.
+  Constant-velocity rather than constant-acceleration: the paper's slews are constant-rate
+  or sinusoidal, and a sinusoid's acceleration is not constant either — what it needs is
+  the velocity prior below.
+* An optional velocity prior, a callable ``(t_us, x, y) -> (n, 2)`` image velocity px/s
+  (e.g. :func:`imu_velocity_prior` from gyro rates), is the model's control input: the
+  filter runs on the positions minus the prior's integrated displacement, so its velocity
+  state is only the prior's error (a gyro bias) and turnarounds cost nothing.
+* A centroid farther than ``outlier_sigma`` × its σ from the smoothed track (half of a
+  star the extractor cut in two, a noise cluster the tracker took) is flagged ``outlier``
+  and the track refitted without it; its frame keeps the refitted position.
+* Frames of a track's life without a centroid are "coasted": the smoothed position at the
+  frame's mid-time, flagged, when it lies within ``coast_ms`` of a measurement on either
+  side; farther from both, nothing is reported for that frame.
+
+Output rows (:data:`ESTIMATE_DTYPE`) are sorted by track, then time.
+"""
+from __future__ import annotations
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+from .parameters import AUTO, ESTIMATE
+
+ESTIMATE_DTYPE = np.dtype([
+    ("t", "<i8"), ("frame", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
+    ("vx", "<f8"), ("vy", "<f8"), ("sigma_x", "<f8"), ("sigma_y", "<f8"),
+    ("n_events", "<i4"), ("centroid", "<i8"), ("coasted", "?"), ("outlier", "?"),
+    ("source", "<U8")])
+MEASURED, COASTED = "measured", "coasted"
+_Q_GRID = np.r_[0.0, np.logspace(-2, 9, 45)]   # px²/s³ candidates for the q estimate
+_V0_VAR = 1e8                          # (px/s)²: the first velocity is unknown
+_DIFFUSE = 1e8                         # px², (px/s)²: the filter's prior knows nothing
+_OUTLIER_PASSES = 4                    # fits per track at most (outliers dropped between)
+_IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
+_HUBER_C = 3.0                         # σ: innovations beyond it count linearly in the q fit
+_PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
+
+
+class TrackSmoother:
+    """Smoothed positions per frame of every confirmed track; see the module docstring.
+
+    dt_us: the pseudo-frame length of the centroids' frames (coasted rows sit at their
+    mid-times). Parameters are those of ``evstar.parameters.ESTIMATE``.
+    """
+
+    def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
+                 coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
+                 outlier_sigma=4.0):
+        from .frames import check_dt
+
+        self.dt_us = check_dt(dt_us)
+        self.process_noise = ESTIMATE.check("process_noise", process_noise)
+        self.process_noise_min = ESTIMATE.check("process_noise_min", process_noise_min)
+        self.coast_ms = ESTIMATE.check("coast_ms", coast_ms)
+        self.sigma_floor_px = ESTIMATE.check("sigma_floor_px", sigma_floor_px)
+        self.psf_sigma_px = ESTIMATE.check("psf_sigma_px", psf_sigma_px)
+        self.min_events = ESTIMATE.check("min_events", min_events)
+        self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
+
+    # -- measurement noise --------------------------------------------------------------
+    def measurement_sigma(self, centroids):
+        """Per-axis σ (px) of each centroid: psf_sigma_px/√N when given, else spread/√(2N)
+        (spread is the 2-D RMS radius, √2 × the per-axis σ), where a centroid of fewer than
+        ``min_events`` events takes its track's median spread (a spread from a handful of
+        events is itself noise); floored at ``sigma_floor_px``."""
+        n = np.maximum(centroids["n_events"].astype(float), 1.0)
+        if self.psf_sigma_px is not None:
+            return np.maximum(self.psf_sigma_px / np.sqrt(n), self.sigma_floor_px)
+        spread = centroids["spread"].astype(float).copy()
+        few = centroids["n_events"] < self.min_events
+        for tr in np.unique(centroids["track"][few]):
+            rows = centroids["track"] == tr
+            rich = rows & ~few
+            pool = centroids["spread"][rich if rich.any() else rows]
+            spread[rows & few] = np.median(pool)
+        return np.maximum(spread / np.sqrt(2 * n), self.sigma_floor_px)
+
+    # -- all tracks ---------------------------------------------------------------------
+    def smooth(self, centroids, t0_us=None, velocity_prior=None, sigma=None):
+        """ESTIMATE_DTYPE rows for every confirmed track of `centroids` (CENTROID_DTYPE).
+
+        t0_us: the frame origin (frame k spans [t0 + k·dt, t0 + (k+1)·dt)); default: the
+        latest origin consistent with the centroids' times. velocity_prior: a callable
+        (t_us, x, y) -> (n, 2) px/s, or None. sigma: per-centroid per-axis σ in px (default
+        :meth:`measurement_sigma`).
+        """
+        sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
+        if t0_us is None and len(centroids):
+            t0_us = int((centroids["t"] - centroids["frame"] * self.dt_us).min())
+        parts = []
+        for tr in np.unique(centroids["track"][centroids["track"] >= 0]):
+            rows = np.flatnonzero(centroids["track"] == tr)
+            rows = rows[np.argsort(centroids["t"][rows], kind="stable")]
+            parts.append(self.smooth_track(centroids[rows], sig[rows], t0_us, velocity_prior, rows))
+        return np.concatenate(parts) if parts else np.zeros(0, ESTIMATE_DTYPE)
+
+    # -- one track ----------------------------------------------------------------------
+    def smooth_track(self, cents, sigma, t0_us, velocity_prior=None, index=None):
+        """Rows for one track's time-sorted centroids (see :meth:`smooth`)."""
+        t_meas = cents["t"].astype(np.int64)
+        frames = cents["frame"].astype(np.int64)
+        coast_f = self._coast_frames(t_meas, frames, t0_us)
+        t_coast = t0_us + coast_f * self.dt_us + self.dt_us // 2
+        t_all = np.concatenate([t_meas, t_coast])
+        order = np.argsort(t_all, kind="stable")
+        t_all = t_all[order]
+        measured = order < len(t_meas)
+        z = np.column_stack([cents["x"], cents["y"]]).astype(float)
+        shift = _prior_displacement(velocity_prior, t_all, t_meas, z)
+        resid = z - shift[measured]
+        ts = (t_all - t_all[0]) * 1e-6
+        x, P, outlier = self._fit(ts, resid, sigma, measured)
+        out = np.zeros(len(t_all), ESTIMATE_DTYPE)
+        out["t"], out["track"] = t_all, cents["track"][0]
+        out["frame"] = np.concatenate([frames, coast_f])[order]
+        out["x"], out["y"] = x[:, 0] + shift[:, 0], x[:, 2] + shift[:, 1]
+        v_prior = _prior_velocity(velocity_prior, t_all, out["x"], out["y"])
+        out["vx"], out["vy"] = x[:, 1] + v_prior[:, 0], x[:, 3] + v_prior[:, 1]
+        out["sigma_x"], out["sigma_y"] = np.sqrt(P[:, 0, 0]), np.sqrt(P[:, 2, 2])
+        idx = np.arange(len(cents)) if index is None else np.asarray(index)
+        out["centroid"] = np.concatenate([idx, np.full(len(coast_f), -1)])[order]
+        out["n_events"] = np.concatenate([cents["n_events"], np.zeros(len(coast_f), int)])[order]
+        out["coasted"] = ~measured
+        out["outlier"][measured] = outlier
+        out["source"] = np.where(measured, MEASURED, COASTED)
+        return out
+
+    def _fit(self, ts, resid, sigma, measured):
+        """Smoothed states and covariances, and the outlier flag per measurement: a centroid
+        whose standardised residual from the smoothed track exceeds outlier_sigma (either axis)
+        is dropped and the track fitted again (a star cut in two by the extractor, a noise
+        cluster taken by the track), at most _OUTLIER_PASSES times."""
+        outlier = np.zeros(len(resid), bool)
+        for _ in range(_OUTLIER_PASSES):
+            sig = np.where(outlier, _IGNORED_SIGMA, sigma)
+            keep = ~outlier
+            q = self._q(ts[measured][keep], resid[keep], sigma[keep])
+            x, P = _kalman_rts(ts, resid, sig, measured, q)
+            if self.outlier_sigma is None:
+                break
+            # standardised residuals: the residual from the smoothed track over its own σ
+            # (R − P: a point the fit follows closely has a small residual and a small σ)
+            var = sigma[:, None] ** 2 - P[measured][:, [0, 2], [0, 2]]
+            d = resid - x[measured][:, [0, 2]]
+            res = (np.abs(d) / np.sqrt(np.maximum(var, 1e-6 * sigma[:, None] ** 2))).max(1)
+            new = (res > self.outlier_sigma) & ~outlier
+            # never more than a quarter of a track: beyond that the model, not the data, is off
+            if not new.any() or (outlier | new).sum() > len(resid) // 4:
+                break
+            outlier |= new
+        return x, P, outlier
+
+    def _coast_frames(self, t_meas, frames, t0_us):
+        """Frames between the track's first and last centroid that have none, whose
+        mid-time is within coast_ms of the previous or the next centroid."""
+        life = np.arange(frames.min(), frames.max() + 1)
+        empty = life[~np.isin(life, frames)]
+        if not len(empty):
+            return empty
+        mid = t0_us + empty * self.dt_us + self.dt_us // 2
+        i = np.searchsorted(t_meas, mid)
+        before = mid - t_meas[np.maximum(i - 1, 0)]
+        after = t_meas[np.minimum(i, len(t_meas) - 1)] - mid
+        limit = self.coast_ms * 1000.0
+        return empty[(before <= limit) | (after <= limit)]
+
+    def _q(self, ts, resid, sigma):
+        if self.process_noise != AUTO:
+            return float(self.process_noise)
+        return max(estimate_process_noise(ts, resid, sigma), self.process_noise_min)
+
+
+def estimate_process_noise(ts, z, sigma):
+    """White-acceleration spectral density q (px²/s³) of one track by maximum likelihood of
+    its innovation sequence: positions z (n, 2) at times ts (s) with per-axis σ (n,), the
+    constant-velocity filter run for every q of a log grid at once (both axes share q).
+    0 when the track is too short or no q beats a straight line."""
+    if len(ts) < 4:
+        return 0.0
+    ll = _innovation_loglik(np.asarray(ts, float), np.asarray(z, float), np.asarray(sigma, float))
+    return float(_Q_GRID[int(np.argmax(ll))])
+
+
+def _innovation_loglik(ts, z, sigma):
+    """Log-likelihood (per q of _Q_GRID) of the innovations of a per-axis CV filter; the
+    first two steps, which only set the initial position and velocity, are left out."""
+    q = _Q_GRID[:, None]
+    shape = (len(_Q_GRID), 2)
+    p, v = np.broadcast_to(z[0], shape).copy(), np.zeros(shape)
+    p00, p01, p11 = np.full(shape, sigma[0] ** 2), np.zeros(shape), np.full(shape, _V0_VAR)
+    ll = np.zeros(shape)
+    for k in range(1, len(ts)):
+        h = ts[k] - ts[k - 1]
+        p = p + h * v
+        p00 = p00 + 2 * h * p01 + h * h * p11 + q * h**3 / 3
+        p01 = p01 + h * p11 + q * h * h / 2
+        p11 = p11 + q * h
+        s = p00 + sigma[k] ** 2
+        y = z[k] - p
+        if k >= 2:
+            ll -= 0.5 * np.log(s) + _huber(y * y / s)
+        k0, k1 = p00 / s, p01 / s
+        p, v = p + k0 * y, v + k1 * y
+        p11 = p11 - k1 * p01
+        p00, p01 = (1 - k0) * p00, (1 - k0) * p01
+    return ll.sum(1)
+
+
+def _huber(u):
+    """−log-likelihood of a squared normalised innovation u, Gaussian up to _HUBER_C σ and
+    linear beyond it, so one jump (a cut star, a stray cluster) does not decide q."""
+    return np.where(u <= _HUBER_C**2, u / 2, _HUBER_C * np.sqrt(u) - _HUBER_C**2 / 2)
+
+
+def _kalman_rts(ts, z, sigma, measured, q):
+    """Smoothed states (n, 4) = (x, vx, y, vy) and covariances (n, 4, 4) at times ts (s);
+    z, sigma: the measured steps' positions and per-axis σ."""
+    n = len(ts)
+    kf = KalmanFilter(dim_x=4, dim_z=2)
+    kf.H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
+    # a diffuse start about the first centroid: the first update brings it in (once)
+    kf.x = np.array([z[0, 0], 0.0, z[0, 1], 0.0])
+    kf.P = np.eye(4) * _DIFFUSE
+    h = np.r_[0.0, np.diff(ts)]
+    Fs = np.tile(np.eye(4), (n, 1, 1))
+    Fs[:, 0, 1] = Fs[:, 2, 3] = h
+    block = q * np.stack([np.stack([h**3 / 3, h**2 / 2], -1), np.stack([h**2 / 2, h], -1)], -2)
+    Qs = np.zeros((n, 4, 4))
+    Qs[:, :2, :2] = Qs[:, 2:, 2:] = block
+    zs = [None] * n
+    Rs = [None] * n
+    for k, i in enumerate(np.flatnonzero(measured)):
+        zs[i] = z[k]
+        Rs[i] = np.eye(2) * sigma[k] ** 2
+    Rs = [kf.R if r is None else r for r in Rs]
+    mu, cov, _, _ = kf.batch_filter(zs, Fs=list(Fs), Qs=list(Qs), Rs=Rs)
+    x, P, _, _ = kf.rts_smoother(mu, cov, Fs=list(Fs), Qs=list(Qs))
+    return x, P
+
+
+def _prior_velocity(prior, t_us, x, y):
+    if prior is None:
+        return np.zeros((len(t_us), 2))
+    v = np.asarray(prior(np.asarray(t_us), np.asarray(x, float), np.asarray(y, float)), float)
+    if v.shape != (len(t_us), 2) or not np.all(np.isfinite(v)):
+        raise ValueError(f"velocity_prior must return finite (n, 2) px/s, got shape {v.shape}")
+    return v
+
+
+def _prior_displacement(prior, t_all, t_meas, z):
+    """(n, 2) px the prior moves a star from t_all[0] to each t_all: the trapezoid rule on
+    a grid of at most _PRIOR_STEP_S (so a prior from noisy gyro samples is averaged over
+    each interval, not read at its two ends), along the measured positions interpolated."""
+    if prior is None:
+        return np.zeros((len(t_all), 2))
+    t = np.asarray(t_all, float)
+    n_sub = np.maximum(np.ceil(np.diff(t) * 1e-6 / _PRIOR_STEP_S), 1).astype(np.int64)
+    starts = np.r_[0, np.cumsum(n_sub)]            # node index of each t_all on the fine grid
+    frac = np.arange(starts[-1]) - np.repeat(starts[:-1], n_sub)
+    fine = np.r_[np.repeat(t[:-1], n_sub) + frac * np.repeat(np.diff(t) / n_sub, n_sub), t[-1:]]
+    v = _prior_velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]), np.interp(fine, t_meas, z[:, 1]))
+    steps = (v[1:] + v[:-1]) / 2 * (np.diff(fine) * 1e-6)[:, None]
+    return np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])[starts]
+
+
+def _check_sigma(sigma, centroids):
+    s = np.asarray(sigma, float)
+    if s.ndim == 0:
+        s = np.full(len(centroids), float(s))
+    if s.shape != (len(centroids),) or not np.all(np.isfinite(s)) or np.any(s <= 0):
+        raise ValueError(f"sigma must be positive finite, one per centroid ({len(centroids)}), "
+                         f"got shape {s.shape}")
+    return s
+
+
+def imu_velocity_prior(imu, camera):
+    """A velocity prior from gyro rates: the image velocity (px/s) of a fixed star at pixel
+    (x, y) at camera time t when the camera turns at ω (camera frame; ḋ = −ω × d for a
+    camera-frame direction d), through the camera model (distortion included)."""
+    from .motion.imu_integration import interpolate
+
+    def prior(t_us, x, y):
+        omega, _ = interpolate(imu, t_us)
+        d = camera.unproject(np.column_stack([x, y]))
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        h = 1e-4   # s: a step small against any slew, large against rounding
+        uv1 = camera.project(d - np.cross(omega, d) * h)
+        uv0 = camera.project(d)
+        return (uv1 - uv0) / h
+
+    return prior
+
+
+def smooth(centroids, dt_us=10_000, t0_us=None, velocity_prior=None, sigma=None, **params):
+    """TrackSmoother(dt_us, **params).smooth(centroids, t0_us, velocity_prior, sigma)."""
+    return TrackSmoother(dt_us, **params).smooth(centroids, t0_us, velocity_prior, sigma)

@@ -1,0 +1,193 @@
+"""Track smoother: unbiased and below the per-frame error on straight tracks, honest
+posterior σ, coasting limited to coast_ms, turnarounds with and without a velocity prior,
+the IMU prior's sign and scale on the simulator, and parameters checked by name."""
+import numpy as np
+import pytest
+
+import evstar
+from evstar import sim
+from evstar.extract import CENTROID_DTYPE
+from evstar.smoothing import (COASTED, MEASURED, TrackSmoother, estimate_process_noise,
+                              imu_velocity_prior)
+
+DT = 10_000
+
+
+def centroids(frames, truth_xy, sigma, rng, track=0, jitter_us=2000, n_events=20):
+    """Centroids of one track in `frames`, at times near the frame mid, with Gaussian
+    noise sigma (px per axis) about truth_xy(t_s) -> (n, 2)."""
+    frames = np.asarray(frames)
+    c = np.zeros(len(frames), CENTROID_DTYPE)
+    c["frame"], c["track"], c["n_events"] = frames, track, n_events
+    c["t"] = frames * DT + DT // 2 + (rng.integers(-jitter_us, jitter_us + 1, len(frames))
+                                      if jitter_us else 0)
+    xy = truth_xy(c["t"] * 1e-6)
+    c["x"], c["y"] = xy[:, 0] + rng.normal(0, sigma, len(c)), xy[:, 1] + rng.normal(0, sigma, len(c))
+    c["spread"] = sigma * np.sqrt(2 * n_events)
+    return c
+
+
+def line(t):
+    return np.column_stack([50 + 40.0 * t, 80 - 15.0 * t])
+
+
+def test_straight_tracks_unbiased_and_well_below_the_raw_error():
+    rng = np.random.default_rng(1)
+    sigma, n = 0.3, 50
+    cents = np.concatenate([centroids(np.arange(n), line, sigma, rng, track=k) for k in range(100)])
+    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    assert len(est) == len(cents) and np.all(est["source"] == MEASURED)
+    truth = line(est["t"] * 1e-6)
+    err = np.column_stack([est["x"], est["y"]]) - truth
+    # no bias: the mean error is within 4 standard errors of zero on both axes (errors of
+    # one track are correlated: the tracks' mean errors are the independent samples)
+    per_track = np.array([err[est["track"] == k].mean(0) for k in range(100)])
+    assert np.all(np.abs(per_track.mean(0)) < 4 * per_track.std(0) / np.sqrt(100))
+    raw = np.column_stack([cents["x"], cents["y"]]) - line(cents["t"] * 1e-6)
+    rms, rms_raw = np.sqrt((err**2).mean()), np.sqrt((raw**2).mean())
+    # a line fit through n points: σ·sqrt(4/n) on average; the smoother is that fit
+    assert rms < 1.3 * sigma * np.sqrt(4 / n) and rms < 0.35 * rms_raw
+    # the posterior σ is honest: normalised errors have unit variance
+    z2 = np.concatenate([err[:, 0] / est["sigma_x"], err[:, 1] / est["sigma_y"]]) ** 2
+    assert 0.8 < z2.mean() < 1.25
+
+
+def test_coasting_fills_gaps_up_to_the_limit_and_follows_the_motion():
+    rng = np.random.default_rng(2)
+    frames = np.r_[0:20, 40:60]
+    cents = centroids(frames, line, 0.2, rng, jitter_us=0)
+    est = TrackSmoother(DT, coast_ms=50).smooth(cents, t0_us=0)
+    coasted = est[est["coasted"]]
+    # last centroid at 195 ms, next at 405 ms: frames whose mid is within 50 ms of either
+    assert sorted(coasted["frame"]) == [*range(20, 25), *range(35, 40)]
+    assert np.all(coasted["source"] == COASTED) and np.all(coasted["centroid"] == -1)
+    assert np.all(coasted["t"] == coasted["frame"] * DT + DT // 2)
+    err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
+    assert err.max() < 0.3
+    # σ grows away from the measurements: coasted rows are less certain than the gap's edges
+    edges = est[np.isin(est["frame"], [19, 40]) & ~est["coasted"]]
+    assert coasted["sigma_x"].max() > edges["sigma_x"].max()
+    assert len(TrackSmoother(DT, coast_ms=0).smooth(cents, t0_us=0)) == len(cents)
+
+
+def test_unconfirmed_centroids_are_left_out_and_rows_sorted_by_track_then_time():
+    rng = np.random.default_rng(3)
+    a = centroids(np.arange(10), line, 0.2, rng, track=1)
+    b = centroids(np.arange(10), line, 0.2, rng, track=0)
+    c = centroids(np.arange(10), line, 0.2, rng, track=-1)
+    cents = np.concatenate([a, b, c])[rng.permutation(30)]
+    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    assert len(est) == 20 and not np.any(est["track"] < 0)
+    assert np.all(np.diff(est["track"]) >= 0)
+    assert np.all(np.diff(est["t"][est["track"] == 0]) > 0)
+    back = cents[est["centroid"]]
+    assert np.array_equal(back["track"], est["track"]) and np.array_equal(back["t"], est["t"])
+
+
+AMP, FREQ = 100.0, 1.0
+
+
+def sinusoid(t):
+    return np.column_stack([160 + AMP * np.sin(2 * np.pi * FREQ * t), np.full(len(t), 120.0)])
+
+
+def sinusoid_velocity(t_us, x, y):
+    t = np.asarray(t_us) * 1e-6
+    return np.column_stack([AMP * 2 * np.pi * FREQ * np.cos(2 * np.pi * FREQ * t), np.zeros(len(t))])
+
+
+def test_turnaround_followed_better_with_the_velocity_prior():
+    rng = np.random.default_rng(4)
+    cents = centroids(np.arange(100), sinusoid, 0.3, rng)
+    turn = np.abs(np.cos(2 * np.pi * FREQ * cents["t"] * 1e-6)) < 0.3     # near the extremes
+
+    def errors(prior):
+        est = TrackSmoother(DT).smooth(cents, t0_us=0, velocity_prior=prior)
+        return np.hypot(*(np.column_stack([est["x"], est["y"]]) - sinusoid(est["t"] * 1e-6)).T)
+
+    raw = np.hypot(*(np.column_stack([cents["x"], cents["y"]]) - sinusoid(cents["t"] * 1e-6)).T)
+    free, guided = errors(None), errors(sinusoid_velocity)
+    rms = lambda e: np.sqrt(np.mean(e[turn] ** 2))   # noqa: E731
+    assert rms(free) < rms(raw)              # q estimated from the data: no lag worse than noise
+    assert rms(guided) < 0.4 * rms(free)     # the prior removes the model's lag
+    assert rms(guided) < 0.25 * rms(raw)
+
+
+def test_process_noise_estimate_recovers_a_random_acceleration():
+    rng = np.random.default_rng(5)
+    q, h, n, sigma = 1e4, 0.01, 400, 0.05
+    a = rng.normal(0, np.sqrt(q / h), (n, 2))        # white acceleration, piecewise constant
+    v = np.cumsum(a * h, axis=0)
+    z = np.cumsum(v * h, axis=0) + rng.normal(0, sigma, (n, 2))
+    est = estimate_process_noise(np.arange(n) * h, z, np.full(n, sigma))
+    assert q / 2 < est < 2 * q
+    flat = estimate_process_noise(np.arange(n) * h, rng.normal(0, sigma, (n, 2)), np.full(n, sigma))
+    assert flat < 10.0     # noise alone: ~0
+
+
+def test_imu_prior_gives_the_image_velocity_of_a_simulated_star():
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.2), seed=1)
+    t = np.linspace(run.events.t[0] + 20_000, run.events.t[-1] - 20_000, 5).astype(np.int64)
+    xy = run.truth.star_position(t, 0)
+    true_v = (run.truth.star_position(t + 500, 0) - run.truth.star_position(t - 500, 0)) / 1e-3
+    v = imu_velocity_prior(run.imu, run.camera)(t, xy[:, 0], xy[:, 1])
+    speed = np.linalg.norm(true_v, axis=1)
+    assert np.all(speed > 50)                          # 8 °/s ≈ 90 px/s on this camera
+    # the gyro's noise and bias: a few % per sample, less on average
+    assert np.all(np.linalg.norm(v - true_v, axis=1) < 0.1 * speed)
+    assert np.linalg.norm((v - true_v).mean(0)) < 0.05 * speed.mean()
+
+
+@pytest.mark.parametrize("name, value", [("coast_ms", -1), ("process_noise", "fast"),
+                                         ("process_noise", -2.0), ("sigma_floor_px", 0),
+                                         ("psf_sigma_px", -1.0), ("min_events", 0),
+                                         ("process_noise_min", float("nan")),
+                                         ("outlier_sigma", 0)])
+def test_bad_parameters_rejected_by_name(name, value):
+    with pytest.raises(evstar.ParameterError, match=name):
+        TrackSmoother(DT, **{name: value})
+
+
+def test_bad_sigma_and_prior_rejected():
+    rng = np.random.default_rng(6)
+    cents = centroids(np.arange(10), line, 0.2, rng)
+    with pytest.raises(ValueError, match="sigma"):
+        TrackSmoother(DT).smooth(cents, t0_us=0, sigma=np.zeros(10))
+    with pytest.raises(ValueError, match="velocity_prior"):
+        TrackSmoother(DT).smooth(cents, t0_us=0, velocity_prior=lambda t, x, y: np.zeros(3))
+
+
+def test_an_outlier_is_flagged_and_does_not_pull_the_track():
+    rng = np.random.default_rng(7)
+    cents = centroids(np.arange(40), line, 0.1, rng)
+    cents["x"][20] += 2.0                                # half of a cut star, 20 σ off
+    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    assert est["outlier"].tolist() == [i == 20 for i in range(40)]
+    err = np.hypot(*(np.column_stack([est["x"], est["y"]]) - line(est["t"] * 1e-6)).T)
+    assert err.max() < 0.1
+    kept = TrackSmoother(DT, outlier_sigma=None).smooth(cents, t0_us=0)
+    assert not kept["outlier"].any()
+    assert np.hypot(*(np.column_stack([kept["x"], kept["y"]]) - line(kept["t"] * 1e-6)).T).max() > 0.1
+
+
+def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
+    run = sim.simulate(sim.paper_preset(4.0, magnitude=5.0, duration_s=0.3), seed=3)
+    res = evstar.Pipeline(evstar.Config()).run(run.events, run.imu, run.camera, truth=run.truth)
+    raw = res.centroids[res.centroids["track"] >= 0]
+    assert len(raw) > 20
+    est = TrackSmoother(DT).smooth(raw, t0_us=int(run.events.t[0]))
+    _, e_raw = evstar.accuracy.match(raw, run.truth.star_position)
+    _, e_est = evstar.accuracy.match(est, run.truth.star_position)
+    assert e_est.mean() < 0.5 * e_raw.mean() and e_est.max() < e_raw.max()
+
+
+def test_short_tracks_and_no_tracks():
+    rng = np.random.default_rng(9)
+    assert len(TrackSmoother(DT).smooth(np.zeros(0, CENTROID_DTYPE))) == 0
+    one = centroids([5], line, 0.2, rng)
+    est = TrackSmoother(DT).smooth(one, t0_us=0)
+    assert len(est) == 1 and est["x"][0] == pytest.approx(one["x"][0], abs=1e-6)
+    assert est["sigma_x"][0] == pytest.approx(0.2, rel=1e-3)   # nothing to pool: its own σ
+    two = centroids([5, 8], line, 0.2, rng)
+    est = TrackSmoother(DT).smooth(two, t0_us=0)
+    assert est["frame"].tolist() == [5, 6, 7, 8] and est["coasted"].tolist() == [False, True, True, False]
