@@ -7,7 +7,6 @@ checked against the arch Taichi actually reports.
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import sys
 import tempfile
@@ -61,10 +60,8 @@ def taichi(device="cpu"):
                 kwargs["cpu_max_num_threads"] = int(_settings["cpu_threads"])
             if _settings["cache_dir"]:
                 kwargs["offline_cache_file_path"] = os.path.join(_settings["cache_dir"], "taichi")
-            with contextlib.redirect_stdout(io.StringIO()) as said:
-                ti.init(**kwargs)  # prints "[Taichi] Starting on arch=..." on stdout
-            sys.stderr.write("".join(ln for ln in said.getvalue().splitlines(keepends=True)
-                                     if not ln.startswith("[Taichi] Starting on arch")))
+            with contextlib.redirect_stdout(sys.stderr):  # its "[Taichi] Starting on arch=..."
+                ti.init(**kwargs)
             got = ti.lang.impl.current_cfg().arch
             _taichi_arch = "cuda" if got == ti.cuda else "cpu"
             if _taichi_arch != want:

@@ -62,8 +62,10 @@ DenoiseConfig = _section_class("DenoiseConfig", P.DENOISE, _denoise_check)
 ExtractConfig = _section_class("ExtractConfig", P.EXTRACT)
 TrackConfig = _section_class("TrackConfig", P.TRACK)
 MotionConfig = _section_class("MotionConfig", P.MOTION)
+EstimateConfig = _section_class("EstimateConfig", P.ESTIMATE)
+HotPixelsConfig = _section_class("HotPixelsConfig", P.HOTPIXELS)
 _SECTIONS = {"denoise": DenoiseConfig, "extract": ExtractConfig, "track": TrackConfig,
-             "motion": MotionConfig}
+             "motion": MotionConfig, "estimate": EstimateConfig, "hotpixels": HotPixelsConfig}
 
 
 @dataclass
@@ -76,6 +78,8 @@ class Config:
     extract: ExtractConfig = field(default_factory=ExtractConfig)
     track: TrackConfig = field(default_factory=TrackConfig)
     motion: MotionConfig = field(default_factory=MotionConfig)
+    estimate: EstimateConfig = field(default_factory=EstimateConfig)
+    hotpixels: HotPixelsConfig = field(default_factory=HotPixelsConfig)
 
     def __post_init__(self):
         self.validate()

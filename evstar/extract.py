@@ -17,11 +17,13 @@ from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import check_dt, frame_bounds, frame_ids
 
-#: one row per centroid; t in µs; flags: border (touches the sensor edge), split (separated
-#: from a DBSCAN cluster that held two targets)
+#: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
+#: edge), split (separated from a DBSCAN cluster that held two targets); sigma: per-axis
+#: uncertainty in px (NaN until an estimator sets it); source: "measured" (this frame's
+#: events) or "coasted" (a frame of a track without a centroid, from the track's motion)
 CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "<i8"),
                            ("n_events", "<i4"), ("frame", "<i8"), ("spread", "<f8"),
-                           ("border", "?"), ("split", "?")])
+                           ("border", "?"), ("split", "?"), ("sigma", "<f8"), ("source", "<U8")])
 E = P.EXTRACT
 WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
@@ -179,7 +181,7 @@ class Extractor:
         spread = float(np.sqrt(((pts - (cx, cy)) ** 2).sum(1).mean()))
         border = bool(pts[:, 0].min() < 1 or pts[:, 1].min() < 1
                       or pts[:, 0].max() > events.width - 2 or pts[:, 1].max() > events.height - 2)
-        return (t, cx, cy, -1, len(m), frames[m[0]], spread, border, split)
+        return (t, cx, cy, -1, len(m), frames[m[0]], spread, border, split, np.nan, "measured")
 
     def _centre(self, pts, p):
         if self.weighting == "pixels":

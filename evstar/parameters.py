@@ -277,8 +277,19 @@ KERNEL = Params(
           low=-(1 << 62), high=1 << 62, optional=True),
 )
 
+ESTIMATORS = ("crossings", "track", "mean")
+
 ESTIMATE = Params(
     "estimate",
+    Param("estimator", str, "crossings", "star positions: a track smoother fed with pixel "
+          "crossing times (crossings), with centroids only (track), or per-frame means (mean)",
+          choices=ESTIMATORS),
+    Param("crossing_radius_px", float, 3.0, "crossings come from all events this close to a "
+          "kept event (a filter drops a faint star's flank events)", low=0, high=MAX_RADIUS,
+          unit="px"),
+    Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
+          "motion relative to across it (its mean is biased along the motion)", low=0,
+          high=1, open_low=True),
     Param("process_noise", float, AUTO, "track smoother: white-acceleration spectral density q "
           "(auto: estimated per track from its centroids)", low=0, auto=True, unit="px²/s³"),
     Param("process_noise_min", float, 1.0, "floor of an estimated q (a straight track's q "
@@ -314,9 +325,12 @@ HOTPIXELS = Params(
           "brightest 8-neighbour's", low=1),
     Param("max_spread_px", float, 0.5, "a centroid on a hot pixel is dropped when its spread "
           "is at most this", low=0, unit="px"),
+    Param("remove", bool, True, "drop point-like centroids on hot pixels before tracking",
+          cli="--remove-hot-pixels"),
 )
 
-SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION}
+SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
+            "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
 
 def markdown():

@@ -84,9 +84,11 @@ class Pipeline:
                           extrapolate_us=self.config.motion.extrapolate_us, backend="warp",
                           device=self.config.device)
 
-    def _chunk(self, events, imu, camera, t0_us, rate, mode, filter_result, context=None):
+    def _chunk(self, events, imu, camera, t0_us, rate, mode, filter_result, context=None,
+               state=None):
         """(keep mask, centroids, timings, compensation) of one chunk; `context` are earlier
-        events the classical filter needs (their own outputs are dropped)."""
+        events the classical filter needs (their own outputs are dropped). With a `state`
+        (_RunState), the chunk's hot pixels are removed and its crossings collected."""
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
@@ -109,6 +111,10 @@ class Pipeline:
         timings["extract"] = time.perf_counter() - t
         keep = np.zeros(len(events), bool)
         keep[kept] = True
+        if state is not None:
+            t = time.perf_counter()
+            cents = state.add(events, keep, cents)
+            timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
     # -- whole recordings in memory -----------------------------------------------------
@@ -125,11 +131,14 @@ class Pipeline:
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result)
+        state = _RunState(self.config, events.width, events.height)
+        keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
+                                                 state=state)
         _add(timings, chunk_t)
         acc = _Summary(events.width, events.height, self.config.dt_us, t0)
         acc.add(events, keep, truth, 0)
-        result = self._finish(cents, timings, len(events), truth, acc, filter_result)
+        result = self._finish(cents, timings, len(events), truth, acc, filter_result,
+                              self._estimator(state, t0, imu, camera, filter_result, events.t))
         result.keep, result.compensation = keep, comp
         return result
 
@@ -154,11 +163,39 @@ class Pipeline:
         timings["particle_filter"] = time.perf_counter() - t
         return result, timings
 
-    def _finish(self, centroids, timings, n_events, truth, acc, filter_result):
+    def _estimator(self, state, t0, imu, camera, filter_result, t_events):
+        """linked centroids -> star positions (evstar.estimation), with the run's crossings
+        and, when the run compensates with the IMU, the gyro's image velocity as the motion
+        prior (an IMU that only came along in the file is not trusted with that)."""
+        from . import estimation
+
+        prior = None
+        if self.config.motion.compensate != "none" and len(t_events):
+            from .motion import hold_ends
+            from .smoothing import imu_velocity_prior
+
+            if filter_result is not None:
+                imu = filter_result.corrected_imu(imu, causal=self.config.motion.causal)
+            imu = hold_ends(imu, int(t_events[0]), int(t_events[-1]),
+                            self.config.motion.extrapolate_us)
+            prior = imu_velocity_prior(imu, camera)
+        return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior)
+
+    def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None):
         stats = acc.stats
         t = time.perf_counter()
+        h = self.config.hotpixels
+        if h.remove:  # hot pixels from the whole run's counts: streamed runs find the same
+            from .hotpixels import hot_pixels, remove_hot_centroids
+
+            hot = hot_pixels(acc.before, h.alpha, h.neighbour_ratio)
+            centroids = remove_hot_centroids(centroids, hot, h.max_spread_px)
         cents = self.make_tracker().link(centroids)
         timings["track"] = time.perf_counter() - t
+        if estimator is not None:
+            t = time.perf_counter()
+            cents = estimator(cents)
+            timings["estimate"] = timings.get("estimate", 0.0) + time.perf_counter() - t
         metrics = {"events": n_events, "events_kept": stats["kept"],
                    "centroids": int(len(cents)),
                    "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0])))}
@@ -206,18 +243,21 @@ class Pipeline:
         timings, filter_result = {}, None
         if mode == "pf":
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
-        parts, offset = [], 0
+        parts, offset, span_t = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
+        state = _RunState(self.config, first[1].width, first[1].height)
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
-                                                     filter_result, context)
+                                                     filter_result, context, state)
             _add(timings, chunk_t)
             parts.append(cents)
             acc.add(events, keep, truth, offset)
             offset += len(events)
+            span_t[1] = int(events.t[-1])
         if truth is not None:
             accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
-        return self._finish(_cat(parts), timings, offset, truth, acc, filter_result)
+        return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
+                            self._estimator(state, t0, imu, camera, filter_result, span_t))
 
 
 # -- input checks ------------------------------------------------------------------------
@@ -246,6 +286,26 @@ def _check_inputs(events, imu, camera, mode):
 
 
 # -- helpers -----------------------------------------------------------------------------
+class _RunState:
+    """The pixel crossings a run gathers chunk by chunk for its estimator (a crossing whose
+    flanks fall in two chunks of a streamed run is lost)."""
+
+    def __init__(self, config, width, height):
+        self.config, self._crossings = config, []
+
+    def add(self, events, keep, cents):
+        from .estimation import chunk_crossings
+
+        if self.config.estimate.estimator == "crossings" and len(events):
+            self._crossings.append(chunk_crossings(events, keep,
+                                                   self.config.estimate.crossing_radius_px))
+        return cents
+
+    def crossings(self):
+        return np.concatenate(self._crossings) if self._crossings else None
+
+
+
 def _with_context(windows, dt_us, desc, progress):
     """(events, context) per chunk: context = the previous chunk's events of its last dt."""
     from tqdm import tqdm

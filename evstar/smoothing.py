@@ -139,6 +139,29 @@ class TrackSmoother:
         out["source"] = np.where(measured, MEASURED, COASTED)
         return out
 
+    def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1):
+        """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
+        (evstar.crossings.pixel_crossings of the events near the stars) as along-track
+        measurements; see :func:`along_track_fit`. Returns (rows, crossings used)."""
+        from .crossings import along_track
+
+        sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
+        got, owner, u, _ = along_track(crossings, est)
+        q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
+        parts, used = [], 0
+        for tid in np.unique(est["track"]):
+            rows = est[est["track"] == tid]
+            meas = rows["centroid"][~rows["coasted"]]
+            s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
+            mine = owner == tid
+            fit, n = along_track_fit(
+                rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
+                (crossings["t"][got[mine]], q_all[got[mine]], u[mine]), velocity_prior,
+                along_weight=along_weight, sigma_floor_px=self.sigma_floor_px, process_noise_min=self.process_noise_min)
+            parts.append(fit)
+            used += n
+        return (np.concatenate(parts) if parts else est), used
+
     def _fit(self, ts, resid, sigma, measured):
         """Smoothed states and covariances, and the outlier flag per measurement: a centroid
         whose standardised residual from the smoothed track exceeds outlier_sigma (either axis)
@@ -228,7 +251,7 @@ def _huber(u):
 
 def _kalman_rts(ts, z, sigma, measured, q):
     """Smoothed states (n, 4) = (x, vx, y, vy) and covariances (n, 4, 4) at times ts (s);
-    z, sigma: the measured steps' positions and per-axis σ."""
+    z, sigma: the measured steps' positions and per-axis σ (or (m, 2, 2) covariances)."""
     n = len(ts)
     kf = KalmanFilter(dim_x=4, dim_z=2)
     kf.H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
@@ -245,11 +268,76 @@ def _kalman_rts(ts, z, sigma, measured, q):
     Rs = [None] * n
     for k, i in enumerate(np.flatnonzero(measured)):
         zs[i] = z[k]
-        Rs[i] = np.eye(2) * sigma[k] ** 2
+        Rs[i] = sigma[k] if np.ndim(sigma[k]) == 2 else np.eye(2) * sigma[k] ** 2
     Rs = [kf.R if r is None else r for r in Rs]
     mu, cov, _, _ = kf.batch_filter(zs, Fs=list(Fs), Qs=list(Qs), Rs=Rs)
     x, P, _, _ = kf.rts_smoother(mu, cov, Fs=list(Fs), Qs=list(Qs))
     return x, P
+
+
+def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
+                    gate_sigma=4.0, sigma_floor_px=0.01, process_noise_min=1.0):
+    """Refit one track's smoothed rows `est` with crossing times as along-track measurements.
+
+    A crossing says the star's centre passed pixel q at time t: a measurement of the position
+    along the motion u only, z = q with covariance σ_a²·uuᵀ + (huge)·nnᵀ. The centroids
+    (z_cent, σ: those of est's measured rows) keep their cross-track σ; along the motion
+    their σ is divided by `along_weight` (a per-frame mean of a moving star's events is biased
+    along the motion by its ON/OFF lobes and the pixels' lag; where no crossing is near, the
+    centroids still carry the track). σ_a is the robust spread (1.4826 MAD) of the crossings'
+    residuals from `est`; crossings beyond `gate_sigma` σ_a of their median are dropped.
+    crossings: (t µs, q (n, 2), u (n, 2)). Returns new rows (est's times, frames and flags)
+    and the number of crossings used.
+    """
+    t_c, q, u = crossings
+    if len(t_c) < 3:
+        return est, 0
+    pos = np.column_stack([np.interp(t_c, est["t"], est["x"]), np.interp(t_c, est["t"], est["y"])])
+    r = ((q - pos) * u).sum(1)
+    med = np.median(r)
+    s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
+    ok = np.abs(r - med) <= gate_sigma * s_a
+    t_c, q, u = np.round(t_c[ok]).astype(np.int64), q[ok], u[ok]
+    measured = ~est["coasted"]
+    v = np.column_stack([est["vx"][measured], est["vy"][measured]])
+    u_cent = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-9)
+    # every row: est's (measured or coasted), then the crossings; sorted by time together
+    n_est, n = len(est), len(est) + len(t_c)
+    t_all = np.concatenate([est["t"].astype(np.int64), t_c])
+    is_meas = np.concatenate([measured, np.ones(len(t_c), bool)])
+    is_cent = np.concatenate([measured, np.zeros(len(t_c), bool)])
+    z = np.zeros((n, 2))
+    z[is_meas] = np.vstack([z_cent, q])
+    R = np.tile(np.eye(2), (n, 1, 1))
+    R[is_meas] = np.concatenate([_covariances(u_cent, sigma / along_weight, sigma),
+                                 _covariances(u, np.full(len(t_c), s_a),
+                                              np.full(len(t_c), _IGNORED_SIGMA))])
+    sig = np.zeros(n)
+    sig[is_cent] = sigma
+    order = np.argsort(t_all, kind="stable")
+    t_s, m_s, c_s = t_all[order], is_meas[order], is_cent[order]
+    shift = _prior_displacement(velocity_prior, t_s, t_s[m_s], z[order][m_s])
+    resid = z[order][m_s] - shift[m_s]
+    ts = (t_s - t_s[0]) * 1e-6
+    cent = c_s[m_s]
+    q_track = estimate_process_noise(ts[c_s], resid[cent], sig[order][c_s])
+    x, P = _kalman_rts(ts, resid, R[order][m_s], m_s, max(q_track, process_noise_min))
+    back = np.empty(n, np.int64)
+    back[order] = np.arange(n)
+    back = back[:n_est]                               # est's rows in the sorted order
+    out = est.copy()
+    out["x"], out["y"] = x[back, 0] + shift[back, 0], x[back, 2] + shift[back, 1]
+    v_prior = _prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
+    out["vx"], out["vy"] = x[back, 1] + v_prior[:, 0], x[back, 3] + v_prior[:, 1]
+    out["sigma_x"], out["sigma_y"] = np.sqrt(P[back, 0, 0]), np.sqrt(P[back, 2, 2])
+    return out, int(ok.sum())
+
+
+def _covariances(u, s_along, s_cross):
+    """(n, 2, 2) covariances with σ s_along along the unit vectors u and s_cross across."""
+    n = np.column_stack([-u[:, 1], u[:, 0]])
+    return (s_along[:, None, None] ** 2 * u[:, :, None] * u[:, None, :]
+            + s_cross[:, None, None] ** 2 * n[:, :, None] * n[:, None, :])
 
 
 def _prior_velocity(prior, t_us, x, y):

@@ -12,8 +12,7 @@ from .. import parameters as P
 from ..errors import EvstarError, ParameterError
 
 #: the stages' parameter sets that `evstar extract` and `evstar run` expose, by config section
-PIPELINE = {"": P.GLOBAL, "denoise": P.DENOISE, "extract": P.EXTRACT, "track": P.TRACK,
-            "motion": P.MOTION}
+PIPELINE = {"": P.GLOBAL, **P.SECTIONS}
 
 
 def add_options(p, params, names=None, section=None, **overrides):

@@ -1,0 +1,66 @@
+"""Star positions from linked centroids, as the [estimate] section of evstar.Config says.
+
+* ``mean``: the per-frame centroids as they are (the paper's estimator), each with its
+  measurement σ.
+* ``track``: every confirmed track through the Kalman filter + RTS smoother of
+  :mod:`evstar.smoothing` (pooled over frames; frames without a centroid coasted).
+* ``crossings`` (default): the same smoother also fed with the times the star's centre
+  passed each pixel (:mod:`evstar.crossings`) as measurements along the motion, where the
+  per-frame mean of a moving star's events is biased by its ON/OFF lobes.
+
+The result has the centroid layout (:data:`evstar.extract.CENTROID_DTYPE`): one row per
+measured frame of a track (its position at the centroid's time) and per coasted frame
+(``source`` "coasted", at the frame's mid-time), plus the unconfirmed centroids as measured.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .crossings import CROSSING_DTYPE, near_pixels, pixel_crossings
+from .extract import CENTROID_DTYPE
+
+#: keyword arguments of TrackSmoother among the [estimate] settings
+_SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
+                  "psf_sigma_px", "min_events", "outlier_sigma")
+
+
+def chunk_crossings(events, keep, radius_px):
+    """Pixel crossings of all events within `radius_px` of a kept event: a density filter
+    drops a faint star's flank events, which the level pairs need."""
+    if not keep.any():
+        return np.zeros(0, CROSSING_DTYPE)
+    near = near_pixels(events.x[keep], events.y[keep], events.width, events.height, radius_px)
+    sel = near[events.y, events.x]
+    return pixel_crossings(events.t[sel], events.x[sel], events.y[sel], events.p[sel])
+
+
+def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
+    """CENTROID_DTYPE rows for linked `centroids` (see the module docstring)."""
+    from .smoothing import TrackSmoother
+
+    e = config.estimate
+    smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
+    sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
+    out = centroids.copy()
+    out["sigma"], out["source"] = sigma, "measured"
+    if e.estimator == "mean" or not (centroids["track"] >= 0).any():
+        return out
+    est = smoother.smooth(centroids, t0_us, velocity_prior, sigma)
+    if e.estimator == "crossings" and crossings is not None and len(crossings):
+        est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight)
+    return _merge(out[centroids["track"] < 0], out, est)
+
+
+def _merge(unconfirmed, measured, est):
+    """Unconfirmed centroids + one row per estimate (measured rows keep their centroid's
+    fields, with the estimate's position and σ), time-sorted."""
+    rows = np.zeros(len(est), CENTROID_DTYPE)
+    from_cent = est["centroid"] >= 0
+    rows[from_cent] = measured[est["centroid"][from_cent]]
+    rows["spread"][~from_cent] = np.nan
+    for f in ("t", "x", "y", "track", "frame"):
+        rows[f] = est[f]
+    rows["sigma"] = np.sqrt((est["sigma_x"] ** 2 + est["sigma_y"] ** 2) / 2)
+    rows["source"] = est["source"]
+    out = np.concatenate([unconfirmed, rows])
+    return out[np.lexsort((out["x"], out["t"]))]
