@@ -60,7 +60,8 @@ def taichi(device="cpu"):
                 kwargs["cpu_max_num_threads"] = int(_settings["cpu_threads"])
             if _settings["cache_dir"]:
                 kwargs["offline_cache_file_path"] = os.path.join(_settings["cache_dir"], "taichi")
-            with contextlib.redirect_stdout(sys.stderr):  # its "[Taichi] Starting on arch=..."
+            # ti.init prints "[Taichi] Starting on arch=..." on stdout; evstar reports the arch
+            with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
                 ti.init(**kwargs)
             got = ti.lang.impl.current_cfg().arch
             _taichi_arch = "cuda" if got == ti.cuda else "cpu"

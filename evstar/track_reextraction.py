@@ -58,7 +58,8 @@ def _track_rows(events, est, track, dt_us, t0_us, radius, min_events, max_frames
         x = np.interp(tm, est["t"], est["x"]) + ox
         y = np.interp(tm, est["t"], est["y"]) + oy
         frame = int((int(round(tm)) - t0_us) // dt_us)
-        rows.append((int(round(tm)), x, y, track, len(members), frame, spread, False, False))
+        rows.append((int(round(tm)), x, y, track, len(members), frame, spread, False, False,
+                     np.nan, "measured"))
     return rows
 
 

@@ -1,4 +1,4 @@
-"""The `evstar` command: one module per sub-command, each with add_parser() and run().
+"""evstar: event-camera processing for star sensors (denoise, extract, track, compensate).
 
 Every failure ends in one line on stderr, ``evstar CMD: error: ...``, and an exit code
 that says what went wrong (no traceback unless --debug):
@@ -17,8 +17,18 @@ from importlib import import_module
 
 from ..errors import EvstarError
 
-# sub-command name -> module in this package defining add_parser(subparsers) and run(args)
-COMMANDS = ["info", "convert", "simulate", "denoise", "extract", "run", "demo", "bench"]
+# sub-command -> its one-line help; the module evstar.cli.<name> defines add_arguments(parser)
+# (or add_parser(subparsers)) and run(args), and its docstring is the command's description
+COMMANDS = {
+    "info": "summarise a recording (events, rate, sensor, IMU)",
+    "convert": "convert a recording to another format (by extension)",
+    "simulate": "simulate stars seen by an event camera on a turntable",
+    "denoise": "denoise events: classical, NDSEF or MR-NDSEF filter",
+    "extract": "extract star positions and tracks",
+    "run": "run the whole pipeline and write results and figures",
+    "demo": "simulate the default scene and run the whole pipeline",
+    "bench": "measure throughput per stage and backend",
+}
 EXIT_MEMORY, EXIT_INTERNAL, EXIT_INTERRUPTED = 6, 70, 130
 
 
@@ -29,22 +39,33 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
-def build_parser():
+def build_parser(argv=None):
+    """The parser; only the sub-command named in `argv` gets its options (and imports its
+    module), so `evstar --help` and every other command start without the rest."""
     parser = Parser(prog="evstar", description=__doc__,
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version="evstar 0.1.0")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
-        module = import_module(f".{name.replace('-', '_')}", __name__)
-        p = module.add_parser(sub)
+    chosen = next((a for a in (sys.argv[1:] if argv is None else argv) if a in COMMANDS), None)
+    for name, help_text in COMMANDS.items():
+        if name != chosen:
+            sub.add_parser(name, help=help_text)
+            continue
+        module = import_module(f".{name}", __name__)
+        if hasattr(module, "add_arguments"):
+            p = sub.add_parser(name, help=help_text, description=module.__doc__,
+                               formatter_class=argparse.RawDescriptionHelpFormatter)
+            module.add_arguments(p)
+        else:
+            p = module.add_parser(sub)
         p.set_defaults(_run=module.run)
     return parser
 
 
 def main(argv=None):
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser(argv).parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed
         return exc.code
     try:

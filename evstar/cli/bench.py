@@ -6,15 +6,13 @@ from .. import parameters as P
 from .options import add_options, checked
 
 
-def add_parser(sub):
-    p = sub.add_parser("bench", help="measure throughput per stage and backend", description=__doc__)
+def add_arguments(p):
     p.add_argument("--events", type=checked(int, 1000, 10**9), default=1_000_000,
                    help="scene size in events, 1000 to 1e9 (1e6)")
     add_options(p, P.GLOBAL, ["device"], device={"default": "cpu"})
     p.add_argument("--repeats", type=checked(int, 1, 1000), default=3,
                    help="timed runs per stage (median reported)")
     p.add_argument("-o", "--output", default="bench.json", help="JSON results (bench.json)")
-    return p
 
 
 def run(args):

@@ -1,8 +1,6 @@
 """Options and helpers shared by several sub-commands."""
 from __future__ import annotations
 
-from .. import io
-
 
 def add_input_options(p):
     p.add_argument("--format", help="input format, overriding the extension (csv, npz, hdf5, aedat4, raw, dat)")
@@ -14,6 +12,8 @@ def add_input_options(p):
 
 def load(args):
     """Read the input recording with the camera / IMU files the user passed."""
+    from .. import io
+
     camera = io.read_camera(args.camera) if getattr(args, "camera", None) else None
     size = args.sensor_size or (camera and (camera.width, camera.height)) or None
     rec = io.read(args.input, format=args.format, sensor_size=size)

@@ -9,14 +9,11 @@ from .options import add_options, checked
 
 
 
-def add_parser(sub):
-    p = sub.add_parser("demo", help="simulate the default scene and run the whole pipeline",
-                       description=__doc__)
+def add_arguments(p):
     p.add_argument("-o", "--output", default="out/demo", metavar="OUTDIR", help="(out/demo)")
     p.add_argument("--rate", type=checked(float, -3600, 3600), default=20.0, help="slew rate, °/s (20)")
     add_options(p, P.GLOBAL, ["device", "seed"], device={"default": "cpu"}, seed={"default": 1})
     add_options(p, P.MOTION, ["compensate"], section="", compensate={"default": "pf"})
-    return p
 
 
 def run(args):

@@ -17,9 +17,7 @@ from .options import add_options, config_from_args
 METHODS = P.METHODS[1:]  # every filter; "none" is for the pipeline
 
 
-def add_parser(sub):
-    p = sub.add_parser("denoise", help="denoise events: classical, NDSEF or MR-NDSEF filter",
-                       description=__doc__)
+def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT", help="kept events: .csv .npz .h5 .aedat4")
     add_options(p, P.GLOBAL, ["device", "dt_us"])
@@ -29,7 +27,6 @@ def add_parser(sub):
     p.add_argument("--mask-out", metavar="MASK.npy", help="write the keep mask (bool per input event)")
     add_input_options(p)
     p.add_argument("--to", dest="out_format", help="output format, overriding OUT's extension")
-    return p
 
 
 def make_filter(args):

@@ -10,13 +10,11 @@ from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
 
-def add_parser(sub):
-    p = sub.add_parser("extract", help="extract star centroids and tracks", description=__doc__)
+def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("-o", "--output", required=True, metavar="CENTROIDS.csv")
     add_input_options(p)
     add_pipeline_options(p)
-    return p
 
 
 def run(args):

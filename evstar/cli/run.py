@@ -15,9 +15,7 @@ from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
 
-def add_parser(sub):
-    p = sub.add_parser("run", help="run the whole pipeline and write results and figures",
-                       description=__doc__)
+def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
     p.add_argument("--truth", help="simulator truth.npz: adds errors against ground truth")
@@ -26,7 +24,6 @@ def add_parser(sub):
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_input_options(p)
     add_pipeline_options(p)
-    return p
 
 
 def run(args):

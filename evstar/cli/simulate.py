@@ -13,11 +13,9 @@ from ..errors import FormatError, OutputError, ParameterError
 from .options import checked
 
 
-def add_parser(sub):
+def add_arguments(p):
     from ..sim.presets import SENSOR_MODELS, SENSORS
 
-    p = sub.add_parser("simulate", help="simulate stars seen by an event camera on a turntable",
-                       description=__doc__)
     p.add_argument("out_dir", metavar="OUT_DIR")
     p.add_argument("--preset", default="dvxplorer-lite", metavar="CAMERA",
                    help=f"camera: {', '.join(SENSORS)} (default: dvxplorer-lite, the paper's)")
@@ -50,7 +48,6 @@ def add_parser(sub):
     p.add_argument("--seed", type=checked(int, 0, 2**32 - 1), default=0)
     p.add_argument("--events-name", default="events.h5", metavar="NAME",
                    help="events file name; its extension picks the format (events.h5)")
-    return p
 
 
 def scenario_from(args):
