@@ -48,6 +48,8 @@ _OUTLIER_PASSES = 4                    # fits per track at most (outliers droppe
 _IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
 _HUBER_C = 3.0                         # σ: innovations beyond it count linearly in the q fit
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
+MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
+MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
 
 
 class TrackSmoother:
@@ -290,7 +292,10 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     and the number of crossings used.
     """
     t_c, q, u = crossings
-    if len(t_c) < 3:
+    # too few crossings, or all within a pixel or two along the motion, do not pin the
+    # track's velocity: the centroids alone then (a short or nearly static track)
+    along = (q * u).sum(1) if len(t_c) else np.zeros(0)
+    if len(t_c) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX:
         return est, 0
     pos = np.column_stack([np.interp(t_c, est["t"], est["x"]), np.interp(t_c, est["t"], est["y"])])
     r = ((q - pos) * u).sum(1)
@@ -329,7 +334,8 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     out["x"], out["y"] = x[back, 0] + shift[back, 0], x[back, 2] + shift[back, 1]
     v_prior = _prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
     out["vx"], out["vy"] = x[back, 1] + v_prior[:, 0], x[back, 3] + v_prior[:, 1]
-    out["sigma_x"], out["sigma_y"] = np.sqrt(P[back, 0, 0]), np.sqrt(P[back, 2, 2])
+    out["sigma_x"] = np.sqrt(np.maximum(P[back, 0, 0], 0.0))   # rounding can make it -0
+    out["sigma_y"] = np.sqrt(np.maximum(P[back, 2, 2], 0.0))
     return out, int(ok.sum())
 
 
