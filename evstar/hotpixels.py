@@ -21,6 +21,7 @@ import numpy as np
 from scipy import ndimage, stats
 
 from .parameters import HOTPIXELS
+from .errors import ParameterError
 
 _BINS = 4          # sub-windows of the running window: the map forgets in steps of window/4
 _BOX = 9           # px side of the background neighbourhood
@@ -36,7 +37,7 @@ class HotPixelMap:
 
     def __init__(self, width, height, *, window_us=1_000_000, alpha=1e-6, neighbour_ratio=4.0):
         if not (int(width) == width > 0 and int(height) == height > 0):
-            raise ValueError(f"width and height must be positive integers, got {width!r}, {height!r}")
+            raise ParameterError(f"width and height must be positive integers, got {width!r}, {height!r}")
         self.width, self.height = int(width), int(height)
         self.window_us = HOTPIXELS.check("window_us", window_us)
         self.alpha = HOTPIXELS.check("alpha", alpha)

@@ -34,6 +34,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from .parameters import AUTO, ESTIMATE
+from .errors import ParameterError
 
 ESTIMATE_DTYPE = np.dtype([
     ("t", "<i8"), ("frame", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
@@ -351,7 +352,7 @@ def _prior_velocity(prior, t_us, x, y):
         return np.zeros((len(t_us), 2))
     v = np.asarray(prior(np.asarray(t_us), np.asarray(x, float), np.asarray(y, float)), float)
     if v.shape != (len(t_us), 2) or not np.all(np.isfinite(v)):
-        raise ValueError(f"velocity_prior must return finite (n, 2) px/s, got shape {v.shape}")
+        raise ParameterError(f"velocity_prior must return finite (n, 2) px/s, got shape {v.shape}")
     return v
 
 
@@ -376,7 +377,7 @@ def _check_sigma(sigma, centroids):
     if s.ndim == 0:
         s = np.full(len(centroids), float(s))
     if s.shape != (len(centroids),) or not np.all(np.isfinite(s)) or np.any(s <= 0):
-        raise ValueError(f"sigma must be positive finite, one per centroid ({len(centroids)}), "
+        raise ParameterError(f"sigma must be positive finite, one per centroid ({len(centroids)}), "
                          f"got shape {s.shape}")
     return s
 

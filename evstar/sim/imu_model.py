@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..imu import Imu
+from ..errors import ParameterError
 
 STANDARD_GRAVITY = 9.80665
 
@@ -26,7 +27,7 @@ STANDARD_GRAVITY = 9.80665
 def _vec(name, v):
     a = np.asarray(v, np.float64)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"ImuSpec.{name} must be a finite 3-vector, got {v!r}")
+        raise ParameterError(f"ImuSpec.{name} must be a finite 3-vector, got {v!r}")
     return tuple(float(x) for x in a)
 
 
@@ -50,20 +51,20 @@ class ImuSpec:
 
     def __post_init__(self):
         if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
-            raise ValueError(f"ImuSpec.rate_hz must be positive, got {self.rate_hz!r}")
+            raise ParameterError(f"ImuSpec.rate_hz must be positive, got {self.rate_hz!r}")
         for name in ("gyro_noise_density", "gyro_bias_walk", "accel_noise_density", "accel_bias_walk"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"ImuSpec.{name} must be >= 0, got {v!r}")
+                raise ParameterError(f"ImuSpec.{name} must be >= 0, got {v!r}")
         for name in ("gyro_bias", "accel_bias", "lever_arm_m", "gravity_world"):
             object.__setattr__(self, name, _vec(name, getattr(self, name)))
         if self.R_cam_imu is not None:
             R = np.asarray(self.R_cam_imu, np.float64)
             if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
-                raise ValueError("ImuSpec.R_cam_imu must be a 3x3 rotation matrix")
+                raise ParameterError("ImuSpec.R_cam_imu must be a 3x3 rotation matrix")
             object.__setattr__(self, "R_cam_imu", tuple(map(tuple, R.tolist())))
         if int(self.time_offset_us) != self.time_offset_us:
-            raise ValueError(f"ImuSpec.time_offset_us must be an integer, got {self.time_offset_us!r}")
+            raise ParameterError(f"ImuSpec.time_offset_us must be an integer, got {self.time_offset_us!r}")
 
     @classmethod
     def ideal(cls, **overrides):

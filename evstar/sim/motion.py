@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+from ..errors import ParameterError
 
 UP = (0.0, -1.0, 0.0)
 
@@ -29,14 +30,14 @@ def _log(R):
 def _unit_axis(axis):
     a = np.asarray(axis, np.float64)
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
-        raise ValueError(f"axis must be a non-zero 3-vector, got {axis!r}")
+        raise ParameterError(f"axis must be a non-zero 3-vector, got {axis!r}")
     return a / np.linalg.norm(a)
 
 
 def _rotation_matrix(R, name="R0"):
     R = np.eye(3) if R is None else np.asarray(R, np.float64)
     if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
-        raise ValueError(f"{name} must be a 3x3 rotation matrix")
+        raise ParameterError(f"{name} must be a 3x3 rotation matrix")
     return R
 
 
@@ -107,7 +108,7 @@ class ConstantRate(AxisRotation):
 
     def __init__(self, rate_dps, axis=UP, R0=None):
         if not math.isfinite(rate_dps):
-            raise ValueError(f"rate_dps must be finite, got {rate_dps!r}")
+            raise ParameterError(f"rate_dps must be finite, got {rate_dps!r}")
         super().__init__(axis, R0)
         self.rate_dps = float(rate_dps)
         self._w = math.radians(self.rate_dps)
@@ -131,9 +132,9 @@ class Sinusoid(AxisRotation):
     def __init__(self, amplitude_deg, freq_hz, axis=UP, phase_deg=0.0, R0=None):
         for name, v in (("amplitude_deg", amplitude_deg), ("freq_hz", freq_hz), ("phase_deg", phase_deg)):
             if not math.isfinite(v):
-                raise ValueError(f"{name} must be finite, got {v!r}")
+                raise ParameterError(f"{name} must be finite, got {v!r}")
         if freq_hz < 0:
-            raise ValueError(f"freq_hz must be >= 0, got {freq_hz!r}")
+            raise ParameterError(f"freq_hz must be >= 0, got {freq_hz!r}")
         super().__init__(axis, R0)
         self.amplitude_deg, self.freq_hz, self.phase_deg = float(amplitude_deg), float(freq_hz), float(phase_deg)
         self._a, self._w, self._phi = math.radians(amplitude_deg), 2 * math.pi * freq_hz, math.radians(phase_deg)
@@ -164,13 +165,13 @@ class SampledTrajectory(Trajectory):
         t = np.asarray(t_s, np.float64)
         R = np.asarray(R_cw, np.float64)
         if t.ndim != 1 or len(t) < 2:
-            raise ValueError("t_s must be a 1-D array of at least two times")
+            raise ParameterError("t_s must be a 1-D array of at least two times")
         if R.shape != (len(t), 3, 3):
-            raise ValueError(f"R_cw must have shape ({len(t)}, 3, 3), got {R.shape}")
+            raise ParameterError(f"R_cw must have shape ({len(t)}, 3, 3), got {R.shape}")
         if not np.all(np.diff(t) > 0):
-            raise ValueError("t_s must be strictly increasing")
+            raise ParameterError("t_s must be strictly increasing")
         if not np.allclose(R @ R.transpose(0, 2, 1), np.eye(3), atol=1e-6):
-            raise ValueError("R_cw must hold rotation matrices")
+            raise ParameterError("R_cw must hold rotation matrices")
         self.t = t
         self.R = Rotation.from_matrix(R).as_matrix()  # re-orthonormalised
         steps = _log(self.R[1:] @ self.R[:-1].transpose(0, 2, 1))
@@ -196,7 +197,7 @@ class FunctionTrajectory(Trajectory):
 
     def __init__(self, rotation_fn, h_s=1e-5):
         if not callable(rotation_fn):
-            raise ValueError("rotation_fn must be callable: t_s (n,) -> R_cw (n, 3, 3)")
+            raise ParameterError("rotation_fn must be callable: t_s (n,) -> R_cw (n, 3, 3)")
         self.fn, self.h = rotation_fn, float(h_s)
 
     def rotation(self, t_s):

@@ -58,7 +58,7 @@ def sensor_model(name, **overrides):
 def sensor_preset(name):
     key = ALIASES.get(name.lower(), name.lower())
     if key not in SENSORS:
-        raise ValueError(f"unknown camera preset {name!r}; known: {', '.join(SENSORS)}")
+        raise ParameterError(f"unknown camera preset {name!r}; known: {', '.join(SENSORS)}")
     return SENSORS[key]
 
 

@@ -9,6 +9,7 @@ from .imu_model import ImuSpec
 from .motion import Trajectory
 from .sensor import SensorSpec
 from .targets import FLUX_MAG3, StarField
+from ..errors import ParameterError
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,21 +38,21 @@ class Scenario:
 
     def __post_init__(self):
         if not isinstance(self.camera, Camera):
-            raise ValueError(f"camera must be an evstar.Camera, got {type(self.camera).__name__}")
+            raise ParameterError(f"camera must be an evstar.Camera, got {type(self.camera).__name__}")
         if not isinstance(self.stars, StarField):
-            raise ValueError(f"stars must be a StarField, got {type(self.stars).__name__}")
+            raise ParameterError(f"stars must be a StarField, got {type(self.stars).__name__}")
         if not isinstance(self.trajectory, Trajectory):
-            raise ValueError(f"trajectory must be an evstar.sim Trajectory, got {type(self.trajectory).__name__}")
+            raise ParameterError(f"trajectory must be an evstar.sim Trajectory, got {type(self.trajectory).__name__}")
         for name in ("duration_s", "psf_sigma_px", "flux_mag3", "step_px", "truth_rate_hz"):
             v = getattr(self, name)
             if name == "step_px" and v is None:
                 continue
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
+                raise ParameterError(f"{name} must be a positive number, got {v!r}")
         if int(self.t_start_us) != self.t_start_us or self.t_start_us < 0:
-            raise ValueError(f"t_start_us must be a non-negative integer, got {self.t_start_us!r}")
+            raise ParameterError(f"t_start_us must be a non-negative integer, got {self.t_start_us!r}")
         if self.step_px is not None and self.step_px > 1:
-            raise ValueError(f"step_px must be <= 1 (crossings are interpolated per step), got {self.step_px!r}")
+            raise ParameterError(f"step_px must be <= 1 (crossings are interpolated per step), got {self.step_px!r}")
 
     @property
     def grid_step_px(self):

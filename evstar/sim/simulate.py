@@ -26,6 +26,7 @@ from .render import time_grid
 from .scene import Scenario
 from .sensor import PixelState, merge_sorted, star_events
 from .truth import HOT_PIXEL, NOISE, Truth
+from ..errors import ParameterError
 
 
 @dataclass(eq=False)
@@ -73,9 +74,9 @@ def _truth_tables(scn):
 def simulate(scenario, seed=0):
     """Run `scenario` with `seed`: a :class:`Simulation` with .events, .imu, .camera, .truth."""
     if not isinstance(scenario, Scenario):
-        raise ValueError(f"scenario must be an evstar.sim.Scenario, got {type(scenario).__name__}")
+        raise ParameterError(f"scenario must be an evstar.sim.Scenario, got {type(scenario).__name__}")
     if int(seed) != seed or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
     rngs = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(7)]
     events, labels, hot_where, grid = _events(scenario, *rngs[:5], rngs[6])
     imu, gyro_bias, accel_bias = simulate_imu(scenario.trajectory, scenario.imu, scenario.duration_s,

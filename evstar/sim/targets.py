@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import hipparcos
+from ..errors import ParameterError
 
 #: total flux of a magnitude-3 star in units of the per-pixel sky background (see module doc)
 FLUX_MAG3 = 150.0
@@ -45,13 +46,13 @@ class StarField:
         m = np.asarray(self.magnitudes, np.float64).reshape(-1)
         h = np.asarray(self.hip, np.int64).reshape(-1)
         if len(m) != n or len(h) != n:
-            raise ValueError(f"StarField: directions ({n}), magnitudes ({len(m)}) and hip ({len(h)}) "
+            raise ParameterError(f"StarField: directions ({n}), magnitudes ({len(m)}) and hip ({len(h)}) "
                              "differ in length")
         norms = np.linalg.norm(d, axis=1)
         if not (np.all(np.isfinite(d)) and np.all(norms > 0)):
-            raise ValueError("StarField: directions must be finite non-zero vectors")
+            raise ParameterError("StarField: directions must be finite non-zero vectors")
         if not np.all(np.isfinite(m)):
-            raise ValueError("StarField: magnitudes must be finite")
+            raise ParameterError("StarField: magnitudes must be finite")
         object.__setattr__(self, "directions", d / norms[:, None])
         object.__setattr__(self, "magnitudes", m)
         object.__setattr__(self, "hip", h)
@@ -107,7 +108,7 @@ def hipparcos_field(camera, R_cw, *, mag_limit=6.0, max_stars=None, margin_deg=0
     `max_stars` keeps the brightest ones.
     """
     if max_stars is not None and max_stars < 0:
-        raise ValueError(f"max_stars must be >= 0, got {max_stars!r}")
+        raise ParameterError(f"max_stars must be >= 0, got {max_stars!r}")
     R_cw = np.asarray(R_cw, np.float64)
     corners = np.array([[-0.5, -0.5], [camera.width - 0.5, -0.5],
                         [-0.5, camera.height - 0.5], [camera.width - 0.5, camera.height - 0.5]])
@@ -125,7 +126,7 @@ def hipparcos_field_along(camera, trajectory, duration_s, *, mag_limit=6.0, max_
     brightest.
     """
     if max_stars is not None and max_stars < 0:
-        raise ValueError(f"max_stars must be >= 0, got {max_stars!r}")
+        raise ParameterError(f"max_stars must be >= 0, got {max_stars!r}")
     fov = 2 * math.atan(min(camera.width / camera.fx, camera.height / camera.fy) / 2)
     sweep = trajectory.max_rate(0.0, duration_s) * duration_s
     times = np.linspace(0.0, duration_s, int(math.ceil(sweep / (fov / 4))) + 1)
