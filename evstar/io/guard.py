@@ -1,0 +1,52 @@
+"""Input checks shared by the readers: a path must be a readable file, and whatever a
+decoding library (numpy, pandas, h5py, faery) raises on corrupt bytes becomes FormatError."""
+from __future__ import annotations
+
+import contextlib
+import os
+import zipfile
+
+from ..errors import EvstarError, FormatError
+
+# what the libraries raise on corrupt, truncated or hostile content
+LIBRARY_ERRORS = (OSError, ValueError, EOFError, OverflowError, MemoryError, UnicodeError,
+                  zipfile.BadZipFile)
+
+
+def check_readable(path):
+    """FormatError unless `path` is an existing, readable regular file."""
+    try:
+        path = os.fspath(path)
+    except TypeError:
+        raise FormatError(path, "a path must be a string or path-like object") from None
+    if not os.path.exists(path):
+        raise FormatError(path, "no such file")
+    if os.path.isdir(path):
+        raise FormatError(path, "is a folder, not a file")
+    if not os.access(path, os.R_OK):
+        raise FormatError(path, "permission denied")
+
+
+def one_line(exc):
+    text = str(exc).strip().splitlines()
+    return (text[0] if text else type(exc).__name__)[:200]
+
+
+def is_rust_panic(exc):
+    """faery is Rust: a panic arrives as pyo3_runtime.PanicException, a BaseException."""
+    return type(exc).__name__ == "PanicException"
+
+
+@contextlib.contextmanager
+def decoder_errors(path, what):
+    """Re-raise library errors inside the block as FormatError('not a readable <what>')."""
+    try:
+        yield
+    except EvstarError:
+        raise
+    except LIBRARY_ERRORS as exc:
+        raise FormatError(path, f"not a readable {what} ({type(exc).__name__}: {one_line(exc)})") from None
+    except BaseException as exc:
+        if not is_rust_panic(exc):
+            raise
+        raise FormatError(path, f"not a readable {what} (decoder panic: {one_line(exc)})") from None
