@@ -13,7 +13,7 @@ import pandas as pd
 from ..errors import FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 from .atomic import atomic_path
-from .guard import check_readable, decoder_errors
+from .guard import H5PY_ERRORS, check_readable, decoder_errors
 
 COLUMNS = ["t", "x", "y", "track", "n_events", "frame"]
 CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"}
@@ -57,7 +57,7 @@ def write_centroids(path, centroids):
 def read_centroids(path):
     fmt = check_centroid_path(path)
     check_readable(path)
-    with decoder_errors(path, f"centroid {fmt} file"):
+    with decoder_errors(path, f"centroid {fmt} file", H5PY_ERRORS if fmt == "hdf5" else ()):
         columns = {"csv": _csv_columns, "hdf5": _hdf5_columns, "npz": _npz_columns}[fmt](path)
         return _table(path, columns)
 

@@ -4,13 +4,20 @@ from __future__ import annotations
 
 import contextlib
 import os
+import tokenize
 import zipfile
+import zlib
 
 from ..errors import EvstarError, FormatError
 
 # what the libraries raise on corrupt, truncated or hostile content
+# (numpy parses .npy headers with tokenize/ast; zipfile raises NotImplementedError for zip
+# versions it lacks; .npz members inflate with zlib)
 LIBRARY_ERRORS = (OSError, ValueError, EOFError, OverflowError, MemoryError, UnicodeError,
-                  zipfile.BadZipFile)
+                  NotImplementedError, zipfile.BadZipFile, zlib.error, tokenize.TokenError,
+                  SyntaxError)
+# h5py reports corrupt object headers and links as KeyError / RuntimeError / TypeError
+H5PY_ERRORS = (KeyError, RuntimeError, TypeError)
 
 
 def check_readable(path):
@@ -38,13 +45,13 @@ def is_rust_panic(exc):
 
 
 @contextlib.contextmanager
-def decoder_errors(path, what):
-    """Re-raise library errors inside the block as FormatError('not a readable <what>')."""
+def decoder_errors(path, what, extra=()):
+    """Re-raise library errors (and `extra` types) inside the block as FormatError."""
     try:
         yield
     except EvstarError:
         raise
-    except LIBRARY_ERRORS as exc:
+    except LIBRARY_ERRORS + tuple(extra) as exc:
         raise FormatError(path, f"not a readable {what} ({type(exc).__name__}: {one_line(exc)})") from None
     except BaseException as exc:
         if not is_rust_panic(exc):

@@ -10,6 +10,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import H5PY_ERRORS, decoder_errors
 from .text import sensor_size_from
 
 
@@ -26,9 +27,14 @@ def _datasets(path, f):
     if "events" not in f:
         raise FormatError(path, f"no '/events' group (top-level keys: {list(f.keys())})")
     g = f["events"]
+    if not isinstance(g, h5py.Group):
+        raise FormatError(path, "'/events' is not a group")
     missing = [k for k in "txyp" if k not in g]
     if missing:
         raise FormatError(path, f"missing dataset(s) {['/events/' + k for k in missing]}")
+    odd = [k for k in "txyp" if not isinstance(g[k], h5py.Dataset) or g[k].ndim != 1]
+    if odd:
+        raise FormatError(path, f"{['/events/' + k for k in odd]} must be one-dimensional datasets")
     n = {k: g[k].shape[0] for k in "txyp"}
     if len(set(n.values())) != 1:
         raise FormatError(path, f"datasets under /events have different lengths {n}")
@@ -44,7 +50,7 @@ def _size(path, g, sensor_size):
 
 
 def read(path, sensor_size=None, sort=False):
-    with _open(path) as f:
+    with decoder_errors(path, "HDF5 file", H5PY_ERRORS), _open(path) as f:
         g = _datasets(path, f)
         try:
             w, h = _size(path, g, sensor_size)
@@ -53,10 +59,10 @@ def read(path, sensor_size=None, sort=False):
                 i = f["imu"]
                 rec.imu = Imu(i["t"][:], i["gyro"][:], i["accel"][:],
                               R_cam_imu=i.attrs.get("R_cam_imu"),
-                              time_offset_us=int(i.attrs.get("time_offset_us", 0)))
+                              time_offset_us=i.attrs.get("time_offset_us", 0))
             if "camera" in f:
                 rec.camera = Camera(**{k: v.item() for k, v in f["camera"].attrs.items()})
-        except (DataError, KeyError, TypeError) as exc:
+        except DataError as exc:
             raise FormatError(path, str(exc)) from None
     return rec
 
