@@ -21,7 +21,7 @@ H5PY_ERRORS = (KeyError, RuntimeError, TypeError)
 
 
 def check_readable(path):
-    """FormatError unless `path` is an existing, readable regular file."""
+    """FormatError unless `path` is an existing, readable, non-empty file."""
     try:
         path = os.fspath(path)
     except TypeError:
@@ -32,6 +32,8 @@ def check_readable(path):
         raise FormatError(path, "is a folder, not a file")
     if not os.access(path, os.R_OK):
         raise FormatError(path, "permission denied")
+    if os.path.getsize(path) == 0:
+        raise FormatError(path, "file is empty")
 
 
 def one_line(exc):

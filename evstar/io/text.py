@@ -3,8 +3,9 @@
 - A header naming the columns (any order, names in ``ALIASES``, each field once), t in µs.
 - Headerless ``t x y p`` rows, t in seconds (RPG layout).
 
-evstar's own CSV output starts with the comment line ``# width=W height=H`` (pandas and numpy
-skip it with ``comment="#"``); the reader takes the sensor size from it. Timestamps must lie
+evstar's own CSV output has the comment line ``# width=W height=H`` right after the header
+(pandas ``read_csv(comment="#")`` and numpy ``genfromtxt(names=True)`` / ``loadtxt(skiprows=1)``
+skip it); the reader takes the sensor size from such a line before the first row. Timestamps must lie
 within ±``evstar.events.T_LIMIT_US``. Fractional µs (header layout) or sub-µs digits (seconds
 layout) are rounded to whole µs with an ``EvstarWarning`` saying how many values changed and
 by how much at most.
@@ -30,8 +31,10 @@ COORD_LIMIT = 2 ** 31  # x, y, p beyond this cannot be pixel indices (and would 
 
 
 def _sniff(path):
-    """(header names or None, separator, sensor size from a `# width= height=` line or None)."""
-    size, line = None, ""
+    """(header names or None, separator, sensor size from a `# width= height=` line or None).
+
+    The size line may come before the first row or right after the header."""
+    size, line, names = None, "", None
     try:
         with open(path, "r", errors="replace") as f:
             for ln in f:
@@ -39,16 +42,23 @@ def _sniff(path):
                     m = SIZE_LINE.match(ln.strip())
                     size = size or (m and (int(m.group(1)), int(m.group(2))))
                 elif ln.strip():
+                    if line:  # the first row after the header: no more size lines
+                        break
                     line = ln
-                    break
+                    if not _is_header(ln):
+                        break
     except OSError as exc:
         raise FormatError(path, f"cannot open: {exc.strerror or exc}") from None
     if not line:
         raise FormatError(path, "file is empty")
     sep = "," if "," in line else (";" if ";" in line else r"\s+")
-    has_header = any(c.isalpha() and c not in "eE" for c in line)
-    names = (line.split() if sep == r"\s+" else line.split(sep)) if has_header else None
+    if _is_header(line):
+        names = line.split() if sep == r"\s+" else line.split(sep)
     return names, sep, size
+
+
+def _is_header(line):
+    return any(c.isalpha() and c not in "eE" for c in line)
 
 
 def header_sensor_size(path):
@@ -172,7 +182,11 @@ def packets(path, chunk_rows=1_000_000):
 def sensor_size_from(path, arrays, sensor_size):
     if sensor_size is not None:
         return tuple(int(v) for v in sensor_size)
-    x, y = arrays
+    x, y = (np.asarray(a) for a in arrays)
+    for name, a in (("x", x), ("y", y)):
+        if a.dtype.kind not in "biuf" or (a.dtype.kind == "f" and not np.all(np.isfinite(a))):
+            raise FormatError(path, f"events field '{name}' must hold finite numbers (dtype {a.dtype}) "
+                                    "to infer the sensor size; pass sensor_size=(W, H)")
     size = (int(x.max()) + 1 if len(x) else 1, int(y.max()) + 1 if len(y) else 1)
     warnings.warn(f"{path}: no sensor size given; inferred {size[0]}x{size[1]} from the "
                   "largest coordinates (pass sensor_size=(W, H) or a camera)", EvstarWarning,
@@ -192,9 +206,9 @@ def read(path, sensor_size=None, sort=False):
 
 
 def write(path, events, imu=None, camera=None):
-    """Events with the sensor size in a leading `# width=W height=H` comment line."""
+    """Events, the sensor size in a `# width=W height=H` comment line after the header."""
     frame = pd.DataFrame({"t": events.t, "x": events.x, "y": events.y, "p": events.p})
     with atomic_path(path) as tmp:
         with open(tmp, "w", newline="") as f:
-            f.write(f"# width={events.width} height={events.height}\n")
-            frame.to_csv(f, index=False)
+            f.write(f"t,x,y,p\n# width={events.width} height={events.height}\n")
+            frame.to_csv(f, index=False, header=False)
