@@ -9,7 +9,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
-from .guard import decoder_errors
+from .guard import decoder_errors, int64_times
 
 G = 9.80665  # standard gravity, m/s² per g
 D = faery.aedat
@@ -39,7 +39,7 @@ def _imu_from(packets):
     a = np.concatenate(packets)
     gyro = np.radians(np.stack([a[f"gyroscope_{c}"] for c in "xyz"], 1).astype(np.float64))
     accel = G * np.stack([a[f"accelerometer_{c}"] for c in "xyz"], 1).astype(np.float64)
-    return Imu(a["t"].astype(np.int64), gyro, accel)
+    return Imu(a["t"], gyro, accel)  # Imu range-checks the unsigned times before its cast
 
 
 def read(path, sort=False, **_):
@@ -54,7 +54,7 @@ def read(path, sort=False, **_):
     w, h = track.dimensions
     try:
         a = np.concatenate(ev) if ev else np.zeros(0, ev_dtype())
-        events = Events(a["t"].astype(np.int64), a["x"], a["y"], a["on"], w, h, sort=sort)
+        events = Events(a["t"], a["x"], a["y"], a["on"], w, h, sort=sort)
         return Recording(events, _imu_from(imu))
     except DataError as exc:
         raise FormatError(path, str(exc)) from None
@@ -71,7 +71,7 @@ def packets(path, **_):
     def gen():
         for tr, packet in _iterate(path, dec):
             if tr.id == track.id and len(packet):
-                yield (packet["t"].astype(np.int64), packet["x"], packet["y"],
+                yield (int64_times(path, packet["t"]), packet["x"], packet["y"],
                        packet["on"].astype(np.int8))
     return (*track.dimensions, gen())
 

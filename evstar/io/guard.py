@@ -8,7 +8,10 @@ import tokenize
 import zipfile
 import zlib
 
+import numpy as np
+
 from ..errors import EvstarError, FormatError
+from ..events import T_LIMIT_US, check_time_range
 
 # what the libraries raise on corrupt, truncated or hostile content
 # (numpy parses .npy headers with tokenize/ast; zipfile raises NotImplementedError for zip
@@ -34,6 +37,16 @@ def check_readable(path):
         raise FormatError(path, "permission denied")
     if os.path.getsize(path) == 0:
         raise FormatError(path, "file is empty")
+
+
+def int64_times(path, t):
+    """Decoded timestamps as int64; FormatError for any outside ±T_LIMIT_US (checked before
+    the cast, which would wrap huge unsigned values into plausible ones)."""
+    i = check_time_range(t)
+    if i is not None:
+        raise FormatError(path, f"timestamp {t[i]} (event {i} of a packet) is outside the valid "
+                                f"range ±{T_LIMIT_US} µs")
+    return t.astype(np.int64)
 
 
 def one_line(exc):

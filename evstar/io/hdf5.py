@@ -10,7 +10,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
-from .guard import H5PY_ERRORS, decoder_errors
+from .guard import H5PY_ERRORS, decoder_errors, int64_times
 from .text import sensor_size_from
 
 
@@ -74,10 +74,10 @@ def packets(path, sensor_size=None, chunk_events=1_000_000):
     w, h = _size(path, g, sensor_size)
 
     def gen():
-        with f:
-            n = g["t"].shape[0]
-            for i in range(0, n, chunk_events):
-                yield tuple(g[k][i:i + chunk_events] for k in "txyp")
+        with f, decoder_errors(path, "HDF5 file", H5PY_ERRORS):
+            for i in range(0, g["t"].shape[0], chunk_events):
+                t, x, y, p = (g[k][i:i + chunk_events] for k in "txyp")
+                yield int64_times(path, t), x, y, p
     return w, h, gen()
 
 

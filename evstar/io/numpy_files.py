@@ -9,6 +9,7 @@ from ..errors import DataError, FormatError
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import int64_times
 from .text import sensor_size_from
 from ..camera import Camera
 from ..events import Events
@@ -89,7 +90,8 @@ def packets(path, sensor_size=None, chunk_events=1_000_000):
 
     def gen():
         for i in range(0, len(cols[0]), chunk_events):
-            yield tuple(np.asarray(c[i:i + chunk_events]) for c in cols)
+            t, x, y, p = (np.asarray(c[i:i + chunk_events]) for c in cols)
+            yield int64_times(path, t), x, y, p
     return w, h, gen()
 
 

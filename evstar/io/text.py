@@ -31,13 +31,13 @@ COORD_LIMIT = 2 ** 31  # x, y, p beyond this cannot be pixel indices (and would 
 
 
 def _sniff(path):
-    """(header names or None, separator, sensor size from a `# width= height=` line or None).
-
-    The size line may come before the first row or right after the header."""
-    size, line, names = None, "", None
+    """(header names or None, separator, sensor size from a `# width= height=` line or None,
+    line number of the first row). The size line may come before the first row or right
+    after the header."""
+    size, line, names, number = None, "", None, 0
     try:
         with open(path, "r", errors="replace") as f:
-            for ln in f:
+            for number, ln in enumerate(f, 1):
                 if ln.startswith("#"):
                     m = SIZE_LINE.match(ln.strip())
                     size = size or (m and (int(m.group(1)), int(m.group(2))))
@@ -47,6 +47,8 @@ def _sniff(path):
                     line = ln
                     if not _is_header(ln):
                         break
+            else:
+                number += 1
     except OSError as exc:
         raise FormatError(path, f"cannot open: {exc.strerror or exc}") from None
     if not line:
@@ -54,7 +56,7 @@ def _sniff(path):
     sep = "," if "," in line else (";" if ";" in line else r"\s+")
     if _is_header(line):
         names = line.split() if sep == r"\s+" else line.split(sep)
-    return names, sep, size
+    return names, sep, size, number
 
 
 def _is_header(line):
@@ -148,7 +150,7 @@ def _reader(path, names, sep, chunk_rows):
 
 def packets(path, chunk_rows=1_000_000):
     """Yield (t µs, x, y, p) arrays chunk by chunk."""
-    names, sep, _ = _sniff(path)
+    names, sep, _, line = _sniff(path)
     seconds = names is None  # headerless RPG layout: t in seconds
     if seconds:
         cols = {k: k for k in "txyp"}
@@ -157,7 +159,6 @@ def packets(path, chunk_rows=1_000_000):
         cols = _columns(path, names)
         label = {k: repr(c) for k, c in cols.items()}
     rounding = _Rounding()
-    line = 1 if seconds else 2
     try:
         for frame in _reader(path, names, sep, chunk_rows):
             frame.columns = [_clean(c) for c in frame.columns]
