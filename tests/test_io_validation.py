@@ -271,3 +271,9 @@ def test_camera_json_with_wrong_types(tmp_path):
 
 def test_errors_are_evstar_errors():
     assert issubclass(FormatError, EvstarError) and issubclass(ParameterTypeError, TypeError)
+
+
+@pytest.mark.parametrize("reader", [io.read, io.read_imu, io.read_camera, io.read_centroids])
+def test_a_path_that_is_not_a_path_is_a_parameter_type_error(reader):
+    with pytest.raises(ParameterTypeError, match="path must be a str or os.PathLike, got int"):
+        reader(3)

@@ -20,7 +20,7 @@ from ..imu import Imu
 from ..recording import Recording
 from .camera_json import read_camera, write_camera
 from .centroid_files import check_centroid_path, read_centroids, write_centroids
-from .guard import check_readable, decoder_errors
+from .guard import check_path_type, check_readable, decoder_errors
 from .imu_csv import read_imu, write_imu
 
 # format name -> (module, extensions, can write)
@@ -39,6 +39,7 @@ __all__ = ["FORMATS", "read", "write", "windows", "format_of", "read_imu", "writ
 
 def format_of(path, format=None):
     """The format name for `path` (from its extension unless `format` is given)."""
+    check_path_type(path)
     if format is not None:
         if format not in FORMATS:
             raise FormatError(path, f"unknown format {format!r}; known: {sorted(FORMATS)}")

@@ -13,7 +13,7 @@ import pandas as pd
 from ..errors import FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 from .atomic import atomic_path
-from .guard import H5PY_ERRORS, check_readable, decoder_errors
+from .guard import H5PY_ERRORS, check_path_type, check_readable, decoder_errors
 
 COLUMNS = ["t", "x", "y", "track", "n_events", "frame"]
 CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"}
@@ -22,6 +22,7 @@ CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"
 def check_centroid_path(path):
     """The centroid format for `path` ('csv', 'hdf5', 'npz'); FormatError for any other
     extension. Cheap: call it before the work that produces the centroids."""
+    check_path_type(path)
     ext = pathlib.Path(path).suffix.lower()
     if ext not in CENTROID_FORMATS:
         raise FormatError(path, f"unknown centroid file extension {ext!r}; use .csv, .h5, .hdf5 or .npz")

@@ -10,25 +10,27 @@ import zlib
 
 import numpy as np
 
-from ..errors import EvstarError, FormatError
+from ..errors import EvstarError, FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 
 # what the libraries raise on corrupt, truncated or hostile content
-# (numpy parses .npy headers with tokenize/ast; zipfile raises NotImplementedError for zip
-# versions it lacks; .npz members inflate with zlib)
+# (numpy parses .npy headers with tokenize/ast; zipfile raises RuntimeError for encrypted
+# members and NotImplementedError, a RuntimeError, for zip versions it lacks; .npz members
+# inflate with zlib)
 LIBRARY_ERRORS = (OSError, ValueError, EOFError, OverflowError, MemoryError, UnicodeError,
-                  NotImplementedError, zipfile.BadZipFile, zlib.error, tokenize.TokenError,
-                  SyntaxError)
+                  RuntimeError, zipfile.BadZipFile, zlib.error, tokenize.TokenError, SyntaxError)
 # h5py reports corrupt object headers and links as KeyError / RuntimeError / TypeError
-H5PY_ERRORS = (KeyError, RuntimeError, TypeError)
+H5PY_ERRORS = (KeyError, TypeError)
+
+
+def check_path_type(path):
+    if not isinstance(path, (str, os.PathLike)):
+        raise ParameterTypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
 
 
 def check_readable(path):
     """FormatError unless `path` is an existing, readable, non-empty file."""
-    try:
-        path = os.fspath(path)
-    except TypeError:
-        raise FormatError(path, "a path must be a string or path-like object") from None
+    check_path_type(path)
     if not os.path.exists(path):
         raise FormatError(path, "no such file")
     if os.path.isdir(path):
