@@ -13,7 +13,7 @@ import pandas as pd
 from ..errors import FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 from .atomic import atomic_path
-from .guard import H5PY_ERRORS, check_path_type, check_readable, decoder_errors
+from .guard import H5PY_ERRORS, check_h5_numeric, check_path_type, check_readable, decoder_errors
 
 COLUMNS = ["t", "x", "y", "track", "n_events", "frame"]
 CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"}
@@ -81,6 +81,7 @@ def _hdf5_columns(path):
         ds = f.get("centroids")
         if not isinstance(ds, h5py.Dataset) or ds.dtype.names is None:
             raise FormatError(path, "no compound dataset '/centroids'")
+        check_h5_numeric(path, f, "centroids")
         arr = ds[()]
     return {k: np.atleast_1d(arr[k]) for k in arr.dtype.names}
 

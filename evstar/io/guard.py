@@ -19,7 +19,7 @@ from ..events import T_LIMIT_US, check_time_range
 # inflate with zlib)
 LIBRARY_ERRORS = (OSError, ValueError, EOFError, OverflowError, MemoryError, UnicodeError,
                   RuntimeError, zipfile.BadZipFile, zlib.error, tokenize.TokenError, SyntaxError)
-# h5py reports corrupt object headers and links as KeyError / RuntimeError / TypeError
+# h5py reports corrupt object headers and links as KeyError or TypeError too
 H5PY_ERRORS = (KeyError, TypeError)
 
 
@@ -39,6 +39,27 @@ def check_readable(path):
         raise FormatError(path, "permission denied")
     if os.path.getsize(path) == 0:
         raise FormatError(path, "file is empty")
+
+
+def plain_numeric(dtype):
+    """True for dtypes that h5py reads without risk: bool, int or float of at most 8 bytes,
+    or compounds of those whose fields do not overlap (corrupt files can declare overlapping
+    or exotic fields, and reading those has crashed the interpreter)."""
+    if dtype.names is None:
+        return dtype.kind in "biuf" and dtype.itemsize <= 8 and dtype.subdtype is None
+    fields = [dtype.fields[n][:2] for n in dtype.names]
+    spans = sorted((off, off + dt.itemsize) for dt, off in fields)
+    return (all(plain_numeric(dt) for dt, _ in fields) and spans[-1][1] <= dtype.itemsize
+            and all(a[1] <= b[0] for a, b in zip(spans, spans[1:])))
+
+
+def check_h5_numeric(path, obj, name):
+    """FormatError unless dataset or attribute `name` of the h5py object `obj` is plain numeric."""
+    import h5py
+
+    item = obj.get_id(name) if isinstance(obj, h5py.AttributeManager) else obj[name]
+    if not plain_numeric(item.dtype):
+        raise FormatError(path, f"'{name}' has an unsupported HDF5 type {item.dtype}")
 
 
 def int64_times(path, t):
