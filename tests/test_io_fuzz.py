@@ -3,7 +3,7 @@
 Seeds are the real recordings in shared/data/real (their heads, and now and then the whole
 file) and small files evstar writes itself; each input applies a few random mutations (bit
 flips, byte overwrites with awkward values, truncation, insertion, deletion, duplication).
-EVSTAR_FUZZ_N sets the mutated inputs per format (default 1000, about 30 s for the file; the
+EVSTAR_FUZZ_N sets the mutated inputs per format (default 600, about 30 s for the file; the
 report's 10,000-per-format run sets EVSTAR_FUZZ_N=10000). Hypothesis adds structured CSV
 rows and NPZ arrays.
 """
@@ -20,7 +20,7 @@ from evstar import Camera, EvstarError, Events, Imu, Recording, io
 from evstar.events import T_LIMIT_US
 from conftest import REAL, random_events
 
-N = int(os.environ.get("EVSTAR_FUZZ_N", "1000"))
+N = int(os.environ.get("EVSTAR_FUZZ_N", "600"))
 HEAD = 24_000  # bytes of a real file kept as a quick seed (header plus the first packets)
 AWKWARD = [b"\x00", b"\xff", b"\x7f", b"\x80", b"nan", b"inf", b"-1", b"-", b"e", b".", b",",
            b"\n", b"#", b"%", b"99999999999999999999999", b"-9223372036854775808", b"\xff" * 8]
