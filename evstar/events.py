@@ -3,14 +3,35 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import DataError
+from .errors import DataError, ParameterTypeError
 
 #: The structured-array convention of tonic / Metavision (field names x, y, t, p).
 STRUCTURED_DTYPE = np.dtype([("x", "<u2"), ("y", "<u2"), ("t", "<i8"), ("p", "<i1")])
 
+#: Valid timestamps lie in [-T_LIMIT_US, T_LIMIT_US] (2**61 µs, about 73,000 years): far
+#: inside int64, so differences of timestamps and t + any duration cannot overflow.
+T_LIMIT_US = 2 ** 61
+
+#: The hint every "unsorted" error gives: the API option and the command-line flag.
+SORT_HINT = "pass sort=True (command line: --sort) to order them by time"
+
+
+def check_time_range(values):
+    """Index of the first timestamp outside ±T_LIMIT_US, or None (values: any numeric array)."""
+    if not len(values):
+        return None
+    bad = (values > T_LIMIT_US) | (values < -T_LIMIT_US)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
 
 def _as_int_array(name, values, n=None):
-    arr = np.asarray(values)
+    try:
+        arr = np.asarray(values)
+    except (TypeError, ValueError) as exc:  # ragged lists and the like
+        raise DataError(f"events field '{name}' is not an array ({exc})") from None
+    if arr.dtype != bool and not (np.issubdtype(arr.dtype, np.integer)
+                                  or np.issubdtype(arr.dtype, np.floating)):
+        raise DataError(f"events field '{name}' must be numeric, got dtype {arr.dtype}")
     if arr.ndim != 1:
         raise DataError(f"events field '{name}' must be one-dimensional, got shape {arr.shape}")
     if n is not None and len(arr) != n:
@@ -26,10 +47,28 @@ def _as_int_array(name, values, n=None):
     return arr
 
 
+def _sensor_dims(width, height):
+    try:
+        w, h = int(width), int(height)
+    except (TypeError, ValueError, OverflowError):
+        raise DataError(f"sensor size must be two integers, got {width!r}x{height!r}") from None
+    if w != width or h != height:
+        raise DataError(f"sensor size must be two integers, got {width!r}x{height!r}")
+    return w, h
+
+
+def _check_times(t):
+    i = check_time_range(t)
+    if i is not None:
+        raise DataError(f"events field 't' = {t[i]} at index {i} is outside the valid range "
+                        f"±{T_LIMIT_US} µs (±2**61)")
+
+
 class Events:
     """Time-sorted events of one sensor as contiguous arrays.
 
-    t: int64 µs (non-decreasing), x, y: uint16 pixel indices, p: int8 (1 ON, 0 OFF).
+    t: int64 µs (non-decreasing) within ±T_LIMIT_US (2**61 µs, so that t plus any duration
+    stays inside int64), x, y: uint16 pixel indices, p: int8 (1 ON, 0 OFF).
     Construction validates everything; pass ``sort=True`` to order unsorted input
     (stable, by time) — unsorted input is otherwise an error, never reordered silently.
     """
@@ -37,10 +76,11 @@ class Events:
     __slots__ = ("t", "x", "y", "p", "width", "height")
 
     def __init__(self, t, x, y, p, width, height, *, sort=False):
-        width, height = int(width), int(height)
+        width, height = _sensor_dims(width, height)
         if not (0 < width <= 65536 and 0 < height <= 65536):
             raise DataError(f"sensor size must be positive and <= 65536, got {width}x{height}")
         t = _as_int_array("t", t)
+        _check_times(t)
         n = len(t)
         x, y, p = (_as_int_array(k, v, n) for k, v in (("x", x), ("y", y), ("p", p)))
         for name, arr, limit in (("x", x, width), ("y", y, height)):
@@ -62,7 +102,7 @@ class Events:
                 i = int(np.flatnonzero(np.diff(self.t) < 0)[0])
                 raise DataError(
                     f"event timestamps decrease at index {i + 1} ({self.t[i]} -> {self.t[i + 1]} µs); "
-                    "pass sort=True to order them by time")
+                    + SORT_HINT)
             order = np.argsort(self.t, kind="stable")
             for k in ("t", "x", "y", "p"):
                 setattr(self, k, np.ascontiguousarray(getattr(self, k)[order]))
@@ -117,7 +157,7 @@ class Events:
     def __getitem__(self, index):
         """Slice or boolean mask / index array (order kept; fancy indices must be increasing)."""
         if isinstance(index, (int, np.integer)):
-            raise TypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
+            raise ParameterTypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
         sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}
         if not isinstance(index, slice) and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
             raise DataError("an index array must keep events in time order")

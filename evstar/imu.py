@@ -6,13 +6,17 @@ import warnings
 import numpy as np
 
 from .errors import DataError, EvstarWarning
+from .events import SORT_HINT, T_LIMIT_US, check_time_range
 
 
-def _vec3(name, values, n):
-    arr = np.ascontiguousarray(values, dtype=np.float64)
+def _vec3(name, values, n, finite=True):
+    try:
+        arr = np.ascontiguousarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"IMU field '{name}' is not a numeric array ({exc})") from None
     if arr.shape != (n, 3):
         raise DataError(f"IMU field '{name}' must have shape ({n}, 3), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if finite and not np.all(np.isfinite(arr)):
         i = int(np.flatnonzero(~np.all(np.isfinite(arr), axis=1))[0])
         raise DataError(f"IMU field '{name}' holds a non-finite value at sample {i}: {arr[i]}")
     return arr
@@ -31,25 +35,35 @@ class Imu:
 
     def __init__(self, t, gyro, accel=None, *, R_cam_imu=None, time_offset_us=0, sort=False):
         t = np.asarray(t)
+        if t.dtype != bool and not (np.issubdtype(t.dtype, np.integer) or np.issubdtype(t.dtype, np.floating)):
+            raise DataError(f"IMU field 't' must be numeric, got dtype {t.dtype}")
         if t.ndim != 1:
             raise DataError(f"IMU field 't' must be one-dimensional, got shape {t.shape}")
         n = len(t)
         if not np.issubdtype(t.dtype, np.integer):
             if n and not np.all(np.isfinite(t)):
                 raise DataError("IMU field 't' holds non-finite timestamps")
+        i = check_time_range(t)
+        if i is not None:
+            raise DataError(f"IMU field 't' = {t[i]} at sample {i} is outside the valid range ±{T_LIMIT_US} µs")
         self.t = np.ascontiguousarray(t, dtype=np.int64)
         self.gyro = _vec3("gyro", gyro, n)
         self.accel = _vec3("accel", np.zeros((n, 3)) if accel is None else accel, n)
-        R = np.eye(3) if R_cam_imu is None else np.asarray(R_cam_imu, dtype=np.float64)
+        R = np.eye(3) if R_cam_imu is None else _vec3("R_cam_imu", R_cam_imu, 3, finite=False)
         if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
                 or np.linalg.det(R) < 0:
             raise DataError(f"R_cam_imu must be a 3x3 rotation matrix, got {R.tolist()}")
         self.R_cam_imu = R
-        self.time_offset_us = int(time_offset_us)
+        try:
+            self.time_offset_us = int(time_offset_us)
+        except (TypeError, ValueError, OverflowError):
+            raise DataError(f"IMU time_offset_us must be an integer, got {time_offset_us!r}") from None
+        if abs(self.time_offset_us) > T_LIMIT_US:
+            raise DataError(f"IMU time_offset_us = {self.time_offset_us} is outside ±{T_LIMIT_US} µs")
         if n > 1 and np.any(np.diff(self.t) < 0):
             if not sort:
                 i = int(np.flatnonzero(np.diff(self.t) < 0)[0])
-                raise DataError(f"IMU timestamps decrease at sample {i + 1}; pass sort=True to order them")
+                raise DataError(f"IMU timestamps decrease at sample {i + 1}; {SORT_HINT}")
             order = np.argsort(self.t, kind="stable")
             self.t, self.gyro, self.accel = self.t[order], self.gyro[order], self.accel[order]
 

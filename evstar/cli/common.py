@@ -8,6 +8,8 @@ def add_input_options(p):
                    help="sensor size when the file does not say")
     p.add_argument("--camera", help="camera JSON (width, height, fx, fy, cx, cy)")
     p.add_argument("--imu", help="IMU CSV t,gx,gy,gz,ax,ay,az (µs, rad/s, m/s²)")
+    p.add_argument("--sort", action="store_true",
+                   help="order unsorted timestamps by time (otherwise they are an error)")
 
 
 def load(args):
@@ -16,9 +18,10 @@ def load(args):
 
     camera = io.read_camera(args.camera) if getattr(args, "camera", None) else None
     size = args.sensor_size or (camera and (camera.width, camera.height)) or None
-    rec = io.read(args.input, format=args.format, sensor_size=size)
+    sort = bool(getattr(args, "sort", False))
+    rec = io.read(args.input, format=args.format, sensor_size=size, sort=sort)
     if camera is not None:
         rec.camera = camera
     if getattr(args, "imu", None):
-        rec.imu = io.read_imu(args.imu)
+        rec.imu = io.read_imu(args.imu, sort=sort)
     return rec

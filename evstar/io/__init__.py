@@ -11,9 +11,16 @@ import pathlib
 import warnings
 from importlib import import_module
 
-from ..errors import EvstarWarning, FormatError
+import numpy as np
+
+from ..camera import Camera
+from ..errors import EvstarWarning, FormatError, ParameterError, ParameterTypeError
+from ..events import Events
+from ..imu import Imu
+from ..recording import Recording
 from .camera_json import read_camera, write_camera
-from .centroids_csv import read_centroids, write_centroids
+from .centroid_files import check_centroid_path, read_centroids, write_centroids
+from .guard import check_path_type, check_readable, decoder_errors
 from .imu_csv import read_imu, write_imu
 
 # format name -> (module, extensions, can write)
@@ -27,11 +34,12 @@ FORMATS = {
 }
 
 __all__ = ["FORMATS", "read", "write", "windows", "format_of", "read_imu", "write_imu",
-           "read_camera", "write_camera", "read_centroids", "write_centroids"]
+           "read_camera", "write_camera", "read_centroids", "write_centroids", "check_centroid_path"]
 
 
 def format_of(path, format=None):
     """The format name for `path` (from its extension unless `format` is given)."""
+    check_path_type(path)
     if format is not None:
         if format not in FORMATS:
             raise FormatError(path, f"unknown format {format!r}; known: {sorted(FORMATS)}")
@@ -49,23 +57,52 @@ def _module(name):
     return import_module(f".{FORMATS[name][0]}", __name__)
 
 
-def _check_exists(path):
-    if not os.path.exists(path):
-        raise FormatError(path, "no such file")
-    if os.path.isdir(path):
-        raise FormatError(path, "is a folder, not a file")
+def _options(options):
+    """Check the read options (sensor_size=(W, H), sort=bool) before any file is opened."""
+    unknown = sorted(set(options) - {"sensor_size", "sort"})
+    if unknown:
+        raise ParameterError(f"read: unknown option(s) {unknown}; known: sensor_size, sort")
+    size = options.get("sensor_size")
+    if size is not None:
+        try:
+            w, h = (int(v) for v in size)
+            ok = (w, h) == tuple(size) and w > 0 and h > 0
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
+            raise ParameterError(f"read: sensor_size must be two positive integers (W, H), got {size!r}")
+        options["sensor_size"] = (w, h)
+    return options
 
 
 def read(path, format=None, **options):
     """Read a recording. Options: sensor_size=(W, H) where the file lacks it, sort=True to
-    order unsorted timestamps (otherwise an error)."""
+    order unsorted timestamps (otherwise an error). Any unreadable input (missing, a folder,
+    unreadable, corrupt, out-of-range values) raises FormatError naming the file."""
     fmt = format_of(path, format)
-    _check_exists(path)
-    return _module(fmt).read(path, **options)
+    options = _options(options)
+    check_readable(path)
+    with decoder_errors(path, f"{fmt} file"):
+        return _module(fmt).read(path, **options)
+
+
+def _recording_parts(data, imu, camera):
+    """(events, imu, camera) from an Events or a Recording (explicit imu/camera win)."""
+    if isinstance(data, Recording):
+        imu = data.imu if imu is None else imu
+        camera = data.camera if camera is None else camera
+        data = data.events
+    for name, value, cls in (("events", data, Events), ("imu", imu, Imu), ("camera", camera, Camera)):
+        if not isinstance(value, cls) and (value is not None or name == "events"):
+            want = "evstar.Events or evstar.Recording" if name == "events" else f"evstar.{cls.__name__} or None"
+            raise ParameterTypeError(f"write: argument '{name}' must be {want}, got {type(value).__name__}")
+    return data, imu, camera
 
 
 def write(path, events, imu=None, camera=None, format=None):
-    """Write events (+ IMU and camera where the format holds them) atomically."""
+    """Write events (an Events, or a Recording with its IMU and camera) atomically; the IMU
+    and camera go where the format holds them."""
+    events, imu, camera = _recording_parts(events, imu, camera)
     fmt = format_of(path, format)
     if not FORMATS[fmt][2]:
         raise FormatError(path, f"writing {fmt} is not supported; write csv, npz, hdf5 or aedat4")
@@ -80,17 +117,20 @@ def write(path, events, imu=None, camera=None, format=None):
 def packets(path, format=None, sensor_size=None):
     """(width, height, iterator of (t, x, y, p) packets) without loading the whole file."""
     fmt = format_of(path, format)
-    _check_exists(path)
+    sensor_size = _options({"sensor_size": sensor_size})["sensor_size"]
+    check_readable(path)
     mod = _module(fmt)
     if fmt == "csv":
-        from .text import sensor_size_from
+        from .text import header_sensor_size, sensor_size_from
+        sensor_size = sensor_size or header_sensor_size(path)
         if sensor_size is None:  # one bounded pass to find the extent
             ext = [0, 0]
             for _, x, y, _ in mod.packets(path):
                 ext = [max(ext[0], int(x.max(initial=0))), max(ext[1], int(y.max(initial=0)))]
-            sensor_size = (ext[0] + 1, ext[1] + 1)
-        return (*sensor_size_from(path, None, sensor_size), mod.packets(path))
-    return mod.packets(path, sensor_size=sensor_size)
+            sensor_size = sensor_size_from(path, (np.array(ext[:1]), np.array(ext[1:])), None)
+        return (*sensor_size, mod.packets(path))
+    with decoder_errors(path, f"{fmt} file"):
+        return mod.packets(path, sensor_size=sensor_size)
 
 
 def windows(path, window_us, format=None, sensor_size=None, t_origin_us=None):

@@ -9,18 +9,16 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import decoder_errors, int64_times
 
 G = 9.80665  # standard gravity, m/s² per g
 D = faery.aedat
 
 
 def _decoder(path):
-    try:
+    _header_description(path)
+    with decoder_errors(path, "AEDAT4 file", (Exception,)):  # faery raises plain exceptions
         return D.Decoder(str(path))
-    except FileNotFoundError:
-        raise FormatError(path, "no such file") from None
-    except Exception as exc:  # faery raises plain exceptions for corrupt headers
-        raise FormatError(path, f"not a readable AEDAT4 file ({exc})") from None
 
 
 def _event_track(path, dec):
@@ -31,10 +29,8 @@ def _event_track(path, dec):
 
 
 def _iterate(path, dec):
-    try:
+    with decoder_errors(path, "AEDAT4 file: truncated or corrupt data", (Exception,)):
         yield from dec
-    except Exception as exc:
-        raise FormatError(path, f"truncated or corrupt AEDAT4 data ({exc})") from None
 
 
 def _imu_from(packets):
@@ -43,7 +39,7 @@ def _imu_from(packets):
     a = np.concatenate(packets)
     gyro = np.radians(np.stack([a[f"gyroscope_{c}"] for c in "xyz"], 1).astype(np.float64))
     accel = G * np.stack([a[f"accelerometer_{c}"] for c in "xyz"], 1).astype(np.float64)
-    return Imu(a["t"].astype(np.int64), gyro, accel)
+    return Imu(a["t"], gyro, accel)  # Imu range-checks the unsigned times before its cast
 
 
 def read(path, sort=False, **_):
@@ -58,7 +54,7 @@ def read(path, sort=False, **_):
     w, h = track.dimensions
     try:
         a = np.concatenate(ev) if ev else np.zeros(0, ev_dtype())
-        events = Events(a["t"].astype(np.int64), a["x"], a["y"], a["on"], w, h, sort=sort)
+        events = Events(a["t"], a["x"], a["y"], a["on"], w, h, sort=sort)
         return Recording(events, _imu_from(imu))
     except DataError as exc:
         raise FormatError(path, str(exc)) from None
@@ -75,7 +71,7 @@ def packets(path, **_):
     def gen():
         for tr, packet in _iterate(path, dec):
             if tr.id == track.id and len(packet):
-                yield (packet["t"].astype(np.int64), packet["x"], packet["y"],
+                yield (int64_times(path, packet["t"]), packet["x"], packet["y"],
                        packet["on"].astype(np.int8))
     return (*track.dimensions, gen())
 
@@ -128,3 +124,40 @@ def _interleave(events, imu, packet_events):
         items += [(int(ip["t"][k]), 1, ip[k:k + 1000]) for k in range(0, len(ip), 1000)]
     for _, track, packet in sorted(items, key=lambda it: (it[0], it[1])):
         yield track, packet
+
+
+MAGIC = b"#!AER-DAT4.0\r\n"
+
+
+def _header_description(path):
+    """The description (XML) of an AEDAT4 header, parsed from its flatbuffer IOHeader (fields
+    compression, dataTablePosition, infoNode). Checked before faery sees the file: faery
+    aborts the whole process when this text is not UTF-8."""
+    with open(path, "rb") as f:
+        head = f.read(len(MAGIC) + 4)
+        if len(head) < len(MAGIC) + 4 or not head.startswith(MAGIC):
+            raise FormatError(path, "not an AEDAT4 file (no '#!AER-DAT4.0' header)")
+        size = int.from_bytes(head[-4:], "little")
+        buf = f.read(size)
+    if len(buf) < size:
+        raise FormatError(path, f"truncated AEDAT4 header ({len(buf)} of {size} bytes)")
+
+    def u(pos, n, signed=False):
+        if pos < 0 or pos + n > len(buf):
+            raise FormatError(path, "corrupt AEDAT4 header (offset outside the header)")
+        return int.from_bytes(buf[pos:pos + n], "little", signed=signed)
+
+    table = u(0, 4)
+    vtable = table - u(table, 4, signed=True)
+    field = u(vtable + 8, 2) if u(vtable, 2) > 8 else 0  # vtable: size, table size, 3 fields
+    if not field:
+        raise FormatError(path, "AEDAT4 header has no description")
+    text = table + field + u(table + field, 4)
+    n = u(text, 4)
+    if text + 4 + n > len(buf):
+        raise FormatError(path, "corrupt AEDAT4 header (description runs past the header)")
+    try:
+        return buf[text + 4:text + 4 + n].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise FormatError(path, f"corrupt AEDAT4 header (description is not UTF-8: {exc.reason} "
+                                f"at byte {exc.start})") from None

@@ -6,18 +6,20 @@ import json
 from ..camera import Camera
 from ..errors import DataError, FormatError
 from .atomic import atomic_path
+from .guard import check_readable
 
 REQUIRED = ("width", "height", "fx", "fy", "cx", "cy")
 
 
 def read_camera(path):
+    check_readable(path)
     try:
-        with open(path) as f:
-            data = json.load(f)
-    except FileNotFoundError:
-        raise FormatError(path, "no such file") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FormatError(path, f"not valid JSON ({exc})") from None
+        with open(path, "rb") as f:
+            data = json.loads(f.read())
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:
+        raise FormatError(path, f"not valid JSON ({type(exc).__name__}: {exc})") from None
+    except OSError as exc:
+        raise FormatError(path, f"cannot open: {exc.strerror or exc}") from None
     if not isinstance(data, dict):
         raise FormatError(path, "expected a JSON object with camera fields")
     missing = [k for k in REQUIRED if k not in data]
@@ -26,6 +28,10 @@ def read_camera(path):
     unknown = sorted(set(data) - set(REQUIRED) - {"k1", "k2"})
     if unknown:
         raise FormatError(path, f"unknown camera field(s) {unknown}")
+    not_numbers = [k for k, v in data.items() if isinstance(v, bool) or not isinstance(v, (int, float))]
+    if not_numbers:
+        raise FormatError(path, f"camera field(s) {not_numbers} must be numbers, got "
+                                f"{[data[k] for k in not_numbers]}")
     try:
         return Camera(**data)
     except DataError as exc:

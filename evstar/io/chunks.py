@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError
 from ..events import Events
 
 
@@ -13,7 +14,7 @@ def windows(packets, width, height, window_us, t_origin_us=None):
     one packet.
     """
     if window_us <= 0:
-        raise ValueError(f"window_us must be positive, got {window_us}")
+        raise ParameterError(f"window_us must be positive, got {window_us}")
     pending = []
     k = None
     t0 = t_origin_us

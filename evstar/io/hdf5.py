@@ -10,6 +10,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import H5PY_ERRORS, check_h5_numeric, decoder_errors, int64_times
 from .text import sensor_size_from
 
 
@@ -26,9 +27,16 @@ def _datasets(path, f):
     if "events" not in f:
         raise FormatError(path, f"no '/events' group (top-level keys: {list(f.keys())})")
     g = f["events"]
+    if not isinstance(g, h5py.Group):
+        raise FormatError(path, "'/events' is not a group")
     missing = [k for k in "txyp" if k not in g]
     if missing:
         raise FormatError(path, f"missing dataset(s) {['/events/' + k for k in missing]}")
+    odd = [k for k in "txyp" if not isinstance(g[k], h5py.Dataset) or g[k].ndim != 1]
+    if odd:
+        raise FormatError(path, f"{['/events/' + k for k in odd]} must be one-dimensional datasets")
+    for k in "txyp":
+        check_h5_numeric(path, g, k)
     n = {k: g[k].shape[0] for k in "txyp"}
     if len(set(n.values())) != 1:
         raise FormatError(path, f"datasets under /events have different lengths {n}")
@@ -37,26 +45,43 @@ def _datasets(path, f):
 
 def _size(path, g, sensor_size):
     if sensor_size is None and "width" in g.attrs and "height" in g.attrs:
-        return int(g.attrs["width"]), int(g.attrs["height"])
+        return _attr(path, g, "width"), _attr(path, g, "height")
     if sensor_size is None:
         return sensor_size_from(path, (g["x"][:], g["y"][:]), None)
     return tuple(int(v) for v in sensor_size)
 
 
+def _attr(path, obj, name, default=None):
+    """A numeric attribute (an array, or a scalar as a Python number)."""
+    if name not in obj.attrs:
+        return default
+    check_h5_numeric(path, obj.attrs, name)
+    v = np.asarray(obj.attrs[name])
+    return v.item() if v.size == 1 else v
+
+
+def _array(path, group, name):
+    if not isinstance(group.get(name), h5py.Dataset):
+        raise FormatError(path, f"missing dataset '{group.name}/{name}'")
+    check_h5_numeric(path, group, name)
+    return group[name][()]
+
+
 def read(path, sensor_size=None, sort=False):
-    with _open(path) as f:
+    with decoder_errors(path, "HDF5 file", H5PY_ERRORS), _open(path) as f:
         g = _datasets(path, f)
         try:
             w, h = _size(path, g, sensor_size)
             rec = Recording(Events(*(g[k][:] for k in "txyp"), w, h, sort=sort))
             if "imu" in f:
                 i = f["imu"]
-                rec.imu = Imu(i["t"][:], i["gyro"][:], i["accel"][:],
-                              R_cam_imu=i.attrs.get("R_cam_imu"),
-                              time_offset_us=int(i.attrs.get("time_offset_us", 0)))
+                rec.imu = Imu(*(_array(path, i, k) for k in ("t", "gyro", "accel")),
+                              R_cam_imu=_attr(path, i, "R_cam_imu"),
+                              time_offset_us=_attr(path, i, "time_offset_us", 0))
             if "camera" in f:
-                rec.camera = Camera(**{k: v.item() for k, v in f["camera"].attrs.items()})
-        except (DataError, KeyError, TypeError) as exc:
+                c = f["camera"]
+                rec.camera = Camera(**{k: _attr(path, c, k) for k in c.attrs})
+        except DataError as exc:
             raise FormatError(path, str(exc)) from None
     return rec
 
@@ -68,10 +93,10 @@ def packets(path, sensor_size=None, chunk_events=1_000_000):
     w, h = _size(path, g, sensor_size)
 
     def gen():
-        with f:
-            n = g["t"].shape[0]
-            for i in range(0, n, chunk_events):
-                yield tuple(g[k][i:i + chunk_events] for k in "txyp")
+        with f, decoder_errors(path, "HDF5 file", H5PY_ERRORS):
+            for i in range(0, g["t"].shape[0], chunk_events):
+                t, x, y, p = (g[k][i:i + chunk_events] for k in "txyp")
+                yield int64_times(path, t), x, y, p
     return w, h, gen()
 
 

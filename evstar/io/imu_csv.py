@@ -5,20 +5,30 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError, FormatError
+from ..events import T_LIMIT_US, check_time_range
 from ..imu import Imu
 from .atomic import atomic_path
+from .guard import check_readable, decoder_errors
 
 COLUMNS = ["t", "gx", "gy", "gz", "ax", "ay", "az"]
 
 
-def read_imu(path, R_cam_imu=None, time_offset_us=0):
-    try:
-        frame = pd.read_csv(path, dtype=str, skipinitialspace=True, comment="#", keep_default_na=False)
-    except FileNotFoundError:
-        raise FormatError(path, "no such file") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise FormatError(path, f"not a readable IMU CSV ({exc})") from None
+def read_imu(path, R_cam_imu=None, time_offset_us=0, sort=False):
+    """IMU samples from CSV; sort=True orders unsorted timestamps (otherwise an error)."""
+    check_readable(path)
+    with decoder_errors(path, "IMU CSV"):
+        try:
+            frame = pd.read_csv(path, dtype=str, skipinitialspace=True, comment="#", keep_default_na=False)
+        except pd.errors.EmptyDataError:
+            raise FormatError(path, "file is empty") from None
+        return _imu(path, frame, R_cam_imu, time_offset_us, sort)
+
+
+def _imu(path, frame, R_cam_imu, time_offset_us, sort):
     frame.columns = [str(c).strip().lower() for c in frame.columns]
+    dup = sorted({c for c in COLUMNS if f"{c}.1" in frame.columns})
+    if dup:
+        raise FormatError(path, f"IMU column(s) {dup} appear more than once in the header")
     missing = [c for c in COLUMNS if c not in frame.columns]
     if missing:
         raise FormatError(path, f"missing IMU column(s) {missing}; expected header {','.join(COLUMNS)}")
@@ -29,6 +39,10 @@ def read_imu(path, R_cam_imu=None, time_offset_us=0):
         if len(bad):
             i = int(bad[0])
             raise FormatError(path, f"line {i + 2}: column '{c}' holds a non-numeric value {frame[c].iloc[i]!r}")
+        if c == "t" and check_time_range(v) is not None:
+            i = check_time_range(v)
+            raise FormatError(path, f"line {i + 2}: column 't' = {frame[c].iloc[i]} is outside the "
+                                    f"valid time range ±{T_LIMIT_US} µs")
         if not np.all(np.isfinite(v)):
             i = int(np.flatnonzero(~np.isfinite(v))[0])
             raise FormatError(path, f"line {i + 2}: column '{c}' is not finite ({frame[c].iloc[i]})")
@@ -37,7 +51,7 @@ def read_imu(path, R_cam_imu=None, time_offset_us=0):
         return Imu(np.round(data["t"]).astype(np.int64),
                    np.stack([data[c] for c in ("gx", "gy", "gz")], 1),
                    np.stack([data[c] for c in ("ax", "ay", "az")], 1),
-                   R_cam_imu=R_cam_imu, time_offset_us=time_offset_us)
+                   R_cam_imu=R_cam_imu, time_offset_us=time_offset_us, sort=sort)
     except DataError as exc:
         raise FormatError(path, str(exc)) from None
 

@@ -5,10 +5,11 @@ import zipfile
 
 import numpy as np
 
-from ..errors import FormatError
+from ..errors import DataError, FormatError
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import int64_times
 from .text import sensor_size_from
 from ..camera import Camera
 from ..events import Events
@@ -37,12 +38,25 @@ def _columns(path, data):
     missing = [k for k in "txyp" if k not in names]
     if missing:
         raise FormatError(path, f"missing field(s) {missing}; found {list(names)}")
-    return [np.asarray(src[k]) for k in "txyp"]
+    cols = [np.asarray(src[k]) for k in "txyp"]
+    odd = [k for k, c in zip("txyp", cols) if c.ndim != 1]
+    if odd:
+        raise FormatError(path, f"field(s) {odd} must be one-dimensional arrays, got shapes "
+                                f"{[cols['txyp'.index(k)].shape for k in odd]}")
+    return cols
+
+
+def _integers(path, data, name, sizes):
+    """Array `name` of an npz as Python ints; FormatError unless it has one of `sizes` entries."""
+    a = data[name]
+    if a.ndim > 1 or a.size not in sizes or a.dtype.kind not in "iuf" or not np.all(np.isfinite(a)):
+        raise FormatError(path, f"'{name}' must hold {' or '.join(map(str, sizes))} finite numbers, got {a!r}"[:300])
+    return a.reshape(-1).tolist()
 
 
 def _size(path, data, cols, sensor_size):
     if sensor_size is None and not isinstance(data, np.ndarray) and "sensor_size" in data.files:
-        sensor_size = tuple(int(v) for v in data["sensor_size"])
+        sensor_size = _integers(path, data, "sensor_size", (2,))
     return sensor_size_from(path, (cols[1], cols[2]), sensor_size)
 
 
@@ -54,15 +68,17 @@ def read(path, sensor_size=None, sort=False):
         rec = Recording(Events(*cols, w, h, sort=sort))
         if not isinstance(data, np.ndarray):
             if "imu_t" in data.files:
+                missing = [k for k in ("imu_gyro", "imu_accel", "imu_R_cam_imu", "imu_time_offset_us")
+                           if k not in data.files]
+                if missing:
+                    raise FormatError(path, f"'imu_t' without {missing}")
                 rec.imu = Imu(data["imu_t"], data["imu_gyro"], data["imu_accel"],
                               R_cam_imu=data["imu_R_cam_imu"],
-                              time_offset_us=int(data["imu_time_offset_us"]))
+                              time_offset_us=_integers(path, data, "imu_time_offset_us", (1,))[0])
             if "camera" in data.files:
-                rec.camera = Camera(*data["camera"][:6], *data["camera"][6:])
+                rec.camera = Camera(*_integers(path, data, "camera", (6, 7, 8)))
         return rec
-    except FormatError:
-        raise
-    except (ValueError, KeyError) as exc:
+    except DataError as exc:
         raise FormatError(path, str(exc)) from None
 
 
@@ -74,7 +90,8 @@ def packets(path, sensor_size=None, chunk_events=1_000_000):
 
     def gen():
         for i in range(0, len(cols[0]), chunk_events):
-            yield tuple(np.asarray(c[i:i + chunk_events]) for c in cols)
+            t, x, y, p = (np.asarray(c[i:i + chunk_events]) for c in cols)
+            yield int64_times(path, t), x, y, p
     return w, h, gen()
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from ..errors import DataError, FormatError
 from ..events import Events
 from ..recording import Recording
+from .guard import decoder_errors, int64_times, is_rust_panic, one_line
 
 # sensor generation (from the header's plugin_name) -> size
 PLUGIN_SIZES = {"gen3": (640, 480), "gen31": (640, 480), "gen4": (1280, 720),
@@ -50,32 +51,32 @@ def _check_whole_words(path, dec, kind):
 
 def _decoder(path, sensor_size):
     kind = "dat" if str(path).lower().endswith(".dat") else "evt"
+    size = tuple(int(v) for v in sensor_size) if sensor_size else _header_size(path)
+    mod = faery.dat if kind == "dat" else faery.evt
     try:
-        size = tuple(int(v) for v in sensor_size) if sensor_size else _header_size(path)
-        mod = faery.dat if kind == "dat" else faery.evt
         dec = mod.Decoder(str(path), size, None)
-    except FileNotFoundError:
-        raise FormatError(path, "no such file") from None
-    except Exception as exc:
-        hint = "; pass sensor_size=(W, H)" if "size" in str(exc) else ""
-        raise FormatError(path, f"cannot decode Prophesee {kind.upper()} file ({exc}){hint}") from None
+    except BaseException as exc:  # faery raises plain exceptions, or panics (BaseException)
+        if not (isinstance(exc, Exception) or is_rust_panic(exc)):
+            raise
+        hint = "; pass sensor_size=(W, H)" if "size" in str(exc) or "dimension" in str(exc) else ""
+        raise FormatError(path, f"cannot decode Prophesee {kind.upper()} file ({one_line(exc)}){hint}") from None
     _check_whole_words(path, dec, kind)
     return dec
 
 
 def packets(path, sensor_size=None, **_):
     dec = _decoder(path, sensor_size)
+    if dec.dimensions is None:
+        raise FormatError(path, "the file does not give the sensor size; pass sensor_size=(W, H)")
     w, h = dec.dimensions
 
     def gen():
-        try:
+        with decoder_errors(path, "Prophesee file: truncated or corrupt data", (Exception,)):
             for packet in dec:
                 ev = packet.get("events") if isinstance(packet, dict) else packet
                 if ev is not None and len(ev):
                     p = ev["on"] if "on" in ev.dtype.names else ev["payload"]
-                    yield ev["t"].astype(np.int64), ev["x"], ev["y"], p.astype(np.int8)
-        except Exception as exc:
-            raise FormatError(path, f"truncated or corrupt data ({exc})") from None
+                    yield int64_times(path, ev["t"]), ev["x"], ev["y"], p.astype(np.int8)
     return w, h, gen()
 
 

@@ -1,97 +1,193 @@
-"""CSV / TXT events: a header naming the columns (t in µs), or headerless `t x y p` (t in s, RPG layout)."""
+"""CSV / TXT events in two layouts.
+
+- A header naming the columns (any order, names in ``ALIASES``, each field once), t in µs.
+- Headerless ``t x y p`` rows, t in seconds (RPG layout).
+
+evstar's own CSV output has the comment line ``# width=W height=H`` right after the header
+(pandas ``read_csv(comment="#")`` and numpy ``genfromtxt(names=True)`` / ``loadtxt(skiprows=1)``
+skip it); the reader takes the sensor size from such a line before the first row. Timestamps must lie
+within ±``evstar.events.T_LIMIT_US``. Fractional µs (header layout) or sub-µs digits (seconds
+layout) are rounded to whole µs with an ``EvstarWarning`` saying how many values changed and
+by how much at most.
+"""
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
 import pandas as pd
 
-from ..errors import EvstarWarning, FormatError
-from ..events import Events
+from ..errors import DataError, EvstarWarning, FormatError
+from ..events import T_LIMIT_US, Events, check_time_range
 from ..recording import Recording
 from .atomic import atomic_path
 
 # accepted header names for each field (lower case)
 ALIASES = {"t": ("t", "timestamp", "ts", "time", "t_us"), "x": ("x",), "y": ("y",),
            "p": ("p", "polarity", "pol", "on")}
+SIZE_LINE = re.compile(r"#\s*width\s*=\s*(\d+)\s+height\s*=\s*(\d+)\s*$")
+COORD_LIMIT = 2 ** 31  # x, y, p beyond this cannot be pixel indices (and would not fit a cast)
 
 
 def _sniff(path):
-    """Return (has_header, separator) from the first non-empty line."""
+    """(header names or None, separator, sensor size from a `# width= height=` line or None,
+    line number of the first row). The size line may come before the first row or right
+    after the header."""
+    size, line, names, number = None, "", None, 0
     try:
         with open(path, "r", errors="replace") as f:
-            line = next((ln for ln in f if ln.strip() and not ln.startswith("#")), "")
+            for number, ln in enumerate(f, 1):
+                if ln.startswith("#"):
+                    m = SIZE_LINE.match(ln.strip())
+                    size = size or (m and (int(m.group(1)), int(m.group(2))))
+                elif ln.strip():
+                    if line:  # the first row after the header: no more size lines
+                        break
+                    line = ln
+                    if not _is_header(ln):
+                        break
+            else:
+                number += 1
     except OSError as exc:
-        raise FormatError(path, f"cannot open: {exc.strerror}") from None
+        raise FormatError(path, f"cannot open: {exc.strerror or exc}") from None
     if not line:
         raise FormatError(path, "file is empty")
     sep = "," if "," in line else (";" if ";" in line else r"\s+")
-    has_header = any(c.isalpha() and c not in "eE" for c in line)
-    return has_header, sep
+    if _is_header(line):
+        names = line.split() if sep == r"\s+" else line.split(sep)
+    return names, sep, size, number
+
+
+def _is_header(line):
+    return any(c.isalpha() and c not in "eE" for c in line)
+
+
+def header_sensor_size(path):
+    """The sensor size a `# width=W height=H` comment line gives, or None."""
+    return _sniff(path)[2]
+
+
+def _clean(name):
+    return str(name).strip().strip("\"'").strip()
 
 
 def _columns(path, header_names):
-    names = [str(c).strip().lower() for c in header_names]
+    """field -> column name; each field must appear exactly once."""
+    names = [_clean(c).lower() for c in header_names]
     cols = {}
     for field, aliases in ALIASES.items():
-        hit = [c for c in aliases if c in names]
+        hit = [c for c in names if c in aliases]
         if not hit:
             raise FormatError(path, f"missing column '{field}' (header has {names}; "
                                     f"accepted names: {', '.join(aliases)})")
-        cols[field] = header_names[names.index(hit[0])]
+        if len(hit) > 1:
+            raise FormatError(path, f"column '{field}' appears {len(hit)} times in the header "
+                                    f"({', '.join(repr(h) for h in hit)}); keep one")
+        cols[field] = _clean(header_names[names.index(hit[0])])
     return cols
 
 
-def _numeric(path, frame, column, offset):
+def _numeric(path, frame, column, name, offset):
+    """Column `column` of the chunk as numbers; `name` is how messages call it."""
     values = pd.to_numeric(frame[column], errors="coerce").to_numpy()
-    bad = np.flatnonzero(np.isnan(values))
+    if values.dtype.kind not in "iuf":  # pandas gives object for mixed huge numbers
+        values = values.astype(np.float64)
+    bad = np.flatnonzero(np.isnan(values)) if values.dtype.kind == "f" else []
     if len(bad):
         i = int(bad[0])
-        raise FormatError(path, f"line {offset + i}: column '{column}' holds a non-numeric "
+        raise FormatError(path, f"line {offset + i}: column {name} holds a non-numeric "
                                 f"value {frame[column].iloc[i]!r}")
     return values
 
 
-def _reader(path, chunk_rows):
-    has_header, sep = _sniff(path)
+def _integers(path, frame, column, name, offset):
+    v = _numeric(path, frame, column, name, offset)
+    f = v.astype(np.float64)
+    for bad, what in ((f != np.round(f), "a non-integer"), (np.abs(f) > COORD_LIMIT, "an out-of-range")):
+        if bad.any():  # inf counts as out of range (inf == round(inf))
+            i = int(np.flatnonzero(bad)[0])
+            raise FormatError(path, f"line {offset + i}: column {name} holds {what} value "
+                                    f"{frame[column].iloc[i].strip()}")
+    return v.astype(np.int64)
+
+
+class _Rounding:
+    """Counts timestamps rounded to whole µs, to warn once per file."""
+
+    def __init__(self):
+        self.count, self.largest = 0, 0.0
+
+    def add(self, exact_us, rounded_us, changed):
+        if changed.any():
+            self.count += int(changed.sum())
+            self.largest = max(self.largest, float(np.abs(exact_us - rounded_us)[changed].max()))
+
+
+def _times(path, frame, column, name, offset, seconds, rounding):
+    """Timestamps in µs: range-checked, rounded to whole µs (counted in `rounding`)."""
+    v = _numeric(path, frame, column, name, offset)
+    us = v * 1e6 if seconds else v
+    i = check_time_range(us)
+    if i is not None:
+        raise FormatError(path, f"line {offset + i}: column {name} = {frame[column].iloc[i]} is "
+                                f"outside the valid time range ±{T_LIMIT_US} µs (±2**61)")
+    if v.dtype.kind != "f":
+        return us.astype(np.int64)
+    whole = np.round(us)
+    # seconds: exact µs values survive whole/1e6 unchanged, so a difference means sub-µs digits
+    rounding.add(us, whole, (whole / 1e6 != v) if seconds else (whole != us))
+    return whole.astype(np.int64)
+
+
+def _reader(path, names, sep, chunk_rows):
     kw = dict(sep=sep, dtype=str, comment="#", skipinitialspace=True, chunksize=chunk_rows,
-              engine="c")
-    if not has_header:
+              engine="c", keep_default_na=False)
+    if names is None:
         kw.update(header=None, names=["t", "x", "y", "p"], usecols=[0, 1, 2, 3])
-    return has_header, pd.read_csv(path, **kw)
+    return pd.read_csv(path, **kw)
 
 
 def packets(path, chunk_rows=1_000_000):
     """Yield (t µs, x, y, p) arrays chunk by chunk."""
+    names, sep, _, line = _sniff(path)
+    seconds = names is None  # headerless RPG layout: t in seconds
+    if seconds:
+        cols = {k: k for k in "txyp"}
+        label = {"t": "1 (t, seconds)", "x": "2 (x)", "y": "3 (y)", "p": "4 (p)"}
+    else:
+        cols = _columns(path, names)
+        label = {k: repr(c) for k, c in cols.items()}
+    rounding = _Rounding()
     try:
-        has_header, reader = _reader(path, chunk_rows)
-        line = 2 if has_header else 1
-        cols = None
-        for frame in reader:
-            cols = cols or (_columns(path, list(frame.columns)) if has_header
-                            else {k: k for k in "txyp"})
-            t = _numeric(path, frame, cols["t"], line)
-            t = t if has_header else t * 1e6  # headerless RPG layout: seconds
-            out = [np.round(t).astype(np.int64)]
-            for k in "xyp":
-                v = _numeric(path, frame, cols[k], line)
-                if np.any(v != np.round(v)):
-                    i = int(np.flatnonzero(v != np.round(v))[0])
-                    raise FormatError(path, f"line {line + i}: column '{cols[k]}' holds a "
-                                            f"non-integer value {v[i]}")
-                out.append(v.astype(np.int64))
+        for frame in _reader(path, names, sep, chunk_rows):
+            frame.columns = [_clean(c) for c in frame.columns]
+            missing = [c for c in cols.values() if c not in frame.columns]
+            if missing:
+                raise FormatError(path, f"cannot find column(s) {missing} in the rows")
+            t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
+            xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
             line += len(frame)
-            yield tuple(out)
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as exc:
+            yield (t, *xyp)
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OverflowError) as exc:
         if isinstance(exc, FormatError):
             raise
         raise FormatError(path, f"not a readable CSV/TXT event file ({exc})") from None
+    if rounding.count:
+        what = "sub-µs digits" if seconds else "fractional µs"
+        warnings.warn(f"{path}: column {label['t']} has {rounding.count} value(s) with {what}, "
+                      f"rounded to whole µs (largest change {rounding.largest:.3g} µs)",
+                      EvstarWarning, stacklevel=2)
 
 
 def sensor_size_from(path, arrays, sensor_size):
     if sensor_size is not None:
         return tuple(int(v) for v in sensor_size)
-    x, y = arrays
+    x, y = (np.asarray(a) for a in arrays)
+    for name, a in (("x", x), ("y", y)):
+        if a.dtype.kind not in "biuf" or (a.dtype.kind == "f" and not np.all(np.isfinite(a))):
+            raise FormatError(path, f"events field '{name}' must hold finite numbers (dtype {a.dtype}) "
+                                    "to infer the sensor size; pass sensor_size=(W, H)")
     size = (int(x.max()) + 1 if len(x) else 1, int(y.max()) + 1 if len(y) else 1)
     warnings.warn(f"{path}: no sensor size given; inferred {size[0]}x{size[1]} from the "
                   "largest coordinates (pass sensor_size=(W, H) or a camera)", EvstarWarning,
@@ -102,14 +198,18 @@ def sensor_size_from(path, arrays, sensor_size):
 def read(path, sensor_size=None, sort=False):
     parts = list(packets(path))
     cols = [np.concatenate(c) for c in zip(*parts)] if parts else [np.zeros(0, np.int64)] * 4
-    w, h = sensor_size_from(path, (cols[1], cols[2]), sensor_size)
+    size = sensor_size if sensor_size is not None else header_sensor_size(path)
+    w, h = sensor_size_from(path, (cols[1], cols[2]), size)
     try:
         return Recording(Events(*cols, w, h, sort=sort))
-    except Exception as exc:
+    except DataError as exc:
         raise FormatError(path, str(exc)) from None
 
 
 def write(path, events, imu=None, camera=None):
+    """Events, the sensor size in a `# width=W height=H` comment line after the header."""
     frame = pd.DataFrame({"t": events.t, "x": events.x, "y": events.y, "p": events.p})
     with atomic_path(path) as tmp:
-        frame.to_csv(tmp, index=False)
+        with open(tmp, "w", newline="") as f:
+            f.write(f"t,x,y,p\n# width={events.width} height={events.height}\n")
+            frame.to_csv(f, index=False, header=False)
