@@ -26,6 +26,7 @@ CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "
                            ("border", "?"), ("split", "?"), ("sigma", "<f8"), ("source", "<U8")])
 E = P.EXTRACT
 WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
+SOURCES = ("measured", "coasted")   # values of the `source` field (HDF5 stores their index)
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
 _FRAME_GAP = 1e6
 

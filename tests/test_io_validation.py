@@ -167,6 +167,7 @@ def _centroids():
     c = np.zeros(4, evstar.extract.CENTROID_DTYPE)
     c["t"], c["x"], c["y"], c["track"], c["n_events"] = [10, 20, 30, 40], 1.25, 2.5, [0, 0, 1, -1], 5
     c["frame"], c["spread"], c["border"] = [0, 1, 2, 3], 0.5, [True, False, True, False]
+    c["sigma"], c["source"] = [0.1, 0.2, 0.3, 0.4], ["measured", "coasted", "measured", "measured"]
     return c
 
 

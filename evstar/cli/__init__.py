@@ -18,7 +18,7 @@ from importlib import import_module
 from ..errors import EvstarError
 
 # sub-command -> its one-line help; the module evstar.cli.<name> defines add_arguments(parser)
-# (or add_parser(subparsers)) and run(args), and its docstring is the command's description
+# and run(args), and its docstring is the command's description
 COMMANDS = {
     "info": "summarise a recording (events, rate, sensor, IMU)",
     "convert": "convert a recording to another format (by extension)",
@@ -53,12 +53,9 @@ def build_parser(argv=None):
             sub.add_parser(name, help=help_text)
             continue
         module = import_module(f".{name}", __name__)
-        if hasattr(module, "add_arguments"):
-            p = sub.add_parser(name, help=help_text, description=module.__doc__,
-                               formatter_class=argparse.RawDescriptionHelpFormatter)
-            module.add_arguments(p)
-        else:
-            p = module.add_parser(sub)
+        p = sub.add_parser(name, help=help_text, description=module.__doc__,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(p)
         p.set_defaults(_run=module.run)
     return parser
 

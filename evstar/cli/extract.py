@@ -22,6 +22,8 @@ def run(args):
     from ..io.atomic import check_output_file, check_outputs
     from ..pipeline import Pipeline
 
+    io.check_centroid_path(args.output)  # the format, before any work
+
     check_output_file(args.output)
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)

@@ -3,20 +3,18 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
-
 from .common import add_input_options, load
 
 
-def add_parser(sub):
-    p = sub.add_parser("info", help="summarise a recording (events, rate, sensor, IMU)")
+def add_arguments(p):
     p.add_argument("input", metavar="FILE")
     add_input_options(p)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
-    return p
 
 
 def summary(rec):
+    import numpy as np
+
     ev = rec.events
     dur_s = ev.duration_us * 1e-6
     on = int(np.count_nonzero(ev.p))

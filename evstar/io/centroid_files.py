@@ -49,7 +49,7 @@ def write_centroids(path, centroids):
     elif fmt == "hdf5":
         import h5py
         with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
-            f.create_dataset("centroids", data=centroids)
+            f.create_dataset("centroids", data=_coded(centroids))
     else:
         with atomic_path(path, suffix=".tmp.npz") as tmp:
             np.savez_compressed(tmp, centroids=centroids)
@@ -113,10 +113,44 @@ def _table(path, columns):
     return out
 
 
+def _coded(centroids):
+    """A copy whose text fields (source) hold their index in SOURCES: HDF5 keeps numbers."""
+    from ..extract import SOURCES
+
+    text = [n for n in centroids.dtype.names if centroids.dtype[n].kind == "U"]
+    if not text:
+        return centroids
+    dtype = np.dtype([(n, np.int8 if n in text else centroids.dtype[n]) for n in centroids.dtype.names])
+    out = np.zeros(len(centroids), dtype)
+    for n in centroids.dtype.names:
+        # an unset source (np.zeros rows) is a measured centroid
+        out[n] = [SOURCES.index(v or SOURCES[0]) for v in centroids[n]] if n in text else centroids[n]
+    return out
+
+
+def _text_field(path, name, values):
+    """source: a name of SOURCES, or its index (HDF5)."""
+    from ..extract import SOURCES
+
+    if values.dtype.kind in "iu":
+        bad = (values < 0) | (values >= len(SOURCES))
+        text = np.array(SOURCES)[np.clip(values, 0, len(SOURCES) - 1)]
+    else:
+        text = np.char.strip(values.astype(str))
+        text = np.where(text == "", SOURCES[0], text)   # unset: measured
+        bad = ~np.isin(text, SOURCES)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise FormatError(path, f"row {i}: column '{name}' holds {values[i]!r}, not one of {SOURCES}")
+    return text
+
+
 def _field(path, name, values, dtype, n):
     values = np.asarray(values)
     if values.shape != (n,):
         raise FormatError(path, f"column '{name}' has shape {values.shape}, expected ({n},)")
+    if dtype.kind == "U":
+        return _text_field(path, name, values)
     raw = values
     if values.dtype.kind in "OUS":  # CSV text: numbers, or True/False for the flags
         text = pd.Series(values).astype(str).str.strip()
