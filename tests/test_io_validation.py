@@ -214,14 +214,6 @@ def test_every_reader_raises_format_errors_on_unreadable_input(tmp_path, ext, co
     assert "in." in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root reads files whatever their mode")
-def test_unreadable_file_is_a_format_error(tmp_path):
-    p = _write(tmp_path, "a.csv", "t,x,y,p\n1,1,1,1\n")
-    p.chmod(0)
-    with pytest.raises(FormatError, match="permission denied"):
-        io.read(p)
-
-
 @pytest.mark.parametrize("name,cut", [("emlb_demo-01.aedat4", 0.5), ("expelliarmus_evt2_sample.raw", 0.37),
                                       ("expelliarmus_evt3_sample.raw", 0.73),
                                       ("expelliarmus_evt3_sample.decoded.npy", 0.5)])

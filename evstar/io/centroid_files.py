@@ -45,7 +45,7 @@ def write_centroids(path, centroids):
         frame = pd.DataFrame({k: centroids[k] for k in names})
         rest = [c for c in frame.columns if c not in COLUMNS]
         with atomic_path(path) as tmp:
-            frame[COLUMNS + rest].to_csv(tmp, index=False, float_format="%.4f")
+            frame[COLUMNS + rest].to_csv(tmp, index=False, float_format="%.4f", na_rep="nan")
     elif fmt == "hdf5":
         import h5py
         with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
