@@ -51,6 +51,7 @@ _HUBER_C = 3.0                         # σ: innovations beyond it count linearl
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
+LAG_MAX_SE_S = 0.2e-3                  # s: a pixel lag fitted less precisely is not applied
 
 
 class TrackSmoother:
@@ -303,7 +304,10 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     med = np.median(r)
     s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
     ok = np.abs(r - med) <= gate_sigma * s_a
-    t_c, q, u = np.round(t_c[ok]).astype(np.int64), q[ok], u[ok]
+    t_c, q, u = t_c[ok], q[ok], u[ok]
+    if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
+        t_c = t_c - 1e6 * pixel_lag_s(t_c, q, u, velocity_prior)
+    t_c = np.round(t_c).astype(np.int64)
     measured = ~est["coasted"]
     v = np.column_stack([est["vx"][measured], est["vy"][measured]])
     u_cent = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-9)
@@ -338,6 +342,41 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     out["sigma_x"] = np.sqrt(np.maximum(P[back, 0, 0], 0.0))   # rounding can make it -0
     out["sigma_y"] = np.sqrt(np.maximum(P[back, 2, 2], 0.0))
     return out, int(ok.sum())
+
+
+def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
+    """The time τ by which a track's crossings trail the star (a pixel low-pass delays the
+    intensity peak by ~1/(2π f_c)), fitted to the crossings with the IMU's image motion:
+    along the motion u, pixel q is passed at t − τ, so u·q = u·(s0 + D(t) + b·t) − τ·u·v(t)
+    with D, v the prior's displacement and velocity and s0, b (a gyro bias) free. τ is told
+    apart from s0 and b only when the speed changes (a sinusoidal slew, not a constant rate):
+    0 when its standard error exceeds `max_se_s`, or too few crossings. Robust: three passes
+    dropping residuals beyond 5 MAD."""
+    if len(t_us) < MIN_CROSSINGS:
+        return 0.0
+    order = np.argsort(t_us, kind="stable")
+    t, q, u = np.asarray(t_us, float)[order], q[order], u[order]
+    disp = _prior_displacement(velocity_prior, t, t, q)
+    v = _prior_velocity(velocity_prior, t, q[:, 0], q[:, 1])
+    ts = (t - t[0]) * 1e-6
+    A = np.column_stack([u[:, 0], u[:, 1], u[:, 0] * ts, u[:, 1] * ts, -(u * v).sum(1)])
+    y = (u * (q - disp)).sum(1)
+    for _ in range(3):
+        sol, *_ = np.linalg.lstsq(A, y, rcond=None)
+        r = y - A @ sol
+        keep = np.abs(r) <= 5 * 1.4826 * np.median(np.abs(r)) + 1e-9
+        if keep.sum() < MIN_CROSSINGS:
+            return 0.0
+        A, y = A[keep], y[keep]
+    sol, *_ = np.linalg.lstsq(A, y, rcond=None)
+    s2 = float(((y - A @ sol) ** 2).sum()) / max(len(y) - A.shape[1], 1)
+    # τ's own information: its regressor less what the offset and drift columns explain
+    # (nothing left at a constant speed: τ is then a position offset, not a lag)
+    other, *_ = np.linalg.lstsq(A[:, :4], A[:, 4], rcond=None)
+    info = float(((A[:, 4] - A[:, :4] @ other) ** 2).sum())
+    if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
+        return 0.0
+    return float(sol[4]) if np.sqrt(s2 / info) <= max_se_s else 0.0
 
 
 def _covariances(u, s_along, s_cross):
