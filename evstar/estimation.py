@@ -34,6 +34,21 @@ def chunk_crossings(events, keep, radius_px):
     return pixel_crossings(events.t[sel], events.x[sel], events.y[sel], events.p[sel])
 
 
+def velocity_prior(config, imu, camera, t_events, filter_result=None):
+    """The gyro's image velocity (evstar.smoothing.imu_velocity_prior) when the run
+    compensates with the IMU (an IMU that only came along in the file is not trusted with
+    it), bias-corrected by the particle filter's result if there is one; else None."""
+    if config.motion.compensate == "none" or imu is None or camera is None or not len(t_events):
+        return None
+    from .motion import hold_ends
+    from .smoothing import imu_velocity_prior
+
+    if filter_result is not None:
+        imu = filter_result.corrected_imu(imu, causal=config.motion.causal)
+    imu = hold_ends(imu, int(t_events[0]), int(t_events[-1]), config.motion.extrapolate_us)
+    return imu_velocity_prior(imu, camera)
+
+
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring)."""
     from .smoothing import TrackSmoother

@@ -169,16 +169,7 @@ class Pipeline:
         prior (an IMU that only came along in the file is not trusted with that)."""
         from . import estimation
 
-        prior = None
-        if self.config.motion.compensate != "none" and len(t_events):
-            from .motion import hold_ends
-            from .smoothing import imu_velocity_prior
-
-            if filter_result is not None:
-                imu = filter_result.corrected_imu(imu, causal=self.config.motion.causal)
-            imu = hold_ends(imu, int(t_events[0]), int(t_events[-1]),
-                            self.config.motion.extrapolate_us)
-            prior = imu_velocity_prior(imu, camera)
+        prior = estimation.velocity_prior(self.config, imu, camera, t_events, filter_result)
         return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior)
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None):
