@@ -280,7 +280,7 @@ def _kalman_rts(ts, z, sigma, measured, q):
 
 
 def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
-                    gate_sigma=4.0, sigma_floor_px=0.01, process_noise_min=1.0):
+                    gate_sigma=4.0, sigma_floor_px=0.01, process_noise_min=1.0, pool_us=10_000):
     """Refit one track's smoothed rows `est` with crossing times as along-track measurements.
 
     A crossing says the star's centre passed pixel q at time t: a measurement of the position
@@ -290,8 +290,9 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     along the motion by its ON/OFF lobes and the pixels' lag; where no crossing is near, the
     centroids still carry the track). σ_a is the robust spread (1.4826 MAD) of the crossings'
     residuals from `est`; crossings beyond `gate_sigma` σ_a of their median are dropped.
-    crossings: (t µs, q (n, 2), u (n, 2)). Returns new rows (est's times, frames and flags)
-    and the number of crossings used.
+    crossings: (t µs, q (n, 2), u (n, 2)). The crossings of each `pool_us` are pooled into
+    one measurement (the filter's cost is per step). Returns new rows (est's times, frames
+    and flags) and the number of crossings used.
     """
     t_c, q, u = crossings
     # too few crossings, or all within a pixel or two along the motion, do not pin the
@@ -307,6 +308,7 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     t_c, q, u = t_c[ok], q[ok], u[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         t_c = t_c - 1e6 * pixel_lag_s(t_c, q, u, velocity_prior)
+    t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
     t_c = np.round(t_c).astype(np.int64)
     measured = ~est["coasted"]
     v = np.column_stack([est["vx"][measured], est["vy"][measured]])
@@ -320,8 +322,7 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     z[is_meas] = np.vstack([z_cent, q])
     R = np.tile(np.eye(2), (n, 1, 1))
     R[is_meas] = np.concatenate([_covariances(u_cent, sigma / along_weight, sigma),
-                                 _covariances(u, np.full(len(t_c), s_a),
-                                              np.full(len(t_c), _IGNORED_SIGMA))])
+                                 _covariances(u, s_c, np.full(len(t_c), _IGNORED_SIGMA))])
     sig = np.zeros(n)
     sig[is_cent] = sigma
     order = np.argsort(t_all, kind="stable")
@@ -377,6 +378,24 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
         return 0.0
     return float(sol[4]) if np.sqrt(s2 / info) <= max_se_s else 0.0
+
+
+def _pool_crossings(t_c, q, u, est, s_a, pool_us):
+    """Crossings binned by `pool_us`: per bin one measurement at the bin's mean time, its
+    along position the mean of the crossings' moved there with the track's speed (the
+    crossings of a bin lie along one short stretch of the motion), σ = s_a/√n."""
+    b = np.floor(t_c / pool_us).astype(np.int64)
+    _, inv, n = np.unique(b, return_inverse=True, return_counts=True)
+    t_mean = np.bincount(inv, t_c) / n
+    u_mean = np.column_stack([np.bincount(inv, u[:, 0]), np.bincount(inv, u[:, 1])])
+    u_mean /= np.maximum(np.linalg.norm(u_mean, axis=1, keepdims=True), 1e-12)
+    # along positions relative to the track at the bin's time, on the bin's one direction
+    # (projecting absolute pixel coordinates on slightly different directions would not do)
+    pos = np.column_stack([np.interp(t_mean, est["t"], est["x"]), np.interp(t_mean, est["t"], est["y"])])
+    speed = np.hypot(np.interp(t_c, est["t"], est["vx"]), np.interp(t_c, est["t"], est["vy"]))
+    along = ((q - pos[inv]) * u_mean[inv]).sum(1) - speed * (t_c - t_mean[inv]) * 1e-6
+    a_mean = np.bincount(inv, along) / n
+    return t_mean, pos + u_mean * a_mean[:, None], u_mean, s_a / np.sqrt(n)
 
 
 def _covariances(u, s_along, s_cross):
