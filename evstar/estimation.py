@@ -62,7 +62,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
         return out
     est = smoother.smooth(centroids, t0_us, velocity_prior, sigma)
     if e.estimator == "crossings" and crossings is not None and len(crossings):
-        est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight)
+        est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight,
+                                 t0_us)
     return _merge(out[centroids["track"] < 0], out, est)
 
 

@@ -143,28 +143,63 @@ class TrackSmoother:
         out["source"] = np.where(measured, MEASURED, COASTED)
         return out
 
-    def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1):
+    def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1,
+               t0_us=None):
         """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
         (evstar.crossings.pixel_crossings of the events near the stars) as along-track
-        measurements; see :func:`along_track_fit`. Returns (rows, crossings used)."""
+        measurements; see :func:`along_track_fit`. Frames of a track's life that had no row
+        get one where crossings fall in them (source "measured": the star was seen passing
+        pixels) or within coast_ms of a crossing (coasted). Returns (rows, crossings used)."""
         from .crossings import along_track
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         got, owner, u, _ = along_track(crossings, est)
         q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
         parts, used = [], 0
+        if t0_us is None and len(est):
+            t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
         for tid in np.unique(est["track"]):
-            rows = est[est["track"] == tid]
+            mine = owner == tid
+            rows = self._fill_frames(est[est["track"] == tid], crossings["t"][got[mine]], t0_us)
             meas = rows["centroid"][~rows["coasted"]]
             s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
-            mine = owner == tid
             fit, n = along_track_fit(
                 rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
                 (crossings["t"][got[mine]], q_all[got[mine]], u[mine]), velocity_prior,
                 along_weight=along_weight, sigma_floor_px=self.sigma_floor_px, process_noise_min=self.process_noise_min)
-            parts.append(fit)
+            # rows added for crossings stand only when the crossings were used
+            parts.append(fit if n else est[est["track"] == tid])
             used += n
-        return (np.concatenate(parts) if parts else est), used
+        out = np.concatenate(parts) if parts else est
+        return out[np.lexsort((out["t"], out["track"]))], used
+
+    def _fill_frames(self, rows, t_cross, t0_us):
+        """`rows` of one track plus a row for each frame of its life without one that holds a
+        crossing (measured) or lies within coast_ms of one (coasted); positions and velocities
+        interpolated (the refit replaces them)."""
+        if not len(t_cross):
+            return rows
+        f_cross = np.floor((np.asarray(t_cross) - t0_us) / self.dt_us).astype(np.int64)
+        rows = rows.copy()
+        rows["source"][rows["coasted"] & np.isin(rows["frame"], f_cross)] = MEASURED
+        life = np.arange(rows["frame"].min(), rows["frame"].max() + 1)
+        empty = life[~np.isin(life, rows["frame"])]
+        if not len(empty):
+            return rows
+        mid = t0_us + empty * self.dt_us + self.dt_us // 2
+        i = np.clip(np.searchsorted(np.sort(t_cross), mid), 1, len(t_cross)) - 1
+        srt = np.sort(t_cross)
+        near = np.minimum(np.abs(mid - srt[i]), np.abs(mid - srt[np.minimum(i + 1, len(srt) - 1)]))
+        seen = np.isin(empty, f_cross)
+        keep = seen | (near <= self.coast_ms * 1000.0)
+        new = np.zeros(int(keep.sum()), rows.dtype)
+        new["t"], new["frame"], new["track"] = mid[keep], empty[keep], rows["track"][0]
+        for f in ("x", "y", "vx", "vy", "sigma_x", "sigma_y"):
+            new[f] = np.interp(new["t"], rows["t"], rows[f])
+        new["centroid"], new["coasted"] = -1, True
+        new["source"] = np.where(seen[keep], MEASURED, COASTED)
+        out = np.concatenate([rows, new])
+        return out[np.argsort(out["t"], kind="stable")]
 
     def _fit(self, ts, resid, sigma, measured):
         """Smoothed states and covariances, and the outlier flag per measurement: a centroid

@@ -63,3 +63,20 @@ def test_pixels_without_both_flanks_give_no_crossing():
     x = np.array([0, 0, 1, 1, 2, 2])
     p = np.array([1, 1, 0, 0, 0, 1])     # ON only; OFF only; OFF then ON (no ON->OFF change)
     assert len(pixel_crossings(t, x, np.zeros(6, int), p)) == 0
+
+
+def test_frames_without_centroids_but_with_crossings_get_positions():
+    from evstar import Config, Pipeline, accuracy, estimation
+
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.3), seed=6)
+    cfg = Config().replace(**{"estimate.estimator": "mean"})
+    res = Pipeline(cfg).run(run.events)
+    linked = res.centroids[res.centroids["track"] >= 0]
+    gap = (linked["frame"] >= 10) & (linked["frame"] < 20)   # 100 ms without centroids
+    crossings = estimation.chunk_crossings(run.events, res.keep, 3.0)
+    rows = estimation.estimate(linked[~gap], cfg.replace(**{"estimate.estimator": "crossings"}),
+                               int(run.events.t[0]), crossings)
+    in_gap = (rows["frame"] >= 10) & (rows["frame"] < 20)
+    assert in_gap.sum() == 10 and (rows["source"][in_gap] == "measured").all()
+    _, err = accuracy.match(rows[in_gap], run.truth.star_position)
+    assert err.max() < 0.1
