@@ -56,6 +56,7 @@ class Tracker:
                     tracks.append({"id": next_id, "frames": [f], "xy": [pts[ri]]})
                     out["track"][rows[ri]] = next_id
                     next_id += 1
+        _join(out, tracks, self.gate_px, self.max_gap)
         return _drop_short(out, self.min_length)
 
     def _assign(self, live, pts, f):
@@ -76,6 +77,28 @@ def _predict(track, f):
         return track["xy"][-1]
     v = (track["xy"][-1] - track["xy"][-2]) / (track["frames"][-1] - track["frames"][-2])
     return track["xy"][-1] + v * (f - track["frames"][-1])
+
+
+def _join(out, tracks, gate_px, max_gap):
+    """Relabel a track that starts where another just ended as that one (in place): a star
+    that stops and turns back (a slew's turnaround) can give two centroids in one frame,
+    one of which goes on alone and ends its track while the other starts a new one. B joins
+    A when B's first frame is at most one frame before, or max_gap + 1 after, A's last one
+    and B's first centroid lies within gate_px of A's last; the nearest A wins."""
+    ends = {}
+    for tr in sorted(tracks, key=lambda tr: tr["frames"][0]):
+        best, best_d = None, gate_px
+        for a in ends.values():
+            lag = tr["frames"][0] - a["frames"][-1]
+            d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
+            if -1 <= lag <= max_gap + 1 and a["frames"][0] < tr["frames"][0] and d <= best_d:
+                best, best_d = a, d
+        if best is None:
+            ends[tr["id"]] = tr
+            continue
+        out["track"][out["track"] == tr["id"]] = best["id"]
+        best["frames"] += tr["frames"]
+        best["xy"] += tr["xy"]
 
 
 def _drop_short(out, min_length):
