@@ -39,7 +39,7 @@ import numpy as np
 
 import evstar
 from evstar import accuracy, profiling, sim
-from evstar.config import Config, DenoiseConfig, ExtractConfig, MotionConfig
+from evstar.config import Config, DenoiseConfig, EstimateConfig, ExtractConfig, MotionConfig
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 GOAL_MEAN_PX, GOAL_RATES = 0.3, (4.0, 8.0, 12.0)
@@ -58,8 +58,10 @@ ISOLATED_PX, BLENDED_PX = 10.0, 2.0
 
 
 def pipeline(dt_us=10_000, time_ref="mean"):
+    # the paper's per-frame centroids (the star-position estimators: perf/study_accuracy.py)
     cfg = Config(dt_us=dt_us, denoise=DenoiseConfig(method="mr-ndsef", thresholds="auto"),
-                 extract=ExtractConfig(time_ref=time_ref), motion=MotionConfig(compensate="none"))
+                 extract=ExtractConfig(time_ref=time_ref), motion=MotionConfig(compensate="none"),
+                 estimate=EstimateConfig(estimator="mean"))
     return evstar.Pipeline(cfg)
 
 
