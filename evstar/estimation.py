@@ -21,7 +21,7 @@ from .extract import CENTROID_DTYPE
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
-                  "psf_sigma_px", "min_events", "outlier_sigma")
+                  "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends")
 
 
 def chunk_crossings(events, keep, radius_px):
@@ -64,7 +64,9 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight,
                                  t0_us)
-    return _merge(out[centroids["track"] < 0], out, est)
+    rows = _merge(out[centroids["track"] < 0], out, est)
+    # a prediction far from any measurement is no position: keep coasted rows while certain
+    return rows[(rows["source"] != "coasted") | (rows["sigma"] <= e.coast_sigma_px)]
 
 
 def _merge(unconfirmed, measured, est):

@@ -63,7 +63,7 @@ class TrackSmoother:
 
     def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
                  coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
-                 outlier_sigma=4.0):
+                 outlier_sigma=4.0, coast_ends=ESTIMATE["coast_ends"].default):
         from .frames import check_dt
 
         self.dt_us = check_dt(dt_us)
@@ -74,6 +74,7 @@ class TrackSmoother:
         self.psf_sigma_px = ESTIMATE.check("psf_sigma_px", psf_sigma_px)
         self.min_events = ESTIMATE.check("min_events", min_events)
         self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
+        self.coast_ends = ESTIMATE.check("coast_ends", coast_ends)
 
     # -- measurement noise --------------------------------------------------------------
     def measurement_sigma(self, centroids):
@@ -227,17 +228,21 @@ class TrackSmoother:
         return x, P, outlier
 
     def _coast_frames(self, t_meas, frames, t0_us):
-        """Frames between the track's first and last centroid that have none, whose
-        mid-time is within coast_ms of the previous or the next centroid."""
-        life = np.arange(frames.min(), frames.max() + 1)
+        """Frames without a centroid whose mid-time is within coast_ms of a centroid of the
+        track (the previous or the next one): gaps, and the frames just before its first and
+        after its last centroid (a star fading out keeps its predicted position, flagged;
+        frames before 0 are never reported, and the caller drops what lies past the
+        recording or outside the sensor)."""
+        limit = self.coast_ms * 1000.0
+        k = int(limit // self.dt_us) + 1 if self.coast_ends else 0
+        life = np.arange(max(frames.min() - k, 0), frames.max() + k + 1)
         empty = life[~np.isin(life, frames)]
         if not len(empty):
             return empty
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
         i = np.searchsorted(t_meas, mid)
-        before = mid - t_meas[np.maximum(i - 1, 0)]
-        after = t_meas[np.minimum(i, len(t_meas) - 1)] - mid
-        limit = self.coast_ms * 1000.0
+        before = np.where(i > 0, mid - t_meas[np.maximum(i - 1, 0)], np.inf)
+        after = np.where(i < len(t_meas), t_meas[np.minimum(i, len(t_meas) - 1)] - mid, np.inf)
         return empty[(before <= limit) | (after <= limit)]
 
     def _q(self, ts, resid, sigma):

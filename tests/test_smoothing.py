@@ -35,7 +35,7 @@ def test_straight_tracks_unbiased_and_well_below_the_raw_error():
     rng = np.random.default_rng(1)
     sigma, n = 0.3, 50
     cents = np.concatenate([centroids(np.arange(n), line, sigma, rng, track=k) for k in range(100)])
-    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    est = TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0)
     assert len(est) == len(cents) and np.all(est["source"] == MEASURED)
     truth = line(est["t"] * 1e-6)
     err = np.column_stack([est["x"], est["y"]]) - truth
@@ -56,7 +56,7 @@ def test_coasting_fills_gaps_up_to_the_limit_and_follows_the_motion():
     rng = np.random.default_rng(2)
     frames = np.r_[0:20, 40:60]
     cents = centroids(frames, line, 0.2, rng, jitter_us=0)
-    est = TrackSmoother(DT, coast_ms=50).smooth(cents, t0_us=0)
+    est = TrackSmoother(DT, coast_ms=50, coast_ends=False).smooth(cents, t0_us=0)
     coasted = est[est["coasted"]]
     # last centroid at 195 ms, next at 405 ms: frames whose mid is within 50 ms of either
     assert sorted(coasted["frame"]) == [*range(20, 25), *range(35, 40)]
@@ -67,7 +67,7 @@ def test_coasting_fills_gaps_up_to_the_limit_and_follows_the_motion():
     # σ grows away from the measurements: coasted rows are less certain than the gap's edges
     edges = est[np.isin(est["frame"], [19, 40]) & ~est["coasted"]]
     assert coasted["sigma_x"].max() > edges["sigma_x"].max()
-    assert len(TrackSmoother(DT, coast_ms=0).smooth(cents, t0_us=0)) == len(cents)
+    assert len(TrackSmoother(DT, coast_ms=0, coast_ends=False).smooth(cents, t0_us=0)) == len(cents)
 
 
 def test_unconfirmed_centroids_are_left_out_and_rows_sorted_by_track_then_time():
@@ -76,7 +76,7 @@ def test_unconfirmed_centroids_are_left_out_and_rows_sorted_by_track_then_time()
     b = centroids(np.arange(10), line, 0.2, rng, track=0)
     c = centroids(np.arange(10), line, 0.2, rng, track=-1)
     cents = np.concatenate([a, b, c])[rng.permutation(30)]
-    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    est = TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0)
     assert len(est) == 20 and not np.any(est["track"] < 0)
     assert np.all(np.diff(est["track"]) >= 0)
     assert np.all(np.diff(est["t"][est["track"] == 0]) > 0)
@@ -102,7 +102,7 @@ def test_turnaround_followed_better_with_the_velocity_prior():
     turn = np.abs(np.cos(2 * np.pi * FREQ * cents["t"] * 1e-6)) < 0.3     # near the extremes
 
     def errors(prior):
-        est = TrackSmoother(DT).smooth(cents, t0_us=0, velocity_prior=prior)
+        est = TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0, velocity_prior=prior)
         return np.hypot(*(np.column_stack([est["x"], est["y"]]) - sinusoid(est["t"] * 1e-6)).T)
 
     raw = np.hypot(*(np.column_stack([cents["x"], cents["y"]]) - sinusoid(cents["t"] * 1e-6)).T)
@@ -152,20 +152,20 @@ def test_bad_sigma_and_prior_rejected():
     rng = np.random.default_rng(6)
     cents = centroids(np.arange(10), line, 0.2, rng)
     with pytest.raises(ValueError, match="sigma"):
-        TrackSmoother(DT).smooth(cents, t0_us=0, sigma=np.zeros(10))
+        TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0, sigma=np.zeros(10))
     with pytest.raises(ValueError, match="velocity_prior"):
-        TrackSmoother(DT).smooth(cents, t0_us=0, velocity_prior=lambda t, x, y: np.zeros(3))
+        TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0, velocity_prior=lambda t, x, y: np.zeros(3))
 
 
 def test_an_outlier_is_flagged_and_does_not_pull_the_track():
     rng = np.random.default_rng(7)
     cents = centroids(np.arange(40), line, 0.1, rng)
     cents["x"][20] += 2.0                                # half of a cut star, 20 σ off
-    est = TrackSmoother(DT).smooth(cents, t0_us=0)
+    est = TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0)
     assert est["outlier"].tolist() == [i == 20 for i in range(40)]
     err = np.hypot(*(np.column_stack([est["x"], est["y"]]) - line(est["t"] * 1e-6)).T)
     assert err.max() < 0.1
-    kept = TrackSmoother(DT, outlier_sigma=None).smooth(cents, t0_us=0)
+    kept = TrackSmoother(DT, outlier_sigma=None, coast_ends=False).smooth(cents, t0_us=0)
     assert not kept["outlier"].any()
     assert np.hypot(*(np.column_stack([kept["x"], kept["y"]]) - line(kept["t"] * 1e-6)).T).max() > 0.1
 
@@ -176,7 +176,7 @@ def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
     res = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera, truth=run.truth)
     raw = res.centroids[res.centroids["track"] >= 0]
     assert len(raw) > 20
-    est = TrackSmoother(DT).smooth(raw, t0_us=int(run.events.t[0]))
+    est = TrackSmoother(DT, coast_ends=False).smooth(raw, t0_us=int(run.events.t[0]))
     _, e_raw = evstar.accuracy.match(raw, run.truth.star_position)
     _, e_est = evstar.accuracy.match(est, run.truth.star_position)
     assert e_est.mean() < 0.5 * e_raw.mean() and e_est.max() < e_raw.max()
@@ -184,11 +184,37 @@ def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
 
 def test_short_tracks_and_no_tracks():
     rng = np.random.default_rng(9)
-    assert len(TrackSmoother(DT).smooth(np.zeros(0, CENTROID_DTYPE))) == 0
+    assert len(TrackSmoother(DT, coast_ends=False).smooth(np.zeros(0, CENTROID_DTYPE))) == 0
     one = centroids([5], line, 0.2, rng)
-    est = TrackSmoother(DT).smooth(one, t0_us=0)
+    est = TrackSmoother(DT, coast_ends=False).smooth(one, t0_us=0)
     assert len(est) == 1 and est["x"][0] == pytest.approx(one["x"][0], abs=1e-6)
     assert est["sigma_x"][0] == pytest.approx(0.2, rel=1e-3)   # nothing to pool: its own σ
     two = centroids([5, 8], line, 0.2, rng)
-    est = TrackSmoother(DT).smooth(two, t0_us=0)
+    est = TrackSmoother(DT, coast_ends=False).smooth(two, t0_us=0)
     assert est["frame"].tolist() == [5, 6, 7, 8] and est["coasted"].tolist() == [False, True, True, False]
+
+
+def test_coasting_goes_past_the_track_ends_within_the_limit():
+    rng = np.random.default_rng(8)
+    cents = centroids(np.arange(10, 31), line, 0.2, rng, jitter_us=0)
+    est = TrackSmoother(DT, coast_ms=30).smooth(cents, t0_us=0)
+    coasted = est[est["coasted"]]
+    # first centroid at 105 ms, last at 305 ms: mids within 30 ms before or after
+    assert sorted(coasted["frame"]) == [7, 8, 9, 31, 32, 33]
+    err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
+    assert err.max() < 0.5 and (coasted["sigma_x"] > est["sigma_x"][~est["coasted"]].max()).all()
+
+
+def test_the_pipeline_reports_coasted_rows_only_while_certain():
+    from evstar import estimation
+    from evstar.config import Config
+
+    rng = np.random.default_rng(9)
+    cents = centroids(np.arange(10, 31), line, 0.2, rng, jitter_us=0)
+    loose = Config().replace(**{"estimate.estimator": "track", "estimate.coast_ms": 200.0,
+                                "estimate.coast_sigma_px": 100.0})
+    strict = loose.replace(**{"estimate.coast_sigma_px": 0.3})
+    many = estimation.estimate(cents, loose, 0)
+    few = estimation.estimate(cents, strict, 0)
+    assert (many["source"] == "coasted").sum() > (few["source"] == "coasted").sum() > 0
+    assert few["sigma"][few["source"] == "coasted"].max() <= 0.3
