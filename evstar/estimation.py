@@ -49,8 +49,11 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
     return imu_velocity_prior(imu, camera)
 
 
-def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
-    """CENTROID_DTYPE rows for linked `centroids` (see the module docstring)."""
+def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
+             sensor=None):
+    """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
+    outside the recording's time span `span_us` (first, last event µs) or the `sensor`
+    (width, height) are dropped: there is no star to report there."""
     from .smoothing import TrackSmoother
 
     e = config.estimate
@@ -66,7 +69,13 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None):
                                  t0_us)
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain
-    return rows[(rows["source"] != "coasted") | (rows["sigma"] <= e.coast_sigma_px)]
+    ok = rows["sigma"] <= e.coast_sigma_px
+    if span_us is not None:
+        ok &= (rows["t"] >= span_us[0]) & (rows["t"] <= span_us[1])
+    if sensor is not None:
+        ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
+              (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
+    return rows[(rows["source"] != "coasted") | ok]
 
 
 def _merge(unconfirmed, measured, est):

@@ -170,7 +170,9 @@ class Pipeline:
         from . import estimation
 
         prior = estimation.velocity_prior(self.config, imu, camera, t_events, filter_result)
-        return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior)
+        span = (int(t_events[0]), int(t_events[-1])) if len(t_events) else None
+        return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior,
+                                                 span, state.sensor)
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None):
         stats = acc.stats
@@ -282,7 +284,7 @@ class _RunState:
     flanks fall in two chunks of a streamed run is lost)."""
 
     def __init__(self, config, width, height):
-        self.config, self._crossings = config, []
+        self.config, self._crossings, self.sensor = config, [], (width, height)
 
     def add(self, events, keep, cents):
         from .estimation import chunk_crossings

@@ -88,7 +88,8 @@ def run_scene(s):
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
     for name in ESTIMATORS:
         c = cfg.replace(**{"estimate.estimator": name})
-        rows = estimation.estimate(linked, c, t0, crossings, prior)
+        rows = estimation.estimate(linked, c, t0, crossings, prior, (t0, int(ev.t[-1])),
+                                   (ev.width, ev.height))
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 

@@ -218,3 +218,13 @@ def test_the_pipeline_reports_coasted_rows_only_while_certain():
     few = estimation.estimate(cents, strict, 0)
     assert (many["source"] == "coasted").sum() > (few["source"] == "coasted").sum() > 0
     assert few["sigma"][few["source"] == "coasted"].max() <= 0.3
+
+
+def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
+    import evstar
+    from evstar import sim
+
+    run = sim.simulate(sim.paper_preset(20.0, duration_s=0.2), seed=1)
+    rows = evstar.Pipeline().run(run.events).centroids
+    assert rows["t"].min() >= run.events.t[0] and rows["t"].max() <= run.events.t[-1]
+    assert (rows["x"] >= -0.5).all() and (rows["x"] <= run.events.width - 0.5).all()
