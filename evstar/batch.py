@@ -19,6 +19,7 @@ import json
 import os
 import pathlib
 import time
+import uuid
 
 from .errors import BackendError, EvstarError, ParameterError
 
@@ -42,6 +43,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     """
     import pandas as pd
 
+    from . import backends
     from .io.atomic import check_output_dir, check_outputs
 
     inputs = expand_inputs(paths)
@@ -51,10 +53,11 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     spec = config.to_dict()
     key = config_key(config, options)
     names = output_names(inputs)
+    call = uuid.uuid4().hex[:8]  # fresh task keys: Dask would hand back an earlier call's result
     with _client(client, workers, scheduler) as c:
         futures = [c.submit(process, str(p), str(outdir / n), spec, key, options, force,
-                            _backend_settings(client is None and scheduler is None),
-                            key=f"evstar-run-{i}-{n}", pure=False)
+                            backends.settings(),
+                            key=f"evstar-run-{n}-{call}-{i}", pure=False)
                    for i, (p, n) in enumerate(zip(inputs, names))]
         rows = _gather(futures, progress)
     table = pd.DataFrame(rows)
@@ -183,22 +186,43 @@ def _client(client, workers, scheduler):
     if client is not None:
         yield client
         return
-    from distributed import Client, LocalCluster
-
-    if scheduler:
-        try:
-            c = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within "
-                               f"{CONNECT_TIMEOUT_S} s ({_one_line(exc)})") from None
-        with c:
+    if not scheduler:
+        with local_client(workers) as c:
             yield c
         return
+    from distributed import Client
+
+    try:
+        c = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within "
+                           f"{CONNECT_TIMEOUT_S} s ({_one_line(exc)})") from None
+    with c:
+        yield c
+
+
+#: worker self-monitoring that costs a few tenths of a core per worker: with one worker per
+#: core it slowed the tasks by about a quarter (perf/bench_batch.py)
+QUIET = {"distributed.worker.profile.enabled": False,
+         "distributed.admin.system-monitor.gil.enabled": False}
+
+
+@contextlib.contextmanager
+def local_client(workers=None):
+    """A distributed.Client of a LocalCluster of `workers` processes (the CPU count by
+    default) with one thread each, whose kernels use one thread too (the processes already
+    use every core)."""
     import logging
 
+    import dask
+    from distributed import Client, LocalCluster
+
     n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as c:
+    with dask.config.set(QUIET), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                         dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as c:
+        c.run(_configure_backends, {"cpu_threads": 1})
         yield c
 
 
@@ -213,19 +237,11 @@ def _gather(futures, progress):
     return [f.result() for f in futures]
 
 
-def _backend_settings(local):
-    """Kernel cache folder (shared: one compile for all workers) and kernel threads: one
-    per local worker process, since the workers already use every core."""
-    from . import backends
-
-    s = backends.settings()
-    if local and s["cpu_threads"] is None:
-        s["cpu_threads"] = 1
-    return s
-
-
 def _configure_backends(settings):
+    """Apply the settings given (a kernel cache folder set where run_many was called: one
+    compile for all workers on a machine) to this worker before its first kernel."""
     from . import backends
 
-    if settings and not backends.initialised():
-        backends.configure(**settings)
+    given = {k: v for k, v in (settings or {}).items() if v is not None}
+    if given and not backends.initialised():
+        backends.configure(**{**backends.settings(), **given})

@@ -16,10 +16,7 @@ COMPARED = ("centroids.csv", "tracks.csv", "metrics.json", "config.toml")
 
 @pytest.fixture(scope="module")
 def client():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as c:
+    with batch.local_client(2) as c:  # what `evstar batch --workers 2` runs on
         yield c
 
 
