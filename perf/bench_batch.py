@@ -5,9 +5,12 @@ side on the same simulated recordings.
 
 Each mode runs over all recordings once "cold" (what a fresh start pays: Taichi / Warp start
 and kernel-cache loads; for the batch also starting the LocalCluster), then --repeat times
-"warm" (everything started; median and best reported, as the cores may be shared). The batch runs on batch.local_client, as `evstar batch
---workers N` does (one kernel thread per worker); the serial loop uses the default threads. Writes
-perf/results/batch.json and batch.md. Target (the batch issue): warm ratio >= 1.7 on 2 cores.
+"warm" (everything started; median and best reported, as the cores may be shared with
+other work). A third mode, as many plain processes as workers each looping over its share
+without Dask (warm only), shows what the machine itself allows at that moment. The batch
+runs on batch.local_client, as `evstar batch --workers N` does (one kernel thread per
+worker); the serial loop uses the default threads. Writes perf/results/batch.json and
+batch.md. Target (the batch issue): warm ratio >= 1.7 on 2 cores.
 """
 from __future__ import annotations
 
@@ -48,14 +51,10 @@ def serial(paths, out):
     return time.perf_counter() - t
 
 
-def parallel(paths, out, workers, repeat):
-    """run_many on a fresh LocalCluster (cold, start included), then again (warm)."""
-    t = time.perf_counter()
-    with batch.local_client(workers) as client:  # what `evstar batch --workers N` runs on
-        cold = _batch(paths, out, client)
-        cold_wall = time.perf_counter() - t
-        warm = [_batch(paths, out, client) for _ in range(repeat)]
-    return cold_wall, warm
+def plain(pool, paths, out, workers):
+    """The machine's ceiling: plain processes (no Dask), each running the serial loop on its
+    share; the wall time of the slowest."""
+    return max(pool.map(serial, [paths[i::workers] for i in range(workers)], [out] * workers))
 
 
 def _batch(paths, out, client):
@@ -63,6 +62,25 @@ def _batch(paths, out, client):
     table_ = batch.run_many(paths, Config(), out, client=client, force=True)
     assert (table_["status"] == "ok").all(), table_["error"].tolist()
     return time.perf_counter() - t
+
+
+def measure(folder, paths, workers, repeat):
+    """{mode: (cold, [warm...])}; the warm passes of the modes alternate, so that load from
+    outside (shared cores) falls on all of them alike."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    out = {m: folder / m for m in ("serial", "batch", "plain")}
+    cold_serial = serial(paths, out["serial"])
+    t = time.perf_counter()
+    with batch.local_client(workers) as client, \
+            ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        cold_batch = time.perf_counter() - t + _batch(paths, out["batch"], client)
+        plain(pool, paths[:workers], out["plain"], workers)  # warm-up: one run each
+        warm = [(serial(paths, out["serial"]), _batch(paths, out["batch"], client),
+                 plain(pool, paths, out["plain"], workers)) for _ in range(repeat)]
+    s, b, p = zip(*warm)
+    return {"serial": (cold_serial, s), "batch": (cold_batch, b), "plain": (None, p)}
 
 
 def passes(cold, warm):
@@ -84,18 +102,17 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as folder:
         folder = pathlib.Path(folder)
         paths = recordings(folder, args.recordings, args.duration_s)
-        s_cold = serial(paths, folder / "serial")
-        s_warm = [serial(paths, folder / "serial") for _ in range(args.repeat)]
-        p_cold, p_warm = parallel(paths, folder / "batch", args.workers, args.repeat)
-        for p in paths:  # the two modes wrote the same results
+        times = measure(folder, paths, args.workers, args.repeat)
+        for p in paths:  # every mode wrote the same results
             for f in ("centroids.csv", "metrics.json"):
-                assert (folder / "serial" / p.stem / f).read_bytes() == \
-                    (folder / "batch" / p.stem / f).read_bytes(), (p, f)
-    serial_s = passes(s_cold, s_warm)
-    rows = [_row("serial (evstar run loop)", k, v, serial_s[k], args.recordings)
-            for k, v in serial_s.items()]
-    rows += [_row(f"evstar batch, {args.workers} workers", k, v, serial_s[k], args.recordings)
-             for k, v in passes(p_cold, p_warm).items()]
+                want = (folder / "serial" / p.stem / f).read_bytes()
+                assert want == (folder / "batch" / p.stem / f).read_bytes(), (p, f)
+                assert want == (folder / "plain" / p.stem / f).read_bytes(), (p, f)
+    serial_s = passes(*times["serial"])
+    names = {"serial": "serial (evstar run loop)", "batch": f"evstar batch, {args.workers} workers",
+             "plain": f"{args.workers} plain processes, no Dask (ceiling)"}
+    rows = [_row(names[m], k, v, serial_s[k], args.recordings)
+            for m in names for k, v in passes(*times[m]).items() if v is not None]
     meta = {**vars(args), "cpu_count": os.cpu_count()}
     write_results(RESULTS, rows, meta)
     text = table(rows, COLUMNS)
