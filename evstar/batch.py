@@ -16,6 +16,7 @@ import contextlib
 import glob
 import hashlib
 import json
+import numbers
 import os
 import pathlib
 import time
@@ -47,20 +48,23 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     from .io.atomic import check_output_dir, check_outputs
 
     inputs = expand_inputs(paths)
-    outdir = check_output_dir(outdir)
+    if not inputs:
+        raise ParameterError("no recordings given")
+    outdir = check_output_dir(outdir).absolute()  # workers may run in other folders
     check_outputs([outdir / name for name in SUMMARY], inputs)
-    options = dict(options or {})
+    options = {k: os.path.abspath(v) if k in ("camera", "imu") and v else v
+               for k, v in (options or {}).items()}
     spec = config.to_dict()
     key = config_key(config, options)
     names = output_names(inputs)
     call = uuid.uuid4().hex[:8]  # fresh task keys: Dask would hand back an earlier call's result
     with _client(client, workers, scheduler) as c:
-        futures = [c.submit(process, str(p), str(outdir / n), spec, key, options, force,
-                            backends.settings(),
-                            key=f"evstar-run-{n}-{call}-{i}", pure=False)
+        futures = [c.submit(process, str(p.absolute()), str(outdir / n), spec, key, options,
+                            force, backends.settings(), key=f"evstar-run-{n}-{call}-{i}",
+                            pure=False)
                    for i, (p, n) in enumerate(zip(inputs, names))]
         rows = _gather(futures, progress)
-    table = pd.DataFrame(rows)
+    table = pd.DataFrame([{**row, "input": str(p)} for row, p in zip(rows, inputs)])
     table = table[[c for c in _FIRST if c in table] + [c for c in table if c not in _FIRST]]
     write_summary(outdir, table)
     return table
@@ -148,8 +152,7 @@ def completed(outdir, stamp):
 
 def metric_columns(metrics):
     """The scalar metrics (events, centroids, tracks, SNR, ...) as summary columns."""
-    return {k: v for k, v in metrics.items()
-            if isinstance(v, (int, float, bool)) or hasattr(v, "item") and getattr(v, "ndim", 1) == 0}
+    return {k: v for k, v in metrics.items() if isinstance(v, numbers.Real)}
 
 
 def write_summary(outdir, table):
