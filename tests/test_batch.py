@@ -146,3 +146,13 @@ def test_patterns_expand_in_order_once_and_names_are_unique(tmp_path):
                                  str(tmp_path / "*" / "a.h5")])
     assert [str(p.relative_to(tmp_path)) for p in paths] == ["x/a.h5", "x/b.h5", "y/a.h5"]
     assert batch.output_names(paths) == ["x_a", "b", "y_a"]
+
+
+def test_local_workers_use_one_kernel_thread_and_the_callers_cache_folder(client):
+    from evstar import backends
+
+    settings = client.run(backends.settings)
+    assert len(settings) == 2
+    assert all(s["cpu_threads"] == 1 for s in settings.values())
+    # the kernel caches: the libraries' per-user folders unless the caller configured one
+    assert all(s["cache_dir"] == backends.settings()["cache_dir"] for s in settings.values())

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_input_options
-from .options import add_pipeline_options, checked, config_from_args
+from .options import checked, config_from_args
+from .run import add_run_options, recording_options
 
 
 def add_arguments(p):
@@ -28,19 +28,15 @@ def add_arguments(p):
     where.add_argument("--scheduler", metavar="ADDRESS",
                        help="a running Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--force", action="store_true", help="redo recordings already done")
-    p.add_argument("--stream-above-mb", type=float, default=1024.0,
-                   help="stream inputs larger than this many MB in chunks (1024)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    add_input_options(p)
-    add_pipeline_options(p)
+    add_run_options(p)
 
 
 def run(args):
     from ..batch import run_many  # imports Dask only when it runs
     from ..errors import DataError
 
-    options = dict(imu=args.imu, camera=args.camera, format=args.format, sort=args.sort,
-                   sensor_size=args.sensor_size, stream_above_mb=args.stream_above_mb)
+    options = recording_options(args)
+    del options["truth"]  # simulator truth belongs to one recording
     table = run_many(args.inputs, config_from_args(args), args.output, force=args.force,
                      workers=args.workers, scheduler=args.scheduler, options=options,
                      progress=not args.no_progress)

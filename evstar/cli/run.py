@@ -17,6 +17,11 @@ def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
     p.add_argument("--truth", help="simulator truth.npz: adds errors against ground truth")
+    add_run_options(p)
+
+
+def add_run_options(p):
+    """What `evstar run` and `evstar batch` share: streaming, progress, inputs, pipeline."""
     p.add_argument("--stream-above-mb", type=float, default=1024.0,
                    help="stream inputs larger than this many MB in chunks (1024)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -31,12 +36,13 @@ def run(args):
 
     check_output_dir(args.output)  # output problems first, before the configuration's
     check_outputs(outputs.run_files(args.output), [getattr(args, "config", None)])
-    result = run_recording(args.input, args.output, config_from_args(args), **recording_options(args),
-                           progress=not args.no_progress)
+    result = run_recording(args.input, args.output, config_from_args(args),
+                           **recording_options(args), progress=not args.no_progress)
     print(outputs.summary_text(result, args.output))
 
 
 def recording_options(args):
     """run_recording's keywords from the command line (all but the output and progress)."""
-    return dict(truth=args.truth, imu=args.imu, camera=args.camera, format=args.format,
-                sensor_size=args.sensor_size, sort=args.sort, stream_above_mb=args.stream_above_mb)
+    return dict(truth=getattr(args, "truth", None), imu=args.imu, camera=args.camera,
+                format=args.format, sensor_size=args.sensor_size, sort=args.sort,
+                stream_above_mb=args.stream_above_mb)
