@@ -88,8 +88,8 @@ def passes(cold, warm):
 
 
 def _row(mode, kind, wall, serial_wall, n):
-    return {"mode": mode, "pass": kind, "recordings": n, "wall_s": wall, "per_recording_s": wall / n,
-            "speedup": serial_wall / wall}
+    return {"mode": mode, "pass": kind, "recordings": n, "wall_s": wall,
+            "per_recording_s": wall / n, "speedup": serial_wall / wall}
 
 
 def main(argv=None):
@@ -116,7 +116,8 @@ def main(argv=None):
     meta = {**vars(args), "cpu_count": os.cpu_count()}
     write_results(RESULTS, rows, meta)
     text = table(rows, COLUMNS)
-    RESULTS.with_suffix(".md").write_text(f"# evstar batch vs evstar run loop\n\n{meta}\n\n{text}\n")
+    title = "# evstar batch vs evstar run loop"
+    RESULTS.with_suffix(".md").write_text(f"{title}\n\n{meta}\n\n{text}\n")
     print(text)
 
 

@@ -47,8 +47,9 @@ def test_one_row_per_input_and_failures_stay_alone(first, inputs):
     out, _, table = first
     by_name = {r["input"].replace(str(inputs) + "/", ""): r for _, r in table.iterrows()}
     assert list(by_name) == ["a.h5", "corrupt.h5", "b.csv", "night2/a.h5", "missing.h5"]
-    assert by_name["corrupt.h5"]["status"] == "failed"
-    assert "corrupt.h5" in by_name["corrupt.h5"]["error"] and "HDF5" in by_name["corrupt.h5"]["error"]
+    corrupt = by_name["corrupt.h5"]
+    assert corrupt["status"] == "failed"
+    assert "corrupt.h5" in corrupt["error"] and "HDF5" in corrupt["error"]
     assert by_name["missing.h5"]["error"].endswith("missing.h5: no such file")
     for name in ("a.h5", "b.csv", "night2/a.h5"):
         row = by_name[name]
@@ -84,7 +85,8 @@ def test_rerun_skips_what_is_done_and_a_changed_config_redoes_it(first, client, 
     assert changed["status"].tolist() == ["ok"] and not changed["skipped"].any()
     forced = batch.run_many(paths[1:2], Config().replace(seed=7), copy, client=client, force=True)
     assert not forced["skipped"].any()
-    assert batch.run_many(paths[1:2], Config().replace(seed=7), copy, client=client)["skipped"].all()
+    again = batch.run_many(paths[1:2], Config().replace(seed=7), copy, client=client)
+    assert again["skipped"].all()
 
 
 def test_a_killed_batch_redoes_only_the_unfinished(first, client, tmp_path):
