@@ -58,12 +58,15 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     key = config_key(config, options)
     names = output_names(inputs)
     call = uuid.uuid4().hex[:8]  # fresh task keys: Dask would hand back an earlier call's result
+    settings = backends.settings()
+    if client is None and not scheduler and settings["cpu_threads"] is None:
+        settings["cpu_threads"] = 1  # also for local workers restarted after a crash
     with _client(client, workers, scheduler) as c:
         futures = [c.submit(process, str(p.absolute()), str(outdir / n), spec, key, options,
-                            force, backends.settings(), key=f"evstar-run-{n}-{call}-{i}",
+                            force, settings, key=f"evstar-run-{n}-{call}-{i}",
                             pure=False)
                    for i, (p, n) in enumerate(zip(inputs, names))]
-        rows = _gather(futures, progress)
+        rows = _gather(futures, [outdir / n for n in names], progress)
     table = pd.DataFrame([{**row, "input": str(p)} for row, p in zip(rows, inputs)])
     table = table[[c for c in _FIRST if c in table] + [c for c in table if c not in _FIRST]]
     write_summary(outdir, table)
@@ -168,7 +171,9 @@ def write_summary(outdir, table):
 def _write_marker(outdir, data):
     from .io.atomic import atomic_path
 
-    files = sorted(f.name for f in pathlib.Path(outdir).iterdir() if f.name != MARKER)
+    from .outputs import RUN_FILES
+
+    files = [name for name in RUN_FILES if pathlib.Path(outdir, name).is_file()]
     with atomic_path(pathlib.Path(outdir, MARKER)) as tmp:
         tmp.write_text(json.dumps({**data, "files": files}, indent=2, default=_json) + "\n")
 
@@ -229,15 +234,18 @@ def local_client(workers=None):
         yield c
 
 
-def _gather(futures, progress):
-    """Rows in input order, with a progress bar over recordings as they finish."""
+def _gather(futures, outputs, progress):
+    """Rows in input order, with a progress bar over recordings as they finish. A task that
+    Dask itself lost (its worker killed again and again, e.g. out of memory) is a failed row."""
     from distributed import as_completed
     from tqdm import tqdm
 
     with tqdm(total=len(futures), unit="recording", disable=not progress) as bar:
         for _ in as_completed(futures):
             bar.update()
-    return [f.result() for f in futures]
+    return [f.result() if f.status == "finished" else
+            {"output": str(out), "status": "failed", "skipped": False,
+             "error": _one_line(f.exception())} for f, out in zip(futures, outputs)]
 
 
 def _configure_backends(settings):
