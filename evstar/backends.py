@@ -27,9 +27,20 @@ def configure(*, cpu_threads=None, cache_dir=None):
     if cpu_threads is not None and (isinstance(cpu_threads, bool) or int(cpu_threads) != cpu_threads
                                     or cpu_threads < 1):
         raise ParameterError(f"cpu_threads must be a positive integer, got {cpu_threads!r}")
-    if _taichi_arch is not None or _warp_ready:
+    if initialised():
         raise BackendError("configure() must be called before any backend is initialised")
     _settings.update(cpu_threads=cpu_threads, cache_dir=cache_dir)
+
+
+def settings():
+    """What configure() set (a copy): cpu_threads and cache_dir, None for the defaults (the
+    libraries' per-user caches, ~/.cache/taichi and ~/.cache/warp, shared by all processes)."""
+    return dict(_settings)
+
+
+def initialised():
+    """True once Taichi or Warp has started in this process (configure() is too late then)."""
+    return _taichi_arch is not None or _warp_ready
 
 
 def check_device(device):

@@ -6,7 +6,8 @@ import sys
 
 import pytest
 
-HEAVY = ("sklearn", "scipy", "taichi", "warp", "pandas", "h5py", "matplotlib", "faery")
+HEAVY = ("sklearn", "scipy", "taichi", "warp", "pandas", "h5py", "matplotlib", "faery", "dask",
+         "distributed")
 
 
 def run(*args):
@@ -15,7 +16,7 @@ def run(*args):
 
 
 @pytest.mark.parametrize("argv", [[], ["run"], ["extract"], ["denoise"], ["info"], ["convert"],
-                                  ["bench"], ["demo"]])
+                                  ["bench"], ["demo"], ["batch"]])
 def test_parsing_a_command_line_imports_nothing_heavy(argv):
     code = (f"import sys; from evstar.cli import build_parser; build_parser({argv!r}); "
             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))")

@@ -14,14 +14,8 @@ def add_input_options(p):
 
 def load(args):
     """Read the input recording with the camera / IMU files the user passed."""
-    from .. import io
+    from ..runs import read_recording
 
-    camera = io.read_camera(args.camera) if getattr(args, "camera", None) else None
-    size = args.sensor_size or (camera and (camera.width, camera.height)) or None
-    sort = bool(getattr(args, "sort", False))
-    rec = io.read(args.input, format=args.format, sensor_size=size, sort=sort)
-    if camera is not None:
-        rec.camera = camera
-    if getattr(args, "imu", None):
-        rec.imu = io.read_imu(args.imu, sort=sort)
-    return rec
+    return read_recording(args.input, format=args.format, sensor_size=args.sensor_size,
+                          camera=getattr(args, "camera", None), imu=getattr(args, "imu", None),
+                          sort=bool(getattr(args, "sort", False)))

@@ -9,9 +9,7 @@ processed in chunks with bounded memory.
 """
 from __future__ import annotations
 
-import os
-
-from .common import add_input_options, load
+from .common import add_input_options
 from .options import add_pipeline_options, config_from_args
 
 
@@ -19,6 +17,11 @@ def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
     p.add_argument("--truth", help="simulator truth.npz: adds errors against ground truth")
+    add_run_options(p)
+
+
+def add_run_options(p):
+    """What `evstar run` and `evstar batch` share: streaming, progress, inputs, pipeline."""
     p.add_argument("--stream-above-mb", type=float, default=1024.0,
                    help="stream inputs larger than this many MB in chunks (1024)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -29,34 +32,17 @@ def add_arguments(p):
 def run(args):
     from .. import outputs
     from ..io.atomic import check_output_dir, check_outputs
-    from ..pipeline import Pipeline
-    from ..sim import load_truth
+    from ..runs import run_recording
 
-    check_output_dir(args.output)
-    check_outputs(outputs.run_files(args.output),
-                  [args.input, args.imu, args.camera, args.truth, getattr(args, "config", None)])
-    cfg = config_from_args(args)
-    truth = load_truth(args.truth) if args.truth else None
-    pipe = Pipeline(cfg)
-    big = os.path.getsize(args.input) > args.stream_above_mb * 1e6 if os.path.isfile(args.input) else False
-    if big:
-        aux = load_aux(args)
-        result = pipe.run_file(args.input, aux.imu, aux.camera, truth=truth, format=args.format,
-                               sensor_size=args.sensor_size, progress=not args.no_progress)
-    else:
-        rec = load(args)
-        result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
-    outputs.write_run(args.output, result, cfg, truth)
+    check_output_dir(args.output)  # output problems first, before the configuration's
+    check_outputs(outputs.run_files(args.output), [getattr(args, "config", None)])
+    result = run_recording(args.input, args.output, config_from_args(args),
+                           **recording_options(args), progress=not args.no_progress)
     print(outputs.summary_text(result, args.output))
 
 
-def load_aux(args):
-    """IMU and camera for a streamed input (from their own files)."""
-    from .. import io
-    from ..recording import Recording
-
-    rec = Recording(events=None)
-    rec.camera = io.read_camera(args.camera) if args.camera else None
-    rec.imu = io.read_imu(args.imu) if args.imu else None
-    return rec
-
+def recording_options(args):
+    """run_recording's keywords from the command line (all but the output and progress)."""
+    return dict(truth=getattr(args, "truth", None), imu=args.imu, camera=args.camera,
+                format=args.format, sensor_size=args.sensor_size, sort=args.sort,
+                stream_above_mb=args.stream_above_mb)

@@ -1,0 +1,258 @@
+"""Many recordings at once on Dask distributed: one task per recording, each doing what
+`evstar run` does (evstar.runs.run_recording) into OUTDIR/<file stem>/.
+
+    from evstar import Config, batch
+    summary = batch.run_many(["night/*.h5"], Config(), "out")   # a pandas DataFrame
+
+The summary (OUTDIR/summary.csv and summary.parquet) has one row per input: a recording
+that fails (corrupt, unreadable) is a row with status "failed" and its one-line error, and
+never stops the others. Reruns are resumable: a folder whose completion marker
+(.evstar-batch.json, written last) matches the input's fingerprint and the configuration is
+skipped (status ok, skipped true); force=True redoes it.
+"""
+from __future__ import annotations
+
+import contextlib
+import glob
+import hashlib
+import json
+import numbers
+import os
+import pathlib
+import time
+import uuid
+
+from .errors import BackendError, EvstarError, ParameterError
+
+MARKER = ".evstar-batch.json"  # in each output folder; written once the run is complete
+SUMMARY = ("summary.csv", "summary.parquet")
+CONNECT_TIMEOUT_S = 5
+_HEAD_BYTES = 1 << 20  # the fingerprint hashes the first MiB (with size and mtime)
+_FIRST = ["input", "output", "status", "error", "skipped", "events", "centroids", "tracks",
+          "seconds"]
+
+
+def run_many(paths, config, outdir, client=None, force=False, *, workers=None, scheduler=None,
+             options=None, progress=False):
+    """Run every recording of `paths` (files or glob patterns) with `config` into
+    `outdir`/<stem>/ and return the summary DataFrame (also written to `outdir`).
+
+    `client` is a distributed.Client to run on; without one, `scheduler` (an address such
+    as tcp://host:8786) is connected to, or else a LocalCluster of `workers` processes (the
+    CPU count by default) is started for the call. `options` are run_recording keywords
+    shared by all recordings (format, sensor_size, camera, imu, sort, stream_above_mb).
+    """
+    import pandas as pd
+
+    from . import backends
+    from .io.atomic import check_output_dir, check_outputs
+
+    inputs = expand_inputs(paths)
+    if not inputs:
+        raise ParameterError("no recordings given")
+    outdir = check_output_dir(outdir).absolute()  # workers may run in other folders
+    check_outputs([outdir / name for name in SUMMARY], inputs)
+    options = {k: os.path.abspath(v) if k in ("camera", "imu") and v else v
+               for k, v in (options or {}).items()}
+    spec = config.to_dict()
+    key = config_key(config, options)
+    names = output_names(inputs)
+    call = uuid.uuid4().hex[:8]  # fresh task keys: Dask would hand back an earlier call's result
+    settings = backends.settings()
+    if client is None and not scheduler and settings["cpu_threads"] is None:
+        settings["cpu_threads"] = 1  # also for local workers restarted after a crash
+    with _client(client, workers, scheduler) as c:
+        futures = [c.submit(process, str(p.absolute()), str(outdir / n), spec, key, options,
+                            force, settings, key=f"evstar-run-{n}-{call}-{i}",
+                            pure=False)
+                   for i, (p, n) in enumerate(zip(inputs, names))]
+        rows = _gather(futures, [outdir / n for n in names], progress)
+    table = pd.DataFrame([{**row, "input": str(p)} for row, p in zip(rows, inputs)])
+    table = table[[c for c in _FIRST if c in table] + [c for c in table if c not in _FIRST]]
+    write_summary(outdir, table)
+    return table
+
+
+def expand_inputs(paths):
+    """Files and glob patterns -> paths in order, each once. A pattern that matches nothing
+    is a ParameterError; a plain path is kept even when missing (it becomes a failed row)."""
+    out = []
+    for p in [paths] if isinstance(paths, (str, os.PathLike)) else paths:
+        p = str(p)
+        if glob.has_magic(p):
+            found = sorted(glob.glob(p, recursive=True))
+            if not found:
+                raise ParameterError(f"{p}: no file matches this pattern")
+            out += found
+        else:
+            out.append(p)
+    return [pathlib.Path(p) for p in dict.fromkeys(out)]
+
+
+def output_names(paths):
+    """A folder name per input: its stem, prefixed by its parent folder's name where stems
+    repeat (and numbered if that still repeats)."""
+    stems = [p.stem for p in paths]
+    names = [f"{p.absolute().parent.name}_{s}" if stems.count(s) > 1 else s
+             for p, s in zip(paths, stems)]
+    seen = {}
+    for i, n in enumerate(names):
+        seen[n] = seen.get(n, 0) + 1
+        if names.count(n) > 1:
+            names[i] = f"{n}-{seen[n]}"
+    return names
+
+
+def config_key(config, options):
+    """What besides the input decides a run's outputs: the configuration and shared options."""
+    text = config.to_toml() + json.dumps(options, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def fingerprint(path):
+    """Size, mtime and the sha256 of the first MiB: cheap, and changes with any rewrite."""
+    st = os.stat(path)
+    with open(path, "rb") as f:
+        head = hashlib.sha256(f.read(_HEAD_BYTES)).hexdigest()
+    return {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "head_sha256": head}
+
+
+def process(input, outdir, spec, key, options, force=False, settings=None):
+    """One recording (the task run on a worker): its summary row; errors become the row's."""
+    from .config import Config
+
+    t = time.perf_counter()
+    row = {"input": input, "output": outdir, "status": "ok", "error": "", "skipped": False}
+    try:
+        from .io import check_readable
+        from .runs import run_recording
+
+        check_readable(input)
+        stamp = {"input": fingerprint(input), "config": key}
+        done = None if force else completed(outdir, stamp)
+        if done is not None:
+            return {**done, "input": input, "output": outdir, "skipped": True}
+        pathlib.Path(outdir, MARKER).unlink(missing_ok=True)  # a run killed now stays undone
+        _configure_backends(settings)
+        result = run_recording(input, outdir, Config.from_dict(spec), **options)
+        row.update(metric_columns(result.metrics), seconds=time.perf_counter() - t)
+        _write_marker(outdir, {**stamp, "row": row})
+    except Exception as exc:  # any failure is this recording's, reported in its row
+        row.update(status="failed", error=_one_line(exc), seconds=time.perf_counter() - t)
+    return row
+
+
+def completed(outdir, stamp):
+    """The stored row when `outdir` holds a complete run of the same input and config."""
+    try:
+        saved = json.loads(pathlib.Path(outdir, MARKER).read_text())
+        same = all(saved[k] == v for k, v in stamp.items())
+        files = all(pathlib.Path(outdir, f).is_file() for f in saved["files"])
+        return saved["row"] if same and files else None
+    except (OSError, ValueError, KeyError, TypeError):  # no marker, or a damaged one: redo
+        return None
+
+
+def metric_columns(metrics):
+    """The scalar metrics (events, centroids, tracks, SNR, ...) as summary columns."""
+    return {k: v for k, v in metrics.items() if isinstance(v, numbers.Real)}
+
+
+def write_summary(outdir, table):
+    """summary.csv and summary.parquet, each written atomically."""
+    from .io.atomic import atomic_path
+
+    with atomic_path(pathlib.Path(outdir, SUMMARY[0])) as tmp:
+        table.to_csv(tmp, index=False)
+    with atomic_path(pathlib.Path(outdir, SUMMARY[1])) as tmp:
+        table.to_parquet(tmp, index=False)
+
+
+def _write_marker(outdir, data):
+    from .io.atomic import atomic_path
+
+    from .outputs import RUN_FILES
+
+    files = [name for name in RUN_FILES if pathlib.Path(outdir, name).is_file()]
+    with atomic_path(pathlib.Path(outdir, MARKER)) as tmp:
+        tmp.write_text(json.dumps({**data, "files": files}, indent=2, default=_json) + "\n")
+
+
+def _one_line(exc):
+    text = str(exc).strip().splitlines()
+    text = text[0] if text else ""
+    return text if isinstance(exc, EvstarError) else f"{type(exc).__name__}: {text}"
+
+
+def _json(v):
+    return v.item() if hasattr(v, "item") else str(v)
+
+
+@contextlib.contextmanager
+def _client(client, workers, scheduler):
+    """The given client; or one connected to `scheduler`; or a LocalCluster for the call."""
+    if client is not None:
+        yield client
+        return
+    if not scheduler:
+        with local_client(workers) as c:
+            yield c
+        return
+    from distributed import Client
+
+    try:
+        c = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise BackendError(f"cannot reach the Dask scheduler at {scheduler} within "
+                           f"{CONNECT_TIMEOUT_S} s ({_one_line(exc)})") from None
+    with c:
+        yield c
+
+
+#: worker self-monitoring that costs a few tenths of a core per worker: with one worker per
+#: core it slowed the tasks by about a quarter (perf/bench_batch.py)
+QUIET = {"distributed.worker.profile.enabled": False,
+         "distributed.admin.system-monitor.gil.enabled": False}
+
+
+@contextlib.contextmanager
+def local_client(workers=None):
+    """A distributed.Client of a LocalCluster of `workers` processes (the CPU count by
+    default) with one thread each, whose kernels use one thread too (the processes already
+    use every core)."""
+    import logging
+
+    import dask
+    from distributed import Client, LocalCluster
+
+    n = workers or os.cpu_count() or 1
+    with dask.config.set(QUIET), \
+            LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                         dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+            Client(cluster) as c:
+        c.run(_configure_backends, {"cpu_threads": 1})
+        yield c
+
+
+def _gather(futures, outputs, progress):
+    """Rows in input order, with a progress bar over recordings as they finish. A task that
+    Dask itself lost (its worker killed again and again, e.g. out of memory) is a failed row."""
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    with tqdm(total=len(futures), unit="recording", disable=not progress) as bar:
+        for _ in as_completed(futures):
+            bar.update()
+    return [f.result() if f.status == "finished" else
+            {"output": str(out), "status": "failed", "skipped": False,
+             "error": _one_line(f.exception())} for f, out in zip(futures, outputs)]
+
+
+def _configure_backends(settings):
+    """Apply the settings given (a kernel cache folder set where run_many was called: one
+    compile for all workers on a machine) to this worker before its first kernel."""
+    from . import backends
+
+    given = {k: v for k, v in (settings or {}).items() if v is not None}
+    if given and not backends.initialised():
+        backends.configure(**{**backends.settings(), **given})

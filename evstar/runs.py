@@ -1,0 +1,63 @@
+"""One recording through the whole pipeline into a result folder: what `evstar run` does,
+as a library function that `evstar run` and `evstar batch` (evstar.batch) share.
+
+    from evstar import Config, runs
+    result = runs.run_recording("night.h5", "out/night", Config())
+"""
+from __future__ import annotations
+
+import os
+
+
+def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, format=None,
+                  sensor_size=None, sort=False, stream_above_mb=1024.0, progress=False):
+    """Run `config`'s pipeline on the recording at `input` and write the result folder
+    `outdir` (evstar.outputs.write_run); returns the pipeline Result.
+
+    truth, imu and camera are paths (simulator truth.npz, IMU CSV, camera JSON). Inputs
+    larger than `stream_above_mb` MB are processed in chunks with bounded memory. Output
+    paths are checked before any work: an output that is one of the inputs is an OutputError.
+    """
+    from . import outputs
+    from .io.atomic import check_output_dir, check_outputs
+    from .pipeline import Pipeline
+    from .sim import load_truth
+
+    check_output_dir(outdir)
+    check_outputs(outputs.run_files(outdir), [input, imu, camera, truth])
+    truth = load_truth(truth) if truth else None
+    pipe = Pipeline(config)
+    big = os.path.isfile(input) and os.path.getsize(input) > stream_above_mb * 1e6
+    if big:
+        cam, imu_data = read_aux(camera, imu)
+        result = pipe.run_file(input, imu_data, cam, truth=truth, format=format,
+                               sensor_size=sensor_size, progress=progress)
+    else:
+        rec = read_recording(input, format=format, sensor_size=sensor_size, camera=camera,
+                             imu=imu, sort=sort)
+        result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
+    outputs.write_run(outdir, result, config, truth)
+    return result
+
+
+def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False):
+    """The recording at `input` with the camera / IMU files given (paths; they win over what
+    the file carries); the camera also gives the sensor size when `sensor_size` is None."""
+    from . import io
+
+    cam, imu_data = read_aux(camera, imu, sort)
+    size = sensor_size or (cam and (cam.width, cam.height)) or None
+    rec = io.read(input, format=format, sensor_size=size, sort=sort)
+    if cam is not None:
+        rec.camera = cam
+    if imu_data is not None:
+        rec.imu = imu_data
+    return rec
+
+
+def read_aux(camera=None, imu=None, sort=False):
+    """(Camera or None, Imu or None) read from their own files."""
+    from . import io
+
+    cam = io.read_camera(camera) if camera else None
+    return cam, (io.read_imu(imu, sort=sort) if imu else None)
