@@ -321,15 +321,17 @@ ESTIMATE = Params(
 
 HOTPIXELS = Params(
     "hotpixels",
-    Param("window_us", int, 1_000_000, "hot-pixel map: counting window", low=1,
+    Param("window_us", int, 1_000_000, "HotPixelMap's running window (the pipeline counts "
+          "its calibration window)", low=1,
           high=MAX_DT_US, unit="µs", cli="--hot-window-ms", cli_scale=1000, cli_unit="ms"),
     Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
           low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
     Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
           "brightest 8-neighbour's", low=1),
-    Param("max_spread_px", float, 0.5, "a centroid on a hot pixel is dropped when its spread "
-          "is at most this", low=0, unit="px"),
-    Param("remove", bool, True, "drop point-like centroids on hot pixels before tracking",
+    Param("max_spread_px", float, 0.5, "remove_hot_centroids: a centroid on a hot pixel is "
+          "dropped when its spread is at most this", low=0, unit="px"),
+    Param("remove", bool, True, "drop the events of hot pixels (found in the calibration "
+          "window, the first chunk_frames frames) before extraction",
           cli="--remove-hot-pixels"),
 )
 

@@ -74,6 +74,18 @@ class Pipeline:
         w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
         return background_rate(w.t, w.x, w.y, w.width, w.height)
 
+    def calibration_hot_pixels(self, events, t0_us):
+        """Hot-pixel mask (height, width) from the counts of the first chunk_frames frames
+        (the calibration window, as for the background rate), or None when switched off."""
+        h = self.config.hotpixels
+        if not h.remove:
+            return None
+        from .frames import accumulated
+        from .hotpixels import hot_pixels
+
+        w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        return hot_pixels(accumulated(w), h.alpha, h.neighbour_ratio)
+
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
         from .motion import compensate
@@ -103,6 +115,8 @@ class Pipeline:
             keep_f = flt.apply(both)[len(context):]
         else:
             keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
+        if state is not None and state.hot is not None:  # a hot pixel's events are no star's
+            keep_f &= ~state.hot[events.y[idx], events.x[idx]]
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
         kept = idx[keep_f]
@@ -131,7 +145,8 @@ class Pipeline:
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        state = _RunState(self.config, events.width, events.height)
+        state = _RunState(self.config, events.width, events.height,
+                          self.calibration_hot_pixels(events, t0))
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
                                                  state=state)
         _add(timings, chunk_t)
@@ -177,12 +192,6 @@ class Pipeline:
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None):
         stats = acc.stats
         t = time.perf_counter()
-        h = self.config.hotpixels
-        if h.remove:  # hot pixels from the whole run's counts: streamed runs find the same
-            from .hotpixels import hot_pixels, remove_hot_centroids
-
-            hot = hot_pixels(acc.before, h.alpha, h.neighbour_ratio)
-            centroids = remove_hot_centroids(centroids, hot, h.max_spread_px)
         cents = self.make_tracker().link(centroids)
         timings["track"] = time.perf_counter() - t
         if estimator is not None:
@@ -238,7 +247,8 @@ class Pipeline:
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
         parts, offset, span_t = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height)
+        state = _RunState(self.config, first[1].width, first[1].height,
+                          self.calibration_hot_pixels(first[1], t0))
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
                                                      filter_result, context, state)
@@ -280,11 +290,12 @@ def _check_inputs(events, imu, camera, mode):
 
 # -- helpers -----------------------------------------------------------------------------
 class _RunState:
-    """The pixel crossings a run gathers chunk by chunk for its estimator (a crossing whose
-    flanks fall in two chunks of a streamed run is lost)."""
+    """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their
+    events are dropped before extraction), and the pixel crossings it gathers for its
+    estimator (a crossing whose flanks fall in two chunks of a streamed run is lost)."""
 
-    def __init__(self, config, width, height):
-        self.config, self._crossings, self.sensor = config, [], (width, height)
+    def __init__(self, config, width, height, hot=None):
+        self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
 
     def add(self, events, keep, cents):
         from .estimation import chunk_crossings
