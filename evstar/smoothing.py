@@ -136,7 +136,8 @@ class TrackSmoother:
         v_prior = _prior_velocity(velocity_prior, t_all, out["x"], out["y"])
         out["vx"], out["vy"] = x[:, 1] + v_prior[:, 0], x[:, 3] + v_prior[:, 1]
         # rounding can leave a variance a hair below zero
-        out["sigma_x"], out["sigma_y"] = np.sqrt(np.maximum(P[:, 0, 0], 0.0)), np.sqrt(np.maximum(P[:, 2, 2], 0.0))
+        out["sigma_x"] = np.sqrt(np.maximum(P[:, 0, 0], 0.0))
+        out["sigma_y"] = np.sqrt(np.maximum(P[:, 2, 2], 0.0))
         idx = np.arange(len(cents)) if index is None else np.asarray(index)
         out["centroid"] = np.concatenate([idx, np.full(len(coast_f), -1)])[order]
         out["n_events"] = np.concatenate([cents["n_events"], np.zeros(len(coast_f), int)])[order]
