@@ -93,7 +93,8 @@ class Param:
             what = {int: "an integer", float: "a number", str: "a string"}[self.kind]
             what += _span(self.low, self.high, self.open_low, self.open_high)
         if self.many:
-            what = f"a non-empty list of {what.replace('an integer', 'integers').replace('a number', 'numbers')}"
+            plural = what.replace("an integer", "integers").replace("a number", "numbers")
+            what = f"a non-empty list of {plural}"
         if self.auto:
             what = f"'auto' or {what}"
         if self.optional:

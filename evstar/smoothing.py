@@ -169,7 +169,8 @@ class TrackSmoother:
             fit, n = along_track_fit(
                 rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
                 (crossings["t"][got[mine]], q_all[got[mine]], u[mine]), velocity_prior,
-                along_weight=along_weight, sigma_floor_px=self.sigma_floor_px, process_noise_min=self.process_noise_min)
+                along_weight=along_weight, sigma_floor_px=self.sigma_floor_px,
+                process_noise_min=self.process_noise_min)
             # rows added for crossings stand only when the crossings were used
             parts.append(fit if n else est[est["track"] == tid])
             used += n
