@@ -15,7 +15,7 @@ scenes (dark-sky sinusoid with IMU, magnitudes 3 and 5, seed 4).
 
     python perf/study_accuracy.py [--quick]
 
-Writes perf/results/study_accuracy.json and .md. Columns per estimator: mean and max error
+Writes perf/results/study_accuracy.json, .md and .png (error against the bound). Columns per estimator: mean and max error
 (px), the fraction of frames in which the star (in view) has a position, false rows (matching
 no star within 3 px) per 100 frames; and the σ_PSF/√N bound of a single frame (N = the star's
 mean events per frame), the floor a per-frame estimate cannot beat.
@@ -109,15 +109,44 @@ def markdown(rows):
     return "\n".join(lines)
 
 
+def plot(rows, path):
+    """Mean error against the single-frame bound σ_PSF/√N per scene and estimator (log-log;
+    filled: development scenes, open: held out); below the diagonal = better than one frame
+    could be."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter
+
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.add_subplot()
+    for name, colour in zip(ESTIMATORS, ("tab:grey", "tab:blue", "tab:red")):
+        for part, fill in (("dev", colour), ("held-out", "none")):
+            sel = [r for r in rows if r["set"] == part and np.isfinite(r[name]["mean"])]
+            ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
+                       facecolors=fill, edgecolors=colour, label=f"{name} ({part})")
+    lim = [0.03, 0.6]
+    ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
+    ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
+           ylabel="mean error (px)", title="star-position error per scene")
+    ax.xaxis.set_minor_formatter(NullFormatter())   # log-axis minor labels overlap
+    ax.legend(fontsize=7, ncol=2)
+    FigureCanvasAgg(fig).print_png(path)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a small held-out grid")
+    ap.add_argument("--plot-only", action="store_true", help="redraw the figure from the JSON")
     args = ap.parse_args(argv)
+    if args.plot_only:
+        plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
+        return
     rows = [run_scene(s) for s in itertools.chain(dev_grid(), held_out_grid(args.quick))]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "study_accuracy.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / "study_accuracy.md").write_text("# Star-position accuracy by estimator\n\n"
                                                + markdown(rows) + "\n")
+    plot(rows, RESULTS / "study_accuracy.png")
     print(markdown(rows))
 
 
