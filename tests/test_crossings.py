@@ -80,3 +80,21 @@ def test_frames_without_centroids_but_with_crossings_get_positions():
     assert in_gap.sum() == 10 and (rows["source"][in_gap] == "measured").all()
     _, err = accuracy.match(rows[in_gap], run.truth.star_position)
     assert err.max() < 0.1
+
+
+@pytest.mark.parametrize("rate,mag,psf", [(4.0, 3.0, 1.0), (12.0, 5.0, 0.8), (8.0, 4.0, 1.3)])
+def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
+    """σ_PSF/√N is the best one frame of N events can do; pooled along the track with the
+    crossings, the default estimator must do better than that (and than the per-frame mean)."""
+    from evstar import Config, Pipeline, accuracy
+
+    run = sim.simulate(sim.paper_preset(rate, magnitude=mag, psf_sigma_px=psf, duration_s=0.3),
+                       seed=11)
+    n_per_frame = (run.truth.labels >= 0).sum() / 30
+    bound = psf / np.sqrt(n_per_frame)
+    errors = {}
+    for estimator in ("mean", "crossings"):
+        rows = Pipeline(Config().replace(**{"estimate.estimator": estimator})).run(run.events).centroids
+        star, err = accuracy.match(rows, run.truth.star_position)
+        errors[estimator] = err[star >= 0].mean()
+    assert errors["crossings"] < 0.5 * bound and errors["crossings"] < 0.5 * errors["mean"], errors
