@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage, stats
 
-from .parameters import HOTPIXELS
+from .parameters import HOTPIXEL_MAP, HOTPIXELS
 from .errors import ParameterError
 
 _BINS = 4          # sub-windows of the running window: the map forgets in steps of window/4
@@ -39,7 +39,7 @@ class HotPixelMap:
         if not (int(width) == width > 0 and int(height) == height > 0):
             raise ParameterError(f"width and height must be positive integers, got {width!r}, {height!r}")
         self.width, self.height = int(width), int(height)
-        self.window_us = HOTPIXELS.check("window_us", window_us)
+        self.window_us = HOTPIXEL_MAP.check("window_us", window_us)
         self.alpha = HOTPIXELS.check("alpha", alpha)
         self.neighbour_ratio = HOTPIXELS.check("neighbour_ratio", neighbour_ratio)
         self._bins = np.zeros((_BINS, self.height * self.width), np.int32)
@@ -117,7 +117,7 @@ def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
 def remove_hot_centroids(centroids, hot, max_spread_px=0.5):
     """Copy of `centroids` without those on a hot pixel (`hot`: a HotPixelMap or a bool
     mask) whose spread is at most `max_spread_px` (a star on a hot pixel stays)."""
-    max_spread_px = HOTPIXELS.check("max_spread_px", max_spread_px)
+    max_spread_px = HOTPIXEL_MAP.check("max_spread_px", max_spread_px)
     mask = hot.mask if isinstance(hot, HotPixelMap) else np.asarray(hot, bool)
     h, w = mask.shape
     ix = np.floor(centroids["x"] + 0.5).astype(np.int64)

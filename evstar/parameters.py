@@ -311,6 +311,22 @@ ESTIMATE = Params(
     Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "
           "smoothed track is dropped and the track refitted (none: keep all)", low=0,
           open_low=True, optional=True),
+)
+
+HOTPIXELS = Params(
+    "hotpixels",
+    Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
+          low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
+    Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
+          "brightest 8-neighbour's", low=1),
+    Param("remove", bool, True, "drop the events of hot pixels (found in the calibration "
+          "window, the first chunk_frames frames) before extraction",
+          cli="--remove-hot-pixels"),
+)
+
+#: library-only settings (not Config keys: the pipeline does not use them)
+REEXTRACT = Params(
+    "reextract",
     Param("gather_radius_px", float, 4.0, "re-extraction: events this close to a track's "
           "predicted position are its (>= 4 PSF sigmas: a cut through the PSF's wings at "
           "whole pixels biases)", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
@@ -320,20 +336,12 @@ ESTIMATE = Params(
           "gives no centroid)", low=1, high=10**6),
 )
 
-HOTPIXELS = Params(
-    "hotpixels",
+HOTPIXEL_MAP = Params(
+    "hotpixel_map",
     Param("window_us", int, 1_000_000, "HotPixelMap's running window (the pipeline counts "
-          "its calibration window)", low=1,
-          high=MAX_DT_US, unit="µs", cli="--hot-window-ms", cli_scale=1000, cli_unit="ms"),
-    Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
-          low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
-    Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
-          "brightest 8-neighbour's", low=1),
+          "its calibration window)", low=1, high=MAX_DT_US, unit="µs"),
     Param("max_spread_px", float, 0.5, "remove_hot_centroids: a centroid on a hot pixel is "
           "dropped when its spread is at most this", low=0, unit="px"),
-    Param("remove", bool, True, "drop the events of hot pixels (found in the calibration "
-          "window, the first chunk_frames frames) before extraction",
-          cli="--remove-hot-pixels"),
 )
 
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
@@ -346,12 +354,13 @@ def markdown():
     lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
              "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
-    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER):
+    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            cli = params not in (KERNEL, PARTICLE_FILTER) or (params is KERNEL and name == "backend")
+            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP)
+            cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "
                          f"{p.doc} | {option} |")

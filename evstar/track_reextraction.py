@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .extract import CENTROID_DTYPE
-from .parameters import ESTIMATE
+from .parameters import REEXTRACT
 
 
 def reextract_tracks(events, estimates, dt_us, t0_us, *, gather_radius_px=4.0,
@@ -30,9 +30,9 @@ def reextract_tracks(events, estimates, dt_us, t0_us, *, gather_radius_px=4.0,
     """CENTROID_DTYPE rows (track filled, time-sorted) re-extracted from `events`
     (time-sorted evstar.Events, e.g. the denoised ones) along every track of `estimates`
     (ESTIMATE_DTYPE rows from TrackSmoother.smooth); frames as the smoother's (dt_us, t0_us)."""
-    radius = ESTIMATE.check("gather_radius_px", gather_radius_px)
-    min_events = ESTIMATE.check("gather_min_events", gather_min_events)
-    max_frames = ESTIMATE.check("gather_max_frames", gather_max_frames)
+    radius = REEXTRACT.check("gather_radius_px", gather_radius_px)
+    min_events = REEXTRACT.check("gather_min_events", gather_min_events)
+    max_frames = REEXTRACT.check("gather_max_frames", gather_max_frames)
     rows = []
     for tr in np.unique(estimates["track"]):
         est = estimates[estimates["track"] == tr]
