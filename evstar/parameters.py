@@ -148,9 +148,6 @@ class Params(dict):
     def check(self, name, value, key=None):
         return self[name].check(value, key)
 
-    def defaults(self):
-        return {n: p.default for n, p in self.items()}
-
 
 # -- the declarations -------------------------------------------------------------------------
 DEVICES = ("cpu", "cuda")

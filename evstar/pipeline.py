@@ -71,7 +71,7 @@ class Pipeline:
         """Background rate (events/pixel/s) of the first chunk_frames frames."""
         from evstar_kernels.reference.denoise import background_rate
 
-        w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        w = self._calibration_window(events, t0_us)
         return background_rate(w.t, w.x, w.y, w.width, w.height)
 
     def calibration_hot_pixels(self, events, t0_us):
@@ -83,8 +83,12 @@ class Pipeline:
         from .frames import accumulated
         from .hotpixels import hot_pixels
 
-        w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
-        return hot_pixels(accumulated(w), h.alpha, h.neighbour_ratio)
+        return hot_pixels(accumulated(self._calibration_window(events, t0_us)), h.alpha,
+                          h.neighbour_ratio)
+
+    def _calibration_window(self, events, t0_us):
+        """The events of the first chunk_frames frames."""
+        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
 
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
@@ -100,7 +104,7 @@ class Pipeline:
                state=None):
         """(keep mask, centroids, timings, compensation) of one chunk; `context` are earlier
         events the classical filter needs (their own outputs are dropped). With a `state`
-        (_RunState), the chunk's hot pixels are removed and its crossings collected."""
+        (_RunState), hot pixels' events are dropped and the chunk's crossings collected."""
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
@@ -127,7 +131,7 @@ class Pipeline:
         keep[kept] = True
         if state is not None:
             t = time.perf_counter()
-            cents = state.add(events, keep, cents)
+            state.add_crossings(events, keep)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
@@ -297,17 +301,15 @@ class _RunState:
     def __init__(self, config, width, height, hot=None):
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
 
-    def add(self, events, keep, cents):
+    def add_crossings(self, events, keep):
         from .estimation import chunk_crossings
 
         if self.config.estimate.estimator == "crossings" and len(events):
             self._crossings.append(chunk_crossings(events, keep,
                                                    self.config.estimate.crossing_radius_px))
-        return cents
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None
-
 
 
 def _with_context(windows, dt_us, desc, progress):

@@ -156,7 +156,7 @@ class TrackSmoother:
         from .crossings import along_track
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
-        got, owner, u, _ = along_track(crossings, est)
+        got, owner, u, resid = along_track(crossings, est)
         q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
         parts, used = [], 0
         if t0_us is None and len(est):
@@ -168,7 +168,8 @@ class TrackSmoother:
             s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
             fit, n = along_track_fit(
                 rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (crossings["t"][got[mine]], q_all[got[mine]], u[mine]), velocity_prior,
+                (crossings["t"][got[mine]], q_all[got[mine]], u[mine], resid[mine]),
+                velocity_prior,
                 along_weight=along_weight, sigma_floor_px=self.sigma_floor_px,
                 process_noise_min=self.process_noise_min)
             # rows added for crossings stand only when the crossings were used
@@ -191,11 +192,8 @@ class TrackSmoother:
         if not len(empty):
             return rows
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
-        i = np.clip(np.searchsorted(np.sort(t_cross), mid), 1, len(t_cross)) - 1
-        srt = np.sort(t_cross)
-        near = np.minimum(np.abs(mid - srt[i]), np.abs(mid - srt[np.minimum(i + 1, len(srt) - 1)]))
         seen = np.isin(empty, f_cross)
-        keep = seen | (near <= self.coast_ms * 1000.0)
+        keep = seen | _near_any(mid, np.sort(t_cross), self.coast_ms * 1000.0)
         new = np.zeros(int(keep.sum()), rows.dtype)
         new["t"], new["frame"], new["track"] = mid[keep], empty[keep], rows["track"][0]
         for f in ("x", "y", "vx", "vy", "sigma_x", "sigma_y"):
@@ -243,15 +241,20 @@ class TrackSmoother:
         if not len(empty):
             return empty
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
-        i = np.searchsorted(t_meas, mid)
-        before = np.where(i > 0, mid - t_meas[np.maximum(i - 1, 0)], np.inf)
-        after = np.where(i < len(t_meas), t_meas[np.minimum(i, len(t_meas) - 1)] - mid, np.inf)
-        return empty[(before <= limit) | (after <= limit)]
+        return empty[_near_any(mid, t_meas, limit)]
 
     def _q(self, ts, resid, sigma):
         if self.process_noise != AUTO:
             return float(self.process_noise)
         return max(estimate_process_noise(ts, resid, sigma), self.process_noise_min)
+
+
+def _near_any(t, times, limit):
+    """Per t: is one of the sorted `times` within `limit` of it?"""
+    i = np.searchsorted(times, t)
+    before = np.where(i > 0, t - times[np.maximum(i - 1, 0)], np.inf)
+    after = np.where(i < len(times), times[np.minimum(i, len(times) - 1)] - t, np.inf)
+    return (before <= limit) | (after <= limit)
 
 
 def estimate_process_noise(ts, z, sigma):
@@ -333,18 +336,17 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     along the motion by its ON/OFF lobes and the pixels' lag; where no crossing is near, the
     centroids still carry the track). σ_a is the robust spread (1.4826 MAD) of the crossings'
     residuals from `est`; crossings beyond `gate_sigma` σ_a of their median are dropped.
-    crossings: (t µs, q (n, 2), u (n, 2)). The crossings of each `pool_us` are pooled into
+    crossings: (t µs, q (n, 2), u (n, 2), residual along u from the track (n,), as
+    evstar.crossings.along_track gives them). The crossings of each `pool_us` are pooled into
     one measurement (the filter's cost is per step). Returns new rows (est's times, frames
     and flags) and the number of crossings used.
     """
-    t_c, q, u = crossings
+    t_c, q, u, r = crossings
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
     along = (q * u).sum(1) if len(t_c) else np.zeros(0)
     if len(t_c) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX:
         return est, 0
-    pos = np.column_stack([np.interp(t_c, est["t"], est["x"]), np.interp(t_c, est["t"], est["y"])])
-    r = ((q - pos) * u).sum(1)
     med = np.median(r)
     s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
     ok = np.abs(r - med) <= gate_sigma * s_a
@@ -370,8 +372,9 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     sig[is_cent] = sigma
     order = np.argsort(t_all, kind="stable")
     t_s, m_s, c_s = t_all[order], is_meas[order], is_cent[order]
-    shift = _prior_displacement(velocity_prior, t_s, t_s[m_s], z[order][m_s])
-    resid = z[order][m_s] - shift[m_s]
+    z_meas = z[order][m_s]
+    shift = _prior_displacement(velocity_prior, t_s, t_s[m_s], z_meas)
+    resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
     q_track = estimate_process_noise(ts[c_s], resid[cent], sig[order][c_s])
