@@ -53,9 +53,7 @@ def _doc(params):
 
 
 def _denoise_check(d):
-    if d.thresholds != P.AUTO and len(d.thresholds) != len(d.radii):
-        raise ParameterError(f"{_key('denoise', 'thresholds')} must be 'auto' or one integer per "
-                             f"radius ({len(d.radii)}), got {d.thresholds!r}")
+    P.check_thresholds_per_radius(d.thresholds, d.radii, _key("denoise", "thresholds"))
 
 
 DenoiseConfig = _section_class("DenoiseConfig", P.DENOISE, _denoise_check)

@@ -223,10 +223,7 @@ class MRNDSEF(_DensityFilter):
                  schedule="auto"):
         self._set_common(dt_us, alpha, rate_hz, t0_us, backend, device, strategy, schedule)
         self.radii = tuple(D.check("radii", radii))
-        thresholds = D.check("thresholds", thresholds)
-        if thresholds != P.AUTO and len(thresholds) != len(self.radii):
-            raise ParameterError(f"thresholds must be 'auto' or one integer per radius "
-                                 f"({len(self.radii)}), got {thresholds!r}")
+        thresholds = P.check_thresholds_per_radius(D.check("thresholds", thresholds), self.radii)
         self.thresholds = thresholds if thresholds == P.AUTO else tuple(thresholds)
 
 

@@ -345,6 +345,14 @@ SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MO
             "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
 
+def check_thresholds_per_radius(thresholds, radii, key="thresholds"):
+    """The rule across two declarations: explicit MR-NDSEF thresholds come one per radius."""
+    if thresholds != AUTO and len(thresholds) != len(radii):
+        raise ParameterError(f"{key} must be 'auto' or one integer per radius ({len(radii)}), "
+                             f"got {thresholds!r}")
+    return thresholds
+
+
 def markdown():
     """docs/parameters.md: every declared parameter as a table per section (a test keeps the
     file equal to this text)."""
