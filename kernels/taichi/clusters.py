@@ -1,0 +1,200 @@
+"""Grid DBSCAN on pseudo-frames and per-cluster moments (CPU and CUDA).
+
+Specification: `evstar_kernels.reference.clusters` (dbscan_events: identical labels;
+cluster_moments: identical integer sums, float sums to rounding).
+
+For a batch of frames [b0, b1), each with its own plane of (rows x stride) cells whose
+zero border (pad >= eps) makes every disk read unconditional:
+1. `bin_cells` (event-parallel): every event adds 1 to its cell's count and atomically
+   takes the cell's ownership when its index is the smallest (the cell's first event).
+2. `core_cells` (event-parallel): every owner sums the counts of its disk (its weighted
+   neighbourhood) and is core when that reaches min_samples.
+3. `link_frames` (one thread per frame, sequential inside it, so no atomics and the same
+   result on every run and device): union-find of the core owners within eps, each
+   set's root being its first cell in (y, x) order; border owners take the first root
+   among the cores of their disk; every event copies its owner's root; the planes are
+   cleared again by the frame's own events.
+The launcher numbers the roots (canonical labels), then `moments` (one thread per run of
+frames: a frame's clusters are only its own, so no atomics) sums each cluster's events.
+
+Indices are launch-local event indices; NONE marks an unowned cell.
+"""
+import functools
+
+import numpy as np
+import taichi as ti
+
+from ..reference.clusters import disk_offsets
+from .event_counts import frame_of
+
+NONE = 2**31 - 1
+i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
+i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
+i64_2d = ti.types.ndarray(dtype=ti.i64, ndim=2)
+f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
+f64_2d = ti.types.ndarray(dtype=ti.f64, ndim=2)
+i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
+u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+
+
+def disk(eps, stride):
+    """Flat plane offsets dy·stride + dx of the disk (int32), and of its half after (0, 0)
+    in (dy, dx) order (a pair of cells is linked once). Read in a loop, not unrolled: one
+    compiled kernel serves every eps (up to 64 px, thousands of offsets)."""
+    dy, dx = disk_offsets(eps)
+    flat = (dy * stride + dx).astype(np.int32)
+    after = (dy > 0) | ((dy == 0) & (dx > 0))
+    return flat, flat[after]
+
+
+@ti.func
+def find(parent: ti.template(), e: ti.i32) -> ti.i32:
+    """Root of e's set, halving the path on the way (one thread per frame: no races)."""
+    r = e
+    while parent[r] != r:
+        parent[r] = parent[parent[r]]
+        r = parent[r]
+    return r
+
+
+@functools.lru_cache(maxsize=None)
+def cluster_kernels():
+    """(bin_cells, core_cells, link_frames); disks are passed as plane offsets (`disk`)."""
+
+    @ti.func
+    def cell_at(x: ti.template(), y: ti.template(), e: ti.i32, base: ti.i32, stride: ti.i32,
+                pad: ti.i32) -> ti.i32:
+        return base + (y[e] + pad) * stride + x[e] + pad
+
+    @ti.kernel
+    def bin_cells(x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32, b1: ti.i32, plane: ti.i32,
+                  stride: ti.i32, pad: ti.i32, count: i32_1d, owner: i32_1d):
+        for e in range(offsets[b0], offsets[b1]):
+            f = frame_of(offsets, b0, b1, e)
+            at = cell_at(x, y, e, (f - b0) * plane, stride, pad)
+            ti.atomic_add(count[at], 1)
+            ti.atomic_min(owner[at], e)
+
+    @ti.kernel
+    def core_cells(x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32, b1: ti.i32, plane: ti.i32,
+                   stride: ti.i32, pad: ti.i32, full: i32_1d, min_samples: ti.i32, count: i32_1d,
+                   owner: i32_1d, core: u8_1d, parent: i32_1d, first: i32_1d):
+        for e in range(offsets[b0], offsets[b1]):
+            f = frame_of(offsets, b0, b1, e)
+            at = cell_at(x, y, e, (f - b0) * plane, stride, pad)
+            own = owner[at]
+            first[e] = own
+            parent[e] = e
+            is_core = 0
+            if own == e:
+                s = 0
+                for j in range(full.shape[0]):
+                    s += count[at + full[j]]
+                is_core = ti.cast(s >= min_samples, ti.i32)
+            core[e] = ti.cast(is_core, ti.u8)
+
+    @ti.func
+    def key(x: ti.template(), y: ti.template(), e: ti.i32, stride: ti.i32) -> ti.i32:
+        return y[e] * stride + x[e]  # (y, x) order within a frame
+
+    @ti.func
+    def union(parent: ti.template(), x: ti.template(), y: ti.template(), stride: ti.i32,
+              a: ti.i32, b: ti.i32):
+        ra = find(parent, a)
+        rb = find(parent, b)
+        if ra != rb:
+            if key(x, y, ra, stride) < key(x, y, rb, stride):
+                parent[rb] = ra
+            else:
+                parent[ra] = rb
+
+    @ti.func
+    def border_root(x: ti.template(), y: ti.template(), owner: ti.template(), core: ti.template(),
+                    parent: ti.template(), full: ti.template(), at: ti.i32, stride: ti.i32) -> ti.i32:
+        """The first root (in (y, x) order) among the cores of a non-core cell's disk."""
+        r = -1
+        best = NONE
+        for j in range(full.shape[0]):
+            n = owner[at + full[j]]
+            if n != NONE:
+                if core[n] != 0:
+                    rn = find(parent, n)
+                    k = key(x, y, rn, stride)
+                    if k < best:
+                        r = rn
+                        best = k
+        return r
+
+    @ti.func
+    def link_frame(f: ti.i32, b0: ti.i32, x: ti.template(), y: ti.template(), offsets: ti.template(),
+                   plane: ti.i32, stride: ti.i32, pad: ti.i32, full: ti.template(),
+                   half: ti.template(), count: ti.template(), owner: ti.template(), core: ti.template(), parent: ti.template(),
+                   first: ti.template(), root: ti.template()):
+        base = (f - b0) * plane
+        for e in range(offsets[f], offsets[f + 1]):
+            if first[e] == e and core[e] != 0:
+                at = cell_at(x, y, e, base, stride, pad)
+                for j in range(half.shape[0]):
+                    n = owner[at + half[j]]
+                    if n != NONE:
+                        if core[n] != 0:
+                            union(parent, x, y, stride, e, n)
+        # an owner precedes its cell's other events, so its root is set when they copy it
+        for e in range(offsets[f], offsets[f + 1]):
+            own = first[e]
+            if own == e:
+                if core[e] != 0:
+                    root[e] = find(parent, e)
+                else:
+                    root[e] = border_root(x, y, owner, core, parent, full,
+                                          cell_at(x, y, e, base, stride, pad), stride)
+            else:
+                root[e] = root[own]
+        for e in range(offsets[f], offsets[f + 1]):
+            at = cell_at(x, y, e, base, stride, pad)
+            count[at] = 0
+            owner[at] = NONE
+
+    @ti.kernel
+    def link_frames(lo: i32_1d, hi: i32_1d, x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32,
+                    plane: ti.i32, stride: ti.i32, pad: ti.i32, full: i32_1d, half: i32_1d,
+                    count: i32_1d, owner: i32_1d, core: u8_1d, parent: i32_1d, first: i32_1d,
+                    root: i32_1d):
+        for i in range(lo.shape[0]):
+            for f in range(lo[i], hi[i]):
+                link_frame(f, b0, x, y, offsets, plane, stride, pad, full, half, count, owner,
+                           core, parent, first, root)
+
+    return bin_cells, core_cells, link_frames
+
+
+@ti.kernel
+def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: f64_1d, yf: f64_1d,
+            t: i64_1d, frame_t0: i64_1d, p: i8_1d, first: i32_1d, n: i64_2d, st: i64_2d,
+            sums: f64_2d, box: f64_2d, cells: i64_1d, csum: f64_2d):
+    """Per-cluster sums (reference: cluster_moments). sums[c, 5q + j], j = x, y, xx, yy, xy,
+    for polarity q; box[c] = x min, x max, y min, y max (pre-filled with ±inf); cells and
+    csum: distinct cells and their coordinate sums. Frames of one run are one thread's."""
+    for i in range(lo.shape[0]):
+        for f in range(lo[i], hi[i]):
+            for e in range(offsets[f], offsets[f + 1]):
+                c = labels[e]
+                if c >= 0:
+                    q = ti.cast(p[e] != 0, ti.i32)
+                    x = xf[e]
+                    y = yf[e]
+                    n[c, q] += 1
+                    st[c, q] += t[e] - frame_t0[f]
+                    sums[c, 5 * q] += x
+                    sums[c, 5 * q + 1] += y
+                    sums[c, 5 * q + 2] += x * x
+                    sums[c, 5 * q + 3] += y * y
+                    sums[c, 5 * q + 4] += x * y
+                    box[c, 0] = ti.min(box[c, 0], x)
+                    box[c, 1] = ti.max(box[c, 1], x)
+                    box[c, 2] = ti.min(box[c, 2], y)
+                    box[c, 3] = ti.max(box[c, 3], y)
+                    if first[e] == e:
+                        cells[c] += 1
+                        csum[c, 0] += x
+                        csum[c, 1] += y

@@ -1,0 +1,133 @@
+"""Launch of grid DBSCAN and cluster moments: runs of frames, batches of planes, canonical
+labels, scratch.
+
+`dbscan` returns the labels of `evstar_kernels.reference.clusters.dbscan_events`, `moments`
+the sums of `cluster_moments`. Module setting (tests shrink it to exercise many batches):
+GRID_BYTES.
+"""
+import numpy as np
+
+from . import clusters, launch
+
+#: count + owner planes of one batch of frames
+GRID_BYTES = 64 << 20
+_I32 = (1 << 31) - 1
+
+
+def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
+    """(labels int64 (n,), first int64 (n,)) of events in frame order: offsets[f] is frame
+    f's first event (length n_frames + 1); x, y integer pixels (any range). first[e] is the
+    index of the first event of e's cell."""
+    n = len(x)
+    labels, first = np.full(n, -1, np.int64), np.zeros(n, np.int64)
+    if n == 0:
+        return labels, first
+    x, y = np.asarray(x, np.int64), np.asarray(y, np.int64)
+    # coordinates relative to their bounding box; the zero border holds the disk
+    pad = int(np.floor(eps))
+    xi, yi = (x - x.min()).astype(np.int32), (y - y.min()).astype(np.int32)
+    stride = int(xi.max()) + 1 + 2 * pad
+    plane = (int(yi.max()) + 1 + 2 * pad) * stride
+    if plane > _I32:
+        raise ValueError(f"clustering grid of {plane} cells exceeds int32 indices")
+    planes = int(min(max(1, GRID_BYTES // (8 * plane)), _I32 // plane, len(offsets) - 1))
+    geo = (plane, stride, pad)
+    with launch.RUNTIME_LOCK, scratch:
+        arrays = launch.Arrays(ti)
+        key = (geo, planes, arrays.on_device)
+        count = scratch.array("cl-count", key, lambda: arrays.put(np.zeros(planes * plane, np.int32)))
+        owner = scratch.array("cl-owner", key,
+                              lambda: arrays.put(np.full(planes * plane, clusters.NONE, np.int32)))
+        kernels = clusters.cluster_kernels()
+        full, half = (arrays.put(d) for d in clusters.disk(float(eps), stride))
+        n_labels = 0
+        for f0, f1 in launch.frame_launches(offsets):
+            e0, e1 = int(offsets[f0]), int(offsets[f1])
+            local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
+            root = _roots(ti, arrays, kernels, xi[e0:e1], yi[e0:e1], local, geo, (full, half), planes,
+                          min_samples, count, owner, first[e0:e1], on_launch)
+            first[e0:e1] += e0
+            n_labels += _canonical(root, xi[e0:e1], yi[e0:e1], local, stride, n_labels,
+                                   labels[e0:e1])
+    return labels, first
+
+
+def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, count, owner, first,
+           on_launch):
+    """Each event's root (launch-local index of its cluster's first core, -1 noise); fills
+    `first` with the launch-local index of each event's cell owner."""
+    bin_cells, core_cells, link_frames = kernels
+    plane, stride, pad = geo
+    full, half = disk
+    m = len(xi)
+    x_d, y_d, off = arrays.put(xi), arrays.put(yi), arrays.put(local)
+    core, parent = arrays.empty(m, np.uint8), arrays.empty(m, np.int32)
+    first_d, root = arrays.empty(m, np.int32), arrays.empty(m, np.int32)
+    threads = launch.cpu_threads(ti)
+    n_frames = len(local) - 1
+    for b0 in range(0, n_frames, planes):
+        b1 = min(b0 + planes, n_frames)
+        bin_cells(x_d, y_d, off, b0, b1, plane, stride, pad, count, owner)
+        core_cells(x_d, y_d, off, b0, b1, plane, stride, pad, full, min_samples, count, owner, core,
+                   parent, first_d)
+        # one frame per work unit, spread so that every CPU thread gets some
+        lo, hi = (arrays.put(a) for a in launch.units(np.arange(b0, b1 + 1, dtype=np.int32), threads))
+        link_frames(lo, hi, x_d, y_d, off, b0, plane, stride, pad, full, half, count, owner, core,
+                    parent, first_d, root)
+        launch.launched(on_launch)
+    out, first32 = np.empty(m, np.int32), np.empty(m, np.int32)
+    arrays.get(root, out)
+    arrays.get(first_d, first32)
+    first[:] = first32
+    return out
+
+
+def _canonical(root, xi, yi, local, stride, start, labels):
+    """Number the roots in (frame, y, x) order from `start` into labels; their count."""
+    roots = np.flatnonzero(root == np.arange(len(root)))
+    frame = np.searchsorted(local, roots, side="right") - 1
+    roots = roots[np.lexsort((yi[roots].astype(np.int64) * stride + xi[roots], frame))]
+    ids = np.empty(len(root), np.int64)
+    ids[roots] = start + np.arange(len(roots))
+    has = root >= 0
+    labels[has] = ids[root[has]]
+    return len(roots)
+
+
+def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_launch=None):
+    """Sums of every cluster's events (reference: cluster_moments): dict n, st, sx, sy, sxx,
+    syy, sxy ((k, 2) per polarity OFF, ON), box ((k, 4)), cells ((k,)), cx, cy ((k,)).
+    `first` as dbscan returns it; frame_t0: the time each frame's t is summed from."""
+    k = int(n_clusters)
+    box0 = np.empty((k, 4))
+    box0[:, 0::2], box0[:, 1::2] = np.inf, -np.inf
+    with launch.RUNTIME_LOCK:
+        arrays = launch.Arrays(ti)
+        n, st = arrays.put(np.zeros((k, 2), np.int64)), arrays.put(np.zeros((k, 2), np.int64))
+        sums, box = arrays.put(np.zeros((k, 10))), arrays.put(box0)
+        cells, csum = arrays.put(np.zeros(k, np.int64)), arrays.put(np.zeros((k, 2)))
+        threads = launch.cpu_threads(ti)
+        if k:
+            for f0, f1 in launch.frame_launches(offsets):
+                e0, e1 = int(offsets[f0]), int(offsets[f1])
+                local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
+                lo, hi = (arrays.put(a) for a in
+                          launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
+                clusters.moments(lo, hi, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
+                                 arrays.put(xf[e0:e1]), arrays.put(yf[e0:e1]), arrays.put(t[e0:e1]),
+                                 arrays.put(frame_t0[f0:f1]), arrays.put(p[e0:e1]),
+                                 arrays.put((first[e0:e1] - e0).astype(np.int32)), n, st, sums, box,
+                                 cells, csum)
+                launch.launched(on_launch)
+        out = {name: np.empty(shape, dtype) for name, shape, dtype in
+               (("n", (k, 2), np.int64), ("st", (k, 2), np.int64), ("sums", (k, 10), np.float64),
+                ("box", (k, 4), np.float64), ("cells", k, np.int64), ("csum", (k, 2), np.float64))}
+        for name, dev in (("n", n), ("st", st), ("sums", sums), ("box", box), ("cells", cells),
+                          ("csum", csum)):
+            arrays.get(dev, out[name])
+    sums = out.pop("sums").reshape(k, 2, 5)
+    for j, name in enumerate(("sx", "sy", "sxx", "syy", "sxy")):
+        out[name] = np.ascontiguousarray(sums[:, :, j])
+    csum = out.pop("csum")
+    out["cx"], out["cy"] = csum[:, 0].copy(), csum[:, 1].copy()
+    return out
