@@ -44,7 +44,8 @@ def disk(eps, stride):
     dy, dx = disk_offsets(eps)
     flat = (dy * stride + dx).astype(np.int32)
     after = (dy > 0) | ((dy == 0) & (dx > 0))
-    return flat, flat[after]
+    # eps < 1: no half; a cell linked to itself is a no-op (and arrays cannot be empty)
+    return flat, flat[after] if after.any() else np.zeros(1, np.int32)
 
 
 @ti.func

@@ -12,6 +12,8 @@ from . import clusters, launch
 #: count + owner planes of one batch of frames
 GRID_BYTES = 64 << 20
 _I32 = (1 << 31) - 1
+_EMPTY = {"n": (0, 2), "st": (0, 2), "sx": (0, 2), "sy": (0, 2), "sxx": (0, 2), "syy": (0, 2),
+          "sxy": (0, 2), "box": (0, 4), "cells": 0, "cx": 0, "cy": 0}
 
 
 def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
@@ -99,6 +101,9 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
     syy, sxy ((k, 2) per polarity OFF, ON), box ((k, 4)), cells ((k,)), cx, cy ((k,)).
     `first` as dbscan returns it; frame_t0: the time each frame's t is summed from."""
     k = int(n_clusters)
+    if k == 0:
+        return {name: np.zeros(shape, np.int64 if name in ("n", "st", "cells") else np.float64)
+                for name, shape in _EMPTY.items()}
     box0 = np.empty((k, 4))
     box0[:, 0::2], box0[:, 1::2] = np.inf, -np.inf
     with launch.RUNTIME_LOCK:
@@ -107,18 +112,17 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
         sums, box = arrays.put(np.zeros((k, 10))), arrays.put(box0)
         cells, csum = arrays.put(np.zeros(k, np.int64)), arrays.put(np.zeros((k, 2)))
         threads = launch.cpu_threads(ti)
-        if k:
-            for f0, f1 in launch.frame_launches(offsets):
-                e0, e1 = int(offsets[f0]), int(offsets[f1])
-                local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
-                lo, hi = (arrays.put(a) for a in
-                          launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
-                clusters.moments(lo, hi, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
-                                 arrays.put(xf[e0:e1]), arrays.put(yf[e0:e1]), arrays.put(t[e0:e1]),
-                                 arrays.put(frame_t0[f0:f1]), arrays.put(p[e0:e1]),
-                                 arrays.put((first[e0:e1] - e0).astype(np.int32)), n, st, sums, box,
-                                 cells, csum)
-                launch.launched(on_launch)
+        for f0, f1 in launch.frame_launches(offsets):
+            e0, e1 = int(offsets[f0]), int(offsets[f1])
+            local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
+            lo, hi = (arrays.put(a) for a in
+                      launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
+            clusters.moments(lo, hi, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
+                             arrays.put(xf[e0:e1]), arrays.put(yf[e0:e1]), arrays.put(t[e0:e1]),
+                             arrays.put(frame_t0[f0:f1]), arrays.put(p[e0:e1]),
+                             arrays.put((first[e0:e1] - e0).astype(np.int32)), n, st, sums, box,
+                             cells, csum)
+            launch.launched(on_launch)
         out = {name: np.empty(shape, dtype) for name, shape, dtype in
                (("n", (k, 2), np.int64), ("st", (k, 2), np.int64), ("sums", (k, 10), np.float64),
                 ("box", (k, 4), np.float64), ("cells", k, np.int64), ("csum", (k, 2), np.float64))}
