@@ -12,10 +12,12 @@ import numpy as np
 from scipy import ndimage
 from sklearn.cluster import DBSCAN
 
-from . import parameters as P
+from . import backends, parameters as P
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import check_dt, frame_bounds, frame_ids
+from evstar_kernels.reference.clusters import cluster_moments
+from evstar_kernels.taichi.scratch import Scratch
 
 #: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
 #: edge), split (separated from a DBSCAN cluster that held two targets); sigma: per-axis
@@ -29,6 +31,9 @@ WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 SOURCES = ("measured", "coasted")   # values of the `source` field (HDF5 stores their index)
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
 _FRAME_GAP = 1e6
+# the grid kernels' planes, kept zeroed between calls (the pipeline makes an Extractor per
+# chunk); Scratch serialises the calls
+_SCRATCH = Scratch()
 
 
 class Extractor:
@@ -49,7 +54,8 @@ class Extractor:
     def __init__(self, dt_us=P.GLOBAL["dt_us"].default, eps=E["eps"].default,
                  min_samples=E["min_samples"].default, min_cluster_size=None,
                  weighting=E["weighting"].default, time_ref=E["time_ref"].default,
-                 split_valley=E["split_valley"].default, t_origin_us=None):
+                 split_valley=E["split_valley"].default, t_origin_us=None,
+                 clustering=E["clustering"].default, device=P.GLOBAL["device"].default):
         self.dt_us = check_dt(dt_us)
         self.eps = float(E.check("eps", eps))
         self.min_samples = E.check("min_samples", min_samples)
@@ -58,56 +64,135 @@ class Extractor:
         self.time_ref = E.check("time_ref", time_ref)
         self.split_valley = E.check("split_valley", split_valley)
         self.t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
+        self.clustering = E.check("clustering", clustering)
+        self.device = P.GLOBAL.check("device", device)
 
     def labels(self, events, xy=None):
         """(frame id, DBSCAN label) per event; label -1 is noise. `xy` overrides coordinates
         (e.g. motion-compensated floats; clustered at their rounded pixels)."""
+        frames, labels, _ = self._cluster(events, xy)
+        return frames, labels
+
+    def _cluster(self, events, xy):
+        """(frame id, label, index of the first event of its cell) per event."""
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
         # membership is decided on the pixel grid (float, e.g. warped, coordinates are
         # rounded as the filters round them); centroids use the floats
-        xy = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
+        ij = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
         if len(events) == 0:
-            return frames, np.zeros(0, np.int64)
+            return frames, np.zeros(0, np.int64), np.zeros(0, np.int64)
+        if self.clustering == "grid":
+            from evstar_kernels.taichi import clusters_launch
+
+            labels, first = clusters_launch.dbscan(
+                backends.taichi(self.device), _offsets(frames), ij[:, 0], ij[:, 1], self.eps,
+                self.min_samples, scratch=_SCRATCH)
+            return frames, labels, first
+        return (frames, *self._sklearn_labels(frames, ij))
+
+    def _sklearn_labels(self, frames, ij):
         # events repeat at a pixel (a star fires ~30 per pixel it crosses): cluster the
         # distinct (frame, pixel) cells weighted by multiplicity — the same core test, far
         # fewer neighbours. One int64 key per cell keeps the de-duplication a 1-D sort.
-        lo = xy.min(0)
-        w, h = xy.max(0) - lo + 1
-        key = ((frames - frames[0]) * h + (xy[:, 1] - lo[1])) * w + (xy[:, 0] - lo[0])
-        cells, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        lo = ij.min(0)
+        w, h = ij.max(0) - lo + 1
+        key = ((frames - frames[0]) * h + (ij[:, 1] - lo[1])) * w + (ij[:, 0] - lo[0])
+        cells, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True,
+                                                  return_counts=True)
+        inverse = inverse.ravel()
         pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * _FRAME_GAP])
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
             pts.astype(np.float64), sample_weight=counts)
-        return frames, labels[inverse.ravel()]
+        return labels[inverse].astype(np.int64), first[inverse].astype(np.int64)
 
     def centroids(self, events, xy=None):
         """Centroids of every cluster of every frame, in time order (track = -1 until linked)."""
-        frames, labels = self.labels(events, xy)
-        xy = _coords(events, xy)
-        keep = labels >= 0
-        if not keep.any():
+        frames, labels, first = self._cluster(events, xy)
+        coords = _coords(events, xy)
+        k = int(labels.max()) + 1 if len(labels) else 0
+        if k == 0:
             return np.zeros(0, CENTROID_DTYPE)
-        # group member events by cluster (labels are unique across frames)
-        idx = np.flatnonzero(keep)
-        order = idx[np.argsort(labels[idx], kind="stable")]
-        _, starts, stops = frame_bounds(labels[order])
-        rows = []
-        for a, b in zip(starts, stops):
-            members = order[a:b]
-            if len(members) < self.min_cluster_size:
+        t0 = int(events.t[0]) if self.t_origin_us is None else int(self.t_origin_us)
+        frame_t0 = t0 + np.arange(frames[0], frames[-1] + 1, dtype=np.int64) * self.dt_us
+        m = self._moments(events, coords, frames, labels, first, frame_t0, k)
+        if self.weighting == "pixels" and xy is not None:  # distinct float positions
+            m["cells"], m["cx"], m["cy"] = _distinct_positions(labels, coords, k)
+        cluster_frame = np.empty(k, np.int64)
+        cluster_frame[labels[labels >= 0]] = frames[labels >= 0]
+        out = self._table(m, cluster_frame, frame_t0[cluster_frame - frames[0]], t0, events)
+        order = np.arange(k) * 2  # ties in (t, x) keep cluster order (halves after it)
+        keep = out["n_events"] >= self.min_cluster_size
+        if self.split_valley:
+            out, order, keep = self._split_clusters(events, coords, frames, labels, out, order,
+                                                    keep)
+        out, order = out[keep], order[keep]
+        return out[np.lexsort((order, out["x"], out["t"]))]
+
+    def _moments(self, events, coords, frames, labels, first, frame_t0, k):
+        if self.clustering == "grid":
+            from evstar_kernels.taichi import clusters_launch
+
+            return clusters_launch.moments(
+                backends.taichi(self.device), _offsets(frames), labels, first,
+                np.ascontiguousarray(coords[:, 0]), np.ascontiguousarray(coords[:, 1]), events.t,
+                events.p, frame_t0, k)
+        return cluster_moments(labels, frames - frames[0], coords[:, 0], coords[:, 1], events.t,
+                               events.p, frame_t0, first == np.arange(len(first)))
+
+    def _table(self, m, frame, frame_t0, t0, events):
+        """One centroid row per cluster from its moments (no loop over clusters)."""
+        n_by_p = m["n"]
+        n = n_by_p.sum(1)
+        sx, sy = m["sx"].sum(1), m["sy"].sum(1)
+        cx, cy = sx / n, sy / n
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if self.weighting == "pixels":
+                cx, cy = m["cx"] / m["cells"], m["cy"] / m["cells"]
+            elif self.weighting == "polarity":
+                both = (n_by_p[:, 1] > 0) & (n_by_p[:, 0] > 0)
+                cx = np.where(both, (m["sx"] / n_by_p).sum(1) / 2, cx)
+                cy = np.where(both, (m["sy"] / n_by_p).sum(1) / 2, cy)
+        # mean squared distance to the centre, from the sums about the origin
+        sq = (m["sxx"].sum(1) - 2 * cx * sx + n * cx * cx + m["syy"].sum(1) - 2 * cy * sy
+              + n * cy * cy) / n
+        out = np.zeros(len(n), CENTROID_DTYPE)
+        if self.time_ref == "mean":
+            out["t"] = np.round(frame_t0 + m["st"].sum(1) / n)
+        else:
+            out["t"] = t0 + frame * self.dt_us + self.dt_us // 2
+        box = m["box"]
+        out["x"], out["y"], out["track"], out["n_events"], out["frame"] = cx, cy, -1, n, frame
+        out["spread"] = np.sqrt(np.maximum(sq, 0))
+        out["border"] = ((box[:, 0] < 1) | (box[:, 2] < 1) | (box[:, 1] > events.width - 2)
+                         | (box[:, 3] > events.height - 2))
+        out["sigma"], out["source"] = np.nan, "measured"
+        return out
+
+    def _split_clusters(self, events, coords, frames, labels, out, order, keep):
+        """Replace every cluster that holds two targets by its two halves (flag split).
+        Only clusters the moments cannot rule out are looked at event by event."""
+        candidates = keep & (out["n_events"] >= 2 * self.min_cluster_size)
+        idx = np.flatnonzero(candidates[np.maximum(labels, 0)] & (labels >= 0))
+        members_all = idx[np.argsort(labels[idx], kind="stable")]
+        ids, starts, stops = frame_bounds(labels[members_all])
+        rows, keys = [], []
+        for c, a, b in zip(ids, starts, stops):
+            members = members_all[a:b]
+            parts = self._split(coords[members], events.p[members])
+            if parts is None:
                 continue
-            rows.extend(self._describe(events, xy, frames, members))
-        out = np.array(rows, CENTROID_DTYPE)
-        return out[np.lexsort((out["x"], out["t"]))]
+            keep[c] = False
+            for half in (0, 1):
+                rows.append(self._row(events, coords, frames, members[parts == half], split=True))
+                keys.append(2 * c + half)
+        if not rows:
+            return out, order, keep
+        return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
+                np.r_[keep, np.ones(len(rows), bool)])
 
-    # -- one cluster ----------------------------------------------------------------------
-    def _describe(self, events, xy, frames, members):
-        parts = self._split(xy[members], events.p[members]) if self.split_valley else None
-        groups = [members] if parts is None else [members[parts == k] for k in (0, 1)]
-        return [self._row(events, xy, frames, g, split=parts is not None) for g in groups]
-
+    # -- one cluster, event by event (split candidates) ---------------------------------
     def _split(self, pts, p):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
@@ -225,6 +310,22 @@ def _two_means(pts, a, b, iterations=10):
         lab = new
         c = np.array([pts[lab == 0].mean(0), pts[lab == 1].mean(0)])
     return lab
+
+
+def _offsets(frames):
+    """Event index where each frame from frames[0] to frames[-1] starts, and the end."""
+    return np.searchsorted(frames, np.arange(frames[0], frames[-1] + 2))
+
+
+def _distinct_positions(labels, coords, k):
+    """Per cluster: number and coordinate sums of its distinct positions (to 1e-6 px)."""
+    m = labels >= 0
+    lab, r = labels[m], np.round(coords[m], 6)
+    o = np.lexsort((r[:, 1], r[:, 0], lab))
+    lab, r = lab[o], r[o]
+    new = np.r_[True, (lab[1:] != lab[:-1]) | np.any(r[1:] != r[:-1], axis=1)]
+    return (np.bincount(lab[new], minlength=k), np.bincount(lab[new], r[new, 0], minlength=k),
+            np.bincount(lab[new], r[new, 1], minlength=k))
 
 
 def _coords(events, xy):

@@ -154,6 +154,9 @@ DEVICES = ("cpu", "cuda")
 METHODS = ("none", "classical", "ndsef", "mr-ndsef")
 COMPENSATIONS = ("none", "imu", "pf")
 WEIGHTINGS = ("events", "pixels", "polarity")
+#: grid: Taichi grid DBSCAN on each frame's cells (evstar_kernels.taichi.clusters);
+#: sklearn: scikit-learn's DBSCAN on the same cells (the reference; identical labels)
+CLUSTERINGS = ("grid", "sklearn")
 TIME_REFS = ("mean", "mid")
 #: "taichi"/"warp": the accelerated kernels; "reference": their numpy specification
 DENOISE_BACKENDS = ("taichi", "reference")
@@ -211,6 +214,8 @@ EXTRACT = Params(
     Param("eps", float, 2.5, "DBSCAN radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
     Param("min_samples", int, 5, "DBSCAN min_samples (weighted events within eps)", low=1,
           high=10**6),
+    Param("clustering", str, "grid", "DBSCAN backend: Taichi grid kernels or scikit-learn "
+          "(identical clusters)", choices=CLUSTERINGS),
     Param("min_cluster_size", int, None, "smallest cluster reported (default min_samples)",
           low=1, optional=True),
     Param("weighting", str, "events", "centroid weighting", choices=WEIGHTINGS),

@@ -62,7 +62,8 @@ class Pipeline:
         """Compensated coordinates are positions at the frame mid-time, so their centroids
         carry that time whatever extract.time_ref says."""
         params = {**asdict(self.config.extract), **({"time_ref": "mid"} if compensated else {})}
-        return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, **params)
+        return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, device=self.config.device,
+                         **params)
 
     def make_tracker(self):
         return Tracker(**asdict(self.config.track))
