@@ -9,14 +9,13 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 from sklearn.cluster import DBSCAN
 
 from . import backends, parameters as P
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import check_dt, frame_bounds, frame_ids
-from evstar_kernels.reference.clusters import cluster_moments
+from evstar_kernels.reference.clusters import cluster_moments, two_peaks
 from evstar_kernels.taichi.scratch import Scratch
 
 #: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
@@ -70,11 +69,11 @@ class Extractor:
     def labels(self, events, xy=None):
         """(frame id, DBSCAN label) per event; label -1 is noise. `xy` overrides coordinates
         (e.g. motion-compensated floats; clustered at their rounded pixels)."""
-        frames, labels, _ = self._cluster(events, xy)
+        frames, labels, _, _ = self._cluster(events, xy)
         return frames, labels
 
     def _cluster(self, events, xy):
-        """(frame id, label, index of the first event of its cell) per event."""
+        """(frame id, label, index of the first event of its cell, pixel (n, 2)) per event."""
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
@@ -82,15 +81,15 @@ class Extractor:
         # rounded as the filters round them); centroids use the floats
         ij = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
         if len(events) == 0:
-            return frames, np.zeros(0, np.int64), np.zeros(0, np.int64)
+            return frames, np.zeros(0, np.int64), np.zeros(0, np.int64), ij
         if self.clustering == "grid":
             from evstar_kernels.taichi import clusters_launch
 
             labels, first = clusters_launch.dbscan(
                 backends.taichi(self.device), _offsets(frames), ij[:, 0], ij[:, 1], self.eps,
                 self.min_samples, scratch=_SCRATCH)
-            return frames, labels, first
-        return (frames, *self._sklearn_labels(frames, ij))
+            return frames, labels, first, ij
+        return (frames, *self._sklearn_labels(frames, ij), ij)
 
     def _sklearn_labels(self, frames, ij):
         # events repeat at a pixel (a star fires ~30 per pixel it crosses): cluster the
@@ -109,7 +108,7 @@ class Extractor:
 
     def centroids(self, events, xy=None):
         """Centroids of every cluster of every frame, in time order (track = -1 until linked)."""
-        frames, labels, first = self._cluster(events, xy)
+        frames, labels, first, ij = self._cluster(events, xy)
         coords = _coords(events, xy)
         k = int(labels.max()) + 1 if len(labels) else 0
         if k == 0:
@@ -125,8 +124,11 @@ class Extractor:
         order = np.arange(k) * 2  # ties in (t, x) keep cluster order (halves after it)
         keep = out["n_events"] >= self.min_cluster_size
         if self.split_valley:
+            maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
+            if self.clustering == "grid":  # the reference looks at every cluster
+                maybe = self._screen(frames, labels, ij, m["box"], maybe)
             out, order, keep = self._split_clusters(events, coords, frames, labels, out, order,
-                                                    keep)
+                                                    keep, maybe)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))]
 
@@ -170,10 +172,17 @@ class Extractor:
         out["sigma"], out["source"] = np.nan, "measured"
         return out
 
-    def _split_clusters(self, events, coords, frames, labels, out, order, keep):
-        """Replace every cluster that holds two targets by its two halves (flag split).
-        Only clusters the moments cannot rule out are looked at event by event."""
-        candidates = keep & (out["n_events"] >= 2 * self.min_cluster_size)
+    def _screen(self, frames, labels, ij, box, maybe):
+        """Clusters whose smoothed image may hold two peaks (a Taichi pass over all of them;
+        the others cannot split: _split stops at _two_peaks)."""
+        from evstar_kernels.taichi import clusters_launch
+
+        return clusters_launch.peak_screen(backends.taichi(self.device), _offsets(frames), labels,
+                                           ij[:, 0], ij[:, 1], box, maybe)
+
+    def _split_clusters(self, events, coords, frames, labels, out, order, keep, candidates):
+        """Replace every candidate cluster that holds two targets by its two halves (flag
+        split); the others keep their row."""
         idx = np.flatnonzero(candidates[np.maximum(labels, 0)] & (labels >= 0))
         members_all = idx[np.argsort(labels[idx], kind="stable")]
         ids, starts, stops = frame_bounds(labels[members_all])
@@ -277,25 +286,7 @@ class Extractor:
         return tuple(pts.mean(0))
 
 
-_SMOOTH = np.exp(-0.5 * (np.arange(-2, 3) / 0.7) ** 2)  # Gaussian, sigma 0.7 px
-
-
-def _two_peaks(pts):
-    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
-    image smoothed by a Gaussian of 0.7 px; None when there is one."""
-    ij = np.floor(pts + 0.5).astype(np.int64)
-    origin = ij.min(0) - 2
-    w, h = ij.max(0) - origin + 3
-    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
-    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
-    img = ndimage.correlate1d(ndimage.correlate1d(img, _SMOOTH, 0, mode="constant"), _SMOOTH, 1,
-                              mode="constant")
-    is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
-    yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
-    far = [q for q in yx[1:] if np.hypot(*(q - yx[0])) >= 2]
-    if not far:
-        return None
-    return (yx[0][::-1] + origin).astype(float), (far[0][::-1] + origin).astype(float)
+_two_peaks = two_peaks  # (the split's seeds; numpy, per cluster)
 
 
 def _two_means(pts, a, b, iterations=10):

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -143,3 +144,42 @@ def cluster_moments(labels, frame, x, y, t, p, frame_t0, cell_first=None):
         out["cx"] = np.bincount(lab[first], weights=xs[first], minlength=k)
         out["cy"] = np.bincount(lab[first], weights=ys[first], minlength=k)
     return out
+
+
+#: the split test's smoothing: a Gaussian of sigma 0.7 px, taps -2..2
+SMOOTH = np.exp(-0.5 * (np.arange(-2, 3) / 0.7) ** 2)
+
+
+def two_peaks(pts):
+    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
+    image smoothed by a Gaussian of 0.7 px; None when there is one. (`pts`: float (n, 2),
+    counted at their rounded pixels.)"""
+    ij = np.floor(pts + 0.5).astype(np.int64)
+    origin = ij.min(0) - 2
+    w, h = ij.max(0) - origin + 3
+    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
+    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
+    img = ndimage.correlate1d(ndimage.correlate1d(img, SMOOTH, 0, mode="constant"), SMOOTH, 1,
+                              mode="constant")
+    is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
+    yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
+    far = [q for q in yx[1:] if np.hypot(*(q - yx[0])) >= 2]
+    if not far:
+        return None
+    return (yx[0][::-1] + origin).astype(float), (far[0][::-1] + origin).astype(float)
+
+
+def maybe_two_peaks(pts, rtol=1e-9):
+    """False only where two_peaks(pts) is None: no two near-maxima (within rtol of their
+    3 x 3 neighbourhood's maximum) lie 2 px apart. A superset test, safe against rounding
+    differences in the smoothed image, which the Taichi screen computes in its own order."""
+    ij = np.floor(pts + 0.5).astype(np.int64)
+    origin = ij.min(0) - 2
+    w, h = ij.max(0) - origin + 3
+    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
+    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
+    img = ndimage.correlate1d(ndimage.correlate1d(img, SMOOTH, 0, mode="constant"), SMOOTH, 1,
+                              mode="constant")
+    near = (img >= ndimage.maximum_filter(img, size=3) * (1 - rtol)) & (img > 0)
+    ys, xs = np.nonzero(near)
+    return bool(np.hypot(xs.max() - xs.min(), ys.max() - ys.min()) >= 2)

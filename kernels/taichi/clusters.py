@@ -24,11 +24,12 @@ import functools
 import numpy as np
 import taichi as ti
 
-from ..reference.clusters import disk_offsets
+from ..reference.clusters import SMOOTH, disk_offsets
 from .event_counts import frame_of
 
 NONE = 2**31 - 1
 i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
+i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
 i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
 i64_2d = ti.types.ndarray(dtype=ti.i64, ndim=2)
 f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
@@ -199,3 +200,62 @@ def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: f64_1d,
                         cells[c] += 1
                         csum[c, 0] += x
                         csum[c, 1] += y
+
+
+_SMOOTH = tuple(float(v) for v in SMOOTH)
+
+
+@ti.kernel
+def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: i32_1d, y: i32_1d,
+                base: i32_1d, box: i32_2d, img: f64_1d):
+    """Each screened cluster's event count image (origin box[c, 0:2], width box[c, 2]) at
+    img[base[c]:]; base -1: not screened. Frames of one run are one thread's."""
+    for i in range(lo.shape[0]):
+        for f in range(lo[i], hi[i]):
+            for e in range(offsets[f], offsets[f + 1]):
+                c = labels[e]
+                if c >= 0:
+                    if base[c] >= 0:
+                        img[base[c] + (y[e] - box[c, 1]) * box[c, 2] + x[e] - box[c, 0]] += 1.0
+
+
+@ti.kernel
+def peak_screen(base: i32_1d, box: i32_2d, img: f64_1d, tmp: f64_1d, rtol: ti.f64, maybe: u8_1d):
+    """maybe[c] = 0 only where two_peaks is None (reference: maybe_two_peaks): the image is
+    smoothed by SMOOTH along y, then x, and no two near-maxima of their 3 x 3 neighbourhood
+    lie 2 px apart. One thread per cluster."""
+    for c in range(base.shape[0]):
+        if base[c] >= 0:
+            b = base[c]
+            w = box[c, 2]
+            h = box[c, 3]
+            for r, q in ti.ndrange(h, w):  # along y into tmp
+                s = ti.f64(0.0)
+                for d in ti.static(range(-2, 3)):
+                    if r + d >= 0 and r + d < h:
+                        s += _SMOOTH[d + 2] * img[b + (r + d) * w + q]
+                tmp[b + r * w + q] = s
+            for r, q in ti.ndrange(h, w):  # along x back into img
+                s = ti.f64(0.0)
+                for d in ti.static(range(-2, 3)):
+                    if q + d >= 0 and q + d < w:
+                        s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
+                img[b + r * w + q] = s
+            x0 = w  # the near-maxima's bounding box
+            x1 = -1
+            y0 = h
+            y1 = -1
+            for r, q in ti.ndrange(h, w):
+                v = img[b + r * w + q]
+                if v > 0:
+                    m = v
+                    for dr in ti.static(range(-1, 2)):
+                        for dq in ti.static(range(-1, 2)):
+                            if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
+                                m = ti.max(m, img[b + (r + dr) * w + q + dq])
+                    if v >= m * (1 - rtol):
+                        x0 = ti.min(x0, q)
+                        x1 = ti.max(x1, q)
+                        y0 = ti.min(y0, r)
+                        y1 = ti.max(y1, r)
+            maybe[c] = ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)

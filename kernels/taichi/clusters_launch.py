@@ -135,3 +135,38 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
     csum = out.pop("csum")
     out["cx"], out["cy"] = csum[:, 0].copy(), csum[:, 1].copy()
     return out
+
+
+def peak_screen(ti, offsets, labels, x, y, box, screened, rtol=1e-9):
+    """Bool per cluster: False where the cluster is not `screened` or where two_peaks of its
+    events is certainly None (reference: maybe_two_peaks). x, y: the events' pixels; box:
+    the clusters' (x min, x max, y min, y max) as cluster_moments gives it."""
+    maybe = np.zeros(len(screened), bool)
+    if not screened.any():
+        return maybe
+    # each image holds the cluster's pixel box and a 2-pixel zero border
+    lo = np.floor(box[:, 0::2] + 0.5).astype(np.int64) - 2
+    size = np.floor(box[:, 1::2] + 0.5).astype(np.int64) - lo + 3
+    area = np.where(screened, size[:, 0] * size[:, 1], 0)
+    ends = np.cumsum(area)
+    if ends[-1] > _I32:  # far beyond any star image: every one goes to the exact test
+        return screened.copy()
+    base = np.where(screened, ends - area, -1).astype(np.int32)
+    geom = np.column_stack([lo, size]).astype(np.int32)
+    with launch.RUNTIME_LOCK:
+        arrays = launch.Arrays(ti)
+        img, tmp = arrays.put(np.zeros(ends[-1])), arrays.empty(ends[-1], np.float64)
+        base_d, geom_d = arrays.put(base), arrays.put(geom)
+        threads = launch.cpu_threads(ti)
+        for f0, f1 in launch.frame_launches(offsets):
+            e0, e1 = int(offsets[f0]), int(offsets[f1])
+            local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
+            lo_d, hi_d = (arrays.put(a) for a in
+                          launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
+            clusters.peak_images(lo_d, hi_d, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
+                                 arrays.put(x[e0:e1].astype(np.int32)), arrays.put(y[e0:e1].astype(np.int32)),
+                                 base_d, geom_d, img)
+        out = arrays.empty(len(screened), np.uint8)
+        clusters.peak_screen(base_d, geom_d, img, tmp, rtol, out)
+        arrays.get(out, maybe.view(np.uint8))
+    return maybe
