@@ -8,6 +8,8 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from sklearn.cluster import DBSCAN
 
@@ -125,10 +127,11 @@ class Extractor:
         keep = out["n_events"] >= self.min_cluster_size
         if self.split_valley:
             maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
+            by_polarity = maybe.copy()
             if self.clustering == "grid":  # the reference looks at every cluster
-                maybe = self._screen(frames, labels, ij, m["box"], maybe)
+                maybe, by_polarity = self._screen(events, frames, labels, ij, m, maybe)
             out, order, keep = self._split_clusters(events, coords, frames, labels, out, order,
-                                                    keep, maybe)
+                                                    keep, maybe, by_polarity)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))]
 
@@ -172,24 +175,33 @@ class Extractor:
         out["sigma"], out["source"] = np.nan, "measured"
         return out
 
-    def _screen(self, frames, labels, ij, box, maybe):
-        """Clusters whose smoothed image may hold two peaks (a Taichi pass over all of them;
-        the others cannot split: _split stops at _two_peaks)."""
+    def _screen(self, events, frames, labels, ij, m, maybe):
+        """(clusters whose smoothed image may hold two peaks, those of which each polarity's
+        image may too): Taichi passes over all clusters. The others cannot split: _split
+        stops at _two_peaks, and its per-polarity test needs both polarities split."""
         from evstar_kernels.taichi import clusters_launch
 
-        return clusters_launch.peak_screen(backends.taichi(self.device), _offsets(frames), labels,
-                                           ij[:, 0], ij[:, 1], box, maybe)
+        ti, offsets = backends.taichi(self.device), _offsets(frames)
+        screen = functools.partial(clusters_launch.peak_screen, ti, offsets, labels, ij[:, 0],
+                                   ij[:, 1], m["box"])
+        maybe = screen(maybe)
+        both = maybe & np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)
+        for q in (0, 1):
+            both = screen(both, events.p, q)
+        return maybe, both
 
-    def _split_clusters(self, events, coords, frames, labels, out, order, keep, candidates):
+    def _split_clusters(self, events, coords, frames, labels, out, order, keep, candidates,
+                        by_polarity):
         """Replace every candidate cluster that holds two targets by its two halves (flag
-        split); the others keep their row."""
+        split); the others keep their row. by_polarity: clusters whose polarities may each
+        split (the second test of _split)."""
         idx = np.flatnonzero(candidates[np.maximum(labels, 0)] & (labels >= 0))
         members_all = idx[np.argsort(labels[idx], kind="stable")]
         ids, starts, stops = frame_bounds(labels[members_all])
         rows, keys = [], []
         for c, a, b in zip(ids, starts, stops):
             members = members_all[a:b]
-            parts = self._split(coords[members], events.p[members])
+            parts = self._split(coords[members], events.p[members], by_polarity[c])
             if parts is None:
                 continue
             keep[c] = False
@@ -202,7 +214,7 @@ class Extractor:
                 np.r_[keep, np.ones(len(rows), bool)])
 
     # -- one cluster, event by event (split candidates) ---------------------------------
-    def _split(self, pts, p):
+    def _split(self, pts, p, by_polarity=True):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
@@ -218,6 +230,8 @@ class Extractor:
         lab = self._halves(pts, seeds)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
+        if not by_polarity:  # a polarity's events hold one peak: _halves would say None
+            return None
         on, off = p == 1, p == 0
         lab_on = self._halves(pts[on])
         lab_off = None if lab_on is None else self._halves(pts[off])

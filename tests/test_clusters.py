@@ -173,6 +173,13 @@ def test_peak_screen_passes_every_cluster_with_two_peaks():
     none = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, m["box"],
                                        np.zeros(k, bool))
     assert not none.any()
+    p = np.random.default_rng(0).integers(0, 2, len(x)).astype(np.int8)
+    for q in (0, 1):  # one polarity's events only
+        maybe = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, m["box"],
+                                            np.ones(k, bool), p, q)
+        exact = np.array([ref.two_peaks(pts[(labels == c) & (p == q)]) is not None
+                          if np.any((labels == c) & (p == q)) else False for c in range(k)])
+        assert np.all(maybe[exact]) and exact.any() and not maybe.all()
 
 
 def blob_events(seed=0, stars=((50, 40, 0, 0), (120, 60, 300, 100), (60, 90, 0, 0), (63.5, 90, 0, 0)),

@@ -207,14 +207,15 @@ _SMOOTH = tuple(float(v) for v in SMOOTH)
 
 @ti.kernel
 def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: i32_1d, y: i32_1d,
-                base: i32_1d, box: i32_2d, img: f64_1d):
+                p: i8_1d, polarity: ti.i32, base: i32_1d, box: i32_2d, img: f64_1d):
     """Each screened cluster's event count image (origin box[c, 0:2], width box[c, 2]) at
-    img[base[c]:]; base -1: not screened. Frames of one run are one thread's."""
+    img[base[c]:]; base -1: not screened. polarity 0 or 1: only those events (-1: all).
+    Frames of one run are one thread's."""
     for i in range(lo.shape[0]):
         for f in range(lo[i], hi[i]):
             for e in range(offsets[f], offsets[f + 1]):
                 c = labels[e]
-                if c >= 0:
+                if c >= 0 and (polarity < 0 or ti.cast(p[e] != 0, ti.i32) == polarity):
                     if base[c] >= 0:
                         img[base[c] + (y[e] - box[c, 1]) * box[c, 2] + x[e] - box[c, 0]] += 1.0
 

@@ -137,10 +137,12 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
     return out
 
 
-def peak_screen(ti, offsets, labels, x, y, box, screened, rtol=1e-9):
+def peak_screen(ti, offsets, labels, x, y, box, screened, p=None, polarity=-1, rtol=1e-9):
     """Bool per cluster: False where the cluster is not `screened` or where two_peaks of its
-    events is certainly None (reference: maybe_two_peaks). x, y: the events' pixels; box:
-    the clusters' (x min, x max, y min, y max) as cluster_moments gives it."""
+    events (of `polarity` 0 or 1 only, with p) is certainly None (reference:
+    maybe_two_peaks). x, y: the events' pixels; box: the clusters' (x min, x max, y min,
+    y max) as cluster_moments gives it (any box holding the events will do)."""
+    p = np.zeros(len(x), np.int8) if p is None else p
     maybe = np.zeros(len(screened), bool)
     if not screened.any():
         return maybe
@@ -165,7 +167,7 @@ def peak_screen(ti, offsets, labels, x, y, box, screened, rtol=1e-9):
                           launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
             clusters.peak_images(lo_d, hi_d, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
                                  arrays.put(x[e0:e1].astype(np.int32)), arrays.put(y[e0:e1].astype(np.int32)),
-                                 base_d, geom_d, img)
+                                 arrays.put(p[e0:e1]), int(polarity), base_d, geom_d, img)
         out = arrays.empty(len(screened), np.uint8)
         clusters.peak_screen(base_d, geom_d, img, tmp, rtol, out)
         arrays.get(out, maybe.view(np.uint8))
