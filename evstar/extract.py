@@ -8,8 +8,6 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 """
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 from sklearn.cluster import DBSCAN
 
@@ -181,14 +179,10 @@ class Extractor:
         stops at _two_peaks, and its per-polarity test needs both polarities split."""
         from evstar_kernels.taichi import clusters_launch
 
-        ti, offsets = backends.taichi(self.device), _offsets(frames)
-        screen = functools.partial(clusters_launch.peak_screen, ti, offsets, labels, ij[:, 0],
-                                   ij[:, 1], m["box"])
-        maybe = screen(maybe)
-        both = maybe & np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)
-        for q in (0, 1):
-            both = screen(both, events.p, q)
-        return maybe, both
+        polarities = np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)  # else _halves: None
+        return clusters_launch.peak_screen(backends.taichi(self.device), _offsets(frames), labels,
+                                           ij[:, 0], ij[:, 1], events.p, m["box"], maybe,
+                                           polarities)
 
     def _split_clusters(self, events, coords, frames, labels, out, order, keep, candidates,
                         by_polarity):

@@ -160,26 +160,32 @@ def test_peak_screen_passes_every_cluster_with_two_peaks():
     frame, x, y = star_frames(5, n_frames=8, per_star=80)
     labels, first = run_kernels(frame, x, y, 2.5, 5)
     k = int(labels.max()) + 1
-    m = ref.cluster_moments(labels, frame, x, y, np.zeros(len(x), np.int64),
-                            np.zeros(len(x), np.int8), np.zeros(frame[-1] + 1, np.int64))
-    maybe = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, m["box"],
-                                        np.ones(k, bool))
-    pts = np.column_stack([x, y]).astype(float)
-    exact = np.array([ref.two_peaks(pts[labels == c]) is not None for c in range(k)])
-    slack = np.array([ref.maybe_two_peaks(pts[labels == c]) for c in range(k)])
-    assert np.all(maybe[exact]) and np.all(slack[exact])  # never rules out a split
-    np.testing.assert_array_equal(maybe, slack)
-    assert exact.any() and not maybe.all()  # it does rule out some
-    none = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, m["box"],
-                                       np.zeros(k, bool))
-    assert not none.any()
     p = np.random.default_rng(0).integers(0, 2, len(x)).astype(np.int8)
-    for q in (0, 1):  # one polarity's events only
-        maybe = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, m["box"],
-                                            np.ones(k, bool), p, q)
-        exact = np.array([ref.two_peaks(pts[(labels == c) & (p == q)]) is not None
-                          if np.any((labels == c) & (p == q)) else False for c in range(k)])
-        assert np.all(maybe[exact]) and exact.any() and not maybe.all()
+    m = ref.cluster_moments(labels, frame, x, y, np.zeros(len(x), np.int64), p,
+                            np.zeros(frame[-1] + 1, np.int64))
+    every = np.ones(k, bool)
+    maybe, both = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, p, m["box"],
+                                              every, every)
+    pts = np.column_stack([x, y]).astype(float)
+
+    def exact(c, q=None):
+        sel = (labels == c) & ((p == q) if q is not None else True)
+        return sel.any() and ref.two_peaks(pts[sel]) is not None
+
+    two = np.array([exact(c) for c in range(k)])
+    slack = np.array([ref.maybe_two_peaks(pts[labels == c]) for c in range(k)])
+    assert np.all(maybe[two]) and np.all(slack[two])  # never rules out a split
+    np.testing.assert_array_equal(maybe, slack)
+    assert two.any() and not maybe.all()  # it does rule out some
+    two_each = np.array([exact(c, 0) and exact(c, 1) for c in range(k)])
+    assert np.all(both[two_each & two]) and not np.any(both & ~maybe)
+    assert (both & ~two_each).sum() < both.sum()
+    # clusters not screened, or not asked for their polarities
+    none = np.zeros(k, bool)
+    assert not any(a.any() for a in clusters_launch.peak_screen(
+        ti(), offsets_of(frame), labels, x, y, p, m["box"], none, every))
+    assert not clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, p, m["box"],
+                                           every, none)[1].any()
 
 
 def blob_events(seed=0, stars=((50, 40, 0, 0), (120, 60, 300, 100), (60, 90, 0, 0), (63.5, 90, 0, 0)),

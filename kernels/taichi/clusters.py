@@ -36,6 +36,7 @@ f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
 f64_2d = ti.types.ndarray(dtype=ti.f64, ndim=2)
 i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
 u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+u8_2d = ti.types.ndarray(dtype=ti.u8, ndim=2)
 
 
 def disk(eps, stride):
@@ -207,56 +208,75 @@ _SMOOTH = tuple(float(v) for v in SMOOTH)
 
 @ti.kernel
 def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: i32_1d, y: i32_1d,
-                p: i8_1d, polarity: ti.i32, base: i32_1d, box: i32_2d, img: f64_1d):
-    """Each screened cluster's event count image (origin box[c, 0:2], width box[c, 2]) at
-    img[base[c]:]; base -1: not screened. polarity 0 or 1: only those events (-1: all).
-    Frames of one run are one thread's."""
+                p: i8_1d, base: i32_1d, box: i32_2d, img: f64_2d):
+    """Each screened cluster's event count images, img[0] OFF and img[1] ON events, at
+    [base[c]:] (origin box[c, 0:2], width box[c, 2]); base -1: not screened. Frames of one
+    run are one thread's."""
     for i in range(lo.shape[0]):
         for f in range(lo[i], hi[i]):
             for e in range(offsets[f], offsets[f + 1]):
                 c = labels[e]
-                if c >= 0 and (polarity < 0 or ti.cast(p[e] != 0, ti.i32) == polarity):
+                if c >= 0:
                     if base[c] >= 0:
-                        img[base[c] + (y[e] - box[c, 1]) * box[c, 2] + x[e] - box[c, 0]] += 1.0
+                        at = base[c] + (y[e] - box[c, 1]) * box[c, 2] + x[e] - box[c, 0]
+                        img[ti.cast(p[e] != 0, ti.i32), at] += 1.0
+
+
+@ti.func
+def two_near_maxima(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, w: ti.i32,
+                    h: ti.i32, rtol: ti.f64) -> ti.u8:
+    """Whether image k at [b:] (w x h), smoothed by SMOOTH along y then x (in place), has
+    two near-maxima of their 3 x 3 neighbourhood 2 px apart (bounding box of them all)."""
+    for r, q in ti.ndrange(h, w):  # along y into tmp
+        s = ti.f64(0.0)
+        for d in ti.static(range(-2, 3)):
+            if r + d >= 0 and r + d < h:
+                s += _SMOOTH[d + 2] * img[k, b + (r + d) * w + q]
+        tmp[b + r * w + q] = s
+    for r, q in ti.ndrange(h, w):  # along x back into the image
+        s = ti.f64(0.0)
+        for d in ti.static(range(-2, 3)):
+            if q + d >= 0 and q + d < w:
+                s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
+        img[k, b + r * w + q] = s
+    x0 = w  # the near-maxima's bounding box
+    x1 = -1
+    y0 = h
+    y1 = -1
+    for r, q in ti.ndrange(h, w):
+        v = img[k, b + r * w + q]
+        if v > 0:
+            m = v
+            for dr in ti.static(range(-1, 2)):
+                for dq in ti.static(range(-1, 2)):
+                    if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
+                        m = ti.max(m, img[k, b + (r + dr) * w + q + dq])
+            if v >= m * (1 - rtol):
+                x0 = ti.min(x0, q)
+                x1 = ti.max(x1, q)
+                y0 = ti.min(y0, r)
+                y1 = ti.max(y1, r)
+    return ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)
 
 
 @ti.kernel
-def peak_screen(base: i32_1d, box: i32_2d, img: f64_1d, tmp: f64_1d, rtol: ti.f64, maybe: u8_1d):
-    """maybe[c] = 0 only where two_peaks is None (reference: maybe_two_peaks): the image is
-    smoothed by SMOOTH along y, then x, and no two near-maxima of their 3 x 3 neighbourhood
-    lie 2 px apart. One thread per cluster."""
+def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: f64_1d,
+                rtol: ti.f64, maybe: u8_2d):
+    """maybe[c, 0] = 0 only where two_peaks of all the cluster's events is None, maybe[c, 1]
+    (looked at only where maybe[c, 0] and polarities[c]) = 0 only where it is None for the
+    OFF or for the ON events (reference: maybe_two_peaks). img[2] holds the sum of img[0]
+    and img[1]. One thread per cluster."""
     for c in range(base.shape[0]):
         if base[c] >= 0:
             b = base[c]
             w = box[c, 2]
             h = box[c, 3]
-            for r, q in ti.ndrange(h, w):  # along y into tmp
-                s = ti.f64(0.0)
-                for d in ti.static(range(-2, 3)):
-                    if r + d >= 0 and r + d < h:
-                        s += _SMOOTH[d + 2] * img[b + (r + d) * w + q]
-                tmp[b + r * w + q] = s
-            for r, q in ti.ndrange(h, w):  # along x back into img
-                s = ti.f64(0.0)
-                for d in ti.static(range(-2, 3)):
-                    if q + d >= 0 and q + d < w:
-                        s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
-                img[b + r * w + q] = s
-            x0 = w  # the near-maxima's bounding box
-            x1 = -1
-            y0 = h
-            y1 = -1
-            for r, q in ti.ndrange(h, w):
-                v = img[b + r * w + q]
-                if v > 0:
-                    m = v
-                    for dr in ti.static(range(-1, 2)):
-                        for dq in ti.static(range(-1, 2)):
-                            if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
-                                m = ti.max(m, img[b + (r + dr) * w + q + dq])
-                    if v >= m * (1 - rtol):
-                        x0 = ti.min(x0, q)
-                        x1 = ti.max(x1, q)
-                        y0 = ti.min(y0, r)
-                        y1 = ti.max(y1, r)
-            maybe[c] = ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)
+            for j in range(w * h):
+                img[2, b + j] = img[0, b + j] + img[1, b + j]
+            both = ti.u8(0)
+            if two_near_maxima(img, 2, tmp, b, w, h, rtol) != 0:
+                maybe[c, 0] = ti.u8(1)
+                if polarities[c] != 0:
+                    if two_near_maxima(img, 0, tmp, b, w, h, rtol) != 0:
+                        both = two_near_maxima(img, 1, tmp, b, w, h, rtol)
+            maybe[c, 1] = both

@@ -137,27 +137,27 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
     return out
 
 
-def peak_screen(ti, offsets, labels, x, y, box, screened, p=None, polarity=-1, rtol=1e-9):
-    """Bool per cluster: False where the cluster is not `screened` or where two_peaks of its
-    events (of `polarity` 0 or 1 only, with p) is certainly None (reference:
-    maybe_two_peaks). x, y: the events' pixels; box: the clusters' (x min, x max, y min,
-    y max) as cluster_moments gives it (any box holding the events will do)."""
-    p = np.zeros(len(x), np.int8) if p is None else p
-    maybe = np.zeros(len(screened), bool)
+def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e-9):
+    """(maybe, both) bools per cluster. maybe: False where the cluster is not `screened` or
+    where two_peaks of its events is certainly None; both: False unless maybe and
+    `polarities` and neither polarity's two_peaks is certainly None (reference:
+    maybe_two_peaks). x, y: the events' pixels, p their polarity; box: the clusters'
+    (x min, x max, y min, y max) as cluster_moments gives it."""
+    k = len(screened)
     if not screened.any():
-        return maybe
+        return np.zeros(k, bool), np.zeros(k, bool)
     # each image holds the cluster's pixel box and a 2-pixel zero border
     lo = np.floor(box[:, 0::2] + 0.5).astype(np.int64) - 2
     size = np.floor(box[:, 1::2] + 0.5).astype(np.int64) - lo + 3
     area = np.where(screened, size[:, 0] * size[:, 1], 0)
     ends = np.cumsum(area)
     if ends[-1] > _I32:  # far beyond any star image: every one goes to the exact test
-        return screened.copy()
+        return screened.copy(), screened & polarities
     base = np.where(screened, ends - area, -1).astype(np.int32)
     geom = np.column_stack([lo, size]).astype(np.int32)
     with launch.RUNTIME_LOCK:
         arrays = launch.Arrays(ti)
-        img, tmp = arrays.put(np.zeros(ends[-1])), arrays.empty(ends[-1], np.float64)
+        img, tmp = arrays.put(np.zeros((3, ends[-1]))), arrays.empty(ends[-1], np.float64)
         base_d, geom_d = arrays.put(base), arrays.put(geom)
         threads = launch.cpu_threads(ti)
         for f0, f1 in launch.frame_launches(offsets):
@@ -167,8 +167,10 @@ def peak_screen(ti, offsets, labels, x, y, box, screened, p=None, polarity=-1, r
                           launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
             clusters.peak_images(lo_d, hi_d, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
                                  arrays.put(x[e0:e1].astype(np.int32)), arrays.put(y[e0:e1].astype(np.int32)),
-                                 arrays.put(p[e0:e1]), int(polarity), base_d, geom_d, img)
-        out = arrays.empty(len(screened), np.uint8)
-        clusters.peak_screen(base_d, geom_d, img, tmp, rtol, out)
-        arrays.get(out, maybe.view(np.uint8))
-    return maybe
+                                 arrays.put(p[e0:e1]), base_d, geom_d, img)
+        maybe = arrays.put(np.zeros((k, 2), np.uint8))
+        clusters.peak_screen(base_d, geom_d, arrays.put(polarities.astype(np.uint8)), img, tmp,
+                             rtol, maybe)
+        out = np.empty((k, 2), np.uint8)
+        arrays.get(maybe, out)
+    return out[:, 0].astype(bool), out[:, 1].astype(bool)
