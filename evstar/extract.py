@@ -14,7 +14,7 @@ from sklearn.cluster import DBSCAN
 from . import backends, parameters as P
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
-from .frames import check_dt, frame_bounds, frame_ids
+from .frames import check_dt, frame_bounds
 from evstar_kernels.reference.clusters import cluster_moments, two_peaks
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -69,32 +69,42 @@ class Extractor:
     def labels(self, events, xy=None):
         """(frame id, DBSCAN label) per event; label -1 is noise. `xy` overrides coordinates
         (e.g. motion-compensated floats; clustered at their rounded pixels)."""
-        frames, labels, _, _ = self._cluster(events, xy)
-        return frames, labels
+        c = self._cluster(events, xy)
+        return c.frames(), c.labels
 
     def _cluster(self, events, xy):
-        """(frame id, label, index of the first event of its cell, pixel (n, 2)) per event."""
+        """The events' frames, clusters and cells (_Clusters)."""
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
-        frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
-        # membership is decided on the pixel grid (float, e.g. warped, coordinates are
-        # rounded as the filters round them); centroids use the floats
-        ij = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
+        coords = _coords(events, xy, keep_none=True)
+        t0 = self.t_origin_us if self.t_origin_us is not None else int(events.t[0]) if len(events) else 0
+        f0, offsets = _frame_offsets(events.t, self.dt_us, t0)
+        if xy is None:  # integer pixels already
+            px, py = events.x, events.y
+        else:  # membership is decided on the pixel grid (floats are rounded as the filters
+            # round them); centroids use the floats
+            ij = np.floor(coords + 0.5).astype(np.int64)
+            px, py = ij[:, 0], ij[:, 1]
+        c = _Clusters(t0, f0, offsets, coords, px, py)
         if len(events) == 0:
-            return frames, np.zeros(0, np.int64), np.zeros(0, np.int64), ij
-        if self.clustering == "grid":
+            c.labels, c.first, c.frame = (np.zeros(0, np.int64) for _ in range(3))
+        elif self.clustering == "grid":
             from evstar_kernels.taichi import clusters_launch
 
-            labels, first = clusters_launch.dbscan(
-                backends.taichi(self.device), _offsets(frames), ij[:, 0], ij[:, 1], self.eps,
-                self.min_samples, scratch=_SCRATCH)
-            return frames, labels, first, ij
-        return (frames, *self._sklearn_labels(frames, ij), ij)
+            c.labels, c.first, roots = clusters_launch.dbscan(
+                backends.taichi(self.device), offsets, px, py, self.eps, self.min_samples,
+                scratch=_SCRATCH)
+            c.frame = f0 + np.searchsorted(offsets, roots, side="right") - 1
+        else:
+            self._sklearn_labels(c)
+        return c
 
-    def _sklearn_labels(self, frames, ij):
+    def _sklearn_labels(self, c):
         # events repeat at a pixel (a star fires ~30 per pixel it crosses): cluster the
         # distinct (frame, pixel) cells weighted by multiplicity — the same core test, far
         # fewer neighbours. One int64 key per cell keeps the de-duplication a 1-D sort.
+        frames = c.frames()
+        ij = np.column_stack([c.px, c.py]).astype(np.int64)
         lo = ij.min(0)
         w, h = ij.max(0) - lo + 1
         key = ((frames - frames[0]) * h + (ij[:, 1] - lo[1])) * w + (ij[:, 0] - lo[0])
@@ -104,45 +114,44 @@ class Extractor:
         pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * _FRAME_GAP])
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
             pts.astype(np.float64), sample_weight=counts)
-        return labels[inverse].astype(np.int64), first[inverse].astype(np.int64)
+        c.labels, c.first = labels[inverse].astype(np.int64), first[inverse].astype(np.int64)
+        c.frame = np.zeros(int(c.labels.max()) + 1, np.int64)
+        c.frame[c.labels[c.labels >= 0]] = frames[c.labels >= 0]
 
     def centroids(self, events, xy=None):
         """Centroids of every cluster of every frame, in time order (track = -1 until linked)."""
-        frames, labels, first, ij = self._cluster(events, xy)
-        coords = _coords(events, xy)
-        k = int(labels.max()) + 1 if len(labels) else 0
+        c = self._cluster(events, xy)
+        k = len(c.frame)
         if k == 0:
             return np.zeros(0, CENTROID_DTYPE)
-        t0 = int(events.t[0]) if self.t_origin_us is None else int(self.t_origin_us)
-        frame_t0 = t0 + np.arange(frames[0], frames[-1] + 1, dtype=np.int64) * self.dt_us
-        m = self._moments(events, coords, frames, labels, first, frame_t0, k)
+        frame_t0 = c.t0 + np.arange(c.f0, c.f0 + len(c.offsets) - 1, dtype=np.int64) * self.dt_us
+        m = self._moments(events, c, frame_t0, k)
         if self.weighting == "pixels" and xy is not None:  # distinct float positions
-            m["cells"], m["cx"], m["cy"] = _distinct_positions(labels, coords, k)
-        cluster_frame = np.empty(k, np.int64)
-        cluster_frame[labels[labels >= 0]] = frames[labels >= 0]
-        out = self._table(m, cluster_frame, frame_t0[cluster_frame - frames[0]], t0, events)
+            m["cells"], m["cx"], m["cy"] = _distinct_positions(c.labels, c.coords, k)
+        out = self._table(m, c.frame, frame_t0[c.frame - c.f0], c.t0, events)
         order = np.arange(k) * 2  # ties in (t, x) keep cluster order (halves after it)
         keep = out["n_events"] >= self.min_cluster_size
         if self.split_valley:
             maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
             by_polarity = maybe.copy()
             if self.clustering == "grid":  # the reference looks at every cluster
-                maybe, by_polarity = self._screen(events, frames, labels, ij, m, maybe)
-            out, order, keep = self._split_clusters(events, coords, frames, labels, out, order,
-                                                    keep, maybe, by_polarity)
+                maybe, by_polarity = self._screen(events, c, m, maybe)
+            out, order, keep = self._split_clusters(events, c, out, order, keep, maybe,
+                                                    by_polarity)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))]
 
-    def _moments(self, events, coords, frames, labels, first, frame_t0, k):
+    def _moments(self, events, c, frame_t0, k):
         if self.clustering == "grid":
             from evstar_kernels.taichi import clusters_launch
 
-            return clusters_launch.moments(
-                backends.taichi(self.device), _offsets(frames), labels, first,
-                np.ascontiguousarray(coords[:, 0]), np.ascontiguousarray(coords[:, 1]), events.t,
-                events.p, frame_t0, k)
-        return cluster_moments(labels, frames - frames[0], coords[:, 0], coords[:, 1], events.t,
-                               events.p, frame_t0, first == np.arange(len(first)))
+            x, y = (events.x, events.y) if c.coords is None else \
+                (np.ascontiguousarray(c.coords[:, 0]), np.ascontiguousarray(c.coords[:, 1]))
+            return clusters_launch.moments(backends.taichi(self.device), c.offsets, c.labels,
+                                           c.first, x, y, events.t, events.p, frame_t0, k)
+        coords = c.xy(events)
+        return cluster_moments(c.labels, c.frames() - c.f0, coords[:, 0], coords[:, 1], events.t,
+                               events.p, frame_t0, c.first == np.arange(len(c.first)))
 
     def _table(self, m, frame, frame_t0, t0, events):
         """One centroid row per cluster from its moments (no loop over clusters)."""
@@ -173,35 +182,35 @@ class Extractor:
         out["sigma"], out["source"] = np.nan, "measured"
         return out
 
-    def _screen(self, events, frames, labels, ij, m, maybe):
+    def _screen(self, events, c, m, maybe):
         """(clusters whose smoothed image may hold two peaks, those of which each polarity's
         image may too): Taichi passes over all clusters. The others cannot split: _split
         stops at _two_peaks, and its per-polarity test needs both polarities split."""
         from evstar_kernels.taichi import clusters_launch
 
         polarities = np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)  # else _halves: None
-        return clusters_launch.peak_screen(backends.taichi(self.device), _offsets(frames), labels,
-                                           ij[:, 0], ij[:, 1], events.p, m["box"], maybe,
-                                           polarities)
+        return clusters_launch.peak_screen(backends.taichi(self.device), c.offsets, c.labels,
+                                           c.px, c.py, events.p, m["box"], maybe, polarities)
 
-    def _split_clusters(self, events, coords, frames, labels, out, order, keep, candidates,
-                        by_polarity):
+    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity):
         """Replace every candidate cluster that holds two targets by its two halves (flag
         split); the others keep their row. by_polarity: clusters whose polarities may each
         split (the second test of _split)."""
+        labels, coords = c.labels, c.xy(events)
         idx = np.flatnonzero(candidates[np.maximum(labels, 0)] & (labels >= 0))
         members_all = idx[np.argsort(labels[idx], kind="stable")]
         ids, starts, stops = frame_bounds(labels[members_all])
         rows, keys = [], []
-        for c, a, b in zip(ids, starts, stops):
+        for j, a, b in zip(ids, starts, stops):
             members = members_all[a:b]
-            parts = self._split(coords[members], events.p[members], by_polarity[c])
+            parts = self._split(coords[members], events.p[members], by_polarity[j])
             if parts is None:
                 continue
-            keep[c] = False
+            keep[j] = False
             for half in (0, 1):
-                rows.append(self._row(events, coords, frames, members[parts == half], split=True))
-                keys.append(2 * c + half)
+                rows.append(self._row(events, coords, c.frame[j], members[parts == half],
+                                      c.t0, split=True))
+                keys.append(2 * j + half)
         if not rows:
             return out, order, keep
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
@@ -273,18 +282,17 @@ class Extractor:
         valley = hist[b0 + 1:b1].min() if b1 > b0 + 1 else peaks
         return lab if valley <= self.split_valley * peaks else None
 
-    def _row(self, events, xy, frames, m, split):
+    def _row(self, events, xy, frame, m, t0, split):
         pts = xy[m]
         cx, cy = self._centre(pts, events.p[m])
         if self.time_ref == "mean":
             t = int(np.round(events.t[m].mean()))
         else:
-            t0 = int(events.t[0]) if self.t_origin_us is None else int(self.t_origin_us)
-            t = t0 + int(frames[m[0]]) * self.dt_us + self.dt_us // 2
+            t = t0 + int(frame) * self.dt_us + self.dt_us // 2
         spread = float(np.sqrt(((pts - (cx, cy)) ** 2).sum(1).mean()))
         border = bool(pts[:, 0].min() < 1 or pts[:, 1].min() < 1
                       or pts[:, 0].max() > events.width - 2 or pts[:, 1].max() > events.height - 2)
-        return (t, cx, cy, -1, len(m), frames[m[0]], spread, border, split, np.nan, "measured")
+        return (t, cx, cy, -1, len(m), frame, spread, border, split, np.nan, "measured")
 
     def _centre(self, pts, p):
         if self.weighting == "pixels":
@@ -311,9 +319,29 @@ def _two_means(pts, a, b, iterations=10):
     return lab
 
 
-def _offsets(frames):
-    """Event index where each frame from frames[0] to frames[-1] starts, and the end."""
-    return np.searchsorted(frames, np.arange(frames[0], frames[-1] + 2))
+class _Clusters:
+    """One call's clustering: frame f0 + j holds events offsets[j]:offsets[j + 1]; labels
+    and first (the first event of its cell) per event; frame per cluster; coords: the
+    float coordinates (None: the events' pixels), px, py: the pixels clustered."""
+
+    def __init__(self, t0, f0, offsets, coords, px, py):
+        self.t0, self.f0, self.offsets, self.coords, self.px, self.py = t0, f0, offsets, coords, px, py
+        self.labels = self.first = self.frame = None
+
+    def frames(self):
+        """Frame id per event."""
+        return self.f0 + np.repeat(np.arange(len(self.offsets) - 1), np.diff(self.offsets))
+
+    def xy(self, events):
+        return _coords(events, None) if self.coords is None else self.coords
+
+
+def _frame_offsets(t, dt_us, t0):
+    """(first frame id, event index where each frame from it to the last starts, and n)."""
+    if len(t) == 0:
+        return 0, np.zeros(1, np.int64)
+    f0, f1 = (int(t[0]) - t0) // dt_us, (int(t[-1]) - t0) // dt_us
+    return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
 
 
 def _distinct_positions(labels, coords, k):
@@ -327,7 +355,9 @@ def _distinct_positions(labels, coords, k):
             np.bincount(lab[new], r[new, 1], minlength=k))
 
 
-def _coords(events, xy):
+def _coords(events, xy, keep_none=False):
+    if xy is None and keep_none:
+        return None
     if xy is None:
         return np.column_stack([events.x, events.y]).astype(np.float64)
     xy = np.asarray(xy, dtype=np.float64)

@@ -88,8 +88,12 @@ def offsets_of(frame):
 
 
 def run_kernels(frame, x, y, eps, min_samples, scratch=None):
-    labels, first = clusters_launch.dbscan(ti(), offsets_of(frame), x, y, eps, min_samples,
-                                           scratch=scratch or Scratch())
+    labels, first, roots = clusters_launch.dbscan(ti(), offsets_of(frame), x, y, eps, min_samples,
+                                                  scratch=scratch or Scratch())
+    # each cluster's root: the first event of its first cell, in (frame, y, x) order
+    np.testing.assert_array_equal(labels[roots], np.arange(len(roots)))
+    assert np.all(first[roots] == roots)
+    assert np.all(np.diff(frame[roots] * 10**6 + y[roots] * 1000 + x[roots]) > 0)
     return labels, first
 
 
@@ -147,8 +151,9 @@ def test_kernel_float_coordinates_and_scratch_reuse():
 
 def test_empty_and_all_noise():
     z = np.zeros(0, np.int64)
-    labels, first = clusters_launch.dbscan(ti(), np.zeros(1, np.int64), z, z, 2.5, 5, scratch=Scratch())
-    assert len(labels) == len(first) == 0
+    labels, first, roots = clusters_launch.dbscan(ti(), np.zeros(1, np.int64), z, z, 2.5, 5,
+                                                  scratch=Scratch())
+    assert len(labels) == len(first) == len(roots) == 0
     labels, _ = run_kernels(np.zeros(3, int), np.array([0, 10, 20]), np.zeros(3, int), 2.5, 2)
     np.testing.assert_array_equal(labels, [-1, -1, -1])
     assert clusters_launch.moments(ti(), np.array([0, 3]), labels, np.arange(3), np.zeros(3),

@@ -36,6 +36,7 @@ f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
 f64_2d = ti.types.ndarray(dtype=ti.f64, ndim=2)
 i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
 u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+any_1d = ti.types.ndarray(ndim=1)  # compiled per element type (pixels or float coordinates)
 u8_2d = ti.types.ndarray(dtype=ti.u8, ndim=2)
 
 
@@ -172,7 +173,7 @@ def cluster_kernels():
 
 
 @ti.kernel
-def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: f64_1d, yf: f64_1d,
+def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: any_1d, yf: any_1d,
             t: i64_1d, frame_t0: i64_1d, p: i8_1d, first: i32_1d, n: i64_2d, st: i64_2d,
             sums: f64_2d, box: f64_2d, cells: i64_1d, csum: f64_2d):
     """Per-cluster sums (reference: cluster_moments). sums[c, 5q + j], j = x, y, xx, yy, xy,
@@ -184,8 +185,8 @@ def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: f64_1d,
                 c = labels[e]
                 if c >= 0:
                     q = ti.cast(p[e] != 0, ti.i32)
-                    x = xf[e]
-                    y = yf[e]
+                    x = ti.cast(xf[e], ti.f64)
+                    y = ti.cast(yf[e], ti.f64)
                     n[c, q] += 1
                     st[c, q] += t[e] - frame_t0[f]
                     sums[c, 5 * q] += x
@@ -207,7 +208,7 @@ _SMOOTH = tuple(float(v) for v in SMOOTH)
 
 
 @ti.kernel
-def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: i32_1d, y: i32_1d,
+def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: any_1d, y: any_1d,
                 p: i8_1d, base: i32_1d, box: i32_2d, img: f64_2d):
     """Each screened cluster's event count images, img[0] OFF and img[1] ON events, at
     [base[c]:] (origin box[c, 0:2], width box[c, 2]); base -1: not screened. Frames of one
@@ -218,7 +219,9 @@ def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: i32_
                 c = labels[e]
                 if c >= 0:
                     if base[c] >= 0:
-                        at = base[c] + (y[e] - box[c, 1]) * box[c, 2] + x[e] - box[c, 0]
+                        xe = ti.cast(x[e], ti.i32)
+                        ye = ti.cast(y[e], ti.i32)
+                        at = base[c] + (ye - box[c, 1]) * box[c, 2] + xe - box[c, 0]
                         img[ti.cast(p[e] != 0, ti.i32), at] += 1.0
 
 

@@ -17,17 +17,17 @@ _EMPTY = {"n": (0, 2), "st": (0, 2), "sx": (0, 2), "sy": (0, 2), "sxx": (0, 2), 
 
 
 def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
-    """(labels int64 (n,), first int64 (n,)) of events in frame order: offsets[f] is frame
-    f's first event (length n_frames + 1); x, y integer pixels (any range). first[e] is the
-    index of the first event of e's cell."""
+    """(labels int64 (n,), first int64 (n,), roots int64 (k,)) of events in frame order:
+    offsets[f] is frame f's first event (length n_frames + 1); x, y integer pixels (any
+    range). first[e] is the first event of e's cell, roots[c] that of cluster c's first
+    core cell (so its frame is the cluster's)."""
     n = len(x)
     labels, first = np.full(n, -1, np.int64), np.zeros(n, np.int64)
     if n == 0:
-        return labels, first
-    x, y = np.asarray(x, np.int64), np.asarray(y, np.int64)
+        return labels, first, np.zeros(0, np.int64)
     # coordinates relative to their bounding box; the zero border holds the disk
     pad = int(np.floor(eps))
-    xi, yi = (x - x.min()).astype(np.int32), (y - y.min()).astype(np.int32)
+    xi, yi = (np.subtract(a, a.min(), dtype=np.int32) for a in (np.asarray(x), np.asarray(y)))
     stride = int(xi.max()) + 1 + 2 * pad
     plane = (int(yi.max()) + 1 + 2 * pad) * stride
     if plane > _I32:
@@ -42,16 +42,16 @@ def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
                               lambda: arrays.put(np.full(planes * plane, clusters.NONE, np.int32)))
         kernels = clusters.cluster_kernels()
         full, half = (arrays.put(d) for d in clusters.disk(float(eps), stride))
-        n_labels = 0
+        roots = []
         for f0, f1 in launch.frame_launches(offsets):
             e0, e1 = int(offsets[f0]), int(offsets[f1])
             local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
             root = _roots(ti, arrays, kernels, xi[e0:e1], yi[e0:e1], local, geo, (full, half), planes,
                           min_samples, count, owner, first[e0:e1], on_launch)
             first[e0:e1] += e0
-            n_labels += _canonical(root, xi[e0:e1], yi[e0:e1], local, stride, n_labels,
-                                   labels[e0:e1])
-    return labels, first
+            roots.append(e0 + _canonical(root, xi[e0:e1], yi[e0:e1], local, stride,
+                                         sum(map(len, roots)), labels[e0:e1]))
+    return labels, first, np.concatenate(roots)
 
 
 def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, count, owner, first,
@@ -85,7 +85,8 @@ def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, c
 
 
 def _canonical(root, xi, yi, local, stride, start, labels):
-    """Number the roots in (frame, y, x) order from `start` into labels; their count."""
+    """Number the roots in (frame, y, x) order from `start` into labels; the roots in that
+    order."""
     roots = np.flatnonzero(root == np.arange(len(root)))
     frame = np.searchsorted(local, roots, side="right") - 1
     roots = roots[np.lexsort((yi[roots].astype(np.int64) * stride + xi[roots], frame))]
@@ -93,13 +94,14 @@ def _canonical(root, xi, yi, local, stride, start, labels):
     ids[roots] = start + np.arange(len(roots))
     has = root >= 0
     labels[has] = ids[root[has]]
-    return len(roots)
+    return roots.astype(np.int64)
 
 
 def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_launch=None):
     """Sums of every cluster's events (reference: cluster_moments): dict n, st, sx, sy, sxx,
     syy, sxy ((k, 2) per polarity OFF, ON), box ((k, 4)), cells ((k,)), cx, cy ((k,)).
-    `first` as dbscan returns it; frame_t0: the time each frame's t is summed from."""
+    `first` as dbscan returns it; xf, yf: the coordinates summed (any real dtype);
+    frame_t0: the time each frame's t is summed from."""
     k = int(n_clusters)
     if k == 0:
         return {name: np.zeros(shape, np.int64 if name in ("n", "st", "cells") else np.float64)
@@ -166,8 +168,8 @@ def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e
             lo_d, hi_d = (arrays.put(a) for a in
                           launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
             clusters.peak_images(lo_d, hi_d, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
-                                 arrays.put(x[e0:e1].astype(np.int32)), arrays.put(y[e0:e1].astype(np.int32)),
-                                 arrays.put(p[e0:e1]), base_d, geom_d, img)
+                                 arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(p[e0:e1]),
+                                 base_d, geom_d, img)
         maybe = arrays.put(np.zeros((k, 2), np.uint8))
         clusters.peak_screen(base_d, geom_d, arrays.put(polarities.astype(np.uint8)), img, tmp,
                              rtol, maybe)
