@@ -196,20 +196,21 @@ class Extractor:
         """Replace every candidate cluster that holds two targets by its two halves (flag
         split); the others keep their row. by_polarity: clusters whose polarities may each
         split (the second test of _split)."""
-        labels, coords = c.labels, c.xy(events)
-        idx = np.flatnonzero(candidates[np.maximum(labels, 0)] & (labels >= 0))
+        labels = c.labels
+        idx = np.flatnonzero(np.r_[candidates, False][labels])  # label -1: the False
         members_all = idx[np.argsort(labels[idx], kind="stable")]
+        pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
         rows, keys = [], []
         for j, a, b in zip(ids, starts, stops):
             members = members_all[a:b]
-            parts = self._split(coords[members], events.p[members], by_polarity[j])
+            parts = self._split(pts[a:b], events.p[members], by_polarity[j])
             if parts is None:
                 continue
             keep[j] = False
             for half in (0, 1):
-                rows.append(self._row(events, coords, c.frame[j], members[parts == half],
-                                      c.t0, split=True))
+                rows.append(self._row(events, pts[a:b][parts == half], c.frame[j],
+                                      members[parts == half], c.t0, split=True))
                 keys.append(2 * j + half)
         if not rows:
             return out, order, keep
@@ -282,8 +283,8 @@ class Extractor:
         valley = hist[b0 + 1:b1].min() if b1 > b0 + 1 else peaks
         return lab if valley <= self.split_valley * peaks else None
 
-    def _row(self, events, xy, frame, m, t0, split):
-        pts = xy[m]
+    def _row(self, events, pts, frame, m, t0, split):
+        """A centroid row of the events m (at pts) of one frame."""
         cx, cy = self._centre(pts, events.p[m])
         if self.time_ref == "mean":
             t = int(np.round(events.t[m].mean()))
@@ -332,8 +333,11 @@ class _Clusters:
         """Frame id per event."""
         return self.f0 + np.repeat(np.arange(len(self.offsets) - 1), np.diff(self.offsets))
 
-    def xy(self, events):
-        return _coords(events, None) if self.coords is None else self.coords
+    def xy(self, events, idx=slice(None)):
+        """The float coordinates of the events idx."""
+        if self.coords is None:
+            return np.column_stack([events.x[idx], events.y[idx]]).astype(np.float64)
+        return self.coords[idx]
 
 
 def _frame_offsets(t, dt_us, t0):
