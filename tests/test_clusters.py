@@ -161,7 +161,9 @@ def test_empty_and_all_noise():
                                    np.zeros(1, np.int64), 0)["n"].shape == (0, 2)
 
 
-def test_peak_screen_passes_every_cluster_with_two_peaks():
+@pytest.mark.parametrize("device_arrays", [False, True])
+def test_peak_screen_passes_every_cluster_with_two_peaks(device_arrays, monkeypatch):
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
     frame, x, y = star_frames(5, n_frames=8, per_star=80)
     labels, first = run_kernels(frame, x, y, 2.5, 5)
     k = int(labels.max()) + 1
