@@ -259,8 +259,8 @@ PARTICLE_FILTER = Params(
     Param("star_refine", int, 10, "centroids averaged into a star's direction", low=1,
           high=10**6),
 )
-#: where the event warping runs: Warp kernels, or the numpy specification
-WARP_BACKENDS = ("reference", "warp")
+#: where the event warping runs: Taichi or Warp kernels, or the numpy specification
+WARP_BACKENDS = ("reference", "taichi", "warp")
 
 #: options of the kernels themselves (how to compute, never what): not part of Config
 KERNEL = Params(
