@@ -50,6 +50,9 @@ class Pipeline:
         if not isinstance(self.config, Config):
             raise ParameterTypeError(f"config must be an evstar.Config, got {type(config).__name__}")
         self.config.validate()
+        from .estimation import pixel_lag
+
+        pixel_lag(self.config.estimate.pixel_lag_file)   # a bad file fails here, before any work
 
     # -- stage factories ----------------------------------------------------------------
     def make_filter(self, t0_us, rate_hz):
