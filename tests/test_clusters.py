@@ -87,9 +87,9 @@ def offsets_of(frame):
     return np.searchsorted(frame, np.arange(frame[0], frame[-1] + 2))
 
 
-def run_kernels(frame, x, y, eps, min_samples, scratch=None):
+def run_kernels(frame, x, y, eps, min_samples, scratch=None, schedule="auto"):
     labels, first, roots = clusters_launch.dbscan(ti(), offsets_of(frame), x, y, eps, min_samples,
-                                                  scratch=scratch or Scratch())
+                                                  scratch=scratch or Scratch(), schedule=schedule)
     # each cluster's root: the first event of its first cell, in (frame, y, x) order
     np.testing.assert_array_equal(labels[roots], np.arange(len(roots)))
     assert np.all(first[roots] == roots)
@@ -105,15 +105,16 @@ def small_launches(monkeypatch):
     monkeypatch.setattr(launch, "DEVICE_ARRAYS", True)
 
 
-@pytest.mark.parametrize("layout", ["plain", "small_launches"])
-@pytest.mark.parametrize("seed", range(6))
-def test_kernels_equal_reference(seed, layout, request):
+@pytest.mark.parametrize("schedule,layout", [("lanes", "plain"), ("lanes", "small_launches"),
+                                             ("events", "plain"), ("events", "small_launches")])
+@pytest.mark.parametrize("seed", range(5))
+def test_kernels_equal_reference(seed, schedule, layout, request):
     if layout == "small_launches":
         request.getfixturevalue("small_launches")
     rng = np.random.default_rng(200 + seed)
     frame, x, y = random_frames(seed, int(rng.integers(1, 600)), n_frames=int(rng.integers(1, 6)))
     eps, min_samples = EPS[seed % len(EPS)], int(rng.integers(1, 12))
-    labels, first = run_kernels(frame, x, y, eps, min_samples)
+    labels, first = run_kernels(frame, x, y, eps, min_samples, schedule=schedule)
     np.testing.assert_array_equal(labels, ref.dbscan_events(frame, x, y, eps, min_samples))
     # first: the cell's first event
     assert np.all(first <= np.arange(len(x)))
@@ -135,8 +136,9 @@ def test_kernels_equal_reference(seed, layout, request):
 def test_kernel_float_coordinates_and_scratch_reuse():
     frame, x, y = star_frames(4)
     scratch = Scratch()
-    for eps in (2.5, 1.5, 2.5):  # scratch planes come back clean after every call
-        labels, first = run_kernels(frame, x, y, eps, 5, scratch)
+    for eps, schedule in ((2.5, "lanes"), (1.5, "events"), (2.5, "events"), (1.5, "lanes")):
+        # scratch planes come back clean after every call
+        labels, first = run_kernels(frame, x, y, eps, 5, scratch, schedule)
         np.testing.assert_array_equal(labels, ref.dbscan_events(frame, x, y, eps, 5))
     rng = np.random.default_rng(0)
     xf, yf = x + rng.uniform(-0.5, 0.5, len(x)), y + rng.uniform(-0.5, 0.5, len(x))

@@ -3,8 +3,10 @@
 Specification: `evstar_kernels.reference.clusters` (dbscan_events: identical labels;
 cluster_moments: identical integer sums, float sums to rounding).
 
-For a batch of frames [b0, b1), each with its own plane of (rows x stride) cells whose
-zero border (pad >= eps) makes every disk read unconditional:
+Events form frames; each frame is binned into a plane of (rows x stride) cells whose zero
+border (pad >= eps) makes every disk read unconditional.
+
+GPU form (schedule "events"), for a batch of frames [b0, b1), each with its own plane:
 1. `bin_cells` (event-parallel): every event adds 1 to its cell's count and atomically
    takes the cell's ownership when its index is the smallest (the cell's first event).
 2. `core_cells` (event-parallel): every owner sums the counts of its disk (its weighted
@@ -14,6 +16,10 @@ zero border (pad >= eps) makes every disk read unconditional:
    set's root being its first cell in (y, x) order; border owners take the first root
    among the cores of their disk; every event copies its owner's root; the planes are
    cleared again by the frame's own events.
+CPU form (schedule "lanes", `cluster_lanes`): one launch; each busy iteration claims a
+private plane (slots.claim) and does steps 1-3 for its run of frames alone, sequentially
+(the first event to arrive owns a cell: no atomics). Both forms give the same roots.
+
 The launcher numbers the roots (canonical labels), then `moments` (one thread per run of
 frames: a frame's clusters are only its own, so no atomics) sums each cluster's events.
 
@@ -25,6 +31,7 @@ import numpy as np
 import taichi as ti
 
 from ..reference.clusters import SMOOTH, disk_offsets
+from . import slots
 from .event_counts import frame_of
 
 NONE = 2**31 - 1
@@ -63,7 +70,8 @@ def find(parent: ti.template(), e: ti.i32) -> ti.i32:
 
 @functools.lru_cache(maxsize=None)
 def cluster_kernels():
-    """(bin_cells, core_cells, link_frames); disks are passed as plane offsets (`disk`)."""
+    """(bin_cells, core_cells, link_frames, cluster_lanes); disks are passed as plane
+    offsets (`disk`)."""
 
     @ti.func
     def cell_at(x: ti.template(), y: ti.template(), e: ti.i32, base: ti.i32, stride: ti.i32,
@@ -130,11 +138,13 @@ def cluster_kernels():
         return r
 
     @ti.func
-    def link_frame(f: ti.i32, b0: ti.i32, x: ti.template(), y: ti.template(), offsets: ti.template(),
-                   plane: ti.i32, stride: ti.i32, pad: ti.i32, full: ti.template(),
-                   half: ti.template(), count: ti.template(), owner: ti.template(), core: ti.template(), parent: ti.template(),
-                   first: ti.template(), root: ti.template()):
-        base = (f - b0) * plane
+    def link_frame(f: ti.i32, base: ti.i32, x: ti.template(), y: ti.template(),
+                   offsets: ti.template(), stride: ti.i32, pad: ti.i32, full: ti.template(),
+                   half: ti.template(), count: ti.template(), owner: ti.template(),
+                   core: ti.template(), parent: ti.template(), first: ti.template(),
+                   root: ti.template()):
+        """Frame f's roots from its binned plane at base (union-find, borders, copies);
+        clears the plane."""
         for e in range(offsets[f], offsets[f + 1]):
             if first[e] == e and core[e] != 0:
                 at = cell_at(x, y, e, base, stride, pad)
@@ -166,10 +176,43 @@ def cluster_kernels():
                     root: i32_1d):
         for i in range(lo.shape[0]):
             for f in range(lo[i], hi[i]):
-                link_frame(f, b0, x, y, offsets, plane, stride, pad, full, half, count, owner,
-                           core, parent, first, root)
+                link_frame(f, (f - b0) * plane, x, y, offsets, stride, pad, full, half, count,
+                           owner, core, parent, first, root)
 
-    return bin_cells, core_cells, link_frames
+    @ti.kernel
+    def cluster_lanes(lo: i32_1d, hi: i32_1d, x: i32_1d, y: i32_1d, offsets: i32_1d,
+                      plane: ti.i32, stride: ti.i32, pad: ti.i32, full: i32_1d, half: i32_1d,
+                      min_samples: ti.i32, count: i32_1d, owner: i32_1d, core: u8_1d,
+                      parent: i32_1d, first: i32_1d, root: i32_1d, busy: i32_1d, n_slots: ti.i32):
+        """The CPU form: a busy iteration claims a private plane and does a run of frames
+        alone, each frame binned, tested and linked in turn (no atomics but the claim)."""
+        for i in range(lo.shape[0]):
+            if lo[i] < hi[i]:
+                slot = slots.claim(busy, n_slots)
+                base = slot * plane
+                for f in range(lo[i], hi[i]):
+                    for e in range(offsets[f], offsets[f + 1]):  # first come owns the cell
+                        at = cell_at(x, y, e, base, stride, pad)
+                        count[at] += 1
+                        if owner[at] == NONE:
+                            owner[at] = e
+                    for e in range(offsets[f], offsets[f + 1]):
+                        at = cell_at(x, y, e, base, stride, pad)
+                        own = owner[at]
+                        first[e] = own
+                        parent[e] = e
+                        is_core = 0
+                        if own == e:
+                            s = 0
+                            for j in range(full.shape[0]):
+                                s += count[at + full[j]]
+                            is_core = ti.cast(s >= min_samples, ti.i32)
+                        core[e] = ti.cast(is_core, ti.u8)
+                    link_frame(f, base, x, y, offsets, stride, pad, full, half, count, owner,
+                               core, parent, first, root)
+                slots.release(busy, slot)
+
+    return bin_cells, core_cells, link_frames, cluster_lanes
 
 
 @ti.kernel

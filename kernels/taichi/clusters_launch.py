@@ -16,11 +16,12 @@ _EMPTY = {"n": (0, 2), "st": (0, 2), "sx": (0, 2), "sy": (0, 2), "sxx": (0, 2), 
           "sxy": (0, 2), "box": (0, 4), "cells": 0, "cx": 0, "cy": 0}
 
 
-def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
+def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, schedule="auto", on_launch=None):
     """(labels int64 (n,), first int64 (n,), roots int64 (k,)) of events in frame order:
     offsets[f] is frame f's first event (length n_frames + 1); x, y integer pixels (any
     range). first[e] is the first event of e's cell, roots[c] that of cluster c's first
-    core cell (so its frame is the cluster's)."""
+    core cell (so its frame is the cluster's). schedule: "lanes" (CPU form), "events" (GPU
+    form) or "auto" (by the Taichi arch)."""
     n = len(x)
     labels, first = np.full(n, -1, np.int64), np.zeros(n, np.int64)
     if n == 0:
@@ -30,12 +31,16 @@ def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
     xi, yi = (np.subtract(a, a.min(), dtype=np.int32) for a in (np.asarray(x), np.asarray(y)))
     stride = int(xi.max()) + 1 + 2 * pad
     plane = (int(yi.max()) + 1 + 2 * pad) * stride
-    if plane > _I32:
-        raise ValueError(f"clustering grid of {plane} cells exceeds int32 indices")
-    planes = int(min(max(1, GRID_BYTES // (8 * plane)), _I32 // plane, len(offsets) - 1))
     geo = (plane, stride, pad)
     with launch.RUNTIME_LOCK, scratch:
         arrays = launch.Arrays(ti)
+        lanes = schedule == "lanes" or (schedule == "auto" and not arrays.on_device)
+        if lanes:  # one private plane per thread
+            planes = launch.cpu_threads(ti)
+        else:
+            planes = int(min(max(1, GRID_BYTES // (8 * plane)), len(offsets) - 1))
+        if planes * plane > _I32:
+            raise ValueError(f"clustering grid of {planes} x {plane} cells exceeds int32 indices")
         key = (geo, planes, arrays.on_device)
         count = scratch.array("cl-count", key, lambda: arrays.put(np.zeros(planes * plane, np.int32)))
         owner = scratch.array("cl-owner", key,
@@ -46,8 +51,9 @@ def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, on_launch=None):
         for f0, f1 in launch.frame_launches(offsets):
             e0, e1 = int(offsets[f0]), int(offsets[f1])
             local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
-            root = _roots(ti, arrays, kernels, xi[e0:e1], yi[e0:e1], local, geo, (full, half), planes,
-                          min_samples, count, owner, first[e0:e1], on_launch)
+            run = _roots_lanes if lanes else _roots
+            root = run(ti, arrays, kernels, xi[e0:e1], yi[e0:e1], local, geo, (full, half), planes,
+                       min_samples, count, owner, first[e0:e1], on_launch)
             first[e0:e1] += e0
             roots.append(e0 + _canonical(root, xi[e0:e1], yi[e0:e1], local, stride,
                                          sum(map(len, roots)), labels[e0:e1]))
@@ -58,7 +64,7 @@ def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, c
            on_launch):
     """Each event's root (launch-local index of its cluster's first core, -1 noise); fills
     `first` with the launch-local index of each event's cell owner."""
-    bin_cells, core_cells, link_frames = kernels
+    bin_cells, core_cells, link_frames, _ = kernels
     plane, stride, pad = geo
     full, half = disk
     m = len(xi)
@@ -82,6 +88,24 @@ def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, c
     arrays.get(first_d, first32)
     first[:] = first32
     return out
+
+
+def _roots_lanes(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, count,
+                 owner, first, on_launch):
+    """_roots in the CPU form: one launch, runs of frames balanced by events over the
+    threads, each thread on its own plane."""
+    plane, stride, pad = geo
+    full, half = disk
+    m = len(xi)
+    core, parent = np.empty(m, np.uint8), np.empty(m, np.int32)
+    first32, root = np.empty(m, np.int32), np.empty(m, np.int32)
+    lo, hi = launch.units(launch.balanced_cuts(local, 8 * planes).astype(np.int32), planes)
+    busy = np.zeros(planes, np.int32)
+    kernels[3](lo, hi, xi, yi, local, plane, stride, pad, full, half, min_samples, count, owner,
+               core, parent, first32, root, busy, planes)
+    launch.launched(on_launch)
+    first[:] = first32
+    return root
 
 
 def _canonical(root, xi, yi, local, stride, start, labels):
