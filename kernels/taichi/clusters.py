@@ -191,9 +191,10 @@ def cluster_kernels():
                 slot = slots.claim(busy, n_slots)
                 base = slot * plane
                 for f in range(lo[i], hi[i]):
-                    for e in range(offsets[f], offsets[f + 1]):  # first come owns the cell
+                    # first come owns the cell; the plane is this thread's (`+=` would be atomic)
+                    for e in range(offsets[f], offsets[f + 1]):
                         at = cell_at(x, y, e, base, stride, pad)
-                        count[at] += 1
+                        count[at] = count[at] + 1
                         if owner[at] == NONE:
                             owner[at] = e
                     for e in range(offsets[f], offsets[f + 1]):
@@ -226,25 +227,25 @@ def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: any_1d,
         for f in range(lo[i], hi[i]):
             for e in range(offsets[f], offsets[f + 1]):
                 c = labels[e]
-                if c >= 0:
+                if c >= 0:  # plain read-modify-writes: `+=` on global memory is atomic
                     q = ti.cast(p[e] != 0, ti.i32)
                     x = ti.cast(xf[e], ti.f64)
                     y = ti.cast(yf[e], ti.f64)
-                    n[c, q] += 1
-                    st[c, q] += t[e] - frame_t0[f]
-                    sums[c, 5 * q] += x
-                    sums[c, 5 * q + 1] += y
-                    sums[c, 5 * q + 2] += x * x
-                    sums[c, 5 * q + 3] += y * y
-                    sums[c, 5 * q + 4] += x * y
+                    n[c, q] = n[c, q] + 1
+                    st[c, q] = st[c, q] + t[e] - frame_t0[f]
+                    sums[c, 5 * q] = sums[c, 5 * q] + x
+                    sums[c, 5 * q + 1] = sums[c, 5 * q + 1] + y
+                    sums[c, 5 * q + 2] = sums[c, 5 * q + 2] + x * x
+                    sums[c, 5 * q + 3] = sums[c, 5 * q + 3] + y * y
+                    sums[c, 5 * q + 4] = sums[c, 5 * q + 4] + x * y
                     box[c, 0] = ti.min(box[c, 0], x)
                     box[c, 1] = ti.max(box[c, 1], x)
                     box[c, 2] = ti.min(box[c, 2], y)
                     box[c, 3] = ti.max(box[c, 3], y)
                     if first[e] == e:
-                        cells[c] += 1
-                        csum[c, 0] += x
-                        csum[c, 1] += y
+                        cells[c] = cells[c] + 1
+                        csum[c, 0] = csum[c, 0] + x
+                        csum[c, 1] = csum[c, 1] + y
 
 
 _SMOOTH = tuple(float(v) for v in SMOOTH)
@@ -265,7 +266,7 @@ def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: any_
                         xe = ti.cast(x[e], ti.i32)
                         ye = ti.cast(y[e], ti.i32)
                         at = base[c] + (ye - box[c, 1]) * box[c, 2] + xe - box[c, 0]
-                        img[ti.cast(p[e] != 0, ti.i32), at] += 1.0
+                        img[ti.cast(p[e] != 0, ti.i32), at] = img[ti.cast(p[e] != 0, ti.i32), at] + 1.0
 
 
 @ti.func
