@@ -163,10 +163,10 @@ def two_peaks(pts):
                               mode="constant")
     is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
     yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
-    far = [q for q in yx[1:] if np.hypot(*(q - yx[0])) >= 2]
-    if not far:
+    far = np.flatnonzero(((yx[1:] - yx[0]) ** 2).sum(1) >= 4)  # >= 2 px from the highest
+    if not len(far):
         return None
-    return (yx[0][::-1] + origin).astype(float), (far[0][::-1] + origin).astype(float)
+    return (yx[0][::-1] + origin).astype(float), (yx[far[0] + 1][::-1] + origin).astype(float)
 
 
 def maybe_two_peaks(pts, rtol=1e-9):
