@@ -48,6 +48,10 @@ class Extractor:
     single smeared streak has a flat profile and halves as wide as their separation allows,
     and a moving star's leading ON and trailing OFF lobes differ in polarity, so both stay
     whole. None disables the check.
+    clustering: "grid" (Taichi kernels on `device`: grid DBSCAN, per-cluster moments and a
+    screen that leaves the split test only the clusters that may hold two peaks) or
+    "sklearn" (scikit-learn's DBSCAN on the same weighted cells: the reference). Both give
+    the same clusters and centroids (docs/kernels.md).
     """
 
     def __init__(self, dt_us=P.GLOBAL["dt_us"].default, eps=E["eps"].default,
