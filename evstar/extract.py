@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.cluster import DBSCAN
 
-from . import backends, parameters as P
+from . import backends, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import check_dt, frame_bounds
@@ -205,10 +205,12 @@ class Extractor:
         members_all = idx[np.argsort(labels[idx], kind="stable")]
         pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
+        first = self._first_halves(c, pts, starts, stops)
         rows, keys = [], []
-        for j, a, b in zip(ids, starts, stops):
+        for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
             members = members_all[a:b]
-            parts = self._split(pts[a:b], events.p[members], by_polarity[j])
+            parts = self._split(pts[a:b], events.p[members], by_polarity[j],
+                                None if first is None else first[n])
             if parts is None:
                 continue
             keep[j] = False
@@ -221,21 +223,39 @@ class Extractor:
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
 
+    def _first_halves(self, c, pts, starts, stops):
+        """The first test's (seeds or None, 2-means labels) of every candidate at once,
+        where they are exact (grid clustering, integer coordinates); else None."""
+        if self.clustering != "grid" or c.coords is not None or not len(starts):
+            return None
+        has, a, b = splitting.two_peaks_many(pts, starts, stops)
+        out = [(None, None)] * len(starts)  # no two peaks: _split stops there
+        go = np.flatnonzero(has & (stops - starts >= 2 * self.min_cluster_size))
+        if len(go):
+            parts = np.concatenate([np.arange(starts[j], stops[j]) for j in go])
+            sizes = stops[go] - starts[go]
+            at = np.r_[0, np.cumsum(sizes)]
+            lab = splitting.two_means_many(pts[parts], at[:-1], at[1:], a[go], b[go])
+            for i, j in enumerate(go):
+                out[j] = ((a[j], b[j]), lab[at[i]:at[i + 1]])
+        return out
+
     # -- one cluster, event by event (split candidates) ---------------------------------
-    def _split(self, pts, p, by_polarity=True):
+    def _split(self, pts, p, by_polarity=True, first=None):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
         trailing edge, so halves that differ in polarity are the two lobes of one target.
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
-        show the pair; their halves are matched by their order along the pair's axis."""
+        show the pair; their halves are matched by their order along the pair's axis.
+        first: the first test's (seeds, 2-means labels) when already known."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds = _two_peaks(pts)
+        seeds, lab = (_two_peaks(pts), None) if first is None else first
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        lab = self._halves(pts, seeds)
+        lab = self._halves(pts, seeds, lab)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
@@ -254,7 +274,7 @@ class Extractor:
         out[on], out[off] = lab_on, lab_off
         return out
 
-    def _halves(self, pts, seeds=None):
+    def _halves(self, pts, seeds=None, lab=None):
         """Labels 0/1 when `pts` hold two compact targets with a clear valley between them,
         else None. The seeds are the two highest peaks of the smoothed count image, so a
         faint star beside a bright one is found (2-means would halve the bright one)."""
@@ -263,7 +283,7 @@ class Extractor:
         seeds = _two_peaks(pts) if seeds is None else seeds
         if seeds is None:
             return None
-        lab = _two_means(pts, *seeds)
+        lab = _two_means(pts, *seeds) if lab is None else lab
         if np.bincount(lab, minlength=2).min() < self.min_cluster_size:
             return None
         c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)

@@ -264,3 +264,28 @@ def test_config_declares_the_clustering_backend():
     assert Config().replace(**{"extract.clustering": "sklearn"}).extract.clustering == "sklearn"
     with pytest.raises(ParameterError, match="clustering"):
         Config().replace(**{"extract.clustering": "kmeans"})
+
+
+def test_batched_split_steps_equal_the_per_cluster_ones():
+    from evstar import splitting
+    from evstar.extract import _two_means
+
+    frame, x, y = star_frames(7, n_frames=10, per_star=120)
+    labels = ref.dbscan_events(frame, x, y, 2.5, 5)
+    order = np.argsort(labels, kind="stable")
+    order = order[labels[order] >= 0]
+    pts = np.column_stack([x, y]).astype(float)[order]
+    bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
+    starts, stops = bounds[:-1], bounds[1:]
+    has, a, b = splitting.two_peaks_many(pts, starts, stops)
+    lab = splitting.two_means_many(pts, starts, stops, a, b)
+    n_two = 0
+    for j, (s, e) in enumerate(zip(starts, stops)):
+        seeds = ref.two_peaks(pts[s:e])
+        assert has[j] == (seeds is not None)
+        if seeds is not None:
+            n_two += 1
+            np.testing.assert_array_equal(a[j], seeds[0])
+            np.testing.assert_array_equal(b[j], seeds[1])
+            np.testing.assert_array_equal(lab[s:e], _two_means(pts[s:e], *seeds))
+    assert 5 <= n_two < len(starts)
