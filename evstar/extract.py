@@ -205,7 +205,7 @@ class Extractor:
         members_all = idx[np.argsort(labels[idx], kind="stable")]
         pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
-        first = self._first_halves(c, pts, starts, stops)
+        first = self._first_halves(c, pts, events.p[members_all], starts, stops)
         rows, keys = [], []
         for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
             members = members_all[a:b]
@@ -223,21 +223,29 @@ class Extractor:
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
 
-    def _first_halves(self, c, pts, starts, stops):
-        """The first test's (seeds or None, 2-means labels) of every candidate at once,
-        where they are exact (grid clustering, integer coordinates); else None."""
+    def _first_halves(self, c, pts, p, starts, stops):
+        """The first test's (seeds or None, 2-means labels, whether it fails whatever the
+        rest of _halves says) of every candidate at once, where they are exact (grid
+        clustering, integer coordinates); else None. The first test fails where a half has
+        fewer than min_cluster_size events or the halves' polarities differ by more than
+        0.5 (a moving star's lobes: the common case)."""
         if self.clustering != "grid" or c.coords is not None or not len(starts):
             return None
         has, a, b = splitting.two_peaks_many(pts, starts, stops)
-        out = [(None, None)] * len(starts)  # no two peaks: _split stops there
+        out = [(None, None, True)] * len(starts)  # no two peaks: _split stops there
         go = np.flatnonzero(has & (stops - starts >= 2 * self.min_cluster_size))
         if len(go):
             parts = np.concatenate([np.arange(starts[j], stops[j]) for j in go])
-            sizes = stops[go] - starts[go]
-            at = np.r_[0, np.cumsum(sizes)]
+            at = np.r_[0, np.cumsum(stops[go] - starts[go])]
             lab = splitting.two_means_many(pts[parts], at[:-1], at[1:], a[go], b[go])
+            seg = np.repeat(np.arange(len(go)), np.diff(at))
+            n = np.bincount(seg * 2 + lab, minlength=2 * len(go)).reshape(-1, 2)
+            on = np.bincount(seg * 2 + lab, weights=p[parts], minlength=2 * len(go)).reshape(-1, 2)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
+            fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
             for i, j in enumerate(go):
-                out[j] = ((a[j], b[j]), lab[at[i]:at[i + 1]])
+                out[j] = ((a[j], b[j]), lab[at[i]:at[i + 1]], bool(fails[i]))
         return out
 
     # -- one cluster, event by event (split candidates) ---------------------------------
@@ -249,13 +257,13 @@ class Extractor:
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
-        first: the first test's (seeds, 2-means labels) when already known."""
+        first: the first test's (seeds, 2-means labels, certain failure) when known."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds, lab = (_two_peaks(pts), None) if first is None else first
+        seeds, lab, fails = (_two_peaks(pts), None, False) if first is None else first
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        lab = self._halves(pts, seeds, lab)
+        lab = None if fails else self._halves(pts, seeds, lab)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
