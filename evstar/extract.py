@@ -231,21 +231,19 @@ class Extractor:
         0.5 (a moving star's lobes: the common case)."""
         if self.clustering != "grid" or c.coords is not None or not len(starts):
             return None
-        has, a, b = splitting.two_peaks_many(pts, starts, stops)
+        im = splitting.images(pts, starts, stops)
+        has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
+        # 2-means of all (the screen leaves few without two peaks): one set of images
+        lab = splitting.two_means_many(pts, starts, stops, a, b, im=im)
+        seg = np.repeat(np.arange(len(starts)), stops - starts)
+        n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
+        on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
+        fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
         out = [(None, None, True)] * len(starts)  # no two peaks: _split stops there
-        go = np.flatnonzero(has & (stops - starts >= 2 * self.min_cluster_size))
-        if len(go):
-            parts = np.concatenate([np.arange(starts[j], stops[j]) for j in go])
-            at = np.r_[0, np.cumsum(stops[go] - starts[go])]
-            lab = splitting.two_means_many(pts[parts], at[:-1], at[1:], a[go], b[go])
-            seg = np.repeat(np.arange(len(go)), np.diff(at))
-            n = np.bincount(seg * 2 + lab, minlength=2 * len(go)).reshape(-1, 2)
-            on = np.bincount(seg * 2 + lab, weights=p[parts], minlength=2 * len(go)).reshape(-1, 2)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
-            fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
-            for i, j in enumerate(go):
-                out[j] = ((a[j], b[j]), lab[at[i]:at[i + 1]], bool(fails[i]))
+        for j in np.flatnonzero(has):
+            out[j] = ((a[j], b[j]), lab[starts[j]:stops[j]], bool(fails[j]))
         return out
 
     # -- one cluster, event by event (split candidates) ---------------------------------

@@ -40,8 +40,9 @@ def _correlate(img, idx, r, q, h, w, axis):
     return out
 
 
-def _images(pts, starts, stops):
-    """Each cluster's count image (its pixel box and a 2-px border), all in one flat array."""
+def images(pts, starts, stops):
+    """Each cluster's count image (its pixel box and a 2-px border), all in one flat array
+    (for two_peaks_many and two_means_many of the same points)."""
     seg, _ = _segments(starts, stops)
     k = len(starts)
     ij = np.floor(pts + 0.5).astype(np.int64)
@@ -57,13 +58,13 @@ def _images(pts, starts, stops):
                 r=local // w[pix], q=local % w[pix])
 
 
-def two_peaks_many(pts, starts, stops):
+def two_peaks_many(pts, starts, stops, im=None):
     """(has (k,) bool, a (k, 2), b (k, 2)): two_peaks of each cluster's points, has False
-    where it is None."""
+    where it is None. im: _images of the same points, when made already."""
     k = len(starts)
     if not k:
         return np.zeros(0, bool), np.zeros((0, 2)), np.zeros((0, 2))
-    im = _images(pts, starts, stops)
+    im = images(pts, starts, stops) if im is None else im
     lo, pix, r, q, pw, ph = im["lo"], im["pix"], im["r"], im["q"], im["w"], im["h"]
     img = im["counts"].astype(np.float64)
     idx = np.arange(len(img))
@@ -91,14 +92,14 @@ def two_peaks_many(pts, starts, stops):
     return has, a, b
 
 
-def two_means_many(pts, starts, stops, a, b, iterations=10):
+def two_means_many(pts, starts, stops, a, b, iterations=10, im=None):
     """_two_means of each cluster's points started from a[j] and b[j] (labels 0/1 per
     point), exact for integer coordinates: it runs on the distinct pixels weighted by their
     counts (the same distances, and the same centres: sums of integers are exact)."""
     k = len(starts)
     if not k:
         return np.zeros(0, np.int64)
-    im = _images(pts, starts, stops)
+    im = images(pts, starts, stops) if im is None else im
     px = np.flatnonzero(im["counts"])
     weight = im["counts"][px].astype(np.float64)
     seg = im["pix"][px]
