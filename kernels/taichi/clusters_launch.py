@@ -114,10 +114,10 @@ def _canonical(root, xi, yi, local, stride, start, labels):
     roots = np.flatnonzero(root == np.arange(len(root)))
     frame = np.searchsorted(local, roots, side="right") - 1
     roots = roots[np.lexsort((yi[roots].astype(np.int64) * stride + xi[roots], frame))]
-    ids = np.empty(len(root), np.int64)
+    ids = np.empty(len(root) + 1, np.int64)
     ids[roots] = start + np.arange(len(roots))
-    has = root >= 0
-    labels[has] = ids[root[has]]
+    ids[-1] = -1  # root -1 (noise) reads the last entry
+    np.take(ids, root, out=labels)
     return roots.astype(np.int64)
 
 
