@@ -116,8 +116,8 @@ def _canonical(root, xi, yi, local, stride, start, labels):
     roots = roots[np.lexsort((yi[roots].astype(np.int64) * stride + xi[roots], frame))]
     ids = np.empty(len(root) + 1, np.int64)
     ids[roots] = start + np.arange(len(roots))
-    ids[-1] = -1  # root -1 (noise) reads the last entry
-    np.take(ids, root, out=labels)
+    ids[-1] = -1  # the sentinel: root -1 (noise) reads the last entry
+    np.take(ids, root, out=labels, mode="wrap")  # -1 wraps to the sentinel; no bounds checks
     return roots.astype(np.int64)
 
 
