@@ -90,6 +90,9 @@ class Extractor:
             ij = np.floor(coords + 0.5).astype(np.int64)
             px, py = ij[:, 0], ij[:, 1]
         c = _Clusters(t0, f0, offsets, coords, px, py)
+        # whole-pixel coordinates (the pipeline passes its uncompensated ones as floats) are
+        # summed exactly: the batched split steps apply
+        c.integral = xy is None or bool(np.array_equal(coords, ij))
         if len(events) == 0:
             c.labels, c.first, c.frame = (np.zeros(0, np.int64) for _ in range(3))
         elif self.clustering == "grid":
@@ -229,7 +232,7 @@ class Extractor:
         clustering, integer coordinates); else None. The first test fails where a half has
         fewer than min_cluster_size events or the halves' polarities differ by more than
         0.5 (a moving star's lobes: the common case)."""
-        if self.clustering != "grid" or c.coords is not None or not len(starts):
+        if self.clustering != "grid" or not c.integral or not len(starts):
             return None
         im = splitting.images(pts, starts, stops)
         has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
@@ -358,6 +361,7 @@ class _Clusters:
     def __init__(self, t0, f0, offsets, coords, px, py):
         self.t0, self.f0, self.offsets, self.coords, self.px, self.py = t0, f0, offsets, coords, px, py
         self.labels = self.first = self.frame = None
+        self.integral = coords is None
 
     def frames(self):
         """Frame id per event."""

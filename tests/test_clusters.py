@@ -289,3 +289,15 @@ def test_batched_split_steps_equal_the_per_cluster_ones():
             np.testing.assert_array_equal(b[j], seeds[1])
             np.testing.assert_array_equal(lab[s:e], _two_means(pts[s:e], *seeds))
     assert 5 <= n_two < len(starts)
+
+
+def test_whole_pixel_float_coordinates_give_the_pixel_results():
+    # the pipeline passes uncompensated coordinates as floats: the same centroids
+    ev = blob_events(3)
+    xy = np.column_stack([ev.x, ev.y]).astype(float)
+    a, b = Extractor().centroids(ev), Extractor().centroids(ev, xy=xy)
+    c = Extractor(clustering="sklearn").centroids(ev, xy=xy)
+    assert a["split"].any()
+    for name in ("t", "x", "y", "n_events", "split", "spread"):
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+        np.testing.assert_array_equal(b[name], c[name], err_msg=name)
