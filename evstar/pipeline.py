@@ -128,7 +128,8 @@ class Pipeline:
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
         kept = idx[keep_f]
-        xy = np.column_stack([comp.x[kept], comp.y[kept]])
+        # uncompensated coordinates are the kept events' own pixels
+        xy = None if mode == "none" else np.column_stack([comp.x[kept], comp.y[kept]])
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = np.zeros(len(events), bool)
