@@ -81,7 +81,9 @@ class Extractor:
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         coords = _coords(events, xy, keep_none=True)
-        t0 = self.t_origin_us if self.t_origin_us is not None else int(events.t[0]) if len(events) else 0
+        t0 = self.t_origin_us
+        if t0 is None:
+            t0 = int(events.t[0]) if len(events) else 0
         f0, offsets = _frame_offsets(events.t, self.dt_us, t0)
         if xy is None:  # integer pixels already
             px, py = events.x, events.y
@@ -359,7 +361,8 @@ class _Clusters:
     float coordinates (None: the events' pixels), px, py: the pixels clustered."""
 
     def __init__(self, t0, f0, offsets, coords, px, py):
-        self.t0, self.f0, self.offsets, self.coords, self.px, self.py = t0, f0, offsets, coords, px, py
+        self.t0, self.f0, self.offsets = t0, f0, offsets
+        self.coords, self.px, self.py = coords, px, py
         self.labels = self.first = self.frame = None
         self.integral = coords is None
 

@@ -57,13 +57,14 @@ def cells(frame, x, y):
 
 def _neighbour_pairs(cf, cx, cy, eps):
     """(i, j) index pairs of cells within eps of each other in one frame (i == j included)."""
-    key = np.stack([cf, cy, cx], 1)
-    dys, dxs = disk_offsets(eps)
+    def key(dy, dx):  # monotone in (frame, y, x) for |x|, |y| < 2**20
+        return (cf << 42) + ((cy + dy + (1 << 20)) << 21) + (cx + dx + (1 << 20))
+
     # cells are in (frame, y, x) order: a neighbour is found by binary search on its key
-    flat = (cf * (1 << 42)) + ((cy + (1 << 20)) << 21) + (cx + (1 << 20))
+    flat = key(0, 0)
     ii, jj = [], []
-    for dy, dx in zip(dys, dxs):
-        want = (key[:, 0] * (1 << 42)) + ((key[:, 1] + dy + (1 << 20)) << 21) + (key[:, 2] + dx + (1 << 20))
+    for dy, dx in zip(*disk_offsets(eps)):
+        want = key(dy, dx)
         j = np.searchsorted(flat, want)
         hit = j < len(flat)
         hit[hit] = flat[j[hit]] == want[hit]

@@ -122,7 +122,8 @@ def cluster_kernels():
 
     @ti.func
     def border_root(x: ti.template(), y: ti.template(), owner: ti.template(), core: ti.template(),
-                    parent: ti.template(), full: ti.template(), at: ti.i32, stride: ti.i32) -> ti.i32:
+                    parent: ti.template(), full: ti.template(), at: ti.i32,
+                    stride: ti.i32) -> ti.i32:
         """The first root (in (y, x) order) among the cores of a non-core cell's disk."""
         r = -1
         best = NONE
@@ -266,7 +267,8 @@ def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: any_
                         xe = ti.cast(x[e], ti.i32)
                         ye = ti.cast(y[e], ti.i32)
                         at = base[c] + (ye - box[c, 1]) * box[c, 2] + xe - box[c, 0]
-                        img[ti.cast(p[e] != 0, ti.i32), at] = img[ti.cast(p[e] != 0, ti.i32), at] + 1.0
+                        q = ti.cast(p[e] != 0, ti.i32)
+                        img[q, at] = img[q, at] + 1.0
 
 
 @ti.func

@@ -42,7 +42,8 @@ def dbscan(ti, offsets, x, y, eps, min_samples, *, scratch, schedule="auto", on_
         if planes * plane > _I32:
             raise ValueError(f"clustering grid of {planes} x {plane} cells exceeds int32 indices")
         key = (geo, planes, arrays.on_device)
-        count = scratch.array("cl-count", key, lambda: arrays.put(np.zeros(planes * plane, np.int32)))
+        count = scratch.array("cl-count", key,
+                              lambda: arrays.put(np.zeros(planes * plane, np.int32)))
         owner = scratch.array("cl-owner", key,
                               lambda: arrays.put(np.full(planes * plane, clusters.NONE, np.int32)))
         kernels = clusters.cluster_kernels()
@@ -79,7 +80,8 @@ def _roots(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samples, c
         core_cells(x_d, y_d, off, b0, b1, plane, stride, pad, full, min_samples, count, owner, core,
                    parent, first_d)
         # one frame per work unit, spread so that every CPU thread gets some
-        lo, hi = (arrays.put(a) for a in launch.units(np.arange(b0, b1 + 1, dtype=np.int32), threads))
+        frames = np.arange(b0, b1 + 1, dtype=np.int32)
+        lo, hi = (arrays.put(a) for a in launch.units(frames, threads))
         link_frames(lo, hi, x_d, y_d, off, b0, plane, stride, pad, full, half, count, owner, core,
                     parent, first_d, root)
         launch.launched(on_launch)
@@ -99,13 +101,18 @@ def _roots_lanes(ti, arrays, kernels, xi, yi, local, geo, disk, planes, min_samp
     m = len(xi)
     core, parent = np.empty(m, np.uint8), np.empty(m, np.int32)
     first32, root = np.empty(m, np.int32), np.empty(m, np.int32)
-    lo, hi = launch.units(launch.balanced_cuts(local, 8 * planes).astype(np.int32), planes)
+    lo, hi = _runs(local, planes)
     busy = np.zeros(planes, np.int32)
     kernels[3](lo, hi, xi, yi, local, plane, stride, pad, full, half, min_samples, count, owner,
                core, parent, first32, root, busy, planes)
     launch.launched(on_launch)
     first[:] = first32
     return root
+
+
+def _runs(local, threads):
+    """(lo, hi) of the lane loop: runs of frames balanced by events, 8 per thread."""
+    return launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads)
 
 
 def _canonical(root, xi, yi, local, stride, start, labels):
@@ -141,8 +148,7 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
         for f0, f1 in launch.frame_launches(offsets):
             e0, e1 = int(offsets[f0]), int(offsets[f1])
             local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
-            lo, hi = (arrays.put(a) for a in
-                      launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
+            lo, hi = (arrays.put(a) for a in _runs(local, threads))
             clusters.moments(lo, hi, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
                              arrays.put(xf[e0:e1]), arrays.put(yf[e0:e1]), arrays.put(t[e0:e1]),
                              arrays.put(frame_t0[f0:f1]), arrays.put(p[e0:e1]),
@@ -189,11 +195,10 @@ def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e
         for f0, f1 in launch.frame_launches(offsets):
             e0, e1 = int(offsets[f0]), int(offsets[f1])
             local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
-            lo_d, hi_d = (arrays.put(a) for a in
-                          launch.units(launch.balanced_cuts(local, 8 * threads).astype(np.int32), threads))
-            clusters.peak_images(lo_d, hi_d, arrays.put(local), arrays.put(labels[e0:e1].astype(np.int32)),
-                                 arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(p[e0:e1]),
-                                 base_d, geom_d, img)
+            lo_d, hi_d = (arrays.put(a) for a in _runs(local, threads))
+            clusters.peak_images(lo_d, hi_d, arrays.put(local),
+                                 arrays.put(labels[e0:e1].astype(np.int32)), arrays.put(x[e0:e1]),
+                                 arrays.put(y[e0:e1]), arrays.put(p[e0:e1]), base_d, geom_d, img)
         maybe = arrays.put(np.zeros((k, 2), np.uint8))
         clusters.peak_screen(base_d, geom_d, arrays.put(polarities.astype(np.uint8)), img, tmp,
                              rtol, maybe)
