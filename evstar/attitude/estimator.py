@@ -1,0 +1,294 @@
+"""Attitude from tracked centroids: identification, then the MEKF of :mod:`.filter`.
+
+    rows = evstar.attitude.estimate(result.centroids, camera, imu=None, rate_hz=100)
+
+Frame by frame (``frame_us``, 10 ms): while the filter has no attitude, or fewer than
+``min_stars`` identified tracks are seen, or confirmed tracks are not identified yet
+(at most every ``reidentify_ms``), the frame's centroids — moved to its mid-time with their
+tracks' velocities, so a fast pan does not smear the pattern — are identified. A fix
+names the stars of its tracks: every later centroid of such a track measures that star.
+The first fix (and one after the attitude was lost) starts the filter; then each
+centroid time is a prediction (gyro or constant rate) and an update, and each output time
+(``rate_hz``) a prediction and a row. The attitude is lost when its 1-σ exceeds
+``lost_sigma_deg``; rows stop until the next fix.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import parameters as P
+from ..camera import Camera
+from ..errors import BackendError, DataError, ParameterError, ParameterTypeError
+from ..imu import Imu
+from .filter import Mekf, hat
+from .output import ATTITUDE_DTYPE, rotation, row
+
+A = P.ATTITUDE_FILTER
+ARCSEC = math.pi / 180 / 3600
+
+
+def estimate(centroids, camera, imu=None, rate_hz=A["rate_hz"].default, **options):
+    """ATTITUDE_DTYPE rows (evstar.attitude.output) from CENTROID_DTYPE `centroids` (fields
+    t, x, y, track, sigma and, optionally, source); see :class:`AttitudeEstimator`."""
+    return AttitudeEstimator(camera, imu, rate_hz=rate_hz, **options).run(centroids)
+
+
+class AttitudeEstimator:
+    """Options are the [attitude_filter] parameters (evstar.parameters) plus
+    identifier: a callable (xy (n, 2) px, t_us) -> Fix (evstar.attitude.identify's fields);
+    default: evstar.attitude.identify with its cached Solver for the camera and `epoch`.
+    After run(): .fixes, a list of (t_us, status, stars matched)."""
+
+    def __init__(self, camera, imu=None, *, identifier=None, epoch=None,
+                 frame_us=P.GLOBAL["dt_us"].default, **options):
+        if camera is None:
+            raise ParameterError("the attitude needs the camera's intrinsics (--camera camera.json)")
+        if not isinstance(camera, Camera):
+            raise ParameterTypeError(f"camera must be an evstar.Camera, got {type(camera).__name__}")
+        if imu is not None and not isinstance(imu, Imu):
+            raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
+        if imu is not None and len(imu) < 2:
+            raise DataError(f"the IMU has {len(imu)} sample(s); the attitude filter needs >= 2")
+        unknown = set(options) - set(A)
+        if unknown:
+            raise ParameterError(f"unknown attitude option(s) {sorted(unknown)}; known: {sorted(A)}")
+        self.o = {k: A.check(k, options.get(k, p.default)) for k, p in A.items()}
+        self.camera, self.imu = camera, imu
+        self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
+        self.identifier = identifier or _default_identifier(camera, epoch)
+        self.fixes = []
+
+    # -- the run ----------------------------------------------------------------------------
+    def run(self, centroids):
+        c = _measured(centroids)
+        self.fixes, self._out = [], []
+        if not len(c):
+            return np.zeros(0, ATTITUDE_DTYPE)
+        self._c, self._xy_dt = c, _track_velocity(c)
+        self._z, self._sig = self._normalised(c)
+        self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
+        self.filt, self._t_f, self._last_id = None, None, -math.inf
+        self._last_used, self._n_used, self._bad = -math.inf, 0, 0
+        step = 1e6 / self.o["rate_hz"]
+        t0, t_end = int(c["t"][0]), int(c["t"][-1])
+        self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
+        self._next_out = 0
+        for idx in _frames(c, self.frame_us):
+            t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
+            self._emit_until(t_ref)
+            if not self._maybe_identify(idx, t_ref) and self.filt is not None:
+                self._predict_to(t_ref)
+                self._update(idx, t_ref)
+        self._emit_until(t_end + 1)
+        out = self._out
+        return np.array(out, ATTITUDE_DTYPE) if out else np.zeros(0, ATTITUDE_DTYPE)
+
+    def _maybe_identify(self, idx, t_ref):
+        """Identify the frame when needed; True when the fix (re)started the filter."""
+        c = self._c[idx]
+        tracks = c["track"]
+        known = np.array([k in self._stars for k in tracks.tolist()], bool)
+        lost = self.filt is None
+        few = known.sum() < self.o["min_stars"]
+        new = ((tracks >= 0) & ~known).any()
+        due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
+        if not (lost or (few or new) and due):
+            return False
+        self._last_id = t_ref
+        shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
+        xy = np.stack([c["x"], c["y"]], 1) + shift
+        fix = self.identifier(xy, t_ref)
+        self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
+        if not fix.ok:
+            return False
+        for i, d in zip(np.asarray(fix.centroid_index, int), np.asarray(fix.dir_icrs, float)):
+            if tracks[i] >= 0:
+                self._stars[int(tracks[i])] = d / np.linalg.norm(d)
+                self._misses[int(tracks[i])] = 0
+        if lost:
+            self._start(fix, t_ref, idx, xy)
+        return lost
+
+    def _start(self, fix, t_ref, idx, xy):
+        o = self.o
+        R = rotation(fix.q_icrs_cam)[0]
+        P0 = np.zeros((6, 6))
+        P0[:3, :3] = np.eye(3) * (o["init_sigma_arcsec"] * ARCSEC) ** 2
+        if self.imu is not None:
+            s, prior = np.zeros(3), o["bias_prior"]
+        else:
+            s = _rate_from_motion(self.camera, xy, self._xy_dt[idx], np.asarray(fix.centroid_index, int))
+            prior = o["rate_prior"] if s is None else o["rate_prior_tracks"]
+            s = np.zeros(3) if s is None else s
+        P0[3:, 3:] = np.eye(3) * prior ** 2
+        self.filt = Mekf(R, s, P0, "imu" if self.imu is not None else "rate",
+                         gyro_noise=o["gyro_noise"], bias_walk=o["bias_walk"],
+                         rate_walk=o["rate_walk"])
+        self._t_f, self._t_start, self._bad = t_ref, t_ref, 0
+        self._n_used, self._last_used = len(fix.hip), t_ref
+
+    def _update(self, idx, t_ref):
+        """One joint update with the frame's centroids of identified tracks."""
+        tracks = self._c["track"][idx]
+        keep = np.array([k in self._stars for k in tracks.tolist()], bool)
+        if not keep.any():
+            return
+        idx, tracks = idx[keep], tracks[keep]
+        dirs = np.stack([self._stars[int(k)] for k in tracks])
+        dt = (self._c["t"][idx] - t_ref) * 1e-6
+        rates = None if self.imu is None else _gyro_means(self.imu, self._c["t"][idx], t_ref) - self.filt.s
+        used = self.filt.update(self._z[idx], dirs, self._sig[idx], dt, rates, gate=self.o["gate"])
+        for k, u in zip(tracks.tolist(), used.tolist()):
+            # an identity the measurements keep contradicting is forgotten
+            self._misses[k] = 0 if u else self._misses.get(k, 0) + 1
+            if self._misses[k] >= self.o["max_misses"]:
+                self._stars.pop(k, None)
+        if used.any():
+            self._n_used, self._last_used, self._bad = int(used.sum()), t_ref, 0
+        else:
+            self._bad += 1
+        if self._bad >= self.o["max_misses"]:
+            self.filt = None     # every star rejected frame after frame: the attitude is lost
+
+    def _emit_until(self, t_stop):
+        """Rows at the output times before t_stop (predictions from the last update)."""
+        out_t = self._out_t
+        while self._next_out < len(out_t) and out_t[self._next_out] < t_stop:
+            t = int(out_t[self._next_out])
+            self._next_out += 1
+            if self.filt is None or t < self._t_f:
+                continue
+            self._predict_to(t)
+            if self.filt.attitude_sigma > math.radians(self.o["lost_sigma_deg"]):
+                self.filt = None  # lost: rows stop until the next fix
+                continue
+            gyro = _gyro_at(self.imu, t) if self.imu is not None else None
+            recent = t - self._last_used < self.frame_us
+            status = "fix" if t - self._t_start < self.frame_us else "tracking" if recent else "coasting"
+            self._out.append(row(t, self.filt.R, self.filt.rate(gyro), self._n_used if recent else 0,
+                                 status))
+
+    def _predict_to(self, t):
+        if self.imu is None:
+            self.filt.predict((t - self._t_f) * 1e-6)
+        else:
+            for dt, g in _gyro_steps(self.imu, self._t_f, t):
+                self.filt.predict(dt, g)
+        self._t_f = t
+
+    def _normalised(self, c):
+        """Pinhole-normalised coordinates (n, 2) and their per-axis sigma (n, 2)."""
+        cam = self.camera
+        r = cam.unproject(np.stack([c["x"], c["y"]], 1))
+        z = r[:, :2] / r[:, 2:]
+        s = c["sigma"] if "sigma" in c.dtype.names else np.full(len(c), np.nan)
+        s = np.where(np.isfinite(s), s, self.o["sigma_px"])
+        s = np.maximum(s, self.o["sigma_floor_px"]) * self.o["sigma_scale"]
+        return z, np.stack([s / cam.fx, s / cam.fy], 1)
+
+
+# -- helpers ------------------------------------------------------------------------------------
+def _measured(centroids):
+    """Measured rows (a smoother's coasted rows are predictions, not data), time-sorted."""
+    names = getattr(getattr(centroids, "dtype", None), "names", None) or ()
+    missing = [f for f in ("t", "x", "y", "track") if f not in names]
+    if missing:
+        raise ParameterTypeError(f"centroids must be a structured array with fields t, x, y, track "
+                                 f"(CENTROID_DTYPE); missing {missing}")
+    c = centroids[centroids["source"] != "coasted"] if "source" in names else centroids
+    c = c[np.isfinite(c["x"]) & np.isfinite(c["y"])]
+    return c[np.argsort(c["t"], kind="stable")]
+
+
+def _track_velocity(c):
+    """Image velocity (px/s) of each centroid from its track's neighbours (NaN when the
+    centroid has none, e.g. unconfirmed: track −1)."""
+    v = np.full((len(c), 2), np.nan)
+    order = np.lexsort((c["t"], c["track"]))
+    tr, t = c["track"][order], c["t"][order].astype(float)
+    xy = np.stack([c["x"], c["y"]], 1)[order]
+    same_prev = np.r_[False, tr[1:] == tr[:-1]] & (tr >= 0)
+    same_next = np.r_[tr[:-1] == tr[1:], False] & (tr >= 0)
+    i = np.arange(len(c))
+    a = np.where(same_prev, i - 1, i)
+    b = np.where(same_next, i + 1, i)
+    dt = (t[b] - t[a]) * 1e-6
+    ok = dt > 0
+    v[order[ok]] = (xy[b[ok]] - xy[a[ok]]) / dt[ok, None]
+    return v
+
+
+def _rate_from_motion(camera, xy, xy_dt, matched):
+    """Body rate (rad/s) by least squares from the image velocities of the identified
+    centroids: a fixed star's normalised coordinates move as ż = ∂π/∂v · [v]× ω. None
+    with fewer than two identified centroids whose track gives a velocity."""
+    good = matched[np.all(np.isfinite(xy_dt[matched]), axis=1)]
+    if len(good) < 2:
+        return None
+    rows, rhs = [], []
+    for i in good:
+        x, y = (xy[i, 0] - camera.cx) / camera.fx, (xy[i, 1] - camera.cy) / camera.fy
+        v = np.array([x, y, 1.0])
+        D = np.array([[1.0, 0.0, -x], [0.0, 1.0, -y]])
+        rows.append(D @ hat(v))
+        rhs.append(xy_dt[i] / [camera.fx, camera.fy])
+    return np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+
+
+def _frames(c, frame_us):
+    """Index arrays of the centroids of each frame (the pipeline's `frame` field, else
+    frame_us bins from the first centroid), in time order."""
+    if "frame" in c.dtype.names and np.all(c["frame"] >= 0):
+        key = c["frame"]
+    else:
+        key = (c["t"] - c["t"][0]) // frame_us
+    order = np.lexsort((c["t"], key))
+    cuts = np.flatnonzero(np.diff(key[order])) + 1
+    groups = np.split(order, cuts)
+    return sorted(groups, key=lambda g: c["t"][g[-1]])
+
+
+def _gyro_means(imu, t_us, t_ref):
+    """Mean gyro reading (camera frame) over [t, t_ref] for each t (the reading at t_ref
+    where they coincide)."""
+    out = np.empty((len(t_us), 3))
+    for i, t in enumerate(np.asarray(t_us).tolist()):
+        steps = _gyro_steps(imu, min(t, t_ref), max(t, t_ref))
+        if steps:
+            dts = np.array([d for d, _ in steps])
+            out[i] = dts @ np.stack([g for _, g in steps]) / dts.sum()
+        else:
+            out[i] = _gyro_at(imu, t_ref)
+    return out
+
+
+def _gyro_at(imu, t):
+    tc = imu.t_cam
+    g = imu.gyro_cam
+    return np.array([np.interp(t, tc, g[:, k]) for k in range(3)])
+
+
+def _gyro_steps(imu, ta, tb):
+    """(dt s, mean gyro reading) of each piece of [ta, tb] between IMU samples (the rate is
+    linear between samples, so the mean of the ends is the piece's mean)."""
+    tc = imu.t_cam
+    i0, i1 = np.searchsorted(tc, [ta, tb], side="right")
+    pts = np.r_[ta, tc[i0:i1], tb].astype(float)
+    pts = pts[np.r_[True, np.diff(pts) > 0]]
+    if len(pts) < 2:
+        return []
+    g = imu.gyro_cam
+    gp = np.stack([np.interp(pts, tc, g[:, k]) for k in range(3)], 1)
+    mean = 0.5 * (gp[1:] + gp[:-1])
+    return list(zip((np.diff(pts) * 1e-6).tolist(), mean))
+
+
+def _default_identifier(camera, epoch):
+    try:
+        from .identify import Solver, identify
+    except ImportError:
+        raise BackendError("star identification (evstar.attitude.identify) is not available") from None
+    solver = Solver.for_camera(camera)
+    return lambda xy, t_us: identify(xy, camera, t_us, epoch=epoch, solver=solver)

@@ -1,0 +1,185 @@
+"""Multiplicative EKF on SO(3): the inertial attitude from identified star directions.
+
+The numpy code here is the specification of the filter steps (tests hold the estimator to
+it). State: the attitude R (camera -> ICRS; a camera-frame vector v becomes R v) and a
+3-vector s, which is
+
+* the gyro bias b (camera frame, rad/s; the gyro reads ω + b + noise) when an IMU drives
+  the prediction (``mode="imu"``), or
+* the body rate ω (camera frame, rad/s) under a constant-rate model with white angular
+  acceleration (``mode="rate"``), when there is no IMU.
+
+The 6x6 covariance P is that of the error [δθ, δs], with δθ in the body frame:
+R_true = R · Exp(δθ). With dR_cw/dt = −[ω]× R_cw (docs/design.md), R = R_cwᵀ obeys
+dR/dt = R [ω]×, so a step of rate ω over dt is R ← R · Exp(ω dt).
+
+A measurement is a star's centroid as pinhole-normalised coordinates z = (x/z, y/z) of its
+camera ray, predicted from the catalogue direction d as π(Rᵀ d); its Jacobian in δθ is
+∂π/∂v · [v]× (since Rᵀ_true d = Exp(−δθ) v ≈ v + [v]× δθ).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import ParameterError
+
+MODES = ("imu", "rate")
+
+
+def hat(v):
+    """[v]×, the cross-product matrix."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def exp_so3(phi):
+    """Rodrigues: the rotation matrix of rotation vector `phi` (3,)."""
+    a = math.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
+    K = hat(phi)
+    if a < 1e-8:
+        return np.eye(3) + K + 0.5 * K @ K
+    return np.eye(3) + (math.sin(a) / a) * K + ((1 - math.cos(a)) / (a * a)) * K @ K
+
+
+def wahba(rays_cam, dirs_icrs, weights=None):
+    """The rotation R (camera -> ICRS) minimising Σ w |d − R r|² (SVD solution), or None
+    with fewer than two non-parallel pairs."""
+    r, d = np.asarray(rays_cam, float), np.asarray(dirs_icrs, float)
+    w = np.ones(len(r)) if weights is None else np.asarray(weights, float)
+    if len(r) < 2:
+        return None
+    B = (w[:, None] * d).T @ r
+    U, S, Vt = np.linalg.svd(B)
+    if S[1] < 1e-12 * max(S[0], 1e-300):
+        return None
+    M = np.diag([1.0, 1.0, np.linalg.det(U) * np.linalg.det(Vt)])
+    return U @ M @ Vt
+
+
+class Mekf:
+    """One filter: R (3, 3) camera -> ICRS, s (3,) bias or rate, P (6, 6).
+
+    mode: "imu" | "rate". gyro_noise (rad/s/√Hz) and bias_walk (rad/s²/√Hz) model the gyro
+    in imu mode; rate_walk (rad/s²/√Hz: white angular acceleration) the motion in rate mode.
+    """
+
+    def __init__(self, R, s, P, mode, *, gyro_noise=0.0, bias_walk=0.0, rate_walk=0.0):
+        if mode not in MODES:
+            raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
+        self.R = np.array(R, float)
+        self.s = np.array(s, float)
+        self.P = np.array(P, float)
+        self.mode = mode
+        self.gyro_noise, self.bias_walk, self.rate_walk = gyro_noise, bias_walk, rate_walk
+
+    def copy(self):
+        return Mekf(self.R, self.s, self.P, self.mode, gyro_noise=self.gyro_noise,
+                    bias_walk=self.bias_walk, rate_walk=self.rate_walk)
+
+    def rate(self, gyro=None):
+        """Body rate estimate (camera frame, rad/s): the state's in rate mode, the gyro
+        reading less the bias in imu mode."""
+        return self.s.copy() if self.mode == "rate" else np.asarray(gyro, float) - self.s
+
+    # -- prediction -----------------------------------------------------------------------
+    def predict(self, dt, gyro=None):
+        """Advance by dt seconds; in imu mode `gyro` is the mean gyro reading over the step
+        (camera frame)."""
+        if dt <= 0:
+            return
+        w = self.rate(gyro)
+        step = exp_so3(w * dt)
+        self.R = self.R @ step
+        F = np.eye(6)
+        F[:3, :3] = step.T                      # δθ' = Exp(−ω dt) δθ + ...
+        Q = np.zeros((6, 6))
+        if self.mode == "rate":
+            F[:3, 3:] = np.eye(3) * dt          # ... + δω dt
+            q = self.rate_walk ** 2
+            Q[:3, :3], Q[:3, 3:] = np.eye(3) * q * dt ** 3 / 3, np.eye(3) * q * dt ** 2 / 2
+            Q[3:, :3], Q[3:, 3:] = Q[:3, 3:], np.eye(3) * q * dt
+        else:
+            F[:3, 3:] = -np.eye(3) * dt         # ... − δb dt (the bias is subtracted)
+            Q[:3, :3] = np.eye(3) * self.gyro_noise ** 2 * dt
+            Q[3:, 3:] = np.eye(3) * self.bias_walk ** 2 * dt
+        P = F @ self.P @ F.T + Q
+        self.P = 0.5 * (P + P.T)
+
+    # -- update ---------------------------------------------------------------------------
+    def residuals(self, z, dirs, dt=None, rates=None):
+        """Innovation r (m, 2) and Jacobian H (m, 2, 6) of normalised coordinates `z` (m, 2)
+        observed for catalogue directions `dirs` (m, 3, ICRS) at dt (m,) seconds from the
+        filter's time (default 0), the body turning at `rates` (m, 3; default the state's)
+        in between: the star's ray then is v = Exp(−ω dt) Rᵀ d, whose Jacobian is
+        [v]× Exp(−ω dt) in δθ and dt·[v]× in δω (−dt·[v]× in the bias, ω = gyro − b)."""
+        m = len(z)
+        u = np.asarray(dirs, float) @ self.R            # rows: Rᵀ d, camera frame
+        dt = np.zeros(m) if dt is None else np.asarray(dt, float)
+        if rates is None:
+            rates = np.broadcast_to(self.s if self.mode == "rate" else np.zeros(3), (m, 3))
+        E = np.stack([exp_so3(w * t) for w, t in zip(rates, dt)])   # R(t_i) = R · E_i
+        v = np.einsum("mji,mj->mi", E, u)               # E_iᵀ u_i
+        inv = 1.0 / v[:, 2]
+        pred = v[:, :2] * inv[:, None]
+        D = np.zeros((m, 2, 3))                         # ∂π/∂v
+        D[:, 0, 0] = D[:, 1, 1] = inv
+        D[:, :, 2] = -pred * inv[:, None]
+        Vx = np.zeros((m, 3, 3))                        # [v]× per star
+        Vx[:, 0, 1], Vx[:, 0, 2], Vx[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+        Vx -= Vx.transpose(0, 2, 1)
+        DV = D @ Vx
+        H = np.zeros((m, 2, 6))
+        H[:, :, :3] = DV @ E.transpose(0, 2, 1)
+        H[:, :, 3:] = DV * (dt if self.mode == "rate" else -dt)[:, None, None]
+        return np.asarray(z, float) - pred, H
+
+    def update(self, z, dirs, sigma, dt=None, rates=None, gate=None):
+        """Joint update with stars seen around the current time: normalised coordinates z
+        (m, 2) of catalogue directions dirs (m, 3), per-axis noise sigma (m, 2), times and
+        rates as in :meth:`residuals`. With `gate` (sigmas), a star is left out whose
+        innovation is unlikely before the update (χ², 2 dof, > gate²) or whose residual
+        after a trial update with the others still exceeds gate measurement sigmas (an
+        outlier a loose prior would let through). Returns the mask of the stars used."""
+        dt = np.zeros(len(z)) if dt is None else np.asarray(dt, float)
+        r, H = self.residuals(z, dirs, dt, rates)
+        var = np.asarray(sigma, float) ** 2 + self._motion_var(dt)[:, None]
+        used = np.all(np.isfinite(r), axis=1)
+        if gate is not None:
+            S = H @ self.P @ H.transpose(0, 2, 1)
+            S[:, 0, 0] += var[:, 0]
+            S[:, 1, 1] += var[:, 1]
+            used &= np.einsum("mi,mij,mj->m", r, np.linalg.inv(S), r) <= gate * gate
+            if used.sum() > 2:
+                trial = self.copy()
+                trial._apply(r[used].reshape(-1), H[used].reshape(-1, 6), var[used].reshape(-1))
+                r_post, _ = trial.residuals(z, dirs, dt, rates)
+                used &= np.sum(r_post ** 2 / var, axis=1) <= gate * gate
+        if used.any():
+            self._apply(r[used].reshape(-1), H[used].reshape(-1, 6), var[used].reshape(-1))
+        return used
+
+    def _motion_var(self, dt):
+        """Variance (per axis, normalised units ≈ rad near the centre) the process noise
+        adds to a star seen dt from the filter's time: its motion over dt is modelled, not
+        known (white acceleration q·|dt|³/3 at a constant rate, gyro noise σ²·|dt|)."""
+        a = np.abs(dt)
+        if self.mode == "rate":
+            return self.rate_walk ** 2 * a ** 3 / 3
+        return self.gyro_noise ** 2 * a
+
+    def _apply(self, r, H, var):
+        """Joint Kalman update of stacked rows (Joseph form), then the reset of δθ into R."""
+        S = H @ self.P @ H.T + np.diag(var)
+        K = np.linalg.solve(S, H @ self.P).T
+        dx = K @ r
+        I_KH = np.eye(6) - K @ H
+        P = I_KH @ self.P @ I_KH.T + (K * var) @ K.T
+        self.P = 0.5 * (P + P.T)
+        self.R = self.R @ exp_so3(dx[:3])
+        self.s = self.s + dx[3:]
+
+    @property
+    def attitude_sigma(self):
+        """Largest 1-σ attitude error (rad) the covariance admits."""
+        return math.sqrt(max(np.linalg.eigvalsh(self.P[:3, :3])[-1], 0.0))
