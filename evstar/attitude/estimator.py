@@ -114,18 +114,17 @@ class AttitudeEstimator:
     def _start(self, fix, t_ref, idx, xy):
         o = self.o
         R = rotation(fix.q_icrs_cam)[0]
-        P0 = np.zeros((6, 6))
-        P0[:3, :3] = np.eye(3) * (o["init_sigma_arcsec"] * ARCSEC) ** 2
         if self.imu is not None:
-            s, prior = np.zeros(3), o["bias_prior"]
+            s, priors = np.zeros(3), [o["bias_prior"]] * 3
         else:
-            s = _rate_from_motion(self.camera, xy, self._xy_dt[idx], np.asarray(fix.centroid_index, int))
-            prior = o["rate_prior"] if s is None else o["rate_prior_tracks"]
-            s = np.zeros(3) if s is None else s
-        P0[3:, 3:] = np.eye(3) * prior ** 2
+            w = _rate_from_motion(self.camera, xy, self._xy_dt[idx], np.asarray(fix.centroid_index, int))
+            prior = o["rate_prior"] if w is None else o["rate_prior_tracks"]
+            s = np.r_[np.zeros(3) if w is None else w, np.zeros(3)]
+            priors = [prior] * 3 + [o["accel_prior"]] * 3
+        P0 = np.diag([(o["init_sigma_arcsec"] * ARCSEC) ** 2] * 3 + [p * p for p in priors])
         self.filt = Mekf(R, s, P0, "imu" if self.imu is not None else "rate",
                          gyro_noise=o["gyro_noise"], bias_walk=o["bias_walk"],
-                         rate_walk=o["rate_walk"])
+                         jerk_noise=o["jerk_noise"])
         self._t_f, self._t_start, self._bad = t_ref, t_ref, 0
         self._n_used, self._last_used = len(fix.hip), t_ref
 

@@ -6,10 +6,10 @@ it). State: the attitude R (camera -> ICRS; a camera-frame vector v becomes R v)
 
 * the gyro bias b (camera frame, rad/s; the gyro reads ω + b + noise) when an IMU drives
   the prediction (``mode="imu"``), or
-* the body rate ω (camera frame, rad/s) under a constant-rate model with white angular
-  acceleration (``mode="rate"``), when there is no IMU.
+* the body rate ω and angular acceleration α (camera frame) under a constant-acceleration
+  model with white angular jerk (``mode="rate"``), when there is no IMU.
 
-The 6x6 covariance P is that of the error [δθ, δs], with δθ in the body frame:
+The covariance P is that of the error [δθ, δs], with δθ in the body frame:
 R_true = R · Exp(δθ). With dR_cw/dt = −[ω]× R_cw (docs/design.md), R = R_cwᵀ obeys
 dR/dt = R [ω]×, so a step of rate ω over dt is R ← R · Exp(ω dt).
 
@@ -58,29 +58,35 @@ def wahba(rays_cam, dirs_icrs, weights=None):
 
 
 class Mekf:
-    """One filter: R (3, 3) camera -> ICRS, s (3,) bias or rate, P (6, 6).
+    """One filter: R (3, 3) camera -> ICRS, state s and covariance P of [δθ, δs].
 
-    mode: "imu" | "rate". gyro_noise (rad/s/√Hz) and bias_walk (rad/s²/√Hz) model the gyro
-    in imu mode; rate_walk (rad/s²/√Hz: white angular acceleration) the motion in rate mode.
+    mode "imu": s = gyro bias b (3,), P (6, 6); gyro_noise (rad/s/√Hz) and bias_walk
+    (rad/s²/√Hz) model the gyro. mode "rate": s = [ω, α] (6,), body rate and angular
+    acceleration, P (9, 9); jerk_noise (rad/s³/√Hz, white angular jerk) models the motion —
+    a constant rate would lag an acceleration by α·dt²/2 over each prediction (0.3 px in
+    10 ms on the 10°/1 Hz sinusoid at f = 870 px).
     """
 
-    def __init__(self, R, s, P, mode, *, gyro_noise=0.0, bias_walk=0.0, rate_walk=0.0):
+    def __init__(self, R, s, P, mode, *, gyro_noise=0.0, bias_walk=0.0, jerk_noise=0.0):
         if mode not in MODES:
             raise ParameterError(f"mode must be one of {MODES}, got {mode!r}")
         self.R = np.array(R, float)
         self.s = np.array(s, float)
         self.P = np.array(P, float)
+        n = 6 if mode == "rate" else 3
+        if self.s.shape != (n,) or self.P.shape != (n + 3, n + 3):
+            raise ParameterError(f"mode {mode!r} needs s ({n},) and P ({n + 3}, {n + 3})")
         self.mode = mode
-        self.gyro_noise, self.bias_walk, self.rate_walk = gyro_noise, bias_walk, rate_walk
+        self.gyro_noise, self.bias_walk, self.jerk_noise = gyro_noise, bias_walk, jerk_noise
 
     def copy(self):
         return Mekf(self.R, self.s, self.P, self.mode, gyro_noise=self.gyro_noise,
-                    bias_walk=self.bias_walk, rate_walk=self.rate_walk)
+                    bias_walk=self.bias_walk, jerk_noise=self.jerk_noise)
 
     def rate(self, gyro=None):
         """Body rate estimate (camera frame, rad/s): the state's in rate mode, the gyro
         reading less the bias in imu mode."""
-        return self.s.copy() if self.mode == "rate" else np.asarray(gyro, float) - self.s
+        return self.s[:3].copy() if self.mode == "rate" else np.asarray(gyro, float) - self.s
 
     # -- prediction -----------------------------------------------------------------------
     def predict(self, dt, gyro=None):
@@ -88,37 +94,43 @@ class Mekf:
         (camera frame)."""
         if dt <= 0:
             return
-        w = self.rate(gyro)
-        step = exp_so3(w * dt)
-        self.R = self.R @ step
-        F = np.eye(6)
-        F[:3, :3] = step.T                      # δθ' = Exp(−ω dt) δθ + ...
-        Q = np.zeros((6, 6))
+        n, I = len(self.P), np.eye(3)
+        F, Q = np.eye(n), np.zeros((n, n))
         if self.mode == "rate":
-            F[:3, 3:] = np.eye(3) * dt          # ... + δω dt
-            q = self.rate_walk ** 2
-            Q[:3, :3], Q[:3, 3:] = np.eye(3) * q * dt ** 3 / 3, np.eye(3) * q * dt ** 2 / 2
-            Q[3:, :3], Q[3:, 3:] = Q[:3, 3:], np.eye(3) * q * dt
+            w, a = self.s[:3], self.s[3:]
+            step = exp_so3(w * dt + a * dt * dt / 2)
+            self.s = np.r_[w + a * dt, a]
+            F[:3, 3:6], F[:3, 6:], F[3:6, 6:] = I * dt, I * dt * dt / 2, I * dt
+            q = self.jerk_noise ** 2 * np.array([[dt ** 5 / 20, dt ** 4 / 8, dt ** 3 / 6],
+                                                  [dt ** 4 / 8, dt ** 3 / 3, dt ** 2 / 2],
+                                                  [dt ** 3 / 6, dt ** 2 / 2, dt]])
+            Q = np.kron(q, I)
         else:
-            F[:3, 3:] = -np.eye(3) * dt         # ... − δb dt (the bias is subtracted)
-            Q[:3, :3] = np.eye(3) * self.gyro_noise ** 2 * dt
-            Q[3:, 3:] = np.eye(3) * self.bias_walk ** 2 * dt
+            step = exp_so3(self.rate(gyro) * dt)
+            F[:3, 3:] = -I * dt                 # the bias is subtracted from the gyro
+            Q[:3, :3] = I * self.gyro_noise ** 2 * dt
+            Q[3:, 3:] = I * self.bias_walk ** 2 * dt
+        self.R = self.R @ step
+        F[:3, :3] = step.T                      # δθ' = Exp(−ω dt) δθ + ...
         P = F @ self.P @ F.T + Q
         self.P = 0.5 * (P + P.T)
 
     # -- update ---------------------------------------------------------------------------
     def residuals(self, z, dirs, dt=None, rates=None):
-        """Innovation r (m, 2) and Jacobian H (m, 2, 6) of normalised coordinates `z` (m, 2)
+        """Innovation r (m, 2) and Jacobian H (m, 2, n) of normalised coordinates `z` (m, 2)
         observed for catalogue directions `dirs` (m, 3, ICRS) at dt (m,) seconds from the
-        filter's time (default 0), the body turning at `rates` (m, 3; default the state's)
-        in between: the star's ray then is v = Exp(−ω dt) Rᵀ d, whose Jacobian is
-        [v]× Exp(−ω dt) in δθ and dt·[v]× in δω (−dt·[v]× in the bias, ω = gyro − b)."""
+        filter's time (default 0). The body turns by φ in between — ω dt + α dt²/2 in rate
+        mode, `rates` (m, 3: mean gyro less bias) times dt in imu mode — so the star's ray
+        is v = Exp(φ)ᵀ Rᵀ d, with Jacobian [v]× Exp(φ)ᵀ in δθ, dt·[v]× in δω,
+        dt²/2·[v]× in δα (−dt·[v]× in the bias, ω = gyro − b)."""
         m = len(z)
         u = np.asarray(dirs, float) @ self.R            # rows: Rᵀ d, camera frame
         dt = np.zeros(m) if dt is None else np.asarray(dt, float)
-        if rates is None:
-            rates = np.broadcast_to(self.s if self.mode == "rate" else np.zeros(3), (m, 3))
-        E = np.stack([exp_so3(w * t) for w, t in zip(rates, dt)])   # R(t_i) = R · E_i
+        if self.mode == "rate":
+            phi = dt[:, None] * self.s[:3] + (dt * dt / 2)[:, None] * self.s[3:]
+        else:
+            phi = dt[:, None] * (np.zeros((m, 3)) if rates is None else np.asarray(rates, float))
+        E = np.stack([exp_so3(p) for p in phi])        # R(t_i) = R · E_i
         v = np.einsum("mji,mj->mi", E, u)               # E_iᵀ u_i
         inv = 1.0 / v[:, 2]
         pred = v[:, :2] * inv[:, None]
@@ -129,9 +141,13 @@ class Mekf:
         Vx[:, 0, 1], Vx[:, 0, 2], Vx[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
         Vx -= Vx.transpose(0, 2, 1)
         DV = D @ Vx
-        H = np.zeros((m, 2, 6))
+        H = np.zeros((m, 2, len(self.P)))
         H[:, :, :3] = DV @ E.transpose(0, 2, 1)
-        H[:, :, 3:] = DV * (dt if self.mode == "rate" else -dt)[:, None, None]
+        if self.mode == "rate":
+            H[:, :, 3:6] = DV * dt[:, None, None]
+            H[:, :, 6:] = DV * (dt * dt / 2)[:, None, None]
+        else:
+            H[:, :, 3:] = -DV * dt[:, None, None]
         return np.asarray(z, float) - pred, H
 
     def update(self, z, dirs, sigma, dt=None, rates=None, gate=None):
@@ -152,20 +168,20 @@ class Mekf:
             used &= np.einsum("mi,mij,mj->m", r, np.linalg.inv(S), r) <= gate * gate
             if used.sum() > 2:
                 trial = self.copy()
-                trial._apply(r[used].reshape(-1), H[used].reshape(-1, 6), var[used].reshape(-1))
+                trial._apply(r[used].reshape(-1), H[used].reshape(-1, len(self.P)), var[used].reshape(-1))
                 r_post, _ = trial.residuals(z, dirs, dt, rates)
                 used &= np.sum(r_post ** 2 / var, axis=1) <= gate * gate
         if used.any():
-            self._apply(r[used].reshape(-1), H[used].reshape(-1, 6), var[used].reshape(-1))
+            self._apply(r[used].reshape(-1), H[used].reshape(-1, len(self.P)), var[used].reshape(-1))
         return used
 
     def _motion_var(self, dt):
         """Variance (per axis, normalised units ≈ rad near the centre) the process noise
         adds to a star seen dt from the filter's time: its motion over dt is modelled, not
-        known (white acceleration q·|dt|³/3 at a constant rate, gyro noise σ²·|dt|)."""
+        known (white jerk q·|dt|⁵/20, gyro noise σ²·|dt|)."""
         a = np.abs(dt)
         if self.mode == "rate":
-            return self.rate_walk ** 2 * a ** 3 / 3
+            return self.jerk_noise ** 2 * a ** 5 / 20
         return self.gyro_noise ** 2 * a
 
     def _apply(self, r, H, var):
@@ -173,7 +189,7 @@ class Mekf:
         S = H @ self.P @ H.T + np.diag(var)
         K = np.linalg.solve(S, H @ self.P).T
         dx = K @ r
-        I_KH = np.eye(6) - K @ H
+        I_KH = np.eye(len(self.P)) - K @ H
         P = I_KH @ self.P @ I_KH.T + (K * var) @ K.T
         self.P = 0.5 * (P + P.T)
         self.R = self.R @ exp_so3(dx[:3])
