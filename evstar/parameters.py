@@ -348,13 +348,15 @@ IDENTIFY = Params(
           low=-2, high=12),
     Param("min_matches", int, 4, "a solution needs at least this many matched stars", low=3,
           high=1000),
-    Param("max_residual_px", float, 1.5, "a solution's RMS angle between matched centroid rays "
+    Param("max_residual_px", float, 2.0, "a solution's RMS angle between matched centroid rays "
           "and catalogue stars may be at most this (in pixels of the camera)", low=0,
           open_low=True, unit="px"),
     Param("max_false_match", float, 1e-5, "largest false-match probability of a solution "
           "(the solver's verification)", low=0, high=1, open_low=True),
     Param("match_radius_px", float, 3.0, "a centroid this close to a projected catalogue star "
           "is matched to it", low=0, open_low=True, high=1000, unit="px"),
+    Param("pattern_error", float, 0.01, "largest error of a 4-star pattern's edge ratios the "
+          "search accepts (centroid error / star separation)", low=0, high=0.1, open_low=True),
     Param("timeout_ms", int, 500, "give up a lost-in-space search after this long", low=1,
           high=600_000, unit="ms"),
 )

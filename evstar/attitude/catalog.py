@@ -64,14 +64,20 @@ def stars(mag_limit=math.inf, epoch=None):
     return _stars(float(mag_limit), check_epoch(epoch))
 
 
+@functools.lru_cache(maxsize=8)
+def _by_number(epoch):
+    hip, dirs, _ = _stars(math.inf, epoch)
+    order = np.argsort(hip)
+    return hip[order], dirs[order]
+
+
 def directions(hip_numbers, epoch=None):
     """ICRS unit vectors (n, 3) at `epoch` of the given Hipparcos numbers (KeyError naming
     the first one the catalogue does not hold)."""
-    hip, dirs, _ = stars(math.inf, epoch)
-    order = np.argsort(hip)
+    hip, dirs = _by_number(check_epoch(epoch))
     want = np.asarray(hip_numbers, np.int64).reshape(-1)
-    at = np.clip(np.searchsorted(hip[order], want), 0, len(hip) - 1)
-    found = hip[order][at] == want
+    at = np.clip(np.searchsorted(hip, want), 0, len(hip) - 1)
+    found = hip[at] == want
     if not found.all():
         raise KeyError(f"HIP {int(want[~found][0])} is not in the catalogue")
-    return dirs[order][at]
+    return dirs[at]

@@ -111,15 +111,16 @@ def _identify(xy, camera, t_us, epoch, solver, weight):
     except KeyError:  # a star the database has and the catalogue lacks cannot happen; be safe
         return _failed(t_us, "no_solution")
     R = wahba(rays[local], dirs)
+    # the solver fits the scale too: its matches must also fit the calibrated camera
+    solver_rms = _rms(_angles(rays[local], dirs, R))
     # more stars: every catalogue star that projects near a centroid, then refit
     local, hip, dirs = _match(rays, R, solver, epoch, camera, cfg["match_radius_px"])
     if len(local) >= 3:
         R = wahba(rays[local], dirs)
-    resid = _angles(rays[local], dirs, R)
-    rms = float(np.sqrt(np.mean(resid ** 2))) if len(resid) else math.inf
-    pixel = 1.0 / max(camera.fx, camera.fy)
+    rms = _rms(_angles(rays[local], dirs, R))
+    limit = cfg["max_residual_px"] / max(camera.fx, camera.fy)
     status = "ok"
-    if (len(local) < cfg["min_matches"] or rms > cfg["max_residual_px"] * pixel
+    if (len(local) < cfg["min_matches"] or max(rms, solver_rms) > limit
             or probability > cfg["max_false_match"]):
         status = "rejected"
     q = matrix_to_quat(R) if status == "ok" else np.full(4, np.nan)
@@ -131,7 +132,9 @@ def _match(rays, R, solver, epoch, camera, radius_px):
     """Centroids paired with the nearest catalogue star within radius_px (each star once)."""
     hip, dirs, _ = catalog.stars(solver.mag_limit, epoch)
     boresight = R[:, 2]
-    cos_half = math.cos(solver.half_diagonal_rad + 2 * radius_px / camera.fx)
+    corners = camera.unproject(np.array([[-0.5, -0.5], [camera.width - 0.5, camera.height - 0.5],
+                                         [-0.5, camera.height - 0.5], [camera.width - 0.5, -0.5]]))
+    cos_half = math.cos(math.acos(corners[:, 2].min()) + 2 * radius_px / camera.fx)
     near = np.flatnonzero(dirs @ boresight >= cos_half)
     cam = dirs[near] @ R  # into the camera frame (R takes camera into ICRS)
     radius = radius_px / max(camera.fx, camera.fy)
@@ -150,6 +153,10 @@ def _match(rays, R, solver, epoch, camera, radius_px):
     local, star = np.array(local, np.int64), np.array(star, np.int64)
     sort = np.argsort(local)
     return local[sort], hip[star[sort]], dirs[star[sort]]
+
+
+def _rms(angles):
+    return float(np.sqrt(np.mean(angles ** 2))) if len(angles) else math.inf
 
 
 def _failed(t_us, status):

@@ -7,8 +7,8 @@ downloaded. Positions are the catalogue's (J1991.25): proper motion moves a star
 a few arcseconds a year, far inside the solver's match radius, and the verification in
 :mod:`.identify` uses directions at the observation epoch.
 
-A database for a 20–30° field to magnitude 6 holds ~4 600 stars and ~135 000 patterns:
-~3 MB, built in ~0.3 s, loaded in a few ms. The file name carries everything it depends on
+A database for a 17–23° field (davis346 behind 16 mm) to magnitude 6 holds ~4 600 stars and
+~330 000 patterns: ~7 MB, built in ~1–2 s, loaded in a few ms. The file name carries everything it depends on
 (field of view, magnitude limit, tetra3rs version), so a changed camera or setting builds a
 new one instead of reusing a wrong one.
 """
@@ -42,8 +42,10 @@ def default_cache_dir():
 
 
 def field_of_view_deg(camera):
-    """Horizontal field of view of the undistorted pinhole image (degrees)."""
-    return math.degrees(2 * math.atan(camera.width / (2 * camera.fx)))
+    """(narrow, wide) field of view of the undistorted pinhole image, degrees."""
+    h = math.degrees(2 * math.atan(camera.width / (2 * camera.fx)))
+    v = math.degrees(2 * math.atan(camera.height / (2 * camera.fy)))
+    return min(h, v), max(h, v)
 
 
 class Solver:
@@ -60,9 +62,6 @@ class Solver:
         self.settings = settings
         self.path = path
         self.built = built
-        corner = camera.unproject(np.array([[-0.5, -0.5], [camera.width - 0.5, camera.height - 0.5],
-                                            [-0.5, camera.height - 0.5], [camera.width - 0.5, -0.5]]))
-        self.half_diagonal_rad = float(np.arccos(corner[:, 2].min()))
 
     @classmethod
     def for_camera(cls, camera, *, cache_dir=None, **settings):
@@ -75,9 +74,10 @@ class Solver:
         if unknown:
             raise ParameterError(f"unknown identify setting {sorted(unknown)[0]!r}; known: {', '.join(P.IDENTIFY)}")
         cfg = {name: p.check(settings.get(name, p.default), name) for name, p in P.IDENTIFY.items()}
-        fov = round(field_of_view_deg(camera), 2)
+        fov = tuple(round(f, 2) for f in field_of_view_deg(camera))
         folder = os.fspath(cache_dir) if cache_dir is not None else default_cache_dir()
-        path = os.path.join(folder, f"tetra3rs-{_tetra3rs().__version__}-hip-fov{fov:.2f}-mag{cfg['mag_limit']:.2f}.bin")
+        path = os.path.join(folder, f"tetra3rs-{_tetra3rs().__version__}-hip-fov{fov[0]:.2f}-{fov[1]:.2f}"
+                                    f"-mag{cfg['mag_limit']:.2f}.bin")
         key = (path, camera, tuple(sorted(cfg.items())))
         with _lock:
             if key not in _cache:
@@ -96,14 +96,14 @@ class Solver:
         result = self.database.solve_from_centroids(
             np.ascontiguousarray(xy), camera_model=model,
             match_radius=cfg["match_radius_px"] / camera.width, match_threshold=cfg["max_false_match"],
-            solve_timeout_ms=cfg["timeout_ms"])
+            match_max_error=cfg["pattern_error"], solve_timeout_ms=cfg["timeout_ms"])
         if not result:
             return None
         return (np.asarray(result.matched_centroids, np.int64),
                 np.asarray(result.matched_catalog_ids, np.int64), float(result.probability))
 
     def __repr__(self):
-        return (f"Solver(fov={field_of_view_deg(self.camera):.2f}°, mag<={self.mag_limit}, "
+        return (f"Solver(fov={'..'.join(f'{f:.2f}' for f in field_of_view_deg(self.camera))}°, mag<={self.mag_limit}, "
                 f"{self.database.num_patterns} patterns, {self.path})")
 
 
@@ -120,6 +120,8 @@ def _tetra3rs():
 
 
 def _load_or_build(path, fov_deg, mag_limit):
+    """The database of patterns that fit the field both ways (narrow..wide side: a wide
+    sensor such as 1280 x 720 misses too many patterns sized for its long side alone)."""
     t3 = _tetra3rs()
     if os.path.exists(path):
         try:
@@ -131,7 +133,8 @@ def _load_or_build(path, fov_deg, mag_limit):
     try:
         _write_catalog(stem + ".stars", mag_limit)
         database = t3.SolverDatabase.generate_from_gaia(
-            catalog_path=stem + ".stars", max_fov_deg=fov_deg, star_max_magnitude=mag_limit,
+            catalog_path=stem + ".stars", min_fov_deg=fov_deg[0], max_fov_deg=fov_deg[1],
+            star_max_magnitude=mag_limit,
             epoch_proper_motion_year=None)
         database.save_to_file(stem + ".tmp")
         os.replace(stem + ".tmp", path)
