@@ -341,6 +341,26 @@ HOTPIXEL_MAP = Params(
           "dropped when its spread is at most this", low=0, unit="px"),
 )
 
+#: star identification (evstar.attitude.identify); library-only, not part of Config
+IDENTIFY = Params(
+    "identify",
+    Param("mag_limit", float, 6.0, "faintest catalogue star in the solver's database",
+          low=-2, high=12),
+    Param("min_matches", int, 4, "a solution needs at least this many matched stars", low=3,
+          high=1000),
+    Param("max_residual_px", float, 2.0, "a solution's RMS angle between matched centroid rays "
+          "and catalogue stars may be at most this (in pixels of the camera)", low=0,
+          open_low=True, unit="px"),
+    Param("max_false_match", float, 1e-5, "largest false-match probability of a solution "
+          "(the solver's verification)", low=0, high=1, open_low=True),
+    Param("match_radius_px", float, 3.0, "a centroid this close to a projected catalogue star "
+          "is matched to it", low=0, open_low=True, high=1000, unit="px"),
+    Param("pattern_error", float, 0.01, "largest error of a 4-star pattern's edge ratios the "
+          "search accepts (centroid error / star separation)", low=0, high=0.1, open_low=True),
+    Param("timeout_ms", int, 500, "give up a lost-in-space search after this long", low=1,
+          high=600_000, unit="ms"),
+)
+
 # -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator); not part of Config ----
 ATTITUDE_FILTER = Params(
     "attitude_filter",
@@ -400,12 +420,12 @@ def markdown():
              "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones, "
              "`evstar attitude` the attitude_filter ones).", ""]
     for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP,
-                   ATTITUDE_FILTER):
+                   IDENTIFY, ATTITUDE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP)
+            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, IDENTIFY)
             cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "

@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import parameters as P
 from ..camera import Camera
-from ..errors import BackendError, DataError, ParameterError, ParameterTypeError
+from ..errors import DataError, ParameterError, ParameterTypeError
 from ..imu import Imu
 from .filter import Mekf, hat
 from .output import ATTITUDE_DTYPE, rotation, row
@@ -37,8 +37,9 @@ def estimate(centroids, camera, imu=None, rate_hz=A["rate_hz"].default, **option
 
 class AttitudeEstimator:
     """Options are the [attitude_filter] parameters (evstar.parameters) plus
-    identifier: a callable (xy (n, 2) px, t_us) -> Fix (evstar.attitude.identify's fields);
-    default: evstar.attitude.identify with its cached Solver for the camera and `epoch`.
+    identifier: a callable (xy (n, 2) px, t_us, weight (n,) or None) -> evstar.attitude.Fix;
+    default: evstar.attitude.identify with its cached Solver for the camera and `epoch`
+    (weight: the centroids' event counts, brightest patterns first).
     After run(): .fixes, a list of (t_us, status, stars matched)."""
 
     def __init__(self, camera, imu=None, *, identifier=None, epoch=None,
@@ -99,7 +100,7 @@ class AttitudeEstimator:
         self._last_id = t_ref
         shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
         xy = np.stack([c["x"], c["y"]], 1) + shift
-        fix = self.identifier(xy, t_ref)
+        fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
         self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
         if not fix.ok:
             return False
@@ -285,9 +286,9 @@ def _gyro_steps(imu, ta, tb):
 
 
 def _default_identifier(camera, epoch):
-    try:
-        from .identify import Solver, identify
-    except ImportError:
-        raise BackendError("star identification (evstar.attitude.identify) is not available") from None
+    from .identify import identify
+    from .solver import Solver
+
     solver = Solver.for_camera(camera)
-    return lambda xy, t_us: identify(xy, camera, t_us, epoch=epoch, solver=solver)
+    return lambda xy, t_us, weight=None: identify(xy, camera, t_us, epoch=epoch, solver=solver,
+                                                  weight=weight)

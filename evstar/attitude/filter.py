@@ -42,21 +42,6 @@ def exp_so3(phi):
     return np.eye(3) + (math.sin(a) / a) * K + ((1 - math.cos(a)) / (a * a)) * K @ K
 
 
-def wahba(rays_cam, dirs_icrs, weights=None):
-    """The rotation R (camera -> ICRS) minimising Σ w |d − R r|² (SVD solution), or None
-    with fewer than two non-parallel pairs."""
-    r, d = np.asarray(rays_cam, float), np.asarray(dirs_icrs, float)
-    w = np.ones(len(r)) if weights is None else np.asarray(weights, float)
-    if len(r) < 2:
-        return None
-    B = (w[:, None] * d).T @ r
-    U, S, Vt = np.linalg.svd(B)
-    if S[1] < 1e-12 * max(S[0], 1e-300):
-        return None
-    M = np.diag([1.0, 1.0, np.linalg.det(U) * np.linalg.det(Vt)])
-    return U @ M @ Vt
-
-
 class Mekf:
     """One filter: R (3, 3) camera -> ICRS, state s and covariance P of [δθ, δs].
 

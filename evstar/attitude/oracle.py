@@ -7,32 +7,16 @@ rays, as a plate solver would give it — not the true attitude.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from .filter import wahba
+from .identify import Fix, wahba
 from .output import quaternion
 
 
-@dataclass
-class OracleFix:
-    """The fields of evstar.attitude.identify.Fix the estimator reads."""
-
-    t_us: int
-    ok: bool
-    status: str
-    q_icrs_cam: np.ndarray
-    centroid_index: np.ndarray
-    hip: np.ndarray
-    dir_icrs: np.ndarray
-    residual_arcsec: float
-
-
 def truth_identifier(truth, match_px=2.0, min_stars=3):
-    """A callable (xy (n, 2) px, t_us) -> OracleFix from an evstar.sim Truth."""
+    """A callable (xy (n, 2) px, t_us) -> Fix from an evstar.sim Truth."""
 
-    def identify(xy, t_us):
+    def identify(xy, t_us, weight=None):
         xy = np.asarray(xy, float).reshape(-1, 2)
         true = truth.star_position([t_us])[0]                      # (n_stars, 2)
         d = np.linalg.norm(xy[:, None] - true[None], axis=2)
@@ -41,16 +25,14 @@ def truth_identifier(truth, match_px=2.0, min_stars=3):
         ok = d[np.arange(len(xy)), star] <= match_px if true.size else np.zeros(len(xy), bool)
         idx = np.flatnonzero(ok)
         idx = idx[np.unique(star[idx], return_index=True)[1]]     # one centroid per star
-        empty = np.zeros(0, int)
         if len(idx) < min_stars:
-            return OracleFix(int(t_us), False, "too_few_stars", np.full(4, np.nan), empty, empty,
-                             np.zeros((0, 3)), float("nan"))
+            return Fix(int(t_us), False, "too_few_stars", np.full(4, np.nan))
         rays = truth.camera.unproject(xy[idx])
         dirs = truth.stars.directions[star[idx]]
         R = wahba(rays, dirs)
         res = np.degrees(np.arccos(np.clip(np.sum((rays @ R.T) * dirs, 1), -1, 1))) * 3600
-        return OracleFix(int(t_us), True, "ok", quaternion(R), idx, truth.stars.hip[star[idx]],
-                         dirs, float(np.sqrt(np.mean(res ** 2))))
+        return Fix(int(t_us), True, "ok", quaternion(R), idx, truth.stars.hip[star[idx]], dirs,
+                   float(np.sqrt(np.mean(res ** 2))))
 
     return identify
 

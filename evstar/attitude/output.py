@@ -33,7 +33,7 @@ ATTITUDE_DTYPE = np.dtype([("t", "<i8"), ("qw", "<f8"), ("qx", "<f8"), ("qy", "<
                            ("qz", "<f8"), ("ra_deg", "<f8"), ("dec_deg", "<f8"),
                            ("roll_deg", "<f8"), ("wx", "<f8"), ("wy", "<f8"), ("wz", "<f8"),
                            ("n_stars", "<i4"), ("status", "<U8")])
-STATUSES = ("fix", "tracking", "coasting")
+ROW_STATUSES = ("fix", "tracking", "coasting")
 
 
 def quaternion(R):
