@@ -79,7 +79,8 @@ class AttitudeEstimator:
         for idx in _frames(c, self.frame_us):
             t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
             self._emit_until(t_ref)
-            if not self._maybe_identify(idx, t_ref) and self.filt is not None:
+            self._maybe_identify(idx, t_ref)
+            if self.filt is not None:      # after a (re)start too: the fix's prior is loose
                 self._predict_to(t_ref)
                 self._update(idx, t_ref)
         self._emit_until(t_end + 1)
@@ -87,7 +88,8 @@ class AttitudeEstimator:
         return np.array(out, ATTITUDE_DTYPE) if out else np.zeros(0, ATTITUDE_DTYPE)
 
     def _maybe_identify(self, idx, t_ref):
-        """Identify the frame when needed; True when the fix (re)started the filter."""
+        """Identify the frame when needed; a fix names its tracks' stars and (re)starts a
+        filter that has no attitude."""
         c = self._c[idx]
         tracks = c["track"]
         known = np.array([k in self._stars for k in tracks.tolist()], bool)
@@ -96,21 +98,20 @@ class AttitudeEstimator:
         new = ((tracks >= 0) & ~known).any()
         due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
         if not (lost or (few or new) and due):
-            return False
+            return
         self._last_id = t_ref
         shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
         xy = np.stack([c["x"], c["y"]], 1) + shift
         fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
         self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
         if not fix.ok:
-            return False
+            return
         for i, d in zip(np.asarray(fix.centroid_index, int), np.asarray(fix.dir_icrs, float)):
             if tracks[i] >= 0:
                 self._stars[int(tracks[i])] = d / np.linalg.norm(d)
                 self._misses[int(tracks[i])] = 0
         if lost:
             self._start(fix, t_ref, idx, xy)
-        return lost
 
     def _start(self, fix, t_ref, idx, xy):
         o = self.o
