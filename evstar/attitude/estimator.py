@@ -23,7 +23,7 @@ from ..camera import Camera
 from ..errors import DataError, ParameterError, ParameterTypeError
 from ..imu import Imu
 from .filter import Mekf, hat
-from .output import ATTITUDE_DTYPE, rotation, row
+from .output import ATTITUDE_DTYPE, rotation, rows
 
 A = P.ATTITUDE_FILTER
 ARCSEC = math.pi / 180 / 3600
@@ -67,6 +67,7 @@ class AttitudeEstimator:
         self.fixes, self._out = [], []
         if not len(c):
             return np.zeros(0, ATTITUDE_DTYPE)
+        self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
         self._c, self._xy_dt = c, _track_velocity(c)
         self._z, self._sig = self._normalised(c)
         self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
@@ -84,8 +85,9 @@ class AttitudeEstimator:
                 self._predict_to(t_ref)
                 self._update(idx, t_ref)
         self._emit_until(t_end + 1)
-        out = self._out
-        return np.array(out, ATTITUDE_DTYPE) if out else np.zeros(0, ATTITUDE_DTYPE)
+        if not self._out:
+            return np.zeros(0, ATTITUDE_DTYPE)
+        return rows(*(np.array(col) for col in zip(*self._out)))
 
     def _maybe_identify(self, idx, t_ref):
         """Identify the frame when needed; a fix names its tracks' stars and (re)starts a
@@ -139,7 +141,7 @@ class AttitudeEstimator:
         idx, tracks = idx[keep], tracks[keep]
         dirs = np.stack([self._stars[int(k)] for k in tracks])
         dt = (self._c["t"][idx] - t_ref) * 1e-6
-        rates = None if self.imu is None else _gyro_means(self.imu, self._c["t"][idx], t_ref) - self.filt.s
+        rates = None if self.imu is None else self._gyro.mean(self._c["t"][idx], t_ref) - self.filt.s
         used = self.filt.update(self._z[idx], dirs, self._sig[idx], dt, rates, gate=self.o["gate"])
         for k, u in zip(tracks.tolist(), used.tolist()):
             # an identity the measurements keep contradicting is forgotten
@@ -165,17 +167,17 @@ class AttitudeEstimator:
             if self.filt.attitude_sigma > math.radians(self.o["lost_sigma_deg"]):
                 self.filt = None  # lost: rows stop until the next fix
                 continue
-            gyro = _gyro_at(self.imu, t) if self.imu is not None else None
+            gyro = self._gyro.at(t) if self.imu is not None else None
             recent = t - self._last_used < self.frame_us
             status = "fix" if t - self._t_start < self.frame_us else "tracking" if recent else "coasting"
-            self._out.append(row(t, self.filt.R, self.filt.rate(gyro), self._n_used if recent else 0,
-                                 status))
+            self._out.append((t, self.filt.R.copy(), self.filt.rate(gyro),
+                              self._n_used if recent else 0, status))
 
     def _predict_to(self, t):
         if self.imu is None:
             self.filt.predict((t - self._t_f) * 1e-6)
         else:
-            for dt, g in _gyro_steps(self.imu, self._t_f, t):
+            for dt, g in self._gyro.steps(self._t_f, t):
                 self.filt.predict(dt, g)
         self._t_f = t
 
@@ -251,39 +253,50 @@ def _frames(c, frame_us):
     return sorted(groups, key=lambda g: c["t"][g[-1]])
 
 
-def _gyro_means(imu, t_us, t_ref):
-    """Mean gyro reading (camera frame) over [t, t_ref] for each t (the reading at t_ref
-    where they coincide)."""
-    out = np.empty((len(t_us), 3))
-    for i, t in enumerate(np.asarray(t_us).tolist()):
-        steps = _gyro_steps(imu, min(t, t_ref), max(t, t_ref))
-        if steps:
-            dts = np.array([d for d, _ in steps])
-            out[i] = dts @ np.stack([g for _, g in steps]) / dts.sum()
-        else:
-            out[i] = _gyro_at(imu, t_ref)
-    return out
+class _GyroIntegral:
+    """The gyro (camera frame and clock) as a piecewise-linear rate: its value, its mean
+    over an interval (from the exact integral) and the pieces between samples."""
 
+    def __init__(self, imu):
+        self.t = imu.t_cam.astype(float)
+        self.g = imu.gyro_cam
+        dt = np.diff(self.t) * 1e-6
+        self.G = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (self.g[1:] + self.g[:-1]) * dt[:, None], 0)]
 
-def _gyro_at(imu, t):
-    tc = imu.t_cam
-    g = imu.gyro_cam
-    return np.array([np.interp(t, tc, g[:, k]) for k in range(3)])
+    def at(self, t):
+        """Readings (n, 3) at times (n,), or (3,) at one time (held beyond the ends)."""
+        one = np.ndim(t) == 0
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.stack([np.interp(t, self.t, self.g[:, k]) for k in range(3)], 1)
+        return out[0] if one else out
 
+    def integral(self, t):
+        """∫ gyro dt (rad) from the first sample to each t (n,)."""
+        t = np.asarray(t, float)
+        k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1)
+        h = (t - self.t[k]) * 1e-6
+        return self.G[k] + 0.5 * (self.g[k] + self.at(t)) * h[:, None]
 
-def _gyro_steps(imu, ta, tb):
-    """(dt s, mean gyro reading) of each piece of [ta, tb] between IMU samples (the rate is
-    linear between samples, so the mean of the ends is the piece's mean)."""
-    tc = imu.t_cam
-    i0, i1 = np.searchsorted(tc, [ta, tb], side="right")
-    pts = np.r_[ta, tc[i0:i1], tb].astype(float)
-    pts = pts[np.r_[True, np.diff(pts) > 0]]
-    if len(pts) < 2:
-        return []
-    g = imu.gyro_cam
-    gp = np.stack([np.interp(pts, tc, g[:, k]) for k in range(3)], 1)
-    mean = 0.5 * (gp[1:] + gp[:-1])
-    return list(zip((np.diff(pts) * 1e-6).tolist(), mean))
+    def mean(self, t, t_ref):
+        """Mean reading over [t, t_ref] for each t (n,) (the reading at t_ref where equal)."""
+        t = np.asarray(t, float)
+        span = (t_ref - t) * 1e-6
+        ok = span != 0
+        out = np.tile(self.at(float(t_ref)), (len(t), 1))
+        if ok.any():
+            ref = self.integral(np.full(int(ok.sum()), float(t_ref)))
+            out[ok] = (ref - self.integral(t[ok])) / span[ok, None]
+        return out
+
+    def steps(self, ta, tb):
+        """(dt s, mean reading) of each piece of [ta, tb] between samples."""
+        i0, i1 = np.searchsorted(self.t, [ta, tb], side="right")
+        pts = np.r_[ta, self.t[i0:i1], tb].astype(float)
+        pts = pts[np.r_[True, np.diff(pts) > 0]]
+        if len(pts) < 2:
+            return []
+        gp = self.at(pts)
+        return list(zip((np.diff(pts) * 1e-6).tolist(), 0.5 * (gp[1:] + gp[:-1])))
 
 
 def _default_identifier(camera, epoch):

@@ -19,8 +19,6 @@ towards the right (+x). Undefined at the poles (dec = ±90°), where 0 is writte
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -50,28 +48,37 @@ def rotation(q):
 
 
 def ra_dec_roll(R):
-    """Boresight (ra, dec) and roll, degrees, of one rotation camera -> ICRS (module doc)."""
-    z = R[:, 2]
-    ra = math.degrees(math.atan2(z[1], z[0])) % 360.0
-    dec = math.degrees(math.asin(max(-1.0, min(1.0, z[2]))))
-    east = np.array([-z[1], z[0], 0.0])
-    if np.linalg.norm(east) < 1e-12:
-        return ra, dec, 0.0
-    east /= np.linalg.norm(east)
+    """Boresight (ra, dec) and roll, degrees, of rotations camera -> ICRS (3, 3) or
+    (n, 3, 3) (module doc): floats, or (n,) arrays."""
+    R = np.asarray(R, float)
+    one = R.ndim == 2
+    R = R.reshape(-1, 3, 3)
+    z, x = R[:, :, 2], R[:, :, 0]
+    ra = np.degrees(np.arctan2(z[:, 1], z[:, 0])) % 360.0
+    dec = np.degrees(np.arcsin(np.clip(z[:, 2], -1.0, 1.0)))
+    east = np.stack([-z[:, 1], z[:, 0], np.zeros(len(z))], 1)
+    norm = np.linalg.norm(east, axis=1)
+    east /= np.where(norm < 1e-12, 1.0, norm)[:, None]
     north = np.cross(z, east)
     # R_cw = Exp(φ ẑ) R0 with R0's rows (−east, −north, z): compare the camera x axis
-    x = R[:, 0]
-    roll = math.degrees(math.atan2(float(x @ north), float(-x @ east)))
+    roll = np.degrees(np.arctan2(np.sum(x * north, 1), -np.sum(x * east, 1)))
+    roll = np.where(norm < 1e-12, 0.0, roll)      # at a pole: undefined, 0
+    if one:
+        return float(ra[0]), float(dec[0]), float(roll[0])
     return ra, dec, roll
 
 
-def row(t, R, omega, n_stars, status):
-    """One ATTITUDE_DTYPE row."""
-    out = np.zeros((), ATTITUDE_DTYPE)
+def rows(t, R, omega, n_stars, status):
+    """ATTITUDE_DTYPE rows of times (n,), rotations camera -> ICRS (n, 3, 3), body rates
+    (n, 3), star counts (n,) and statuses (n,)."""
+    out = np.zeros(len(t), ATTITUDE_DTYPE)
+    if not len(t):
+        return out
     out["t"] = t
-    out["qw"], out["qx"], out["qy"], out["qz"] = quaternion(R)
+    q = quaternion(R)
+    out["qw"], out["qx"], out["qy"], out["qz"] = q.T
     out["ra_deg"], out["dec_deg"], out["roll_deg"] = ra_dec_roll(R)
-    out["wx"], out["wy"], out["wz"] = omega
+    out["wx"], out["wy"], out["wz"] = np.asarray(omega, float).reshape(-1, 3).T
     out["n_stars"], out["status"] = n_stars, status
     return out
 
