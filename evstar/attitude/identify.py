@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import parameters as P
 from ..camera import Camera
 from ..errors import DataError, ParameterTypeError
 from . import catalog
@@ -100,16 +99,15 @@ def _identify(xy, camera, t_us, epoch, solver, weight):
     if len(usable) < max(4, cfg["min_matches"]):
         return _failed(t_us, "too_few_stars")
     rays = pixel_rays(xy[usable], camera)
-    order = np.arange(len(usable)) if weight is None else np.argsort(-np.nan_to_num(weight[usable], nan=-np.inf), kind="stable")
+    order = np.arange(len(usable))
+    if weight is not None:  # brightest first; NaN weights last
+        order = np.argsort(-np.nan_to_num(weight[usable], nan=-np.inf), kind="stable")
     found = solver.solve(rays[order], camera)
     if found is None:
         return _failed(t_us, "no_solution")
     local, hip, probability = found
     local = order[local]
-    try:
-        dirs = catalog.directions(hip, epoch)
-    except KeyError:  # a star the database has and the catalogue lacks cannot happen; be safe
-        return _failed(t_us, "no_solution")
+    dirs = catalog.directions(hip, epoch)   # the database holds the same Hipparcos stars
     R = wahba(rays[local], dirs)
     # the solver fits the scale too: its matches must also fit the calibrated camera
     solver_rms = _rms(_angles(rays[local], dirs, R))
