@@ -138,7 +138,8 @@ def aps_fix(truth, t_mid_us, rng, solver):
     along = np.sqrt(s * s + L ** 2 / 12) / snr
     across = s / snr
     d = xy[-1] - xy[0]
-    u = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    norm = np.linalg.norm(d, axis=1, keepdims=True)
+    u = np.where(norm > 1e-6, d / np.maximum(norm, 1e-6), [1.0, 0.0])   # along the streak (any when still)
     noise = (rng.standard_normal(len(S))[:, None] * np.hypot(along, a["floor_px"])[:, None] * u
              + rng.standard_normal(len(S))[:, None] * np.hypot(across, a["floor_px"])[:, None]
              * np.stack([-u[:, 1], u[:, 0]], 1))
@@ -199,16 +200,17 @@ def fmt(v, spec=".3f"):
 
 
 HEADER = ("| camera | motion °/s | IMU | method | first fix ms | frames with attitude | cross RMS px | "
-          "cross max px | about RMS px (edge) | about max px | cross RMS \" | about RMS \" |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "cross max px | about RMS px (edge) | about max px | cross RMS \" | about RMS \" | "
+          "APS at its fixes: cross / about RMS px |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 
 
 def table_row(r):
     return (f"| {r['camera']} | {r['motion']} | {'yes' if r['imu'] else 'no'} | {r['method']} | "
             f"{fmt(r['first_fix_ms'], '.0f')} | {100 * r['frames_with_attitude']:.1f} % | "
-            f"{fmt(r.get('cross_rms_px'))} | {fmt(r.get('cross_max_px'))} | {fmt(r.get('about_rms_px'))} | "
-            f"{fmt(r.get('about_max_px'))} | {fmt(r.get('cross_rms_arcsec'), '.1f')} | "
-            f"{fmt(r.get('about_rms_arcsec'), '.1f')} |")
+            f"{fmt(r.get('cross_rms_px'), '.4f')} | {fmt(r.get('cross_max_px'))} | "
+            f"{fmt(r.get('about_rms_px'), '.4f')} | {fmt(r.get('about_max_px'))} | {fmt(r.get('cross_rms_arcsec'), '.1f')} | "
+            f"{fmt(r.get('about_rms_arcsec'), '.1f')} | "
+            f"{fmt(r.get('fix_cross_rms_px'), '.4f')} / {fmt(r.get('fix_about_rms_px'), '.4f')} |")
 
 
 def plot(rows, path):
@@ -235,6 +237,7 @@ def plot(rows, path):
             ax.set_title(f"{cam}: {label}")
             if key != "frames_with_attitude":
                 ax.set_yscale("log")
+                ax.set_ylim(1e-3, 1e3)
                 ax.axhline(0.05 if key == "cross_rms_px" else 0.1, color="k", lw=0.8, ls=":")
             ax.grid(alpha=0.3)
         axes[i, 0].legend(fontsize=8)
