@@ -127,3 +127,7 @@ def test_run_writes_attitude_csv_when_the_camera_is_known(tmp_path, capsys):
     assert text[0] == HEADER and len(text) > 5
     rows = read_attitude(tmp_path / "out" / "attitude.csv")
     assert np.sqrt(np.mean(cross_px(rows, run.truth) ** 2)) < 0.5
+    # a recording as `evstar attitude`'s input: the pipeline runs first, same attitude
+    assert main(["attitude", str(tmp_path / "ev.h5"), "-o", str(tmp_path / "a.csv")]) == 0
+    again = read_attitude(tmp_path / "a.csv")
+    np.testing.assert_allclose(again["qw"], rows["qw"], atol=1e-9)

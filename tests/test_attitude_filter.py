@@ -211,3 +211,22 @@ def test_bad_options_and_inputs_are_evstar_errors(pan):
     with pytest.raises(evstar.ParameterTypeError, match="centroids"):
         estimate(np.zeros(3), CAM, identifier=truth_identifier(pan[1]))
     assert len(estimate(pan[0][:0], CAM, identifier=truth_identifier(pan[1]))) == 0
+
+
+def test_a_gap_is_coasted_and_new_tracks_are_identified_again(pan):
+    """No centroids for 60 ms, then the stars come back under new track ids: rows go on
+    (coasting), the new tracks are identified and the error stays small after the gap."""
+    c, truth, imu = pan
+    c = c[(c["t"] < 100_000) | (c["t"] > 160_000)].copy()
+    c["track"][c["t"] > 160_000] += 1000
+    for use in (None, imu):
+        est = AttitudeEstimator(CAM, use, identifier=truth_identifier(truth))
+        rows = est.run(c)
+        assert np.all(np.diff(rows["t"]) == 10_000)                 # no frame without a row
+        gap = (rows["t"] > 110_000) & (rows["t"] < 160_000)
+        assert set(rows["status"][gap]) == {"coasting"} and np.all(rows["n_stars"][gap] == 0)
+        assert len(est.fixes) >= 2 and est.fixes[-1][0] > 160_000
+        cross, about = errors_px(rows, truth)
+        after = rows["t"] > 200_000
+        assert rows["status"][after].tolist() == ["tracking"] * after.sum()
+        assert cross[after].max() < 0.1 and about[after].max() < 0.2
