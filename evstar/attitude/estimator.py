@@ -2,15 +2,17 @@
 
     rows = evstar.attitude.estimate(result.centroids, camera, imu=None, rate_hz=100)
 
-Frame by frame (``frame_us``, 10 ms): while the filter has no attitude, or fewer than
-``min_stars`` identified tracks are seen, or confirmed tracks are not identified yet
-(at most every ``reidentify_ms``), the frame's centroids — moved to its mid-time with their
-tracks' velocities, so a fast pan does not smear the pattern — are identified. A fix
-names the stars of its tracks: every later centroid of such a track measures that star.
-The first fix (and one after the attitude was lost) starts the filter; then each
-centroid time is a prediction (gyro or constant rate) and an update, and each output time
+Frame by frame (the pipeline's `frame` field, else ``frame_us`` bins): while the filter has
+no attitude — and at most every ``reidentify_ms`` while fewer than ``min_stars``
+identified tracks are seen or confirmed tracks are unnamed — the frame's centroids, moved
+to the frame's last centroid time with their tracks' image velocities (a fast pan would
+distort the pattern), are identified. A fix names the stars of its tracks: every later
+centroid of such a track measures that star. A fix starts a filter that has no attitude;
+then each frame is one prediction (gyro, or the constant-acceleration model) to its last
+centroid time and one joint update with its identified stars, and each output time
 (``rate_hz``) a prediction and a row. The attitude is lost when its 1-σ exceeds
-``lost_sigma_deg``; rows stop until the next fix.
+``lost_sigma_deg`` or every star is rejected ``max_misses`` frames in a row; rows stop
+until the next fix. docs/attitude.md ("Filter") has the model and the measurements.
 """
 from __future__ import annotations
 
@@ -230,14 +232,13 @@ def _rate_from_motion(camera, xy, xy_dt, matched):
     good = matched[np.all(np.isfinite(xy_dt[matched]), axis=1)]
     if len(good) < 2:
         return None
-    rows, rhs = [], []
+    lhs, rhs = [], []
     for i in good:
         x, y = (xy[i, 0] - camera.cx) / camera.fx, (xy[i, 1] - camera.cy) / camera.fy
-        v = np.array([x, y, 1.0])
         D = np.array([[1.0, 0.0, -x], [0.0, 1.0, -y]])
-        rows.append(D @ hat(v))
+        lhs.append(D @ hat(np.array([x, y, 1.0])))
         rhs.append(xy_dt[i] / [camera.fx, camera.fy])
-    return np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+    return np.linalg.lstsq(np.vstack(lhs), np.concatenate(rhs), rcond=None)[0]
 
 
 def _frames(c, frame_us):
