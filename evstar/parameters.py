@@ -392,6 +392,9 @@ ATTITUDE_FILTER = Params(
           unit="px"),
     Param("sigma_scale", float, 1.0, "centroid sigmas are multiplied by this (smoothed "
           "centroids are correlated in time)", low=0, open_low=True),
+    Param("centroid_delay_us", float, 0.0, "a centroid's position is the star's at its time "
+          "plus this (a timing bias of the centroid estimator or sensor latency: calibrate "
+          "it against a known motion)", low=-100_000, high=100_000, unit="µs"),
     Param("gate", float, 5.0, "an identified star's centroid farther than this many sigmas "
           "is left out", low=0, open_low=True),
     Param("max_misses", int, 5, "gated-out centroids in a row after which a track's "

@@ -4,8 +4,10 @@ For each camera preset (DAVIS346 behind 16 mm, f ≈ 865 px; EVK4 behind 12 mm, 
 each motion (constant pan 0, 5, 10, 20, 30 °/s about the image's up axis, and the paper's
 10°/1 Hz sinusoid) over a Hipparcos field (Orion, mag <= 6, ICRS), the simulator's events go
 through evstar.Pipeline (defaults) and evstar.attitude.estimate, with and without the IMU;
-identification is evstar.attitude.identify (plate solver) when available, else the truth
-oracle (evstar.attitude.oracle). Errors against the simulator's true attitude at every
+identification is evstar.attitude.identify (the plate solver). "events-cal" rows set
+centroid_delay_us to the time by which the pipeline's centroids lead their timestamps,
+measured against the truth on a separate run (20 °/s, seed 2) per camera, as a sensor's
+latency is calibrated on a turntable. Errors against the simulator's true attitude at every
 10 ms output: cross-boresight (arcsec; px = angle x focal length) and about-boresight
 (arcsec; px = angle x half the sensor diagonal), time to first fix, fraction of frames
 after the first fix with an attitude.
@@ -98,8 +100,29 @@ def summarise(t_us, R_ic, truth, t_first, grid_us=10_000):
 
 
 # -- the event camera ----------------------------------------------------------------------
-def event_attitude(c, truth, imu):
-    est = AttitudeEstimator(truth.camera, imu)
+CALIBRATION = ("20", 2)     # motion and seed of the run that calibrates the centroid delay
+
+
+def centroid_delay_us(cam_name):
+    """The median time by which tracked centroids' positions lead their timestamps (µs),
+    measured against the truth on a separate run (CALIBRATION), as a sensor's latency would
+    be calibrated on a turntable."""
+    from evstar import accuracy
+
+    c, truth, _ = scene(cam_name, *CALIBRATION)
+    c = c[(c["source"] == "measured") & (c["track"] >= 0)]
+    star, _ = accuracy.match(c, truth.star_position, 3.0)
+    c, star = c[star >= 0], star[star >= 0]
+    i = np.arange(len(c))
+    p0, p1 = truth.star_position(c["t"])[i, star], truth.star_position(c["t"] + 1000)[i, star]
+    v = (p1 - p0) / 1e-3
+    speed = np.linalg.norm(v, axis=1)
+    ahead = np.sum((np.stack([c["x"], c["y"]], 1) - p0) * v, axis=1) / np.maximum(speed, 1e-9) ** 2
+    return float(np.median(ahead[speed > 50]) * 1e6)
+
+
+def event_attitude(c, truth, imu, delay_us=0.0):
+    est = AttitudeEstimator(truth.camera, imu, centroid_delay_us=delay_us)
     start = time.perf_counter()
     rows = est.run(c)
     seconds = time.perf_counter() - start
@@ -182,17 +205,20 @@ def aps_attitude(truth, imu, seed=0):
 # -- the study ---------------------------------------------------------------------------------
 def study(cameras, motions):
     rows = []
+    delays = {}
     for cam_name in cameras:
+        delays[cam_name] = delay = centroid_delay_us(cam_name)
         for motion in motions:
             c, truth, imu = scene(cam_name, motion)
             for with_imu in (False, True):
-                for method in ("events", "aps"):
-                    use = imu if with_imu else None
-                    res = event_attitude(c, truth, use) if method == "events" else aps_attitude(truth, use)
+                use = imu if with_imu else None
+                for method in ("events", "events-cal", "aps"):
+                    res = (aps_attitude(truth, use) if method == "aps" else
+                           event_attitude(c, truth, use, delay if method == "events-cal" else 0.0))
                     rows.append(dict(camera=cam_name, f_px=round(truth.camera.fx, 1), motion=motion,
                                      imu=with_imu, method=method, **res))
                     print(table_row(rows[-1]), flush=True)
-    return rows
+    return rows, delays
 
 
 def fmt(v, spec=".3f"):
@@ -227,6 +253,7 @@ def plot(rows, path):
         for j, (key, label) in enumerate(keys):
             ax = axes[i, j]
             for method, imu, style in (("events", False, "o-"), ("events", True, "s-"),
+                                       ("events-cal", False, "^-"), ("events-cal", True, "v-"),
                                        ("aps", False, "o--"), ("aps", True, "s--")):
                 sel = {r["motion"]: r for r in rows if r["camera"] == cam and r["method"] == method and r["imu"] == imu}
                 y = [sel[m].get(key, np.nan) if m in sel else np.nan for m in motions]
@@ -252,10 +279,11 @@ def main():
     cameras, motions = (["davis346"], ["10", "sine"]) if args.quick else (list(CAMERAS), list(MOTIONS))
     start = time.time()
     print(HEADER)
-    rows = study(cameras, motions)
+    rows, delays = study(cameras, motions)
     RESULTS.mkdir(exist_ok=True)
     meta = dict(pointing_radec_deg=POINTING, mag_limit=MAG_LIMIT, duration_s=DURATION_S,
                 cameras={k: f"{v} mm" for k, v in CAMERAS.items()}, aps_model=APS,
+                centroid_delay_us=delays, calibration_run=dict(motion=CALIBRATION[0], seed=CALIBRATION[1]),
                 targets=dict(frames_with_attitude=0.99, cross_rms_px=0.05, about_rms_px=0.1, worst_px=0.5),
                 runtime_s=round(time.time() - start, 1))
     (RESULTS / "study_attitude.json").write_text(json.dumps(dict(meta=meta, rows=rows), indent=1) + "\n")

@@ -230,3 +230,15 @@ def test_a_gap_is_coasted_and_new_tracks_are_identified_again(pan):
         after = rows["t"] > 200_000
         assert rows["status"][after].tolist() == ["tracking"] * after.sum()
         assert cross[after].max() < 0.1 and about[after].max() < 0.2
+
+
+def test_centroid_delay_moves_the_centroid_times(pan):
+    """Centroids stamped 2 ms before the star was where they say: a 20 °/s pan then lags by
+    2 ms (~0.6 px); centroid_delay_us = 2000 puts the times right."""
+    c, truth, _ = pan
+    early = c.copy()
+    early["t"] -= 2000
+    late = estimate(early, CAM, identifier=truth_identifier(truth))
+    fixed = estimate(early, CAM, identifier=truth_identifier(truth), centroid_delay_us=2000)
+    lag = np.sqrt(np.mean(errors_px(late, truth)[0][5:] ** 2))
+    assert lag > 0.3 and np.sqrt(np.mean(errors_px(fixed, truth)[0][5:] ** 2)) < 0.05

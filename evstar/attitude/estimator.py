@@ -65,7 +65,7 @@ class AttitudeEstimator:
 
     # -- the run ----------------------------------------------------------------------------
     def run(self, centroids):
-        c = _measured(centroids)
+        c = _delayed(_measured(centroids), self.o["centroid_delay_us"])
         self.fixes, self._out = [], []
         if not len(c):
             return np.zeros(0, ATTITUDE_DTYPE)
@@ -205,6 +205,14 @@ def _measured(centroids):
     c = centroids[centroids["source"] != "coasted"] if "source" in names else centroids
     c = c[np.isfinite(c["x"]) & np.isfinite(c["y"])]
     return c[np.argsort(c["t"], kind="stable")]
+
+
+def _delayed(c, delay_us):
+    """Centroids with their times moved to when their positions were the star's."""
+    if delay_us:
+        c = c.copy()
+        c["t"] += int(round(delay_us))
+    return c
 
 
 def _track_velocity(c):
