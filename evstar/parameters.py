@@ -376,13 +376,13 @@ ATTITUDE_FILTER = Params(
           unit="rad/s²/√Hz"),
     Param("bias_prior", float, 0.01, "initial gyro bias spread (with an IMU)", low=0,
           open_low=True, unit="rad/s"),
-    Param("jerk_noise", float, 10.0, "white angular jerk of the constant-acceleration model "
+    Param("jerk_noise", float, 5.0, "white angular jerk of the constant-acceleration model "
           "(no IMU)", low=0, open_low=True, unit="rad/s³/√Hz"),
     Param("rate_prior", float, 1.0, "initial rate spread without track velocities (no IMU)",
           low=0, open_low=True, unit="rad/s"),
-    Param("accel_prior", float, 10.0, "initial angular acceleration spread (no IMU)", low=0,
+    Param("accel_prior", float, 1.0, "initial angular acceleration spread (no IMU)", low=0,
           open_low=True, unit="rad/s²"),
-    Param("rate_prior_tracks", float, 0.02, "initial rate spread when the tracks' image "
+    Param("rate_prior_tracks", float, 0.005, "initial rate spread when the tracks' image "
           "velocities gave it (no IMU)", low=0, open_low=True, unit="rad/s"),
     Param("init_sigma_arcsec", float, 60.0, "attitude spread of a fix", low=0, open_low=True,
           unit="arcsec"),
