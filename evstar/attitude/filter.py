@@ -168,11 +168,11 @@ class Mekf:
             used &= np.einsum("mi,mij,mj->m", r, np.linalg.inv(S), r) <= gate * gate
             if used.sum() > 2:
                 trial = self.copy()
-                trial._apply(r[used].reshape(-1), H[used].reshape(-1, len(self.P)), var[used].reshape(-1))
+                trial._apply(*_stacked(r, H, var, used))
                 r_post, _ = trial.residuals(z, dirs, dt, rates)
                 used &= np.sum(r_post ** 2 / var, axis=1) <= gate * gate
         if used.any():
-            self._apply(r[used].reshape(-1), H[used].reshape(-1, len(self.P)), var[used].reshape(-1))
+            self._apply(*_stacked(r, H, var, used))
         return used
 
     def _motion_var(self, dt):
@@ -200,3 +200,8 @@ class Mekf:
         """1-σ attitude error (rad): the root of the trace of its covariance (a bound on
         the largest axis's, cheaper than eigenvalues at every output)."""
         return math.sqrt(max(self.P[0, 0] + self.P[1, 1] + self.P[2, 2], 0.0))
+
+
+def _stacked(r, H, var, used):
+    """The used stars' rows stacked: residuals (2k,), Jacobian (2k, n), variances (2k,)."""
+    return r[used].reshape(-1), H[used].reshape(-1, H.shape[-1]), var[used].reshape(-1)
