@@ -4,9 +4,11 @@
 
 Frame by frame (the pipeline's `frame` field, else ``frame_us`` bins): while the filter has
 no attitude — and at most every ``reidentify_ms`` while fewer than ``min_stars``
-identified tracks are seen or confirmed tracks are unnamed — the frame's centroids, moved
-to the frame's last centroid time with their tracks' image velocities (a fast pan would
-distort the pattern), are identified. A fix names the stars of its tracks: every later
+identified tracks are seen or confirmed tracks are unnamed — the centroids of the frame's
+confirmed tracks, moved to the frame's last centroid time with their tracks' image
+velocities (a fast pan would distort the pattern), are identified; a full search that
+fails is retried ``reidentify_ms`` later, not every frame (a noisy recording would spend
+the solver's timeout on each). A fix names the stars of its tracks: every later
 centroid of such a track measures that star. A fix starts a filter that has no attitude;
 then each frame is one prediction (gyro, or the constant-acceleration model) to its last
 centroid time and one joint update with its identified stars, and each output time
@@ -73,7 +75,7 @@ class AttitudeEstimator:
         self._c, self._xy_dt = c, _track_velocity(c)
         self._z, self._sig = self._normalised(c)
         self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
-        self.filt, self._t_f, self._last_id = None, None, -math.inf
+        self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
         self._last_used, self._n_used, self._bad = -math.inf, 0, 0
         step = 1e6 / self.o["rate_hz"]
         t0, t_end = int(c["t"][0]), int(c["t"][-1])
@@ -94,14 +96,17 @@ class AttitudeEstimator:
     def _maybe_identify(self, idx, t_ref):
         """Identify the frame when needed; a fix names its tracks' stars and (re)starts a
         filter that has no attitude."""
+        idx = idx[self._c["track"][idx] >= 0]      # confirmed tracks: noise clusters are not
         c = self._c[idx]
         tracks = c["track"]
         known = np.array([k in self._stars for k in tracks.tolist()], bool)
         lost = self.filt is None
         few = known.sum() < self.o["min_stars"]
-        new = ((tracks >= 0) & ~known).any()
         due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
-        if not (lost or (few or new) and due):
+        if not ((lost or few or not known.all()) and (due or lost and t_ref >= self._retry_at)):
+            return
+        if len(c) < 4:                              # no pattern to search: say so, cheaply
+            self.fixes.append((t_ref, "too_few_stars", 0))
             return
         self._last_id = t_ref
         shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
@@ -109,11 +114,12 @@ class AttitudeEstimator:
         fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
         self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
         if not fix.ok:
+            if fix.status != "too_few_stars":        # a full search failed: not every frame
+                self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
             return
         for i, d in zip(np.asarray(fix.centroid_index, int), np.asarray(fix.dir_icrs, float)):
-            if tracks[i] >= 0:
-                self._stars[int(tracks[i])] = d / np.linalg.norm(d)
-                self._misses[int(tracks[i])] = 0
+            self._stars[int(tracks[i])] = d / np.linalg.norm(d)
+            self._misses[int(tracks[i])] = 0
         if lost:
             self._start(fix, t_ref, idx, xy)
 
