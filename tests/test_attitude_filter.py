@@ -201,6 +201,7 @@ def test_no_solution_gives_no_rows(pan):
 
     est = AttitudeEstimator(CAM, identifier=never)
     assert len(est.run(pan[0])) == 0 and est.fixes[0][1] == "no_solution"
+    assert len(est.fixes) == 3          # 300 ms: a failed search is retried every 100 ms
 
 
 def test_bad_options_and_inputs_are_evstar_errors(pan):
