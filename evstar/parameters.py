@@ -167,6 +167,13 @@ MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistak
 MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
 
 
+def check_path(value, key):
+    """A non-empty path string (whether the file is there is the reader's to say)."""
+    if not isinstance(value, str) or not value.strip():
+        raise ParameterError(f"{key} must be a file path, got {value!r}")
+    return value
+
+
 def check_device(device, key="device"):
     """'cpu', 'cuda' or 'cuda:N'."""
     ok = isinstance(device, str) and device.split(":")[0] in DEVICES
@@ -259,8 +266,8 @@ PARTICLE_FILTER = Params(
     Param("star_refine", int, 10, "centroids averaged into a star's direction", low=1,
           high=10**6),
 )
-#: where the event warping runs: Warp kernels, or the numpy specification
-WARP_BACKENDS = ("reference", "warp")
+#: where the event warping runs: Taichi or Warp kernels, or the numpy specification
+WARP_BACKENDS = ("reference", "taichi", "warp")
 
 #: options of the kernels themselves (how to compute, never what): not part of Config
 KERNEL = Params(
@@ -285,6 +292,9 @@ ESTIMATE = Params(
     Param("crossing_radius_px", float, 3.0, "crossings come from all events this close to a "
           "kept event (a filter drops a faint star's flank events)", low=0, high=MAX_RADIUS,
           unit="px"),
+    Param("pixel_lag_file", str, None, "pixel lag by brightness from `evstar calibrate` "
+          "(JSON): each pixel crossing is moved back by its lag (none: no correction)",
+          optional=True, checker=check_path, valid="a file path"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),

@@ -15,7 +15,8 @@ def bad_values(param):
     """Values the declaration must reject."""
     if param.kind is bool:
         return ["yes", 1]
-    out = [True, "x"] if param.kind is not str else [3, "cuda:x"]
+    out = [True, "x"] if param.kind is not str else [3, "cuda:x" if param.choices or
+                                                     param.name == "device" else ""]
     if param.choices:
         out.append("no-such-choice")
     if param.low is not None:
