@@ -13,8 +13,8 @@ any slew whose rate varies, e.g. a sinusoid, with the IMU), it is not. This modu
 
 for every crossing of pixel q at time t on a track moving along u with the gyro's image
 displacement D and velocity v; per track an offset s0 and a drift b (a gyro bias), shared
-by all tracks one τ per k. τ(k) is then made non-increasing in k (a brighter pixel is never
-slower), weighted by each value's precision. `evstar calibrate` writes the result as a small
+by all tracks one τ per k and speed (the pulse a pixel sees is shorter for a faster star).
+`evstar calibrate` writes the result as a small
 JSON file that `run` and `extract` accept (`estimate.pixel_lag_file`): every crossing's
 time is then moved back by τ(k) before the track smoother uses it.
 """
@@ -39,6 +39,8 @@ SPEED_EDGES = (25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0)
 #: a (k, speed) cell needs this many crossings (and a track this many) to enter the fit
 MIN_CROSSINGS = 30
 _ROBUST_PASSES = 4
+#: a cell known less precisely than this (µs) is filled from its neighbours instead
+MAX_CELL_SE_US = 300.0
 _UNKNOWN_SE = 1e9   # σ of a cell filled from its neighbours (no crossings of its own)
 
 
@@ -146,7 +148,7 @@ def fit_pixel_lag(crossings, tracks, velocity_prior, max_pairs=MAX_PAIRS,
     A, y = _design(blocks, cells)
     sol, se = _robust_lstsq(A, y)
     tau, tau_se = sol[-len(cells):], se[-len(cells):]
-    good = np.isfinite(tau_se) & (tau_se < 1000.0)
+    good = np.isfinite(tau_se) & (tau_se <= MAX_CELL_SE_US)
     if not good.any():
         raise DataError("pixel lag: the recording does not tell the lag apart from a position "
                         "offset (a constant slew rate?): calibrate on a slew whose rate changes")
@@ -254,10 +256,9 @@ def _robust_lstsq(A, y):
 
 def _table(cells, tau, se, max_pairs, speed_edges, meta):
     """The PixelLag of fitted cells: rows k that have any, speed columns that have any; a
-    missing cell from its row's neighbours in log speed (else its column's in k); then each
-    column made non-increasing in k (a brighter pixel is never slower), weighted by 1/σ²."""
-    from sklearn.isotonic import IsotonicRegression
-
+    missing cell from its row's neighbours in log speed (else its column's in k). No shape
+    is imposed: a dim pixel's lag is not monotonic in k (a slow photoreceptor's delay is
+    capped by the pulse's length, so the dimmest crossings can lag less than brighter ones)."""
     n_s = len(speed_edges) - 1
     k_of, s_of = cells // n_s, cells % n_s
     rows, cols = np.unique(k_of), np.unique(s_of)
@@ -272,7 +273,4 @@ def _table(cells, tau, se, max_pairs, speed_edges, meta):
             have = np.isfinite(line)
             if have.any() and not have.all():
                 line[~have] = np.interp(axis_x[~have], axis_x[have], line[have])
-    iso = IsotonicRegression(increasing=False)
-    for j in range(L.shape[1]):
-        L[:, j] = iso.fit_transform(rows, L[:, j], sample_weight=1.0 / np.maximum(S[:, j], 1.0) ** 2)
     return PixelLag(rows, centres, L, S, meta)

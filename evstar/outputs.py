@@ -22,9 +22,10 @@ from .errors import EvstarError, OutputError
 from .io.atomic import check_output_dir
 from .metrics import snr_db
 
-#: every file a run writes (errors.png only with truth)
+#: every file a run writes (errors.png only with truth; attitude.csv only when the camera is
+#: known and a frame was identified)
 RUN_FILES = ("centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml",
-             "denoise.png", "tracks.png", "per_frame.png", "errors.png")
+             "denoise.png", "tracks.png", "per_frame.png", "errors.png", "attitude.csv")
 _TMP_TAG = ".evstar-tmp-"  # temporary folders: .{outdir name}.evstar-tmp-{pid}-{random}
 
 
@@ -33,9 +34,10 @@ def run_files(outdir):
     return [pathlib.Path(outdir) / name for name in RUN_FILES]
 
 
-def write_run(outdir, result, config, truth=None):
-    """Write a pipeline Result (with the Config used and the optional simulator Truth) into
-    `outdir`, created if needed; returns its path."""
+def write_run(outdir, result, config, truth=None, attitude=None):
+    """Write a pipeline Result (with the Config used, the optional simulator Truth and
+    attitude rows of evstar.attitude.estimate) into `outdir`, created if needed; returns
+    its path."""
     outdir = check_output_dir(outdir)
     outdir.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(outdir)
@@ -43,6 +45,10 @@ def write_run(outdir, result, config, truth=None):
                                         dir=outdir.parent))
     try:
         _write_all(tmp, result, config, truth)
+        if attitude is not None and len(attitude):
+            from .attitude import write_attitude
+
+            write_attitude(tmp / "attitude.csv", attitude)
         outdir.mkdir(exist_ok=True)
         written = {f.name for f in tmp.iterdir()}
         for name in sorted(written):

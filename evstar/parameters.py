@@ -356,6 +356,68 @@ HOTPIXEL_MAP = Params(
           "dropped when its spread is at most this", low=0, unit="px"),
 )
 
+#: star identification (evstar.attitude.identify); library-only, not part of Config
+IDENTIFY = Params(
+    "identify",
+    Param("mag_limit", float, 6.0, "faintest catalogue star in the solver's database",
+          low=-2, high=12),
+    Param("min_matches", int, 4, "a solution needs at least this many matched stars", low=3,
+          high=1000),
+    Param("max_residual_px", float, 2.0, "a solution's RMS angle between matched centroid rays "
+          "and catalogue stars may be at most this (in pixels of the camera)", low=0,
+          open_low=True, unit="px"),
+    Param("max_false_match", float, 1e-5, "largest false-match probability of a solution "
+          "(the solver's verification)", low=0, high=1, open_low=True),
+    Param("match_radius_px", float, 3.0, "a centroid this close to a projected catalogue star "
+          "is matched to it", low=0, open_low=True, high=1000, unit="px"),
+    Param("pattern_error", float, 0.01, "largest error of a 4-star pattern's edge ratios the "
+          "search accepts (centroid error / star separation)", low=0, high=0.1, open_low=True),
+    Param("timeout_ms", int, 500, "give up a lost-in-space search after this long", low=1,
+          high=600_000, unit="ms"),
+)
+
+# -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator); not part of Config ----
+ATTITUDE_FILTER = Params(
+    "attitude_filter",
+    Param("rate_hz", float, 100.0, "attitude output rate (predictions between updates)",
+          low=0, high=1000, open_low=True, unit="Hz"),
+    Param("min_stars", int, 3, "identify again while fewer identified stars are tracked",
+          low=1, high=1000),
+    Param("reidentify_ms", float, 100.0, "least time between identifications while tracking",
+          low=0, unit="ms"),
+    Param("gyro_noise", float, 2e-4, "filter's gyro white noise (with an IMU)", low=0,
+          unit="rad/s/√Hz"),
+    Param("bias_walk", float, 1e-4, "filter's gyro bias random walk (with an IMU)", low=0,
+          unit="rad/s²/√Hz"),
+    Param("bias_prior", float, 0.01, "initial gyro bias spread (with an IMU)", low=0,
+          open_low=True, unit="rad/s"),
+    Param("jerk_noise", float, 5.0, "white angular jerk of the constant-acceleration model "
+          "(no IMU)", low=0, open_low=True, unit="rad/s³/√Hz"),
+    Param("rate_prior", float, 1.0, "initial rate spread without track velocities (no IMU)",
+          low=0, open_low=True, unit="rad/s"),
+    Param("accel_prior", float, 1.0, "initial angular acceleration spread (no IMU)", low=0,
+          open_low=True, unit="rad/s²"),
+    Param("rate_prior_tracks", float, 0.005, "initial rate spread when the tracks' image "
+          "velocities gave it (no IMU)", low=0, open_low=True, unit="rad/s"),
+    Param("init_sigma_arcsec", float, 60.0, "attitude spread of a fix", low=0, open_low=True,
+          unit="arcsec"),
+    Param("sigma_px", float, 0.3, "centroid sigma where a centroid has none", low=0,
+          open_low=True, unit="px"),
+    Param("sigma_floor_px", float, 0.03, "smallest centroid sigma used", low=0, open_low=True,
+          unit="px"),
+    Param("sigma_scale", float, 1.0, "centroid sigmas are multiplied by this (smoothed "
+          "centroids are correlated in time)", low=0, open_low=True),
+    Param("centroid_delay_us", float, 0.0, "a centroid's position is the star's at its time "
+          "plus this (a timing bias of the centroid estimator or sensor latency: calibrate "
+          "it against a known motion)", low=-100_000, high=100_000, unit="µs"),
+    Param("gate", float, 5.0, "an identified star's centroid farther than this many sigmas "
+          "is left out", low=0, open_low=True),
+    Param("max_misses", int, 5, "gated-out centroids in a row after which a track's "
+          "identity is forgotten", low=1, high=10**6),
+    Param("lost_sigma_deg", float, 0.5, "the attitude is lost (rows stop) when its 1-sigma "
+          "exceeds this", low=0, open_low=True, unit="deg"),
+)
+
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
             "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
@@ -373,13 +435,15 @@ def markdown():
     file equal to this text)."""
     lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
-             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
-    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP):
+             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones, "
+             "`evstar attitude` the attitude_filter ones).", ""]
+    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP,
+                   IDENTIFY, ATTITUDE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP)
+            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, IDENTIFY)
             cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "

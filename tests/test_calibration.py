@@ -59,8 +59,6 @@ def test_fit_recovers_a_known_lag_by_brightness_and_speed():
     for speed in (60.0, 120.0):
         got, want = lag.lag_at(k, np.full(len(k), speed)), _lag_truth(k, speed)
         assert np.max(np.abs(got - want)) < 0.12 * want.max(), (speed, got, want)
-    # brighter pixels are faster: the table never increases with k
-    assert np.all(np.diff(lag.lag_us, axis=0) <= 1e-9)
 
 
 def test_a_constant_rate_cannot_be_calibrated():

@@ -31,8 +31,12 @@ def add_arguments(p):
     p.add_argument("--stars", type=checked(int, 1, 100_000), default=1, metavar="N",
                    help="1: the paper's single-star simulator (default); N > 1: the N brightest "
                         "Hipparcos stars that come into view during the run, starting at --pointing")
-    p.add_argument("--pointing", type=checked(float, -360, 360), nargs=2, default=(83.8, -5.4), metavar=("RA", "DEC"),
-                   help="boresight in degrees for --stars > 1 (default: Orion, 83.8 -5.4)")
+    p.add_argument("--pointing", nargs="+", default=["83.8", "-5.4"], metavar=("RA", "DEC"),
+                   help="boresight for --stars > 1: RA DEC in degrees (default: Orion, 83.8 -5.4), or "
+                        "'random': uniform over the sky with a random roll, drawn from --seed")
+    p.add_argument("--roll", type=checked(float, -360, 360), metavar="DEG",
+                   help="camera roll about the boresight, degrees (0: image up points north; "
+                        "default 0, random with --pointing random)")
     p.add_argument("--mag-limit", type=checked(float, -30, 30), default=6.5, help="faintest catalogue magnitude (6.5)")
     p.add_argument("--sensor", type=str, choices=SENSOR_MODELS, default="default",
                    help="sensor model: default (no pixel bandwidth limit) or dark-sky (photoreceptor "
@@ -69,11 +73,28 @@ def scenario_from(args):
         t_centre = 0.0 if args.sine else duration / 2
         stars = sim.star_at_pixel(cam, motion.rotation(t_centre)[0], (cam.cx, cam.cy), args.magnitude)
     else:
-        R0 = sim.attitude_from_radec(*args.pointing)
+        R0 = sim.attitude_from_radec(*pointing(args))
         motion = _motion(sim, args, R0)
         stars = sim.hipparcos_field_along(cam, motion, duration, mag_limit=args.mag_limit,
                                           max_stars=args.stars)
     return sim.Scenario(cam, stars, motion, duration, sensor=sensor, imu=imu, psf_sigma_px=args.psf_sigma)
+
+
+def pointing(args):
+    """(ra, dec, roll) in degrees from --pointing and --roll (ParameterError when malformed)."""
+    from ..sim import random_pointing
+
+    if args.pointing == ["random"]:
+        ra, dec, roll = random_pointing(args.seed)
+        return ra, dec, roll if args.roll is None else args.roll
+    try:
+        ra, dec = (float(v) for v in args.pointing)
+    except ValueError:
+        raise ParameterError(f"--pointing must be RA DEC in degrees or 'random', got {' '.join(args.pointing)!r}") from None
+    if not (-360 <= ra <= 360 and -90 <= dec <= 90):
+        raise ParameterError(f"--pointing must be RA in [-360, 360] and DEC in [-90, 90] degrees, "
+                             f"got {ra:g} {dec:g}")
+    return ra, dec, 0.0 if args.roll is None else args.roll
 
 
 def _motion(sim, args, R0=None):
@@ -98,6 +119,11 @@ def run(args):
     except ValueError as exc:  # the simulator's own checks of a combination of options
         raise ParameterError(str(exc)) from None
     result = simulate(scenario, seed=args.seed)
+    if args.stars > 1:
+        ra, dec, roll = pointing(args)
+        result.truth.meta["pointing_deg"] = dict(ra=ra, dec=dec, roll=roll)
+        print(f"pointing RA {ra:.3f}°, Dec {dec:.3f}°, roll {roll:.3f}° (truth.npz quat_icrs_cam: "
+              "camera -> ICRS over time)")
     os.makedirs(args.out_dir, exist_ok=True)
     io.write(events_path, result.events, imu=result.imu if fmt != "csv" else None,
              camera=result.camera if fmt not in ("csv", "aedat4") else None)

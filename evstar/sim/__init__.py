@@ -10,7 +10,7 @@ imu_model, truth (labels, attitude, star positions; truth.npz), scene (Scenario)
 """
 from .imu_model import ImuSpec
 from .motion import (ConstantRate, FunctionTrajectory, SampledTrajectory, Sinusoid, Trajectory,
-                     attitude_from_radec)
+                     attitude_from_radec, random_pointing)
 from .presets import (PAPER_RATES_DPS, SENSOR_MODELS, SENSORS, camera_preset, paper_preset,
                       paper_sinusoid, sensor_model, sensor_preset)
 from .scene import Scenario
@@ -21,7 +21,7 @@ from .targets import (FLUX_MAG3, StarField, hipparcos_field, hipparcos_field_alo
 from .truth import HOT_PIXEL, NOISE, Truth, load_truth, save_truth
 
 __all__ = ["ImuSpec", "ConstantRate", "FunctionTrajectory", "SampledTrajectory", "Sinusoid",
-           "Trajectory", "attitude_from_radec", "PAPER_RATES_DPS", "SENSOR_MODELS", "SENSORS",
+           "Trajectory", "attitude_from_radec", "random_pointing", "PAPER_RATES_DPS", "SENSOR_MODELS", "SENSORS",
            "camera_preset", "paper_preset", "paper_sinusoid", "sensor_model", "sensor_preset",
            "Scenario", "SensorSpec", "Simulation", "simulate", "FLUX_MAG3", "StarField", "hipparcos_field",
            "hipparcos_field_along", "single_star", "star_at_pixel", "star_flux", "HOT_PIXEL", "NOISE",

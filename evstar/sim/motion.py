@@ -55,6 +55,14 @@ def attitude_from_radec(ra_deg, dec_deg, roll_deg=0.0):
     return _exp([0.0, 0.0, math.radians(roll_deg)])[0] @ R
 
 
+def random_pointing(seed=None):
+    """(ra_deg, dec_deg, roll_deg): a boresight uniform over the sphere and a uniform roll,
+    drawn from `seed` (an int, a numpy Generator, or None for fresh entropy)."""
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    ra, z, roll = rng.uniform(0, 360), rng.uniform(-1, 1), rng.uniform(0, 360)
+    return float(ra), math.degrees(math.asin(z)), float(roll)
+
+
 class Trajectory:
     """Base class: subclasses give rotation(t) and omega(t); omega_dot defaults to a
     central difference of omega."""

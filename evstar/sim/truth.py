@@ -6,7 +6,11 @@
   Hipparcos numbers (−1 when synthetic), RA/Dec.
 * the camera attitude over time: a table at ``t_us`` of R_cw as quaternions (x, y, z, w —
   scalar last, as scipy) and the true body rate ω (camera frame, rad/s), plus each star's
-  true pixel position at those times (NaN behind the camera).
+  true pixel position at those times (NaN behind the camera). The same attitude as
+  ``quat_icrs_cam`` (t_us, w, x, y, z — scalar first): the rotation taking camera-frame
+  vectors into the world (ICRS for Hipparcos fields), R_cwᵀ — the quaternion
+  :func:`evstar.attitude.identify` returns. Written from format 2 on; derived from
+  ``quat_cw`` when an older file is read.
 * the IMU's true biases at its samples (IMU frame) and its calibration.
 
 ``star_position(t_us)`` gives positions at any time: slerp of the attitude table, then
@@ -30,7 +34,7 @@ from .targets import StarField
 
 NOISE = -1
 HOT_PIXEL = -2
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: quat_icrs_cam added (format-1 files still load)
 REQUIRED = ("labels", "star_dir_world", "star_mag", "star_hip", "star_flux", "t_us", "quat_cw", "omega_cam",
             "star_xy", "hot_pixels", "camera", "imu_t_us", "gyro_bias", "accel_bias", "R_cam_imu",
             "imu_time_offset_us", "meta")
@@ -73,6 +77,20 @@ class Truth:
         return uv if star is None else uv[:, 0]
 
     @property
+    def quat_icrs_cam(self):
+        """(n_t, 5) table: t_us, then w, x, y, z of the camera -> world rotation R_cwᵀ
+        (scalar first, w >= 0)."""
+        x, y, z, w = np.asarray(self.quat_cw, np.float64).T
+        sign = np.where(w < 0, -1.0, 1.0)   # conjugate (the inverse), then the w >= 0 hemisphere
+        return np.stack([self.t_us.astype(np.float64), sign * w, -sign * x, -sign * y, -sign * z], axis=1)
+
+    def q_icrs_cam_at(self, t_us):
+        """Camera -> world quaternions (n, 4), w, x, y, z, at camera times t_us (slerp)."""
+        q = Rotation.from_matrix(self.rotation_at(t_us).transpose(0, 2, 1)).as_quat()
+        q = q * np.where(q[:, 3:] < 0, -1.0, 1.0)
+        return q[:, [3, 0, 1, 2]]
+
+    @property
     def n_stars(self):
         return len(self.stars)
 
@@ -91,6 +109,7 @@ def save_truth(path, truth):
         star_dir_world=truth.stars.directions, star_mag=truth.stars.magnitudes,
         star_hip=truth.stars.hip, star_flux=truth.star_flux, star_ra_deg=truth.stars.ra_deg,
         star_dec_deg=truth.stars.dec_deg, t_us=truth.t_us, quat_cw=truth.quat_cw,
+        quat_icrs_cam=truth.quat_icrs_cam,
         omega_cam=truth.omega_cam, star_xy=truth.star_xy, hot_pixels=truth.hot_pixels,
         camera=np.array([c.width, c.height, c.fx, c.fy, c.cx, c.cy, c.k1, c.k2]),
         imu_t_us=truth.imu_t_us, gyro_bias=truth.gyro_bias, accel_bias=truth.accel_bias,

@@ -1,0 +1,172 @@
+"""First attitude fix from 50 ms of events, over random pointings (issue 14).
+
+For each setting (camera preset x slew rate x motion compensation) and each of N random
+pointings (uniform on the sphere, random roll, random rotation axis; seeded), the simulator
+renders the Hipparcos stars to magnitude 7 for the first 50 ms only (so nothing later can
+leak into the answer), the real pipeline runs (MR-NDSEF, DBSCAN, tracking, crossing-time
+estimator; compensation none or imu), and the centroids of each 10 ms frame, in time order,
+go to evstar.attitude.identify until one gives a verified fix. A pointing succeeds when that
+fix names the stars right: at least 80 % of its matched catalogue stars project, with the
+true attitude at each centroid's time, within 3 px of their centroids (and the attitude is
+within 1°). A verified fix that fails this is a false fix. The attitude error of the
+successful fixes (rotation angle between fitted and true attitude, dominated by roll about
+the boresight) is reported separately.
+
+    python perf/study_identify.py [--pointings 50] [--presets davis346 evk4] [--quick]
+
+Writes perf/results/identify.json (per setting: success fraction, false fixes, how much of
+the window the first fix needs (the end of its 10 ms frame) and the time its centroids refer
+to, solve time median / range over all frames tried, matched stars, RMS residual, attitude
+error) and prints a table. The pipeline and simulation of one pointing are shared
+by both compensation modes.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+import time
+
+import numpy as np
+
+from evstar import Config, Pipeline, sim
+from evstar.attitude import Solver, catalog, identify
+
+RESULTS = pathlib.Path(__file__).resolve().parent / "results"
+# davis346 behind 16 mm: 346 x 260 px, f ≈ 865 px (22.6° x 17.1°); evk4 behind 12 mm:
+# 1280 x 720 px, f ≈ 2469 px (29.1° x 16.6°)
+CAMERAS = {"davis346": 16.0, "evk4": 12.0}
+RATES = (0.0, 5.0, 10.0, 20.0)
+COMPENSATIONS = ("none", "imu")
+WINDOW_US = 50_000
+DT_US = Config().dt_us   # pseudo-frame length (10 ms)
+SIM_MAG_LIMIT = 7.0
+NAMED_RIGHT_FRACTION, NAMED_WITHIN_PX, TRUE_WITHIN_DEG = 0.8, 3.0, 1.0
+
+
+def random_pointing(rng):
+    ra, dec = rng.uniform(0, 360), math.degrees(math.asin(rng.uniform(-1, 1)))
+    roll = rng.uniform(0, 360)
+    axis = rng.normal(size=3)
+    return ra, dec, roll, axis / np.linalg.norm(axis)
+
+
+def angle_deg(R_icrs_cam, R_cw):
+    c = (np.trace(R_icrs_cam @ R_cw) - 1) / 2
+    return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+
+def first_fix(cents, cam, solver, truth, t0):
+    """The first verified fix from one frame's centroids, frames in time order."""
+    tried = []
+    for frame in np.unique(cents["frame"]):
+        c = cents[cents["frame"] == frame]
+        t_us = int(np.median(c["t"]))
+        fix = identify(np.stack([c["x"], c["y"]], axis=1), cam, t_us, solver=solver,
+                       weight=c["n_events"])
+        tried.append(fix.solve_ms)
+        if fix.ok:
+            err = angle_deg(fix.R_icrs_cam, truth.rotation_at([t_us])[0])
+            data_ms = (int(frame) + 1) * DT_US / 1e3     # the fix needs events up to its frame's end
+            m = c[fix.centroid_index]
+            true_cam = np.einsum("nij,nj->ni", truth.rotation_at(m["t"]), catalog.directions(fix.hip))
+            off = np.hypot(*(cam.project(true_cam) - np.stack([m["x"], m["y"]], axis=1)).T)
+            right = (np.mean(off <= NAMED_WITHIN_PX) >= NAMED_RIGHT_FRACTION) and err <= TRUE_WITHIN_DEG
+            return dict(ok=bool(right), false=not right, err_arcsec=err * 3600,
+                        named_right=float(np.mean(off <= NAMED_WITHIN_PX)),
+                        data_ms=data_ms, t_fix_ms=(t_us - t0) / 1e3, solve_ms=fix.solve_ms,
+                        all_solve_ms=tried, frame=int(frame),
+                        matches=fix.n_matches, residual_arcsec=fix.residual_arcsec, centroids=len(c),
+                        status=fix.status)
+    return dict(ok=False, false=False, all_solve_ms=tried, status="none" if not tried else fix.status)
+
+
+def one_pointing(preset, rate, seed, solvers):
+    cam = sim.camera_preset(preset, CAMERAS[preset])
+    rng = np.random.default_rng([seed, int(rate * 10), len(preset)])
+    ra, dec, roll, axis = random_pointing(rng)
+    motion = sim.ConstantRate(rate, axis=axis, R0=sim.attitude_from_radec(ra, dec, roll))
+    duration = WINDOW_US / 1e6
+    stars = sim.hipparcos_field_along(cam, motion, duration, mag_limit=SIM_MAG_LIMIT)
+    t = time.perf_counter()
+    run = sim.simulate(sim.Scenario(cam, stars, motion, duration), seed=seed)
+    sim_s = time.perf_counter() - t
+    out = {}
+    for comp in COMPENSATIONS:
+        t = time.perf_counter()
+        res = Pipeline(Config().replace(**{"motion.compensate": comp})).run(run.events, run.imu, run.camera)
+        pipe_s = time.perf_counter() - t
+        t0 = int(run.events.t[0]) if len(run.events) else 0
+        r = first_fix(res.centroids, cam, solvers[preset], run.truth, t0)
+        r.update(ra=ra, dec=dec, roll=roll, stars_mag6=int((stars.magnitudes <= 6).sum()),
+                 sim_s=sim_s, pipeline_s=pipe_s)
+        out[comp] = r
+    return out
+
+
+def summarise(rows):
+    ok = [r for r in rows if r["ok"]]
+    solve = [s for r in rows for s in r["all_solve_ms"]]
+    def stats(v):
+        return dict(median=float(np.median(v)), min=float(np.min(v)), max=float(np.max(v))) if v else None
+    return dict(pointings=len(rows), success=len(ok) / len(rows) if rows else math.nan,
+                false_fixes=sum(r["false"] for r in rows),
+                t_fix_ms=stats([r["t_fix_ms"] for r in ok]), data_ms=stats([r["data_ms"] for r in ok]),
+                solve_ms=stats(solve),
+                first_fix_solve_ms=stats([r["solve_ms"] for r in ok]),
+                matches=stats([r["matches"] for r in ok]),
+                residual_arcsec=stats([r["residual_arcsec"] for r in ok]),
+                err_arcsec=stats([r["err_arcsec"] for r in ok]),
+                err_arcsec_p95=float(np.percentile([r["err_arcsec"] for r in ok], 95)) if ok else None,
+                failures=[dict(status=r["status"], false=r["false"], ra=r["ra"], dec=r["dec"],
+                               stars_mag6=r["stars_mag6"], err_arcsec=r.get("err_arcsec"),
+                               named_right=r.get("named_right")) for r in rows if not r["ok"]])
+
+
+def table(summary):
+    lines = ["| camera | rate °/s | comp | pointings | success | false | events needed ms (median, max) | "
+             "solve ms (median, range) | matches (median) | residual \" (median) | error \" (median, max) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for key, s in summary.items():
+        preset, rate, comp = key.split("/")
+        f = lambda d, k="median": f"{d[k]:.1f}" if d else "—"
+        lines.append(f"| {preset} | {rate} | {comp} | {s['pointings']} | {100 * s['success']:.1f} % | "
+                     f"{s['false_fixes']} | {f(s['data_ms'])}, {f(s['data_ms'], 'max')} | "
+                     f"{f(s['solve_ms'])} ({f(s['solve_ms'], 'min')}–{f(s['solve_ms'], 'max')}) | "
+                     f"{f(s['matches'])} | {f(s['residual_arcsec'])} | {f(s['err_arcsec'])}, "
+                     f"{f(s['err_arcsec'], 'max')} |")
+    return "\n".join(lines)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pointings", type=int, default=50)
+    ap.add_argument("--presets", nargs="+", default=list(CAMERAS), choices=list(CAMERAS))
+    ap.add_argument("--rates", nargs="+", type=float, default=list(RATES))
+    ap.add_argument("--out", default=str(RESULTS / "identify.json"))
+    args = ap.parse_args()
+    solvers = {p: Solver.for_camera(sim.camera_preset(p, CAMERAS[p])) for p in args.presets}
+    rows = {}
+    started = time.perf_counter()
+    for preset in args.presets:
+        for rate in args.rates:
+            for seed in range(args.pointings):
+                for comp, r in one_pointing(preset, rate, seed, solvers).items():
+                    rows.setdefault(f"{preset}/{rate:g}/{comp}", []).append(r)
+            summary = {k: summarise(v) for k, v in rows.items()}
+            out = dict(window_ms=WINDOW_US / 1e3, sim_mag_limit=SIM_MAG_LIMIT,
+                       solver_mag_limit=solvers[preset].mag_limit, named_right_fraction=NAMED_RIGHT_FRACTION,
+                       named_within_px=NAMED_WITHIN_PX, true_within_deg=TRUE_WITHIN_DEG,
+                       cameras={p: dict(focal_length_mm=CAMERAS[p], **sim.camera_preset(p, CAMERAS[p]).to_dict())
+                                for p in args.presets},
+                       wall_s=time.perf_counter() - started, summary=summary)
+            pathlib.Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+            pathlib.Path(args.out).write_text(json.dumps(out, indent=1))
+            print(table({k: v for k, v in summary.items() if k.startswith(f"{preset}/{rate:g}/")}),
+                  flush=True)
+    print(table(summary))
+
+
+if __name__ == "__main__":
+    main()
