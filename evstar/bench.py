@@ -58,7 +58,8 @@ def run(n_events=1_000_000, device="cpu", repeats=3, seed=0, progress=print):
     ex = pipe.make_extractor(int(ev.t[0]))
     r = time_call(lambda: ex.centroids(kept), repeats=repeats)
     cents = ex.centroids(kept)
-    rows.append(_row("extract (DBSCAN)", "scikit-learn", len(kept), r,
+    clustering = "scikit-learn" if ex.clustering == "sklearn" else f"taichi-{device} grid"
+    rows.append(_row("extract (DBSCAN)", clustering, len(kept), r,
                      f"{len(cents) / r['median_s']:,.0f} centroids/s"))
     r = time_call(lambda: pipe.make_tracker().link(cents), repeats=repeats)
     rows.append(_row("track", "numpy/scipy", len(kept), r, f"{len(cents) / r['median_s']:,.0f} centroids/s"))
