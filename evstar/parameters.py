@@ -341,6 +341,14 @@ HOTPIXEL_MAP = Params(
           "dropped when its spread is at most this", low=0, unit="px"),
 )
 
+#: how the track smoother computes (never what): not part of Config
+SMOOTHER = Params(
+    "smoother",
+    Param("engine", str, "numpy", "track smoother's Kalman filter: numpy, all tracks at once, "
+          "or filterpy, one track and step at a time (the reference; slow)",
+          choices=("numpy", "filterpy")),
+)
+
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
             "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
@@ -359,12 +367,12 @@ def markdown():
     lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
              "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
-    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP):
+    library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, SMOOTHER)
+    for params in (GLOBAL, *SECTIONS.values(), *library):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP)
             cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "
