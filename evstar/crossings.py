@@ -80,32 +80,87 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
 
     tracks: rows with t (µs), track, x, y, vx, vy (px, px/s), sorted by track then time (e.g.
     evstar.smoothing's estimates). A crossing belongs to the track whose position at the
-    crossing's time is nearest, within `max_offset_px`, while the track moves at least
-    `min_speed_px_s` (a star that stands still crosses nothing). Returns (index into
-    crossings, track id, unit motion direction (n, 2), along residual px = (pixel − track
+    crossing's time (linear between its rows, np.interp's arithmetic) is nearest, within
+    `max_offset_px`, while the track moves at least `min_speed_px_s` (a star that stands
+    still crosses nothing); of equally near tracks the first. Returns (index into crossings,
+    track id, unit motion direction (n, 2), along residual px = (pixel − track
     position)·direction) for the assigned crossings.
     """
-    t = crossings["t"]
-    q = np.column_stack([crossings["x"], crossings["y"]]).astype(np.float64)
-    best = np.full(len(t), np.inf)
-    owner = np.full(len(t), -1, np.int64)
-    u = np.zeros((len(t), 2))
-    resid = np.zeros(len(t))
-    for tid in np.unique(tracks["track"]):
-        tr = tracks[tracks["track"] == tid]
-        inside = (t >= tr["t"][0]) & (t <= tr["t"][-1])
-        if not inside.any() or len(tr) < 2:
-            continue
-        ti = t[inside]
-        pos = np.column_stack([np.interp(ti, tr["t"], tr["x"]), np.interp(ti, tr["t"], tr["y"])])
-        vel = np.column_stack([np.interp(ti, tr["t"], tr["vx"]), np.interp(ti, tr["t"], tr["vy"])])
-        speed = np.linalg.norm(vel, axis=1)
-        d = q[inside] - pos
-        dist = np.linalg.norm(d, axis=1)
-        win = (dist < np.minimum(best[inside], max_offset_px)) & (speed >= min_speed_px_s)
-        idx = np.flatnonzero(inside)[win]
-        best[idx], owner[idx] = dist[win], tid
-        u[idx] = vel[win] / speed[win, None]
-        resid[idx] = (d[win] * u[idx]).sum(1)
-    got = np.flatnonzero(owner >= 0)
-    return got, owner[got], u[got], resid[got]
+    # plain arrays: fields of packed records are slow to index
+    crossings = {f: np.ascontiguousarray(crossings[f]) for f in ("t", "x", "y")}
+    tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
+    ci, seg = _candidates(crossings, tracks, max_offset_px)
+    t = crossings["t"][ci]
+    q = np.column_stack([crossings["x"][ci], crossings["y"][ci]]).astype(np.float64)
+    pos = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y")])
+    vel = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("vx", "vy")])
+    speed = np.linalg.norm(vel, axis=1)
+    d = q - pos
+    dist = np.linalg.norm(d, axis=1)
+    ok = (dist < max_offset_px) & (speed >= min_speed_px_s)
+    ci, tid, vel, speed, d, dist = ci[ok], tracks["track"][seg[ok]], vel[ok], speed[ok], d[ok], dist[ok]
+    # per crossing the nearest track, the lowest id among equals
+    order = np.lexsort((tid, dist, ci))
+    first = order[np.r_[True, ci[order][1:] != ci[order][:-1]]] if len(order) else order
+    u = vel[first] / speed[first, None]
+    return ci[first], tid[first], u, (d[first] * u).sum(1)
+
+
+def _candidates(crossings, tracks, max_offset_px):
+    """(crossing, segment) pairs with the crossing's time in the segment (rows j, j + 1 of a
+    track: t_j <= t < t_j+1, or t = the track's last time) and its pixel in the segment's
+    box widened by max_offset_px; segments are named by their first row j. Crossings are
+    looked up by (time bin, x) in sorted order, so only those near a track are visited."""
+    t_row, tr = tracks["t"], tracks["track"]
+    j = np.flatnonzero(tr[:-1] == tr[1:])               # segments: rows j, j + 1
+    if not len(j) or not len(crossings["t"]):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    bin_us = max(float(np.median(np.diff(t_row)[j])), 1.0)
+    t0 = min(float(crossings["t"].min()), float(t_row.min()))
+    kx = int(crossings["x"].max()) + 1
+    key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + crossings["x"]
+    srt = np.argsort(key, kind="stable")
+    key = key[srt]
+    # one query per segment and time bin it spans: the x range of the segment's box
+    b0 = np.floor((t_row[j] - t0) / bin_us).astype(np.int64)
+    b1 = np.floor((t_row[j + 1] - t0) / bin_us).astype(np.int64)
+    nb = b1 - b0 + 1
+    qseg = np.repeat(j, nb)
+    qbin = np.repeat(b0, nb) + _ranks(nb)
+    r = max_offset_px + 1e-6                  # a hair wider: rounding of the interpolation
+    x_lo = np.minimum(tracks["x"][qseg], tracks["x"][qseg + 1]) - r
+    x_hi = np.maximum(tracks["x"][qseg], tracks["x"][qseg + 1]) + r
+    lo = np.searchsorted(key, qbin * kx + np.clip(np.ceil(x_lo), 0, kx - 1).astype(np.int64))
+    hi = np.searchsorted(key, qbin * kx + np.clip(np.floor(x_hi), -1, kx - 1).astype(np.int64),
+                         "right")
+    n = np.maximum(hi - lo, 0)
+    seg = np.repeat(qseg, n)
+    ci = srt[np.repeat(lo, n) + _ranks(n)]
+    t, y = crossings["t"][ci], crossings["y"][ci]
+    end = _is_last_row(tr)[seg + 1]
+    inside = (t >= t_row[seg]) & ((t < t_row[seg + 1]) | (end & (t == t_row[seg + 1])))
+    inside &= (y >= np.minimum(tracks["y"][seg], tracks["y"][seg + 1]) - r)
+    inside &= (y <= np.maximum(tracks["y"][seg], tracks["y"][seg + 1]) + r)
+    return ci[inside], seg[inside]
+
+
+def _is_last_row(track):
+    """Per row: is it its track's last?"""
+    return np.r_[track[1:] != track[:-1], True]
+
+
+def _ranks(counts):
+    """0, 1, ..., c − 1 for each count c, concatenated."""
+    counts = np.asarray(counts, np.int64)
+    return np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _interp(t, t_row, f_row, seg):
+    """np.interp(t, t_row, f_row) of each t in its segment (rows seg, seg + 1), with
+    np.interp's arithmetic (its value at a row's time is the row's; the last row's at the
+    segment's end)."""
+    x0, x1 = t_row[seg].astype(np.float64), t_row[seg + 1].astype(np.float64)
+    f0, f1 = f_row[seg], f_row[seg + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        val = (f1 - f0) / (x1 - x0) * (t - x0) + f0
+    return np.where(t == x1, f1, np.where(t == x0, f0, val))

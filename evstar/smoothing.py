@@ -197,17 +197,19 @@ class TrackSmoother:
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
         problems = []
-        for tid in np.unique(est["track"]):
-            mine = owner == tid
-            rows = self._fill_frames(est[est["track"] == tid], crossings["t"][got[mine]], t0_us)
-            meas = rows["centroid"][~rows["coasted"]]
-            s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
+        tids, est_rows = _groups(est["track"])
+        mine = dict(zip(*_groups(owner)))
+        for tid, rows in zip(tids, est_rows):
+            m = mine.get(tid, np.zeros(0, np.int64))
+            full = self._fill_frames(est[rows], crossings["t"][got[m]], t0_us)
+            meas = full["centroid"][~full["coasted"]]
+            s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
             problems.append(_along_track_problem(
-                rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (crossings["t"][got[mine]], q_all[got[mine]], u[mine], resid[mine]),
+                full, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
+                (crossings["t"][got[m]], q_all[got[m]], u[m], resid[m]),
                 velocity_prior, along_weight=along_weight, sigma_floor_px=self.sigma_floor_px))
             # rows added for crossings stand only when the crossings are used
-            parts.append(est[est["track"] == tid] if problems[-1] is None else None)
+            parts.append(est[rows] if problems[-1] is None else None)
         fits = iter(_along_track_fit_many([p for p in problems if p is not None],
                                           velocity_prior, self.process_noise_min, self.engine))
         for i, p in enumerate(problems):
@@ -334,6 +336,13 @@ def _estimate_q_many(tracks, engine):
     for i, ll in zip(long, _ENGINES[engine][1](args, _Q_GRID)):
         q[i] = float(_Q_GRID[int(np.argmax(ll))])
     return q
+
+
+def _groups(ids):
+    """(distinct ids ascending, the indices of each, in their order)."""
+    order = np.argsort(ids, kind="stable")
+    cut = np.flatnonzero(np.diff(ids[order])) + 1
+    return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
 
 def _track_rows(centroids):
