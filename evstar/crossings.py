@@ -31,28 +31,28 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
     """
     t = np.asarray(t, np.int64)
     key = np.asarray(y, np.int64) * (int(np.max(x, initial=0)) + 1) + np.asarray(x, np.int64)
-    order = np.lexsort((t, key))
+    order = _pixel_then_time(key, t)
     key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
     n = len(t)
-    same = key[1:] == key[:-1]
     # i: last ON before an OFF at the same pixel
-    change = np.flatnonzero(same & pol[:-1] & ~pol[1:])
+    change = np.flatnonzero((key[1:] == key[:-1]) & pol[:-1] & ~pol[1:])
     sums = np.zeros(len(change))
     sq = np.zeros(len(change))
     pairs = np.zeros(len(change), np.int64)
-    alive = np.ones(len(change), bool)
+    live = np.arange(len(change))          # changes whose pairs reach out to j - 1
     for j in range(1, max_pairs + 1):
-        on, off = change - j, change + j
-        ok = alive & (on >= 0) & (off < n)
-        on_c, off_c = np.clip(on, 0, n - 1), np.clip(off, 0, n - 1)
-        ok &= (key[on_c] == key[change]) & (key[off_c] == key[change]) & pol[on_c] & ~pol[off_c]
-        alive = ok
-        if not ok.any():
+        c = change[live]
+        inside = (c >= j) & (c + j < n)
+        live, c = live[inside], c[inside]
+        on, off = c - j, c + j
+        ok = (key[on] == key[c]) & (key[off] == key[c]) & pol[on] & ~pol[off]
+        live, on, off = live[ok], on[ok], off[ok]
+        if not len(live):
             break
-        mid = 0.5 * (t[on_c] + t[off_c])
-        sums += np.where(ok, mid, 0.0)
-        sq += np.where(ok, mid * mid, 0.0)
-        pairs += ok
+        mid = 0.5 * (t[on] + t[off])
+        sums[live] += mid
+        sq[live] += mid * mid
+        pairs[live] += 1
     keep = pairs > 0
     out = np.zeros(int(keep.sum()), CROSSING_DTYPE)
     idx = order[change[keep]]
@@ -64,15 +64,28 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
     return out[np.argsort(out["t"], kind="stable")]
 
 
+def _pixel_then_time(key, t):
+    """The order by pixel key (< 2³²), then time (ties kept in input order). Events of a
+    stream are time-sorted already: then a stable sort by key, done as two 16-bit radix
+    passes (numpy's stable sort of 16-bit integers), is that order."""
+    if not np.all(t[1:] >= t[:-1]):
+        return np.lexsort((t, key))
+    low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
+    return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
+
+
 def near_pixels(x, y, width, height, radius_px):
     """Bool (height, width): pixels within `radius_px` (square) of any pixel in (x, y) —
     where a star's flank events are, including those a density filter dropped."""
     from scipy import ndimage
 
-    img = np.zeros((height, width), bool)
-    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = True
+    img = np.zeros((height, width), np.uint8)
+    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = 1
     r = int(np.ceil(radius_px))
-    return ndimage.binary_dilation(img, np.ones((2 * r + 1, 2 * r + 1), bool)) if r else img
+    # a square dilation is a row dilation, then a column one (running maxima: O(pixels))
+    for axis in (0, 1) if r else ():
+        img = ndimage.maximum_filter1d(img, 2 * r + 1, axis=axis, mode="constant", cval=0)
+    return img.astype(bool)
 
 
 def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
