@@ -130,8 +130,9 @@ def _candidates(crossings, tracks, max_offset_px):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     bin_us = max(float(np.median(np.diff(t_row)[j])), 1.0)
     t0 = min(float(crossings["t"].min()), float(t_row.min()))
-    kx = int(crossings["x"].max()) + 1
-    key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + crossings["x"]
+    x0 = int(crossings["x"].min())
+    kx = int(crossings["x"].max()) - x0 + 1
+    key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + (crossings["x"] - x0)
     srt = np.argsort(key, kind="stable")
     key = key[srt]
     # one query per segment and time bin it spans: the x range of the segment's box
@@ -141,8 +142,8 @@ def _candidates(crossings, tracks, max_offset_px):
     qseg = np.repeat(j, nb)
     qbin = np.repeat(b0, nb) + _ranks(nb)
     r = max_offset_px + 1e-6                  # a hair wider: rounding of the interpolation
-    x_lo = np.minimum(tracks["x"][qseg], tracks["x"][qseg + 1]) - r
-    x_hi = np.maximum(tracks["x"][qseg], tracks["x"][qseg + 1]) + r
+    x_lo = np.minimum(tracks["x"][qseg], tracks["x"][qseg + 1]) - r - x0
+    x_hi = np.maximum(tracks["x"][qseg], tracks["x"][qseg + 1]) + r - x0
     lo = np.searchsorted(key, qbin * kx + np.clip(np.ceil(x_lo), 0, kx - 1).astype(np.int64))
     hi = np.searchsorted(key, qbin * kx + np.clip(np.floor(x_hi), -1, kx - 1).astype(np.int64),
                          "right")
