@@ -29,8 +29,18 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
 
     t, x, y, p: events (any order); p 1 = ON, 0 = OFF.
     """
-    t = np.asarray(t, np.int64)
-    key = np.asarray(y, np.int64) * (int(np.max(x, initial=0)) + 1) + np.asarray(x, np.int64)
+    width = int(np.max(x, initial=0)) + 1
+    key = pixel_keys(x, y, width)
+    return key_crossings(np.asarray(t, np.int64), key, np.asarray(p), width, max_pairs)
+
+
+def pixel_keys(x, y, width):
+    """y·width + x (uint32: a sensor has at most 2¹⁶ × 2¹⁶ pixels)."""
+    return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
+
+
+def key_crossings(t, key, p, width, max_pairs=16):
+    """pixel_crossings of events given by their pixel_keys."""
     order = _pixel_then_time(key, t)
     key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
     n = len(t)
@@ -55,8 +65,8 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
         pairs[live] += 1
     keep = pairs > 0
     out = np.zeros(int(keep.sum()), CROSSING_DTYPE)
-    idx = order[change[keep]]
-    out["x"], out["y"] = np.asarray(x)[idx], np.asarray(y)[idx]
+    pixel = key[change[keep]]
+    out["x"], out["y"] = pixel % width, pixel // width
     k = pairs[keep]
     mean = sums[keep] / k
     out["t"], out["pairs"] = mean, k
@@ -77,15 +87,23 @@ def _pixel_then_time(key, t):
 def near_pixels(x, y, width, height, radius_px):
     """Bool (height, width): pixels within `radius_px` (square) of any pixel in (x, y) —
     where a star's flank events are, including those a density filter dropped."""
+    img = np.zeros((height, width), bool)
+    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = True
+    return dilate(img, radius_px)
+
+
+def dilate(img, radius_px):
+    """Bool image `img` dilated by a square of half-width ceil(radius_px): a row dilation,
+    then a column one (running maxima, linear in the pixels)."""
     from scipy import ndimage
 
-    img = np.zeros((height, width), np.uint8)
-    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = 1
     r = int(np.ceil(radius_px))
-    # a square dilation is a row dilation, then a column one (running maxima: O(pixels))
-    for axis in (0, 1) if r else ():
-        img = ndimage.maximum_filter1d(img, 2 * r + 1, axis=axis, mode="constant", cval=0)
-    return img.astype(bool)
+    if not r:
+        return img
+    out = img.view(np.uint8)
+    for axis in (0, 1):
+        out = ndimage.maximum_filter1d(out, 2 * r + 1, axis=axis, mode="constant", cval=0)
+    return out.view(bool)
 
 
 def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
