@@ -69,76 +69,76 @@ def _groups(lengths):
 
 
 def _padded(problems):
-    """Step lengths h (T, L), measured mask (T, L), positions (T, L, 2) and covariances
-    (T, L, 2, 2) (identity where nothing is measured), padded to the longest track."""
+    """Time-major arrays, padded to the longest track: step lengths h (L, T), measured mask
+    (L, T), positions (L, T, 2, 1) and covariances (L, T, 2, 2) (identity where nothing is
+    measured)."""
     T, L = len(problems), max(len(p.ts) for p in problems)
-    h, meas = np.zeros((T, L)), np.zeros((T, L), bool)
-    z, R = np.zeros((T, L, 2)), np.tile(np.eye(2), (T, L, 1, 1))
+    h, meas = np.zeros((L, T)), np.zeros((L, T), bool)
+    z, R = np.zeros((L, T, 2, 1)), np.tile(np.eye(2), (L, T, 1, 1))
     for i, p in enumerate(problems):
         n = len(p.ts)
-        h[i, 1:n] = np.diff(p.ts)
-        meas[i, :n] = p.measured
-        z[i, :n][p.measured] = p.z
-        R[i, :n][p.measured] = p.R
+        h[1:n, i] = np.diff(p.ts)
+        meas[:n, i] = p.measured
+        z[:n, i][p.measured] = p.z[:, :, None]
+        R[:n, i][p.measured] = p.R
     return h, meas, z, R
 
 
 def _transitions(h, q):
-    """F and Q (T, L, 4, 4) of every step (filterpy's Q expression)."""
-    T, L = h.shape
-    F = np.broadcast_to(np.eye(4), (T, L, 4, 4)).copy()
+    """F and Q (L, T, 4, 4) of every step (filterpy's Q expression)."""
+    F = np.broadcast_to(np.eye(4), h.shape + (4, 4)).copy()
     F[..., 0, 1] = F[..., 2, 3] = h
-    Q = np.zeros((T, L, 4, 4))
-    qb = q[:, None]
+    Q = np.zeros(h.shape + (4, 4))
     for i in _POS:
-        Q[..., i, i] = qb * (h**3 / 3)
-        Q[..., i, i + 1] = Q[..., i + 1, i] = qb * (h**2 / 2)
-        Q[..., i + 1, i + 1] = qb * h
+        Q[..., i, i] = q * (h**3 / 3)
+        Q[..., i, i + 1] = Q[..., i + 1, i] = q * (h**2 / 2)
+        Q[..., i + 1, i + 1] = q * h
     return F, Q
 
 
 def _cv_rts_batch(problems):
     h, meas, z, R = _padded(problems)
-    T, L = h.shape
-    q = np.array([p.q for p in problems], float)
-    x = np.zeros((T, 4))
-    x[:, _POS] = [p.z[0] for p in problems]     # a diffuse start about the first position
-    P = np.tile(np.eye(4) * DIFFUSE, (T, 1, 1))
-    xp, Pp = np.empty((T, L, 4)), np.empty((T, L, 4, 4))   # predicted
-    xf, Pf = np.empty((T, L, 4)), np.empty((T, L, 4, 4))   # filtered
-    eye = np.eye(4)
-    F, Q = _transitions(h, q)
+    L, T = h.shape
+    F, Q = _transitions(h, np.array([p.q for p in problems], float))
     FT = F.swapaxes(-1, -2)
+    xp, Pp = np.empty((L, T, 4, 1)), np.empty((L, T, 4, 4))   # predicted
+    xf, Pf = np.empty((L, T, 4, 1)), np.empty((L, T, 4, 4))   # filtered
+    x = np.zeros((T, 4, 1))
+    x[:, ::2, 0] = [p.z[0] for p in problems]      # a diffuse start about the first position
+    P = np.tile(np.eye(4) * DIFFUSE, (T, 1, 1))
+    eye, tmp = np.tile(np.eye(4), (T, 1, 1)), np.empty((T, 4, 4))
+    gate = meas[:, :, None, None].astype(float)
     for k in range(L):
         # matmul as filterpy's dot (BLAS, same rounding): results then agree bit for bit
-        x = (F[:, k] @ x[:, :, None])[:, :, 0]
-        P = F[:, k] @ P @ FT[:, k] + Q[:, k]
-        xp[:, k], Pp[:, k] = x, P
+        np.matmul(F[k], x, out=xp[k])
+        np.matmul(np.matmul(F[k], P, out=tmp), FT[k], out=Pp[k])
+        Pp[k] += Q[k]
         # Joseph-form update; K = 0 where nothing is measured leaves x and P exactly as they are
-        PHT = P[:, :, _POS]
-        S = PHT[:, _POS] + R[:, k]
-        K = PHT @ np.linalg.inv(S) * meas[:, k, None, None]
-        x = x + (K @ (z[:, k] - x[:, _POS])[:, :, None])[:, :, 0]
-        I_KH = np.broadcast_to(eye, (T, 4, 4)).copy()
-        I_KH[:, :, _POS] -= K
-        P = I_KH @ P @ I_KH.transpose(0, 2, 1) + K @ R[:, k] @ K.transpose(0, 2, 1)
-        xf[:, k], Pf[:, k] = x, P
+        PHT = Pp[k][:, :, ::2]
+        K = PHT @ np.linalg.inv(PHT[:, ::2] + R[k])
+        K *= gate[k]
+        np.add(xp[k], K @ (z[k] - xp[k][:, ::2]), out=xf[k])
+        I_KH = eye.copy()
+        I_KH[:, :, ::2] -= K
+        KT = K.swapaxes(-1, -2)
+        np.add(I_KH @ Pp[k] @ I_KH.swapaxes(-1, -2), K @ R[k] @ KT, out=Pf[k])
+        x, P = xf[k], Pf[k]
     xs, Ps = _rts(xf, Pf, xp, Pp, FT)
-    return [(xs[i, :len(p.ts)], Ps[i, :len(p.ts)]) for i, p in enumerate(problems)]
+    return [(xs[:len(p.ts), i, :, 0], Ps[:len(p.ts), i]) for i, p in enumerate(problems)]
 
 
 def _rts(xf, Pf, xp, Pp, FT):
     """Rauch–Tung–Striebel: gains G_k = P_k Fᵀ (P⁻_{k+1})⁻¹ for every step at once (they need
     only the forward pass), then the backward recursion."""
-    L = xf.shape[1]
+    L = len(xf)
     if L < 2:
         return xf, Pf
-    G = Pf[:, :-1] @ FT[:, 1:] @ np.linalg.inv(Pp[:, 1:])
+    G = Pf[:-1] @ FT[1:] @ np.linalg.inv(Pp[1:])
     GT = G.swapaxes(-1, -2)
     xs, Ps = xf.copy(), Pf.copy()
     for k in range(L - 2, -1, -1):
-        xs[:, k] += (G[:, k] @ (xs[:, k + 1] - xp[:, k + 1])[:, :, None])[:, :, 0]
-        Ps[:, k] += G[:, k] @ (Ps[:, k + 1] - Pp[:, k + 1]) @ GT[:, k]
+        xs[k] += G[k] @ (xs[k + 1] - xp[k + 1])
+        Ps[k] += G[k] @ (Ps[k + 1] - Pp[k + 1]) @ GT[k]
     return xs, Ps
 
 
