@@ -339,12 +339,12 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        from .frames import accumulated
-
-        self.before += accumulated(events)
-        self.after += accumulated(events[keep])
+        pixel = events.y.astype(np.int64) * events.width + events.x
+        size = self.before.size
+        self.before += np.bincount(pixel, minlength=size).reshape(self.before.shape)
+        self.after += np.bincount(pixel[keep], minlength=size).reshape(self.after.shape)
         frames = (events.t - self.t0) // self.dt_us
-        series = {"before": np.ones(len(events), bool), "after": keep}
+        series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(keep.sum())}
         if truth is not None:
             if offset + len(events) > len(truth.labels):
@@ -359,7 +359,7 @@ class _Summary:
         if len(frames):
             lo, n = int(frames[0]), int(frames[-1] - frames[0]) + 1
             for name, m in series.items():
-                counts = np.bincount(frames[m] - lo, minlength=n)
+                counts = np.bincount((frames if m is None else frames[m]) - lo, minlength=n)
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):
