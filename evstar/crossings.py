@@ -43,34 +43,30 @@ def key_crossings(t, key, p, width, max_pairs=16):
     """pixel_crossings of events given by their pixel_keys."""
     order = _pixel_then_time(key, t)
     key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
-    n = len(t)
-    # i: last ON before an OFF at the same pixel
+    # c: last ON before an OFF at the same pixel; its pairs (c − j, c + j), j = 1 .. k, reach
+    # through the rest of its ON run and into the OFF run after it
     change = np.flatnonzero((key[1:] == key[:-1]) & pol[:-1] & ~pol[1:])
-    sums = np.zeros(len(change))
-    sq = np.zeros(len(change))
-    pairs = np.zeros(len(change), np.int64)
-    live = np.arange(len(change))          # changes whose pairs reach out to j - 1
-    for j in range(1, max_pairs + 1):
-        c = change[live]
-        inside = (c >= j) & (c + j < n)
-        live, c = live[inside], c[inside]
-        on, off = c - j, c + j
-        ok = (key[on] == key[c]) & (key[off] == key[c]) & pol[on] & ~pol[off]
-        live, on, off = live[ok], on[ok], off[ok]
-        if not len(live):
-            break
-        mid = 0.5 * (t[on] + t[off])
-        sums[live] += mid
-        sq[live] += mid * mid
-        pairs[live] += 1
-    keep = pairs > 0
-    out = np.zeros(int(keep.sum()), CROSSING_DTYPE)
-    pixel = key[change[keep]]
+    runs = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]) | (pol[1:] != pol[:-1]), True])
+    at = np.searchsorted(runs, change, "right")          # the run after c's: c + 1 ...
+    k = np.minimum(np.minimum(change - runs[at - 1], runs[at + 1] - change - 1), max_pairs)
+    keep = k > 0
+    change, k = change[keep], k[keep]
+    # changes by pairs, most first: those still pairing at j are a prefix
+    by_k = np.argsort(-k, kind="stable")
+    c, n_at = change[by_k], np.bincount(k, minlength=max_pairs + 1)[::-1].cumsum()[::-1]
+    sums, sq = np.zeros(len(c)), np.zeros(len(c))
+    for j in range(1, int(k.max(initial=0)) + 1):
+        m = n_at[j]
+        mid = 0.5 * (t[c[:m] - j] + t[c[:m] + j])
+        sums[:m] += mid
+        sq[:m] += mid * mid
+    sums[by_k], sq[by_k] = sums.copy(), sq.copy()       # back to the changes' order
+    out = np.zeros(len(change), CROSSING_DTYPE)
+    pixel = key[change]
     out["x"], out["y"] = pixel % width, pixel // width
-    k = pairs[keep]
-    mean = sums[keep] / k
+    mean = sums / k
     out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq[keep] / k - mean ** 2, 0.0))
+    out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
     return out[np.argsort(out["t"], kind="stable")]
 
 
