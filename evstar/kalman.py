@@ -203,36 +203,37 @@ def innovation_loglik_one(ts, z, sigma, q_grid):
 
 
 def _loglik_batch(tracks, q_grid):
-    """innovation_loglik_one's arithmetic on (T, grid, 2) arrays; padded steps add 0. The
-    covariances, the same for both axes (one σ), are computed once on (T, grid)."""
-    T, L = len(tracks), max(len(t[0]) for t in tracks)
-    h, s2, z = np.zeros((T, L)), np.ones((T, L)), np.zeros((T, L, 2))
-    valid = np.zeros((T, L), bool)
+    """innovation_loglik_one's arithmetic on (axis, track, grid) arrays (the long axes last:
+    numpy's inner loops run over them); padded steps add 0. The covariances, the same for
+    both axes (one σ), are computed once on (track, grid)."""
+    T, L, G = len(tracks), max(len(t[0]) for t in tracks), len(q_grid)
+    h, s2, z = np.zeros((L, T, 1)), np.ones((L, T, 1)), np.zeros((L, 2, T, 1))
+    valid = np.zeros((L, T), bool)
     for i, (ts, zi, sig) in enumerate(tracks):
         n = len(ts)
-        h[i, 1:n], s2[i, :n], z[i, :n], valid[i, 2:n] = np.diff(ts), np.asarray(sig) ** 2, zi, True
-    full = valid.all(0)                                  # steps no track is padded in
-    h, s2, q = h[:, :, None], s2[:, :, None], q_grid[None, :]
-    p, v = np.repeat(z[:, :1], len(q_grid), 1), np.zeros((T, len(q_grid), 2))
-    p00, p01, p11 = np.repeat(s2[:, 0], len(q_grid), 1), np.zeros((T, len(q_grid))), \
-        np.full((T, len(q_grid)), V0_VAR)
-    ll = np.zeros((T, len(q_grid), 2))
+        h[1:n, i, 0], s2[:n, i, 0], valid[2:n, i] = np.diff(ts), np.asarray(sig) ** 2, True
+        z[:n, :, i, 0] = zi
+    full = valid.all(1)                                  # steps no track is padded in
+    q = q_grid[None, :]
+    p, v = np.repeat(z[0], G, 2), np.zeros((2, T, G))
+    p00, p01, p11 = np.repeat(s2[0], G, 1), np.zeros((T, G)), np.full((T, G), V0_VAR)
+    ll = np.zeros((2, T, G))
     for k in range(1, L):
-        hk = h[:, k]
-        p = p + hk[:, :, None] * v
+        hk = h[k]
+        p = p + hk * v
         p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk**3 / 3
         p01 = p01 + hk * p11 + q * hk * hk / 2
         p11 = p11 + q * hk
-        s = (p00 + s2[:, k])[:, :, None]
-        y = z[:, k, None] - p
+        s = p00 + s2[k]
+        y = z[k] - p
         if k >= 2:
             term = 0.5 * np.log(s) + _huber(y * y / s)
-            ll -= term if full[k] else np.where(valid[:, k, None, None], term, 0.0)
-        k0, k1 = p00[:, :, None] / s, p01[:, :, None] / s
+            ll -= term if full[k] else np.where(valid[k, :, None], term, 0.0)
+        k0, k1 = p00 / s, p01 / s
         p, v = p + k0 * y, v + k1 * y
-        p11 = p11 - k1[:, :, 0] * p01
-        p00, p01 = (1 - k0[:, :, 0]) * p00, (1 - k0[:, :, 0]) * p01
-    return list(ll.sum(2))
+        p11 = p11 - k1 * p01
+        p00, p01 = (1 - k0) * p00, (1 - k0) * p01
+    return list(ll[0] + ll[1])
 
 
 def _huber(u):
