@@ -31,9 +31,10 @@ def chunk_crossings(events, keep, radius_px):
         return np.zeros(0, CROSSING_DTYPE)
     key = pixel_keys(events.x, events.y, events.width)
     near = np.zeros(events.height * events.width, bool)
-    near[key[keep]] = True
-    sel = dilate(near.reshape(events.height, events.width), radius_px).ravel()[key]
-    return key_crossings(events.t[sel], key[sel], events.p[sel], events.width)
+    # flatnonzero + take: several times faster than boolean indexing of these long arrays
+    near[key.take(np.flatnonzero(keep))] = True
+    sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel()[key])
+    return key_crossings(events.t.take(sel), key.take(sel), events.p.take(sel), events.width)
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -119,13 +119,12 @@ class Pipeline:
             keep_f = flt.apply(both)[len(context):]
         else:
             keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
+        whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
         if state is not None and state.hot is not None:  # a hot pixel's events are no star's
-            # sensor pixels; every event stayed on the sensor: idx = 0, 1, ..., n - 1
-            whole = len(idx) == len(events)
             keep_f &= ~state.hot[(events.y, events.x) if whole else (events.y[idx], events.x[idx])]
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        kept = idx[keep_f]
+        kept = np.flatnonzero(keep_f) if whole else idx[keep_f]
         xy = comp.coordinates(kept)
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
