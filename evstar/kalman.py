@@ -23,7 +23,7 @@ import numpy as np
 DIFFUSE = 1e8            # px², (px/s)²: the filter's prior knows nothing
 V0_VAR = 1e8             # (px/s)²: the likelihood's first velocity is unknown
 HUBER_C = 3.0            # σ: innovations beyond it count linearly in the likelihood
-_MAX_CELLS = 200_000     # tracks × steps per batch (bounds memory: 1.3 KiB a cell)
+_MAX_CELLS = 100_000     # tracks × steps per batch (bounds memory: ~1.3 KiB a cell)
 _POS = [0, 2]            # the measured state components
 
 

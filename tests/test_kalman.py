@@ -68,3 +68,11 @@ def test_a_straight_track_is_followed_exactly():
     np.testing.assert_allclose(x[:, [0, 2]], z, atol=1e-6)
     np.testing.assert_allclose(x[:, [1, 3]], np.tile([40.0, -12.0], (50, 1)), atol=1e-5)
     assert np.all(P[:, 0, 0] > 0) and np.all(P[:, 0, 0] < 0.1 ** 2)
+
+
+def test_tracks_split_into_several_batches_come_out_the_same(problems, monkeypatch):
+    whole = kalman.cv_rts(problems)
+    monkeypatch.setattr(kalman, "_MAX_CELLS", 300)                # a few tracks a batch
+    assert len(kalman._groups([len(p.ts) for p in problems])) > 3
+    for (x, P), (xs, Ps) in zip(kalman.cv_rts(problems), whole):
+        assert np.array_equal(x, xs) and np.array_equal(P, Ps)
