@@ -13,7 +13,8 @@ give the same result (max |Δ| of the estimated positions, px).
         [--old bb74327]
 
 Stages: compensate (mode 'none', with the pipeline's reads of its result), crossings
-(estimation.chunk_crossings), estimate (estimation.estimate, crossings estimator).
+(estimation.chunk_crossings), track (tracking.Tracker.link), estimate
+(estimation.estimate, crossings estimator).
 Writes perf/results/post_extract.json and prints a table.
 """
 from __future__ import annotations
@@ -77,7 +78,7 @@ def inputs(rec, config):
                                     None, state=state)
     linked = pipe.make_tracker().link(cents)
     crossings = state.crossings()
-    return {"t0": t0, "keep": keep, "linked": linked, "crossings": crossings,
+    return {"t0": t0, "keep": keep, "cents": cents, "linked": linked, "crossings": crossings,
             "span": (int(ev.t[0]), int(ev.t[-1])), "sensor": (ev.width, ev.height)}
 
 
@@ -85,6 +86,7 @@ def stages(pkg, rec, d, config):
     """{stage: fn() -> result} of package `pkg` (evstar or evstar_old)."""
     ev, keep = rec.events, d["keep"]
     est_mod = importlib.import_module(pkg.__name__ + ".estimation")
+    tracking = importlib.import_module(pkg.__name__ + ".tracking")
     comp_mod = importlib.import_module(pkg.__name__ + ".motion.compensate")
 
     def compensate():
@@ -99,18 +101,21 @@ def stages(pkg, rec, d, config):
     return {
         "compensate": compensate,
         "crossings": lambda: est_mod.chunk_crossings(ev, keep, config.estimate.crossing_radius_px),
+        "track": lambda: tracking.Tracker().link(d["cents"]),
         "estimate": lambda: est_mod.estimate(d["linked"], config, d["t0"], d["crossings"], None,
                                              d["span"], d["sensor"]),
     }
 
 
 def difference(a, b):
-    """Max |Δ| (px) of positions, or of the arrays; inf when shapes differ."""
+    """Max |Δ| (px) of positions, or of the arrays; inf when shapes or any non-float field
+    (times, pixels, track ids, flags) differ."""
     if isinstance(a, np.ndarray) and a.dtype.names:
-        if len(a) != len(b) or not np.array_equal(a["t"], b["t"]):
+        exact = [f for f in a.dtype.names if a.dtype[f].kind != "f"] + ["t"]
+        if len(a) != len(b) or not all(np.array_equal(a[f], b[f]) for f in exact):
             return float("inf")
-        names = [f for f in ("x", "y") if f in a.dtype.names] or ["t"]
-        return max(float(np.max(np.abs(a[f] - b[f]), initial=0.0)) for f in names)
+        names = [f for f in ("x", "y") if a.dtype[f].kind == "f"] if "x" in a.dtype.names else []
+        return max([float(np.max(np.abs(a[f] - b[f]), initial=0.0)) for f in names], default=0.0)
     return float(np.max(np.abs(np.asarray(a, float) - np.asarray(b, float)), initial=0.0)) \
         if np.shape(a) == np.shape(b) else float("inf")
 
@@ -151,7 +156,7 @@ def main(argv=None):
                      "old_runs_s": tt["old"], "new_runs_s": tt["new"]})
     total = {w: [sum(times[s][w][i] for s in times) for i in range(args.repeat)] for w in ("old", "new")}
     ratio = [n / o for n, o in zip(total["new"], total["old"])]
-    rows.append({"stage": "all three", "old_s": _span(total["old"]), "new_s": _span(total["new"]),
+    rows.append({"stage": "all", "old_s": _span(total["old"]), "new_s": _span(total["new"]),
                  "ratio": _span(ratio), "speedup": 1 / statistics.median(ratio), "max_diff": ""})
     meta = {"scene": str(args.scene), "events": len(rec.events), "stars": args.stars,
             "tracks": int(len(np.unique(d["linked"]["track"][d["linked"]["track"] >= 0]))),
