@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import io
 import pathlib
 import statistics
 import subprocess
@@ -47,8 +48,8 @@ def old_package(rev):
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="evstar_old_"))
     tar = subprocess.run(["git", "-C", str(ROOT), "archive", rev, "evstar"], check=True,
                          capture_output=True).stdout
-    with tarfile.open(fileobj=__import__("io").BytesIO(tar)) as t:
-        t.extractall(tmp, filter="data")
+    with tarfile.open(fileobj=io.BytesIO(tar)) as t:
+        t.extractall(tmp, **({"filter": "data"} if hasattr(tarfile, "data_filter") else {}))
     (tmp / "evstar").rename(tmp / "evstar_old")
     sys.path.insert(0, str(tmp))
     return importlib.import_module("evstar_old")
