@@ -29,50 +29,77 @@ def pixel_crossings(t, x, y, p, max_pairs=16):
 
     t, x, y, p: events (any order); p 1 = ON, 0 = OFF.
     """
-    t = np.asarray(t, np.int64)
-    key = np.asarray(y, np.int64) * (int(np.max(x, initial=0)) + 1) + np.asarray(x, np.int64)
-    order = np.lexsort((t, key))
+    width = int(np.max(x, initial=0)) + 1
+    key = pixel_keys(x, y, width)
+    return key_crossings(np.asarray(t, np.int64), key, np.asarray(p), width, max_pairs)
+
+
+def pixel_keys(x, y, width):
+    """y·width + x (uint32: a sensor has at most 2¹⁶ × 2¹⁶ pixels)."""
+    return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
+
+
+def key_crossings(t, key, p, width, max_pairs=16):
+    """pixel_crossings of events given by their pixel_keys."""
+    order = _pixel_then_time(key, t)
     key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
-    n = len(t)
-    same = key[1:] == key[:-1]
-    # i: last ON before an OFF at the same pixel
-    change = np.flatnonzero(same & pol[:-1] & ~pol[1:])
-    sums = np.zeros(len(change))
-    sq = np.zeros(len(change))
-    pairs = np.zeros(len(change), np.int64)
-    alive = np.ones(len(change), bool)
-    for j in range(1, max_pairs + 1):
-        on, off = change - j, change + j
-        ok = alive & (on >= 0) & (off < n)
-        on_c, off_c = np.clip(on, 0, n - 1), np.clip(off, 0, n - 1)
-        ok &= (key[on_c] == key[change]) & (key[off_c] == key[change]) & pol[on_c] & ~pol[off_c]
-        alive = ok
-        if not ok.any():
-            break
-        mid = 0.5 * (t[on_c] + t[off_c])
-        sums += np.where(ok, mid, 0.0)
-        sq += np.where(ok, mid * mid, 0.0)
-        pairs += ok
-    keep = pairs > 0
-    out = np.zeros(int(keep.sum()), CROSSING_DTYPE)
-    idx = order[change[keep]]
-    out["x"], out["y"] = np.asarray(x)[idx], np.asarray(y)[idx]
-    k = pairs[keep]
-    mean = sums[keep] / k
+    # c: last ON before an OFF at the same pixel; its pairs (c − j, c + j), j = 1 .. k, reach
+    # through the rest of its ON run and into the OFF run after it
+    change = np.flatnonzero((key[1:] == key[:-1]) & pol[:-1] & ~pol[1:])
+    runs = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]) | (pol[1:] != pol[:-1]), True])
+    at = np.searchsorted(runs, change, "right")          # the run after c's: c + 1 ...
+    k = np.minimum(np.minimum(change - runs[at - 1], runs[at + 1] - change - 1), max_pairs)
+    keep = k > 0
+    change, k = change[keep], k[keep]
+    # changes by pairs, most first: those still pairing at j are a prefix
+    by_k = np.argsort(-k, kind="stable")
+    c, n_at = change[by_k], np.bincount(k, minlength=max_pairs + 1)[::-1].cumsum()[::-1]
+    sums, sq = np.zeros(len(c)), np.zeros(len(c))
+    for j in range(1, int(k.max(initial=0)) + 1):
+        m = n_at[j]
+        mid = 0.5 * (t[c[:m] - j] + t[c[:m] + j])
+        sums[:m] += mid
+        sq[:m] += mid * mid
+    sums[by_k], sq[by_k] = sums.copy(), sq.copy()       # back to the changes' order
+    out = np.zeros(len(change), CROSSING_DTYPE)
+    pixel = key[change]
+    out["x"], out["y"] = pixel % width, pixel // width
+    mean = sums / k
     out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq[keep] / k - mean ** 2, 0.0))
+    out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
     return out[np.argsort(out["t"], kind="stable")]
+
+
+def _pixel_then_time(key, t):
+    """The order by pixel key (< 2³²), then time (ties kept in input order). Events of a
+    stream are time-sorted already: then a stable sort by key, done as two 16-bit radix
+    passes (numpy's stable sort of 16-bit integers), is that order."""
+    if not np.all(t[1:] >= t[:-1]):
+        return np.lexsort((t, key))
+    low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
+    return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
 
 
 def near_pixels(x, y, width, height, radius_px):
     """Bool (height, width): pixels within `radius_px` (square) of any pixel in (x, y) —
     where a star's flank events are, including those a density filter dropped."""
-    from scipy import ndimage
-
     img = np.zeros((height, width), bool)
     img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = True
+    return dilate(img, radius_px)
+
+
+def dilate(img, radius_px):
+    """Bool image `img` dilated by a square of half-width ceil(radius_px): a row dilation,
+    then a column one (running maxima, linear in the pixels)."""
+    from scipy import ndimage
+
     r = int(np.ceil(radius_px))
-    return ndimage.binary_dilation(img, np.ones((2 * r + 1, 2 * r + 1), bool)) if r else img
+    if not r:
+        return img
+    out = img.view(np.uint8)
+    for axis in (0, 1):
+        out = ndimage.maximum_filter1d(out, 2 * r + 1, axis=axis, mode="constant", cval=0)
+    return out.view(bool)
 
 
 def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
@@ -80,32 +107,88 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
 
     tracks: rows with t (µs), track, x, y, vx, vy (px, px/s), sorted by track then time (e.g.
     evstar.smoothing's estimates). A crossing belongs to the track whose position at the
-    crossing's time is nearest, within `max_offset_px`, while the track moves at least
-    `min_speed_px_s` (a star that stands still crosses nothing). Returns (index into
-    crossings, track id, unit motion direction (n, 2), along residual px = (pixel − track
+    crossing's time (linear between its rows, np.interp's arithmetic) is nearest, within
+    `max_offset_px`, while the track moves at least `min_speed_px_s` (a star that stands
+    still crosses nothing); of equally near tracks the first. Returns (index into crossings,
+    track id, unit motion direction (n, 2), along residual px = (pixel − track
     position)·direction) for the assigned crossings.
     """
-    t = crossings["t"]
-    q = np.column_stack([crossings["x"], crossings["y"]]).astype(np.float64)
-    best = np.full(len(t), np.inf)
-    owner = np.full(len(t), -1, np.int64)
-    u = np.zeros((len(t), 2))
-    resid = np.zeros(len(t))
-    for tid in np.unique(tracks["track"]):
-        tr = tracks[tracks["track"] == tid]
-        inside = (t >= tr["t"][0]) & (t <= tr["t"][-1])
-        if not inside.any() or len(tr) < 2:
-            continue
-        ti = t[inside]
-        pos = np.column_stack([np.interp(ti, tr["t"], tr["x"]), np.interp(ti, tr["t"], tr["y"])])
-        vel = np.column_stack([np.interp(ti, tr["t"], tr["vx"]), np.interp(ti, tr["t"], tr["vy"])])
-        speed = np.linalg.norm(vel, axis=1)
-        d = q[inside] - pos
-        dist = np.linalg.norm(d, axis=1)
-        win = (dist < np.minimum(best[inside], max_offset_px)) & (speed >= min_speed_px_s)
-        idx = np.flatnonzero(inside)[win]
-        best[idx], owner[idx] = dist[win], tid
-        u[idx] = vel[win] / speed[win, None]
-        resid[idx] = (d[win] * u[idx]).sum(1)
-    got = np.flatnonzero(owner >= 0)
-    return got, owner[got], u[got], resid[got]
+    # plain arrays: fields of packed records are slow to index
+    crossings = {f: np.ascontiguousarray(crossings[f]) for f in ("t", "x", "y")}
+    tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
+    ci, seg = _candidates(crossings, tracks, max_offset_px)
+    t = crossings["t"][ci]
+    q = np.column_stack([crossings["x"][ci], crossings["y"][ci]]).astype(np.float64)
+    pos = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y")])
+    vel = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("vx", "vy")])
+    speed = np.linalg.norm(vel, axis=1)
+    d = q - pos
+    dist = np.linalg.norm(d, axis=1)
+    ok = (dist < max_offset_px) & (speed >= min_speed_px_s)
+    ci, tid, vel, speed, d, dist = ci[ok], tracks["track"][seg[ok]], vel[ok], speed[ok], d[ok], dist[ok]
+    # per crossing the nearest track, the lowest id among equals
+    order = np.lexsort((tid, dist, ci))
+    first = order[np.r_[True, ci[order][1:] != ci[order][:-1]]] if len(order) else order
+    u = vel[first] / speed[first, None]
+    return ci[first], tid[first], u, (d[first] * u).sum(1)
+
+
+def _candidates(crossings, tracks, max_offset_px):
+    """(crossing, segment) pairs with the crossing's time in the segment (rows j, j + 1 of a
+    track: t_j <= t < t_j+1, or t = the track's last time) and its pixel in the segment's
+    box widened by max_offset_px; segments are named by their first row j. Crossings are
+    looked up by (time bin, x) in sorted order, so only those near a track are visited."""
+    t_row, tr = tracks["t"], tracks["track"]
+    j = np.flatnonzero(tr[:-1] == tr[1:])               # segments: rows j, j + 1
+    if not len(j) or not len(crossings["t"]):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    bin_us = max(float(np.median(np.diff(t_row)[j])), 1.0)
+    t0 = min(float(crossings["t"].min()), float(t_row.min()))
+    x0 = int(crossings["x"].min())
+    kx = int(crossings["x"].max()) - x0 + 1
+    key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + (crossings["x"] - x0)
+    srt = np.argsort(key, kind="stable")
+    key = key[srt]
+    # one query per segment and time bin it spans: the x range of the segment's box
+    b0 = np.floor((t_row[j] - t0) / bin_us).astype(np.int64)
+    b1 = np.floor((t_row[j + 1] - t0) / bin_us).astype(np.int64)
+    nb = b1 - b0 + 1
+    qseg = np.repeat(j, nb)
+    qbin = np.repeat(b0, nb) + _ranks(nb)
+    r = max_offset_px + 1e-6                  # a hair wider: rounding of the interpolation
+    x_lo = np.minimum(tracks["x"][qseg], tracks["x"][qseg + 1]) - r - x0
+    x_hi = np.maximum(tracks["x"][qseg], tracks["x"][qseg + 1]) + r - x0
+    lo = np.searchsorted(key, qbin * kx + np.clip(np.ceil(x_lo), 0, kx - 1).astype(np.int64))
+    hi = np.searchsorted(key, qbin * kx + np.clip(np.floor(x_hi), -1, kx - 1).astype(np.int64),
+                         "right")
+    n = np.maximum(hi - lo, 0)
+    seg = np.repeat(qseg, n)
+    ci = srt[np.repeat(lo, n) + _ranks(n)]
+    t, y = crossings["t"][ci], crossings["y"][ci]
+    end = _is_last_row(tr)[seg + 1]
+    inside = (t >= t_row[seg]) & ((t < t_row[seg + 1]) | (end & (t == t_row[seg + 1])))
+    inside &= (y >= np.minimum(tracks["y"][seg], tracks["y"][seg + 1]) - r)
+    inside &= (y <= np.maximum(tracks["y"][seg], tracks["y"][seg + 1]) + r)
+    return ci[inside], seg[inside]
+
+
+def _is_last_row(track):
+    """Per row: is it its track's last?"""
+    return np.r_[track[1:] != track[:-1], True]
+
+
+def _ranks(counts):
+    """0, 1, ..., c − 1 for each count c, concatenated."""
+    counts = np.asarray(counts, np.int64)
+    return np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _interp(t, t_row, f_row, seg):
+    """np.interp(t, t_row, f_row) of each t in its segment (rows seg, seg + 1), with
+    np.interp's arithmetic (its value at a row's time is the row's; the last row's at the
+    segment's end)."""
+    x0, x1 = t_row[seg].astype(np.float64), t_row[seg + 1].astype(np.float64)
+    f0, f1 = f_row[seg], f_row[seg + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        val = (f1 - f0) / (x1 - x0) * (t - x0) + f0
+    return np.where(t == x1, f1, np.where(t == x0, f0, val))

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .crossings import CROSSING_DTYPE, near_pixels, pixel_crossings
+from .crossings import CROSSING_DTYPE, dilate, key_crossings, pixel_keys
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
 
@@ -52,9 +52,12 @@ def chunk_crossings(events, keep, radius_px):
     drops a faint star's flank events, which the level pairs need."""
     if not keep.any():
         return np.zeros(0, CROSSING_DTYPE)
-    near = near_pixels(events.x[keep], events.y[keep], events.width, events.height, radius_px)
-    sel = near[events.y, events.x]
-    return pixel_crossings(events.t[sel], events.x[sel], events.y[sel], events.p[sel])
+    key = pixel_keys(events.x, events.y, events.width)
+    near = np.zeros(events.height * events.width, bool)
+    # flatnonzero + take: several times faster than boolean indexing of these long arrays
+    near[key.take(np.flatnonzero(keep))] = True
+    sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel()[key])
+    return key_crossings(events.t.take(sel), key.take(sel), events.p.take(sel), events.width)
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -159,7 +159,8 @@ class Events:
         if isinstance(index, (int, np.integer)):
             raise ParameterTypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
         sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}
-        if not isinstance(index, slice) and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
+        ordered = isinstance(index, slice) or np.asarray(index).dtype == bool   # order kept
+        if not ordered and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
             raise DataError("an index array must keep events in time order")
         return Events._trusted(sel["t"], sel["x"], sel["y"], sel["p"], self.width, self.height)
 

@@ -418,6 +418,14 @@ ATTITUDE_FILTER = Params(
           "exceeds this", low=0, open_low=True, unit="deg"),
 )
 
+#: how the track smoother computes (never what): not part of Config
+SMOOTHER = Params(
+    "smoother",
+    Param("engine", str, "numpy", "track smoother's Kalman filter: numpy, all tracks at once, "
+          "or filterpy, one track and step at a time (the reference; slow)",
+          choices=("numpy", "filterpy")),
+)
+
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
             "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
@@ -437,13 +445,12 @@ def markdown():
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
              "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones, "
              "`evstar attitude` the attitude_filter ones).", ""]
-    for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP,
-                   IDENTIFY, ATTITUDE_FILTER):
+    library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, IDENTIFY, SMOOTHER)
+    for params in (GLOBAL, *SECTIONS.values(), *library, ATTITUDE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
-            library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, IDENTIFY)
             cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "

@@ -123,13 +123,14 @@ class Pipeline:
             keep_f = flt.apply(both)[len(context):]
         else:
             keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
+        whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
         if state is not None and state.hot is not None:  # a hot pixel's events are no star's
-            keep_f &= ~state.hot[events.y[idx], events.x[idx]]
+            keep_f &= ~state.hot[(events.y, events.x) if whole else (events.y[idx], events.x[idx])]
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        kept = idx[keep_f]
+        kept = np.flatnonzero(keep_f) if whole else idx[keep_f]
         # uncompensated coordinates are the kept events' own pixels
-        xy = None if mode == "none" else np.column_stack([comp.x[kept], comp.y[kept]])
+        xy = None if mode == "none" else comp.coordinates(kept)
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = np.zeros(len(events), bool)
@@ -347,12 +348,12 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        from .frames import accumulated
-
-        self.before += accumulated(events)
-        self.after += accumulated(events[keep])
+        pixel = events.y.astype(np.int64) * events.width + events.x
+        size = self.before.size
+        self.before += np.bincount(pixel, minlength=size).reshape(self.before.shape)
+        self.after += np.bincount(pixel[keep], minlength=size).reshape(self.after.shape)
         frames = (events.t - self.t0) // self.dt_us
-        series = {"before": np.ones(len(events), bool), "after": keep}
+        series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(keep.sum())}
         if truth is not None:
             if offset + len(events) > len(truth.labels):
@@ -367,7 +368,7 @@ class _Summary:
         if len(frames):
             lo, n = int(frames[0]), int(frames[-1] - frames[0]) + 1
             for name, m in series.items():
-                counts = np.bincount(frames[m] - lo, minlength=n)
+                counts = np.bincount((frames if m is None else frames[m]) - lo, minlength=n)
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):

@@ -4,8 +4,9 @@ One frame's centroid of a star with N events cannot beat σ_PSF/√N; a track's 
 pooled by a motion model, can. Per confirmed track (``track >= 0``) this runs, in
 continuous time (the centroids' own timestamps, irregular where frames are missed), a
 constant-velocity model per image axis — state (position, velocity), process noise white
-acceleration of spectral density q (px²/s³) — through filterpy's KalmanFilter and its
-Rauch–Tung–Striebel smoother.
+acceleration of spectral density q (px²/s³) — through a Kalman filter and its
+Rauch–Tung–Striebel smoother (:mod:`evstar.kalman`: all tracks at once; filterpy's, one
+step at a time, is the reference, ``engine="filterpy"``).
 
 * q is estimated per track from the data (``process_noise="auto"``): the value on a log
   grid that maximises the likelihood of the track's innovation sequence (the filter is run
@@ -30,11 +31,13 @@ Output rows (:data:`ESTIMATE_DTYPE`) are sorted by track, then time.
 """
 from __future__ import annotations
 
-import numpy as np
-from filterpy.kalman import KalmanFilter
+from typing import NamedTuple
 
-from .parameters import AUTO, ESTIMATE
+import numpy as np
+
+from . import kalman
 from .errors import ParameterError
+from .parameters import AUTO, ESTIMATE, SMOOTHER
 
 ESTIMATE_DTYPE = np.dtype([
     ("t", "<i8"), ("frame", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
@@ -43,27 +46,48 @@ ESTIMATE_DTYPE = np.dtype([
     ("source", "<U8")])
 MEASURED, COASTED = "measured", "coasted"
 _Q_GRID = np.r_[0.0, np.logspace(-2, 9, 45)]   # px²/s³ candidates for the q estimate
-_V0_VAR = 1e8                          # (px/s)²: the first velocity is unknown
-_DIFFUSE = 1e8                         # px², (px/s)²: the filter's prior knows nothing
 _OUTLIER_PASSES = 4                    # fits per track at most (outliers dropped between)
 _IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
-_HUBER_C = 3.0                         # σ: innovations beyond it count linearly in the q fit
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
 LAG_MAX_SE_S = 0.2e-3                  # s: a pixel lag fitted less precisely is not applied
+#: per engine: (smoothed states of CVProblems, innovation log-likelihoods of tracks)
+_ENGINES = {
+    "numpy": (kalman.cv_rts, kalman.innovation_loglik),
+    "filterpy": (kalman.cv_rts_filterpy,
+                 lambda tracks, grid: [kalman.innovation_loglik_one(*t, grid) for t in tracks]),
+}
+
+
+class _Track(NamedTuple):
+    """One track's smoothing problem: its centroids, their σ and indices, the coasted frames,
+    all steps' times (µs; s from the first: ts), which are measured, the prior's
+    displacement per step and the measured positions less it (resid)."""
+    cents: np.ndarray
+    sigma: np.ndarray
+    index: np.ndarray
+    coast_f: np.ndarray
+    order: np.ndarray
+    t_all: np.ndarray
+    measured: np.ndarray
+    shift: np.ndarray
+    resid: np.ndarray
+    ts: np.ndarray
 
 
 class TrackSmoother:
     """Smoothed positions per frame of every confirmed track; see the module docstring.
 
     dt_us: the pseudo-frame length of the centroids' frames (coasted rows sit at their
-    mid-times). Parameters are those of ``evstar.parameters.ESTIMATE``.
+    mid-times). Parameters are those of ``evstar.parameters.ESTIMATE``; engine that of
+    ``evstar.parameters.SMOOTHER``.
     """
 
     def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
                  coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
-                 outlier_sigma=4.0, coast_ends=ESTIMATE["coast_ends"].default):
+                 outlier_sigma=4.0, coast_ends=ESTIMATE["coast_ends"].default,
+                 engine=SMOOTHER["engine"].default):
         from .frames import check_dt
 
         self.dt_us = check_dt(dt_us)
@@ -75,6 +99,7 @@ class TrackSmoother:
         self.min_events = ESTIMATE.check("min_events", min_events)
         self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
         self.coast_ends = ESTIMATE.check("coast_ends", coast_ends)
+        self.engine = SMOOTHER.check("engine", engine)
 
     # -- measurement noise --------------------------------------------------------------
     def measurement_sigma(self, centroids):
@@ -106,16 +131,23 @@ class TrackSmoother:
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         if t0_us is None and len(centroids):
             t0_us = int((centroids["t"] - centroids["frame"] * self.dt_us).min())
-        parts = []
-        for tr in np.unique(centroids["track"][centroids["track"] >= 0]):
-            rows = np.flatnonzero(centroids["track"] == tr)
-            rows = rows[np.argsort(centroids["t"][rows], kind="stable")]
-            parts.append(self.smooth_track(centroids[rows], sig[rows], t0_us, velocity_prior, rows))
+        tracks = []
+        for rows in _track_rows(centroids):
+            tracks.append(self._prepare(centroids[rows], sig[rows], t0_us, velocity_prior, rows))
+        fits = self._fit_many(tracks)
+        parts = [self._rows(tr, *fit, velocity_prior) for tr, fit in zip(tracks, fits)]
         return np.concatenate(parts) if parts else np.zeros(0, ESTIMATE_DTYPE)
 
     # -- one track ----------------------------------------------------------------------
     def smooth_track(self, cents, sigma, t0_us, velocity_prior=None, index=None):
         """Rows for one track's time-sorted centroids (see :meth:`smooth`)."""
+        idx = np.arange(len(cents)) if index is None else np.asarray(index)
+        tr = self._prepare(cents, sigma, t0_us, velocity_prior, idx)
+        return self._rows(tr, *self._fit_many([tr])[0], velocity_prior)
+
+    def _prepare(self, cents, sigma, t0_us, velocity_prior, index):
+        """The _Track of one track's time-sorted centroids: their steps and the coasted
+        frames', positions less the prior's displacement."""
         t_meas = cents["t"].astype(np.int64)
         frames = cents["frame"].astype(np.int64)
         coast_f = self._coast_frames(t_meas, frames, t0_us)
@@ -128,18 +160,21 @@ class TrackSmoother:
         shift = _prior_displacement(velocity_prior, t_all, t_meas, z)
         resid = z - shift[measured]
         ts = (t_all - t_all[0]) * 1e-6
-        x, P, outlier = self._fit(ts, resid, sigma, measured)
-        out = np.zeros(len(t_all), ESTIMATE_DTYPE)
-        out["t"], out["track"] = t_all, cents["track"][0]
-        out["frame"] = np.concatenate([frames, coast_f])[order]
+        return _Track(cents, sigma, index, coast_f, order, t_all, measured, shift, resid, ts)
+
+    def _rows(self, tr, x, P, outlier, velocity_prior):
+        """ESTIMATE_DTYPE rows of a fitted _Track."""
+        cents, coast_f, order, measured, shift = tr.cents, tr.coast_f, tr.order, tr.measured, tr.shift
+        out = np.zeros(len(tr.t_all), ESTIMATE_DTYPE)
+        out["t"], out["track"] = tr.t_all, cents["track"][0]
+        out["frame"] = np.concatenate([cents["frame"].astype(np.int64), coast_f])[order]
         out["x"], out["y"] = x[:, 0] + shift[:, 0], x[:, 2] + shift[:, 1]
-        v_prior = _prior_velocity(velocity_prior, t_all, out["x"], out["y"])
+        v_prior = _prior_velocity(velocity_prior, tr.t_all, out["x"], out["y"])
         out["vx"], out["vy"] = x[:, 1] + v_prior[:, 0], x[:, 3] + v_prior[:, 1]
         # rounding can leave a variance a hair below zero
         out["sigma_x"] = np.sqrt(np.maximum(P[:, 0, 0], 0.0))
         out["sigma_y"] = np.sqrt(np.maximum(P[:, 2, 2], 0.0))
-        idx = np.arange(len(cents)) if index is None else np.asarray(index)
-        out["centroid"] = np.concatenate([idx, np.full(len(coast_f), -1)])[order]
+        out["centroid"] = np.concatenate([tr.index, np.full(len(coast_f), -1)])[order]
         out["n_events"] = np.concatenate([cents["n_events"], np.zeros(len(coast_f), int)])[order]
         out["coasted"] = ~measured
         out["outlier"][measured] = outlier
@@ -163,24 +198,29 @@ class TrackSmoother:
         parts, used = [], 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
-        for tid in np.unique(est["track"]):
-            mine = owner == tid
-            t_c = crossings["t"][got[mine]]
+        problems = []
+        tids, est_rows = _groups(est["track"])
+        mine = dict(zip(*_groups(owner)))
+        for tid, rows in zip(tids, est_rows):
+            m = mine.get(tid, np.zeros(0, np.int64))
+            t_c, r_c = crossings["t"][got[m]], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, resid[mine] = _lag_corrected(t_c, crossings["pairs"][got[mine]], resid[mine],
-                                                  est[est["track"] == tid], pixel_lag)
-            rows = self._fill_frames(est[est["track"] == tid], t_c, t0_us)
-            meas = rows["centroid"][~rows["coasted"]]
-            s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
-            fit, n = along_track_fit(
-                rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (t_c, q_all[got[mine]], u[mine], resid[mine]),
-                velocity_prior,
-                along_weight=along_weight, sigma_floor_px=self.sigma_floor_px,
-                process_noise_min=self.process_noise_min)
-            # rows added for crossings stand only when the crossings were used
-            parts.append(fit if n else est[est["track"] == tid])
-            used += n
+                t_c, r_c = _lag_corrected(t_c, crossings["pairs"][got[m]], r_c, est[rows], pixel_lag)
+            full = self._fill_frames(est[rows], t_c, t0_us)
+            meas = full["centroid"][~full["coasted"]]
+            s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
+            problems.append(_along_track_problem(
+                full, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
+                (t_c, q_all[got[m]], u[m], r_c),
+                velocity_prior, along_weight=along_weight, sigma_floor_px=self.sigma_floor_px))
+            # rows added for crossings stand only when the crossings are used
+            parts.append(est[rows] if problems[-1] is None else None)
+        fits = iter(_along_track_fit_many([p for p in problems if p is not None],
+                                          velocity_prior, self.process_noise_min, self.engine))
+        for i, p in enumerate(problems):
+            if p is not None:
+                parts[i], n = next(fits)
+                used += n
         out = np.concatenate(parts) if parts else est
         return out[np.lexsort((out["t"], out["track"]))], used
 
@@ -209,30 +249,51 @@ class TrackSmoother:
         out = np.concatenate([rows, new])
         return out[np.argsort(out["t"], kind="stable")]
 
-    def _fit(self, ts, resid, sigma, measured):
-        """Smoothed states and covariances, and the outlier flag per measurement: a centroid
-        whose standardised residual from the smoothed track exceeds outlier_sigma (either axis)
-        is dropped and the track fitted again (a star cut in two by the extractor, a noise
-        cluster taken by the track), at most _OUTLIER_PASSES times."""
-        outlier = np.zeros(len(resid), bool)
+    def _fit_many(self, tracks):
+        """Smoothed states and covariances, and the outlier flag per measurement, of each
+        _Track: a centroid whose standardised residual from the smoothed track exceeds
+        outlier_sigma (either axis) is dropped and the track fitted again (a star cut in two
+        by the extractor, a noise cluster taken by the track), at most _OUTLIER_PASSES times.
+        Each pass fits the tracks still refitting all at once."""
+        outlier = [np.zeros(len(tr.resid), bool) for tr in tracks]
+        fits = [None] * len(tracks)
+        todo = list(range(len(tracks)))
         for _ in range(_OUTLIER_PASSES):
-            sig = np.where(outlier, _IGNORED_SIGMA, sigma)
-            keep = ~outlier
-            q = self._q(ts[measured][keep], resid[keep], sigma[keep])
-            x, P = _kalman_rts(ts, resid, sig, measured, q)
-            if self.outlier_sigma is None:
+            keep = [~outlier[i] for i in todo]
+            qs = self._q_many([(tracks[i].ts[tracks[i].measured][k], tracks[i].resid[k],
+                                tracks[i].sigma[k]) for i, k in zip(todo, keep)])
+            problems = [kalman.CVProblem(
+                tracks[i].ts, tracks[i].measured, tracks[i].resid,
+                kalman.diagonal_covariances(np.where(outlier[i], _IGNORED_SIGMA, tracks[i].sigma)),
+                q) for i, q in zip(todo, qs)]
+            again = []
+            for i, fit in zip(todo, _ENGINES[self.engine][0](problems)):
+                fits[i] = fit
+                new = self._new_outliers(tracks[i], *fit, outlier[i])
+                if new is not None:
+                    outlier[i] |= new
+                    again.append(i)
+            todo = again
+            if not todo:
                 break
-            # standardised residuals: the residual from the smoothed track over its own σ
-            # (R − P: a point the fit follows closely has a small residual and a small σ)
-            var = sigma[:, None] ** 2 - P[measured][:, [0, 2], [0, 2]]
-            d = resid - x[measured][:, [0, 2]]
-            res = (np.abs(d) / np.sqrt(np.maximum(var, 1e-6 * sigma[:, None] ** 2))).max(1)
-            new = (res > self.outlier_sigma) & ~outlier
-            # never more than a quarter of a track: beyond that the model, not the data, is off
-            if not new.any() or (outlier | new).sum() > len(resid) // 4:
-                break
-            outlier |= new
-        return x, P, outlier
+        return [(x, P, o) for (x, P), o in zip(fits, outlier)]
+
+    def _new_outliers(self, tr, x, P, outlier):
+        """Centroids newly beyond outlier_sigma, or None when there are none or the track
+        is not to be refitted."""
+        if self.outlier_sigma is None:
+            return None
+        m, sigma = tr.measured, tr.sigma
+        # standardised residuals: the residual from the smoothed track over its own σ
+        # (R − P: a point the fit follows closely has a small residual and a small σ)
+        var = sigma[:, None] ** 2 - P[m][:, [0, 2], [0, 2]]
+        d = tr.resid - x[m][:, [0, 2]]
+        res = (np.abs(d) / np.sqrt(np.maximum(var, 1e-6 * sigma[:, None] ** 2))).max(1)
+        new = (res > self.outlier_sigma) & ~outlier
+        # never more than a quarter of a track: beyond that the model, not the data, is off
+        if not new.any() or (outlier | new).sum() > len(tr.resid) // 4:
+            return None
+        return new
 
     def _coast_frames(self, t_meas, frames, t0_us):
         """Frames without a centroid whose mid-time is within coast_ms of a centroid of the
@@ -249,10 +310,11 @@ class TrackSmoother:
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
         return empty[_near_any(mid, t_meas, limit)]
 
-    def _q(self, ts, resid, sigma):
+    def _q_many(self, tracks):
+        """q per (ts, positions, σ) of measured steps: the set one or the ML estimate."""
         if self.process_noise != AUTO:
-            return float(self.process_noise)
-        return max(estimate_process_noise(ts, resid, sigma), self.process_noise_min)
+            return [float(self.process_noise)] * len(tracks)
+        return [max(q, self.process_noise_min) for q in _estimate_q_many(tracks, self.engine)]
 
 
 def _near_any(t, times, limit):
@@ -263,76 +325,43 @@ def _near_any(t, times, limit):
     return (before <= limit) | (after <= limit)
 
 
-def estimate_process_noise(ts, z, sigma):
+def estimate_process_noise(ts, z, sigma, engine=SMOOTHER["engine"].default):
     """White-acceleration spectral density q (px²/s³) of one track by maximum likelihood of
     its innovation sequence: positions z (n, 2) at times ts (s) with per-axis σ (n,), the
     constant-velocity filter run for every q of a log grid at once (both axes share q).
     0 when the track is too short or no q beats a straight line."""
-    if len(ts) < 4:
-        return 0.0
-    ll = _innovation_loglik(np.asarray(ts, float), np.asarray(z, float), np.asarray(sigma, float))
-    return float(_Q_GRID[int(np.argmax(ll))])
+    return _estimate_q_many([(ts, z, sigma)], SMOOTHER.check("engine", engine))[0]
 
 
-def _innovation_loglik(ts, z, sigma):
-    """Log-likelihood (per q of _Q_GRID) of the innovations of a per-axis CV filter; the
-    first two steps, which only set the initial position and velocity, are left out."""
-    q = _Q_GRID[:, None]
-    shape = (len(_Q_GRID), 2)
-    p, v = np.broadcast_to(z[0], shape).copy(), np.zeros(shape)
-    p00, p01, p11 = np.full(shape, sigma[0] ** 2), np.zeros(shape), np.full(shape, _V0_VAR)
-    ll = np.zeros(shape)
-    for k in range(1, len(ts)):
-        h = ts[k] - ts[k - 1]
-        p = p + h * v
-        p00 = p00 + 2 * h * p01 + h * h * p11 + q * h**3 / 3
-        p01 = p01 + h * p11 + q * h * h / 2
-        p11 = p11 + q * h
-        s = p00 + sigma[k] ** 2
-        y = z[k] - p
-        if k >= 2:
-            ll -= 0.5 * np.log(s) + _huber(y * y / s)
-        k0, k1 = p00 / s, p01 / s
-        p, v = p + k0 * y, v + k1 * y
-        p11 = p11 - k1 * p01
-        p00, p01 = (1 - k0) * p00, (1 - k0) * p01
-    return ll.sum(1)
+def _estimate_q_many(tracks, engine):
+    """estimate_process_noise of each (ts, z, σ), the likelihoods of all at once."""
+    q = [0.0] * len(tracks)
+    long = [i for i, t in enumerate(tracks) if len(t[0]) >= 4]
+    args = [tuple(np.asarray(a, float) for a in tracks[i]) for i in long]
+    for i, ll in zip(long, _ENGINES[engine][1](args, _Q_GRID)):
+        q[i] = float(_Q_GRID[int(np.argmax(ll))])
+    return q
 
 
-def _huber(u):
-    """−log-likelihood of a squared normalised innovation u, Gaussian up to _HUBER_C σ and
-    linear beyond it, so one jump (a cut star, a stray cluster) does not decide q."""
-    return np.where(u <= _HUBER_C**2, u / 2, _HUBER_C * np.sqrt(u) - _HUBER_C**2 / 2)
+def _groups(ids):
+    """(distinct ids ascending, the indices of each, in their order)."""
+    order = np.argsort(ids, kind="stable")
+    cut = np.flatnonzero(np.diff(ids[order])) + 1
+    return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
 
-def _kalman_rts(ts, z, sigma, measured, q):
-    """Smoothed states (n, 4) = (x, vx, y, vy) and covariances (n, 4, 4) at times ts (s);
-    z, sigma: the measured steps' positions and per-axis σ (or (m, 2, 2) covariances)."""
-    n = len(ts)
-    kf = KalmanFilter(dim_x=4, dim_z=2)
-    kf.H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
-    # a diffuse start about the first centroid: the first update brings it in (once)
-    kf.x = np.array([z[0, 0], 0.0, z[0, 1], 0.0])
-    kf.P = np.eye(4) * _DIFFUSE
-    h = np.r_[0.0, np.diff(ts)]
-    Fs = np.tile(np.eye(4), (n, 1, 1))
-    Fs[:, 0, 1] = Fs[:, 2, 3] = h
-    block = q * np.stack([np.stack([h**3 / 3, h**2 / 2], -1), np.stack([h**2 / 2, h], -1)], -2)
-    Qs = np.zeros((n, 4, 4))
-    Qs[:, :2, :2] = Qs[:, 2:, 2:] = block
-    zs = [None] * n
-    Rs = [None] * n
-    for k, i in enumerate(np.flatnonzero(measured)):
-        zs[i] = z[k]
-        Rs[i] = sigma[k] if np.ndim(sigma[k]) == 2 else np.eye(2) * sigma[k] ** 2
-    Rs = [kf.R if r is None else r for r in Rs]
-    mu, cov, _, _ = kf.batch_filter(zs, Fs=list(Fs), Qs=list(Qs), Rs=Rs)
-    x, P, _, _ = kf.rts_smoother(mu, cov, Fs=list(Fs), Qs=list(Qs))
-    return x, P
+def _track_rows(centroids):
+    """Per confirmed track (ascending id): its rows of `centroids`, time-sorted."""
+    tracks = centroids["track"]
+    conf = np.flatnonzero(tracks >= 0)
+    conf = conf[np.lexsort((centroids["t"][conf], tracks[conf]))]
+    bounds = np.flatnonzero(np.diff(tracks[conf])) + 1
+    return np.split(conf, bounds) if len(conf) else []
 
 
 def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
-                    gate_sigma=4.0, sigma_floor_px=0.01, process_noise_min=1.0, pool_us=10_000):
+                    gate_sigma=4.0, sigma_floor_px=0.01, process_noise_min=1.0, pool_us=10_000,
+                    engine=SMOOTHER["engine"].default):
     """Refit one track's smoothed rows `est` with crossing times as along-track measurements.
 
     A crossing says the star's centre passed pixel q at time t: a measurement of the position
@@ -347,12 +376,36 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     one measurement (the filter's cost is per step). Returns new rows (est's times, frames
     and flags) and the number of crossings used.
     """
+    p = _along_track_problem(est, z_cent, sigma, crossings, velocity_prior, along_weight,
+                             gate_sigma, sigma_floor_px, pool_us)
+    if p is None:
+        return est, 0
+    return _along_track_fit_many([p], velocity_prior, process_noise_min,
+                                 SMOOTHER.check("engine", engine))[0]
+
+
+class _AlongTrack(NamedTuple):
+    """along_track_fit's problem of one track: its rows, the crossings used, all steps' order
+    by time, the prior's displacement per step, the kalman.CVProblem (q to be set), and the
+    centroid steps' times, positions less the displacement and σ (for the q estimate)."""
+    est: np.ndarray
+    n_used: int
+    order: np.ndarray
+    shift: np.ndarray
+    problem: kalman.CVProblem
+    q_data: tuple
+
+
+def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
+                         gate_sigma=4.0, sigma_floor_px=0.01, pool_us=10_000):
+    """along_track_fit up to the filter: an _AlongTrack, or None when the crossings do not
+    pin the track."""
     t_c, q, u, r = crossings
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
     along = (q * u).sum(1) if len(t_c) else np.zeros(0)
     if len(t_c) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX:
-        return est, 0
+        return None
     med = np.median(r)
     s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
     ok = np.abs(r - med) <= gate_sigma * s_a
@@ -365,7 +418,7 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     v = np.column_stack([est["vx"][measured], est["vy"][measured]])
     u_cent = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-9)
     # every row: est's (measured or coasted), then the crossings; sorted by time together
-    n_est, n = len(est), len(est) + len(t_c)
+    n = len(est) + len(t_c)
     t_all = np.concatenate([est["t"].astype(np.int64), t_c])
     is_meas = np.concatenate([measured, np.ones(len(t_c), bool)])
     is_cent = np.concatenate([measured, np.zeros(len(t_c), bool)])
@@ -383,18 +436,35 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
-    q_track = estimate_process_noise(ts[c_s], resid[cent], sig[order][c_s])
-    x, P = _kalman_rts(ts, resid, R[order][m_s], m_s, max(q_track, process_noise_min))
-    back = np.empty(n, np.int64)
-    back[order] = np.arange(n)
+    return _AlongTrack(est, int(ok.sum()), order, shift,
+                       kalman.CVProblem(ts, m_s, resid, R[order][m_s], None),
+                       (ts[c_s], resid[cent], sig[order][c_s]))
+
+
+def _along_track_fit_many(problems, velocity_prior, process_noise_min, engine):
+    """(rows, crossings used) of each _AlongTrack: q estimated and the filter run for all
+    at once."""
+    qs = _estimate_q_many([p.q_data for p in problems], engine)
+    fits = _ENGINES[engine][0]([p.problem._replace(q=max(q, process_noise_min))
+                                for p, q in zip(problems, qs)])
+    return [(_along_track_rows(p, x, P, velocity_prior), p.n_used)
+            for p, (x, P) in zip(problems, fits)]
+
+
+def _along_track_rows(p, x, P, velocity_prior):
+    """est's rows of an _AlongTrack with the smoothed positions, velocities and σ."""
+    est, n_est = p.est, len(p.est)
+    back = np.empty(len(p.order), np.int64)
+    back[p.order] = np.arange(len(p.order))
     back = back[:n_est]                               # est's rows in the sorted order
+    shift = p.shift
     out = est.copy()
     out["x"], out["y"] = x[back, 0] + shift[back, 0], x[back, 2] + shift[back, 1]
     v_prior = _prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
     out["vx"], out["vy"] = x[back, 1] + v_prior[:, 0], x[back, 3] + v_prior[:, 1]
     out["sigma_x"] = np.sqrt(np.maximum(P[back, 0, 0], 0.0))   # rounding can make it -0
     out["sigma_y"] = np.sqrt(np.maximum(P[back, 2, 2], 0.0))
-    return out, int(ok.sum())
+    return out
 
 
 def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):

@@ -39,10 +39,12 @@ class Tracker:
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])
         tracks = []  # dicts: id, frames [..], xy [..]
+        live = []    # the tracks that can still take a centroid, in order of creation
         next_id = 0
         for f, a, b in zip(frames, starts, stops):
             rows = order[a:b]
-            live = [tr for tr in tracks if f - tr["frames"][-1] <= self.max_gap + 1]
+            # frames only grow: a track past its gap never comes back
+            live = [tr for tr in live if f - tr["frames"][-1] <= self.max_gap + 1]
             pts = np.column_stack([out["x"][rows], out["y"][rows]])
             pairs = self._assign(live, pts, f)
             taken = set()
@@ -54,6 +56,7 @@ class Tracker:
             for ri in range(len(rows)):
                 if ri not in taken:
                     tracks.append({"id": next_id, "frames": [f], "xy": [pts[ri]]})
+                    live.append(tracks[-1])
                     out["track"][rows[ri]] = next_id
                     next_id += 1
         _join(out, tracks, self.gate_px, self.max_gap)
@@ -62,7 +65,7 @@ class Tracker:
     def _assign(self, live, pts, f):
         if not live or not len(pts):
             return []
-        pred = np.array([_predict(tr, f) for tr in live])
+        pred = _predict(live, f)
         gates = np.array([self.gate_px if len(tr["xy"]) > 1 else self.init_gate_px for tr in live])
         cost = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
         big = 1e9
@@ -71,12 +74,17 @@ class Tracker:
         return [(t, r) for t, r in zip(ti, ri) if masked[t, r] < big]
 
 
-def _predict(track, f):
-    """Constant velocity from the last two centroids (per frame), else stay put."""
-    if len(track["xy"]) < 2:
-        return track["xy"][-1]
-    v = (track["xy"][-1] - track["xy"][-2]) / (track["frames"][-1] - track["frames"][-2])
-    return track["xy"][-1] + v * (f - track["frames"][-1])
+def _predict(tracks, f):
+    """(n, 2) positions at frame f: constant velocity from each track's last two centroids
+    (per frame), else where it is; all tracks at once."""
+    last = np.array([tr["xy"][-1] for tr in tracks])
+    two = np.array([len(tr["xy"]) > 1 for tr in tracks])
+    prev = np.array([tr["xy"][-2] if len(tr["xy"]) > 1 else tr["xy"][-1] for tr in tracks])
+    f_last = np.array([tr["frames"][-1] for tr in tracks])
+    f_prev = np.array([tr["frames"][-2] if len(tr["frames"]) > 1 else tr["frames"][-1] - 1
+                       for tr in tracks])
+    v = (last - prev) / (f_last - f_prev)[:, None]
+    return np.where(two[:, None], last + v * (f - f_last)[:, None], last)
 
 
 def _join(out, tracks, gate_px, max_gap):
@@ -87,11 +95,15 @@ def _join(out, tracks, gate_px, max_gap):
     and B's first centroid lies within gate_px of A's last; the nearest A wins."""
     ends = {}
     for tr in sorted(tracks, key=lambda tr: tr["frames"][0]):
+        first = tr["frames"][0]
+        # an end too far behind this track is so for every later one (first frames only grow)
+        ends = {k: a for k, a in ends.items() if first - a["frames"][-1] <= max_gap + 1}
         best, best_d = None, gate_px
         for a in ends.values():
-            lag = tr["frames"][0] - a["frames"][-1]
+            if first - a["frames"][-1] < -1 or a["frames"][0] >= first:
+                continue
             d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
-            if -1 <= lag <= max_gap + 1 and a["frames"][0] < tr["frames"][0] and d <= best_d:
+            if d <= best_d:
                 best, best_d = a, d
         if best is None:
             ends[tr["id"]] = tr

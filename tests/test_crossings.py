@@ -98,3 +98,133 @@ def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
         star, err = accuracy.match(rows, run.truth.star_position)
         errors[estimator] = err[star >= 0].mean()
     assert errors["crossings"] < 0.5 * bound and errors["crossings"] < 0.5 * errors["mean"], errors
+
+
+# -- the vectorised code against straightforward references -------------------------------
+def crossings_reference(t, x, y, p, max_pairs=16):
+    """pixel_crossings one pixel and one polarity change at a time."""
+    from evstar.crossings import CROSSING_DTYPE
+
+    rows = []
+    for py, px in sorted(set(zip(y.tolist(), x.tolist()))):
+        idx = np.flatnonzero((y == py) & (x == px))
+        idx = idx[np.argsort(t[idx], kind="stable")]
+        tt, on = t[idx].astype(np.int64), p[idx] > 0
+        for i in range(len(tt) - 1):
+            if not (on[i] and not on[i + 1]):
+                continue
+            s = sq = 0.0
+            k = 0
+            for j in range(1, max_pairs + 1):    # the (j+1)-th ON before, the j-th OFF after
+                a, b = i - j, i + j
+                if a < 0 or b >= len(tt) or not on[a] or on[b]:
+                    break
+                mid = 0.5 * (tt[a] + tt[b])
+                s, sq, k = s + mid, sq + mid * mid, k + 1
+            if k:
+                rows.append((px, py, s / k, k, np.sqrt(max(sq / k - (s / k) ** 2, 0.0))))
+    out = np.array(rows, CROSSING_DTYPE) if rows else np.zeros(0, CROSSING_DTYPE)
+    return out[np.argsort(out["t"], kind="stable")]
+
+
+@pytest.mark.parametrize("time_sorted", [True, False])
+def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
+    rng = np.random.default_rng(5)
+    n = 3000
+    xs, ys = np.array([0, 1, 2, 700, 1279]), np.array([0, 3, 719])   # keys past 2¹⁶
+    x, y = rng.choice(xs, n), rng.choice(ys, n)
+    t = np.sort(rng.integers(0, 20_000, n))                         # ties included
+    p = (np.sin(t / 700.0 + x) + rng.normal(0, 0.5, n) > 0).astype(np.int8)   # ON and OFF runs
+    if not time_sorted:
+        perm = rng.permutation(n)
+        t, x, y, p = t[perm], x[perm], y[perm], p[perm]
+    got, ref = pixel_crossings(t, x, y, p), crossings_reference(t, x, y, p)
+    assert len(ref) > 50 and (ref["pairs"] > 1).any()
+    for f in ("x", "y", "pairs"):
+        np.testing.assert_array_equal(got[f], ref[f])
+    np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
+
+
+def test_pixel_crossings_of_a_simulated_star_equal_the_reference():
+    run = sim.simulate(sim.paper_preset(12.0, duration_s=0.1), seed=2)
+    t, x, y, p = star_events(run)
+    got, ref = pixel_crossings(t, x, y, p), crossings_reference(t, x, y, p)
+    assert len(ref) > 20
+    assert got.tobytes() == ref.tobytes()
+
+
+@pytest.mark.parametrize("radius", [0, 1, 2.5, 3])
+def test_near_pixels_is_the_square_dilation(radius):
+    from scipy import ndimage
+
+    from evstar.crossings import near_pixels
+
+    rng = np.random.default_rng(int(radius * 10))
+    x, y = rng.integers(0, 64, 40), rng.integers(0, 48, 40)
+    x[:2], y[:2] = [0, 63], [0, 47]                                  # at the borders
+    img = np.zeros((48, 64), bool)
+    img[y, x] = True
+    r = int(np.ceil(radius))
+    ref = ndimage.binary_dilation(img, np.ones((2 * r + 1, 2 * r + 1), bool)) if r else img
+    np.testing.assert_array_equal(near_pixels(x, y, 64, 48, radius), ref)
+
+
+def along_track_reference(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
+    """along_track one track at a time over every crossing."""
+    t = crossings["t"]
+    q = np.column_stack([crossings["x"], crossings["y"]]).astype(np.float64)
+    best, owner = np.full(len(t), np.inf), np.full(len(t), -1, np.int64)
+    u, resid = np.zeros((len(t), 2)), np.zeros(len(t))
+    for tid in np.unique(tracks["track"]):
+        tr = tracks[tracks["track"] == tid]
+        inside = (t >= tr["t"][0]) & (t <= tr["t"][-1])
+        if not inside.any() or len(tr) < 2:
+            continue
+        ti = t[inside]
+        pos = np.column_stack([np.interp(ti, tr["t"], tr["x"]), np.interp(ti, tr["t"], tr["y"])])
+        vel = np.column_stack([np.interp(ti, tr["t"], tr["vx"]), np.interp(ti, tr["t"], tr["vy"])])
+        speed = np.linalg.norm(vel, axis=1)
+        d = q[inside] - pos
+        dist = np.linalg.norm(d, axis=1)
+        win = (dist < np.minimum(best[inside], max_offset_px)) & (speed >= min_speed_px_s)
+        idx = np.flatnonzero(inside)[win]
+        best[idx], owner[idx] = dist[win], tid
+        u[idx] = vel[win] / speed[win, None]
+        resid[idx] = (d[win] * u[idx]).sum(1)
+    got = np.flatnonzero(owner >= 0)
+    return got, owner[got], u[got], resid[got]
+
+
+def test_along_track_equals_the_per_track_reference():
+    from evstar.crossings import CROSSING_DTYPE, along_track
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    rng = np.random.default_rng(7)
+    parts = []
+    for tid in range(12):
+        n = int(rng.integers(1, 60))
+        t = np.sort(rng.choice(np.arange(0, 600_000, 5_000), n, replace=False)) + rng.integers(0, 3000)
+        rows = np.zeros(n, ESTIMATE_DTYPE)
+        v = rng.normal(0, 150, 2) * (tid != 3)                      # track 3 stands still
+        rows["t"], rows["track"] = t, tid
+        rows["x"] = 20 + tid % 4 * 6 + v[0] * t * 1e-6 + rng.normal(0, 0.2, n)
+        rows["y"] = 30 + v[1] * t * 1e-6 + rng.normal(0, 0.2, n)
+        jitter = rng.normal(0, 5, (n, 2)) * (tid != 3)
+        rows["vx"], rows["vy"] = v[0] + jitter[:, 0], v[1] + jitter[:, 1]
+        parts.append(rows)
+    parts.append(parts[5].copy())                                   # a twin: ties
+    parts[-1]["track"] = 12
+    tracks = np.concatenate(parts)
+    m = 4000
+    c = np.zeros(m, CROSSING_DTYPE)
+    c["x"], c["y"] = rng.integers(0, 80, m), rng.integers(0, 90, m)
+    c["t"] = rng.uniform(-1e4, 6.1e5, m)
+    on = rng.choice(len(tracks), m // 2)                            # half near a track's rows
+    c["t"][:m // 2] = tracks["t"][on] + rng.choice([0.0, 1.0, 2500.0], m // 2)
+    c["x"][:m // 2], c["y"][:m // 2] = np.round(tracks["x"][on]), np.round(tracks["y"][on])
+    c = c[np.argsort(c["t"], kind="stable")]
+    got, ref = along_track(c, tracks), along_track_reference(c, tracks)
+    assert len(ref[0]) > 1000 and 12 not in ref[1] and 3 not in ref[1]
+    for a, b in zip(got, ref):
+        np.testing.assert_array_equal(a, b)

@@ -65,6 +65,26 @@ def test_none_keeps_the_coordinates(scene):
     np.testing.assert_array_equal(idx, np.arange(len(ev)))
 
 
+def test_none_makes_on_demand_what_the_other_modes_make_at_once(scene):
+    """Mode 'none' builds its per-event arrays when read: the same as a Compensation built
+    from the events' own pixels."""
+    from evstar.motion import Compensation
+    from evstar.motion.warping import frame_reference_times
+
+    ev = scene["events"]
+    lazy = compensate(ev, dt_us=DT_US, mode="none", t0_us=int(ev.t[0]) - 1234)
+    frame, t_ref = frame_reference_times(ev.t, DT_US, int(ev.t[0]) - 1234)
+    eager = Compensation(ev, "none", ev.x, ev.y, frame, t_ref)
+    for name in ("x", "y", "xi", "yi", "inside", "frame", "t_ref_us"):
+        a, b = getattr(lazy, name), getattr(eager, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+    idx = np.flatnonzero(np.arange(len(ev)) % 3 == 0)
+    np.testing.assert_array_equal(lazy.coordinates(idx), eager.coordinates(idx))
+    assert len(lazy) == len(ev) and repr(lazy) == repr(eager)
+    with pytest.raises(ValueError, match="dt_us"):
+        compensate(ev, dt_us=0, mode="none")
+
+
 def test_pf_removes_the_bias_that_imu_mode_keeps(scene):
     ev, imu = scene["events"], scene["imu"]
     imu_mode = compensate(ev, imu, CAMERA, DT_US, mode="imu")

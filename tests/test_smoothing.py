@@ -228,3 +228,46 @@ def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
     rows = evstar.Pipeline().run(run.events).centroids
     assert rows["t"].min() >= run.events.t[0] and rows["t"].max() <= run.events.t[-1]
     assert (rows["x"] >= -0.5).all() and (rows["x"] <= run.events.width - 0.5).all()
+
+
+def test_tracks_smoothed_together_equal_the_filterpy_reference_one_by_one():
+    """The default engine batches the tracks (of different lengths, with gaps and outliers
+    refitted in later passes); filterpy, one track and step at a time, is the reference."""
+    rng = np.random.default_rng(12)
+    parts = []
+    for k in range(6):
+        frames = np.sort(rng.choice(np.arange(5 + 30 * k), 4 + 25 * k, replace=False))
+        c = centroids(frames, sinusoid if k % 2 else line, 0.2, rng, track=k, n_events=5 + 3 * k)
+        c["x"][len(c) // 2] += 4.0 * (k % 3 > 0)                      # outliers
+        parts.append(c)
+    cents = np.concatenate(parts)
+    cents = cents[np.argsort(cents["t"], kind="stable")]
+    fast = TrackSmoother(DT).smooth(cents, t0_us=0)
+    ref = TrackSmoother(DT, engine="filterpy").smooth(cents, t0_us=0)
+    assert fast["outlier"].sum() >= 3 and np.array_equal(fast["outlier"], ref["outlier"])
+    for f in ("t", "frame", "track", "centroid", "coasted"):
+        np.testing.assert_array_equal(fast[f], ref[f])
+    for f in ("x", "y", "sigma_x", "sigma_y"):
+        np.testing.assert_allclose(fast[f], ref[f], rtol=0, atol=1e-9)
+
+
+def test_the_pipeline_gives_the_positions_of_the_filterpy_reference(monkeypatch):
+    """Smoother, outlier passes, the crossings' refit with the IMU prior and the pixel lag:
+    the whole run with filterpy in place of the batched filter, rows equal to 1e-6 px."""
+    from evstar import smoothing
+
+    run = sim.simulate(sim.paper_sinusoid(duration_s=0.6), seed=3)
+    pipe = evstar.Pipeline(evstar.Config().replace(**{"motion.compensate": "imu"}))
+    fast = pipe.run(run.events, run.imu, run.camera).centroids
+    monkeypatch.setitem(smoothing._ENGINES, "numpy", smoothing._ENGINES["filterpy"])
+    ref = pipe.run(run.events, run.imu, run.camera).centroids
+    assert len(fast) == len(ref) > 50 and (fast["track"] >= 0).sum() > 50
+    for f in ("t", "track", "frame", "source"):
+        np.testing.assert_array_equal(fast[f], ref[f])
+    for f in ("x", "y", "sigma"):
+        np.testing.assert_allclose(fast[f], ref[f], rtol=0, atol=1e-6)
+
+
+def test_the_engine_is_checked_by_name():
+    with pytest.raises(ValueError, match="engine"):
+        TrackSmoother(DT, engine="scipy")

@@ -11,6 +11,8 @@ the rounded coordinates (pixel i covers [i − ½, i + ½)) are what the filters
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .. import parameters as P
@@ -27,7 +29,7 @@ EXTRAPOLATE_US = P.MOTION["extrapolate_us"].default
 class Compensation:
     """Per-event result: x, y float64 (warped), xi, yi int64 (rounded), inside (rounded pixel on
     the sensor), frame int64, t_ref_us float64, plus the attitude track and, for 'pf', the
-    FilterResult used."""
+    FilterResult used. Mode 'none' (:meth:`identity`) computes these arrays only when read."""
 
     def __init__(self, events, mode, x, y, frame, t_ref_us, attitude=None, filter_result=None):
         self.mode = mode
@@ -41,13 +43,44 @@ class Compensation:
                        & (self.yi >= 0) & (self.yi < events.height))
         self._events = events
 
+    @classmethod
+    def identity(cls, events, dt_us, t0_us=None, reference="mid"):
+        """Mode 'none': every event stays at its pixel (a run reads none of the per-event
+        arrays: they are made, as __init__ would, on first access)."""
+        self = cls.__new__(cls)
+        self.mode, self.attitude, self.filter_result, self._events = "none", None, None, events
+        self._frames = (dt_us, t0_us, reference)
+        frame_reference_times(events.t[:1], dt_us, t0_us, reference)   # arguments checked now
+        return self
+
+    # made on first access, for identity() only (__init__ sets them: they shadow these)
+    x = functools.cached_property(lambda self: np.asarray(self._events.x, np.float64))
+    y = functools.cached_property(lambda self: np.asarray(self._events.y, np.float64))
+    xi = functools.cached_property(lambda self: self._events.x.astype(np.int64))
+    yi = functools.cached_property(lambda self: self._events.y.astype(np.int64))
+    inside = functools.cached_property(lambda self: np.ones(len(self._events), bool))
+    frame = functools.cached_property(lambda self: self._reference_times[0])
+    t_ref_us = functools.cached_property(lambda self: self._reference_times[1])
+    _reference_times = functools.cached_property(
+        lambda self: frame_reference_times(self._events.t, *self._frames))
+
     def __len__(self):
-        return len(self.x)
+        return len(self._events)
+
+    def coordinates(self, index):
+        """(len(index), 2) float64 (x, y) of the events `index` (as x[index], y[index])."""
+        if "x" in self.__dict__:
+            return np.column_stack([self.x[index], self.y[index]])
+        ev = self._events
+        return np.column_stack([ev.x[index], ev.y[index]]).astype(np.float64)
 
     def events(self):
         """(Events at the rounded warped pixels of the events that stay on the sensor, their
         indices in the input stream). Time order is kept."""
-        ev, idx = self._events, np.flatnonzero(self.inside)
+        ev = self._events
+        if self.mode == "none":
+            return ev, np.arange(len(ev))
+        idx = np.flatnonzero(self.inside)
         return Events._trusted(ev.t[idx], self.xi[idx].astype(np.uint16),
                                self.yi[idx].astype(np.uint16), ev.p[idx],
                                ev.width, ev.height), idx
@@ -74,9 +107,9 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
     """
     mode = P.MOTION.check("compensate", mode, "mode")
     extrapolate_us = P.MOTION.check("extrapolate_us", extrapolate_us)
-    frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
     if mode == "none":
-        return Compensation(events, mode, events.x, events.y, frame, t_ref)
+        return Compensation.identity(events, dt_us, t0_us, reference)
+    frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
     if imu is None or camera is None:
         raise ParameterError(f"mode={mode!r} needs an imu and a camera")
     if len(events):
