@@ -74,6 +74,8 @@ def taichi(device="cpu"):
             # ti.init prints "[Taichi] Starting on arch=..." on stdout; evstar reports the arch
             with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
                 ti.init(**kwargs)
+            if os.environ.get("EVSTAR_TAICHI_SOURCE_INFO") != "full":
+                _short_taichi_source_info()
             got = ti.lang.impl.current_cfg().arch
             _taichi_arch = "cuda" if got == ti.cuda else "cpu"
             if _taichi_arch != want:
@@ -83,6 +85,25 @@ def taichi(device="cpu"):
             raise BackendError(f"Taichi is already running on {_taichi_arch!r} in this process; "
                                f"it cannot switch to {want!r} (start a new process)")
     return ti
+
+
+def _short_taichi_source_info():
+    """Taichi 1.7 formats a wrapped, caret-marked source excerpt for every AST node of every
+    kernel on every process start — even when the offline cache then skips the compile —
+    about half of a warm first call. Error messages keep the file, line and source line;
+    EVSTAR_TAICHI_SOURCE_INFO=full restores Taichi's excerpts."""
+    from taichi.lang.ast import ast_transformer_utils as utils
+
+    ctx = getattr(utils, "ASTTransformerContext", None)
+    if ctx is None or not hasattr(ctx, "get_pos_info"):  # another Taichi: leave it alone
+        return
+
+    def get_pos_info(self, node):
+        line = node.lineno + self.lineno_offset
+        return (f'File "{self.file}", line {line}, in {self.func.func.__name__}:\n'
+                f"{self.src[node.lineno - 1]}\n")
+
+    ctx.get_pos_info = get_pos_info
 
 
 def warp(device="cpu"):

@@ -58,7 +58,8 @@ def run(n_events=1_000_000, device="cpu", repeats=3, seed=0, progress=print):
     ex = pipe.make_extractor(int(ev.t[0]))
     r = time_call(lambda: ex.centroids(kept), repeats=repeats)
     cents = ex.centroids(kept)
-    rows.append(_row("extract (DBSCAN)", "scikit-learn", len(kept), r,
+    clustering = "scikit-learn" if ex.clustering == "sklearn" else f"taichi-{device} grid"
+    rows.append(_row("extract (DBSCAN)", clustering, len(kept), r,
                      f"{len(cents) / r['median_s']:,.0f} centroids/s"))
     r = time_call(lambda: pipe.make_tracker().link(cents), repeats=repeats)
     rows.append(_row("track", "numpy/scipy", len(kept), r, f"{len(cents) / r['median_s']:,.0f} centroids/s"))
@@ -78,3 +79,51 @@ def _row(stage, backend, n, timing, note=""):
 
 def markdown(rows):
     return table(rows, COLUMNS)
+
+
+# -- whole pipeline on a simulated star field ---------------------------------------------
+FIELD_COLUMNS = [("scene", "scene", ""), ("mode", "compensate", ""), ("events", "events", ","),
+                 ("median_s", "median s", ".3f"), ("range_s", "range s", ""),
+                 ("first_s", "first call s", ".2f"), ("realtime", "x real time", ".2f"),
+                 ("meps", "M events/s", ".2f"), ("stages", "stage medians s", "")]
+
+
+def field_scene(argv):
+    """A simulated recording described by `evstar simulate` options (a list of strings, e.g.
+    ["--preset", "evk4", "--stars", "50", "--rate", "10", "--noise-hz", "1", "--duration", "4"])."""
+    import argparse
+
+    from . import sim
+    from .cli import simulate as cli_sim
+
+    p = argparse.ArgumentParser()
+    cli_sim.add_arguments(p)
+    args = p.parse_args(["-", *argv])
+    return sim.simulate(cli_sim.scenario_from(args), seed=args.seed)
+
+
+def field_run(argv, modes=("none", "imu", "pf"), device="cpu", repeats=3, progress=print):
+    """Rows of {scene, mode, events, median_s, range_s, first_s, realtime, meps, stages}:
+    the whole pipeline per compensation mode, the first call (kernels compiled or loaded)
+    apart from the steady-state runs."""
+    from . import Config, Pipeline
+
+    run_ = field_scene(argv)
+    ev, imu, cam = run_.events, run_.imu, run_.camera
+    span_s = ev.duration_us / 1e6
+    progress(f"scene {' '.join(argv)}: {len(ev):,} events over {span_s:.1f} s")
+    rows = []
+    for mode in modes:
+        pipe = Pipeline(Config(device=device).replace(**{"motion.compensate": mode}))
+        stages = []
+        timing = time_call(lambda: stages.append(pipe.run(ev, imu, cam).timings_s), repeats=repeats)
+        med = timing["median_s"]
+        steady = stages[1:]
+        rows.append({"scene": " ".join(argv), "mode": mode, "events": len(ev), "median_s": med,
+                     "range_s": f"{min(timing['runs_s']):.3f}–{max(timing['runs_s']):.3f}",
+                     "first_s": timing["first_s"], "realtime": span_s / med,
+                     "meps": len(ev) / med / 1e6,
+                     "stages": ", ".join(f"{k} {np.median([s[k] for s in steady]):.3f}"
+                                         for k in steady[0])})
+        progress(table(rows[-1:], FIELD_COLUMNS).splitlines()[-1])
+    return rows

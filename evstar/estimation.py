@@ -17,11 +17,34 @@ from __future__ import annotations
 import numpy as np
 
 from .crossings import CROSSING_DTYPE, near_pixels, pixel_crossings
+from .errors import FormatError
 from .extract import CENTROID_DTYPE
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
                   "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends")
+
+
+def pixel_lag(path):
+    """The PixelLag of an `evstar calibrate` file (None for none), read once per version of
+    the file (FormatError naming it when it is missing or not one)."""
+    if path is None:
+        return None
+    import os
+
+    from .calibration import PixelLag
+
+    try:
+        st = os.stat(path)
+    except OSError as e:
+        raise FormatError(path, f"cannot read the pixel-lag file ({e.strerror})") from None
+    key = (os.path.abspath(path), st.st_mtime_ns, st.st_size)
+    if key not in _LAG_FILES:
+        _LAG_FILES[key] = PixelLag.load(path)
+    return _LAG_FILES[key]
+
+
+_LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px):
@@ -66,7 +89,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     est = smoother.smooth(centroids, t0_us, velocity_prior, sigma)
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight,
-                                 t0_us)
+                                 t0_us, pixel_lag(e.pixel_lag_file))
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain
     ok = rows["sigma"] <= e.coast_sigma_px

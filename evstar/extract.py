@@ -9,13 +9,14 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 from sklearn.cluster import DBSCAN
 
-from . import parameters as P
+from . import backends, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
-from .frames import check_dt, frame_bounds, frame_ids
+from .frames import check_dt, frame_bounds
+from evstar_kernels.reference.clusters import cluster_moments, two_peaks
+from evstar_kernels.taichi.scratch import Scratch
 
 #: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
 #: edge), split (separated from a DBSCAN cluster that held two targets); sigma: per-axis
@@ -29,6 +30,9 @@ WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 SOURCES = ("measured", "coasted")   # values of the `source` field (HDF5 stores their index)
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
 _FRAME_GAP = 1e6
+# the grid kernels' planes, kept zeroed between calls (the pipeline makes an Extractor per
+# chunk); Scratch serialises the calls
+_SCRATCH = Scratch()
 
 
 class Extractor:
@@ -44,12 +48,17 @@ class Extractor:
     single smeared streak has a flat profile and halves as wide as their separation allows,
     and a moving star's leading ON and trailing OFF lobes differ in polarity, so both stay
     whole. None disables the check.
+    clustering: "grid" (Taichi kernels on `device`: grid DBSCAN, per-cluster moments and a
+    screen that leaves the split test only the clusters that may hold two peaks) or
+    "sklearn" (scikit-learn's DBSCAN on the same weighted cells: the reference). Both give
+    the same clusters and centroids (docs/kernels.md).
     """
 
     def __init__(self, dt_us=P.GLOBAL["dt_us"].default, eps=E["eps"].default,
                  min_samples=E["min_samples"].default, min_cluster_size=None,
                  weighting=E["weighting"].default, time_ref=E["time_ref"].default,
-                 split_valley=E["split_valley"].default, t_origin_us=None):
+                 split_valley=E["split_valley"].default, t_origin_us=None,
+                 clustering=E["clustering"].default, device=P.GLOBAL["device"].default):
         self.dt_us = check_dt(dt_us)
         self.eps = float(E.check("eps", eps))
         self.min_samples = E.check("min_samples", min_samples)
@@ -58,72 +67,210 @@ class Extractor:
         self.time_ref = E.check("time_ref", time_ref)
         self.split_valley = E.check("split_valley", split_valley)
         self.t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
+        self.clustering = E.check("clustering", clustering)
+        self.device = P.GLOBAL.check("device", device)
 
     def labels(self, events, xy=None):
         """(frame id, DBSCAN label) per event; label -1 is noise. `xy` overrides coordinates
         (e.g. motion-compensated floats; clustered at their rounded pixels)."""
+        c = self._cluster(events, xy)
+        return c.frames(), c.labels
+
+    def _cluster(self, events, xy):
+        """The events' frames, clusters and cells (_Clusters)."""
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
-        frames = frame_ids(events.t, self.dt_us, self.t_origin_us)
-        # membership is decided on the pixel grid (float, e.g. warped, coordinates are
-        # rounded as the filters round them); centroids use the floats
-        xy = np.floor(_coords(events, xy) + 0.5).astype(np.int64)
+        coords = _coords(events, xy, keep_none=True)
+        t0 = self.t_origin_us
+        if t0 is None:
+            t0 = int(events.t[0]) if len(events) else 0
+        f0, offsets = _frame_offsets(events.t, self.dt_us, t0)
+        if xy is None:  # integer pixels already
+            px, py = events.x, events.y
+        else:  # membership is decided on the pixel grid (floats are rounded as the filters
+            # round them); centroids use the floats
+            ij = np.floor(coords + 0.5).astype(np.int64)
+            px, py = ij[:, 0], ij[:, 1]
+        c = _Clusters(t0, f0, offsets, coords, px, py)
+        # whole-pixel coordinates (the pipeline passes its uncompensated ones as floats) are
+        # summed exactly: the batched split steps apply
+        c.integral = xy is None or bool(np.array_equal(coords, ij))
         if len(events) == 0:
-            return frames, np.zeros(0, np.int64)
+            c.labels, c.first, c.frame = (np.zeros(0, np.int64) for _ in range(3))
+        elif self.clustering == "grid":
+            from evstar_kernels.taichi import clusters_launch
+
+            c.labels, c.first, roots = clusters_launch.dbscan(
+                backends.taichi(self.device), offsets, px, py, self.eps, self.min_samples,
+                scratch=_SCRATCH)
+            c.frame = f0 + np.searchsorted(offsets, roots, side="right") - 1
+        else:
+            self._sklearn_labels(c)
+        return c
+
+    def _sklearn_labels(self, c):
         # events repeat at a pixel (a star fires ~30 per pixel it crosses): cluster the
         # distinct (frame, pixel) cells weighted by multiplicity — the same core test, far
         # fewer neighbours. One int64 key per cell keeps the de-duplication a 1-D sort.
-        lo = xy.min(0)
-        w, h = xy.max(0) - lo + 1
-        key = ((frames - frames[0]) * h + (xy[:, 1] - lo[1])) * w + (xy[:, 0] - lo[0])
-        cells, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+        frames = c.frames()
+        ij = np.column_stack([c.px, c.py]).astype(np.int64)
+        lo = ij.min(0)
+        w, h = ij.max(0) - lo + 1
+        key = ((frames - frames[0]) * h + (ij[:, 1] - lo[1])) * w + (ij[:, 0] - lo[0])
+        cells, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True,
+                                                  return_counts=True)
+        inverse = inverse.ravel()
         pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * _FRAME_GAP])
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
             pts.astype(np.float64), sample_weight=counts)
-        return frames, labels[inverse.ravel()]
+        c.labels, c.first = labels[inverse].astype(np.int64), first[inverse].astype(np.int64)
+        c.frame = np.zeros(int(c.labels.max()) + 1, np.int64)
+        c.frame[c.labels[c.labels >= 0]] = frames[c.labels >= 0]
 
     def centroids(self, events, xy=None):
         """Centroids of every cluster of every frame, in time order (track = -1 until linked)."""
-        frames, labels = self.labels(events, xy)
-        xy = _coords(events, xy)
-        keep = labels >= 0
-        if not keep.any():
+        c = self._cluster(events, xy)
+        k = len(c.frame)
+        if k == 0:
             return np.zeros(0, CENTROID_DTYPE)
-        # group member events by cluster (labels are unique across frames)
-        idx = np.flatnonzero(keep)
-        order = idx[np.argsort(labels[idx], kind="stable")]
-        _, starts, stops = frame_bounds(labels[order])
-        rows = []
-        for a, b in zip(starts, stops):
-            members = order[a:b]
-            if len(members) < self.min_cluster_size:
+        frame_t0 = c.t0 + np.arange(c.f0, c.f0 + len(c.offsets) - 1, dtype=np.int64) * self.dt_us
+        m = self._moments(events, c, frame_t0, k)
+        if self.weighting == "pixels" and xy is not None:  # distinct float positions
+            m["cells"], m["cx"], m["cy"] = _distinct_positions(c.labels, c.coords, k)
+        out = self._table(m, c.frame, frame_t0[c.frame - c.f0], c.t0, events)
+        order = np.arange(k) * 2  # ties in (t, x) keep cluster order (halves after it)
+        keep = out["n_events"] >= self.min_cluster_size
+        if self.split_valley:
+            maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
+            by_polarity = maybe.copy()
+            if self.clustering == "grid":  # the reference looks at every cluster
+                maybe, by_polarity = self._screen(events, c, m, maybe)
+            out, order, keep = self._split_clusters(events, c, out, order, keep, maybe,
+                                                    by_polarity)
+        out, order = out[keep], order[keep]
+        return out[np.lexsort((order, out["x"], out["t"]))]
+
+    def _moments(self, events, c, frame_t0, k):
+        if self.clustering == "grid":
+            from evstar_kernels.taichi import clusters_launch
+
+            x, y = (events.x, events.y) if c.coords is None else \
+                (np.ascontiguousarray(c.coords[:, 0]), np.ascontiguousarray(c.coords[:, 1]))
+            return clusters_launch.moments(backends.taichi(self.device), c.offsets, c.labels,
+                                           c.first, x, y, events.t, events.p, frame_t0, k)
+        coords = c.xy(events)
+        return cluster_moments(c.labels, c.frames() - c.f0, coords[:, 0], coords[:, 1], events.t,
+                               events.p, frame_t0, c.first == np.arange(len(c.first)))
+
+    def _table(self, m, frame, frame_t0, t0, events):
+        """One centroid row per cluster from its moments (no loop over clusters)."""
+        n_by_p = m["n"]
+        n = n_by_p.sum(1)
+        sx, sy = m["sx"].sum(1), m["sy"].sum(1)
+        cx, cy = sx / n, sy / n
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if self.weighting == "pixels":
+                cx, cy = m["cx"] / m["cells"], m["cy"] / m["cells"]
+            elif self.weighting == "polarity":
+                both = (n_by_p[:, 1] > 0) & (n_by_p[:, 0] > 0)
+                cx = np.where(both, (m["sx"] / n_by_p).sum(1) / 2, cx)
+                cy = np.where(both, (m["sy"] / n_by_p).sum(1) / 2, cy)
+        # mean squared distance to the centre, from the sums about the origin
+        sq = (m["sxx"].sum(1) - 2 * cx * sx + n * cx * cx + m["syy"].sum(1) - 2 * cy * sy
+              + n * cy * cy) / n
+        out = np.zeros(len(n), CENTROID_DTYPE)
+        if self.time_ref == "mean":
+            out["t"] = np.round(frame_t0 + m["st"].sum(1) / n)
+        else:
+            out["t"] = t0 + frame * self.dt_us + self.dt_us // 2
+        box = m["box"]
+        out["x"], out["y"], out["track"], out["n_events"], out["frame"] = cx, cy, -1, n, frame
+        out["spread"] = np.sqrt(np.maximum(sq, 0))
+        out["border"] = ((box[:, 0] < 1) | (box[:, 2] < 1) | (box[:, 1] > events.width - 2)
+                         | (box[:, 3] > events.height - 2))
+        out["sigma"], out["source"] = np.nan, "measured"
+        return out
+
+    def _screen(self, events, c, m, maybe):
+        """(clusters whose smoothed image may hold two peaks, those of which each polarity's
+        image may too): Taichi passes over all clusters. The others cannot split: _split
+        stops at _two_peaks, and its per-polarity test needs both polarities split."""
+        from evstar_kernels.taichi import clusters_launch
+
+        polarities = np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)  # else _halves: None
+        return clusters_launch.peak_screen(backends.taichi(self.device), c.offsets, c.labels,
+                                           c.px, c.py, events.p, m["box"], maybe, polarities)
+
+    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity):
+        """Replace every candidate cluster that holds two targets by its two halves (flag
+        split); the others keep their row. by_polarity: clusters whose polarities may each
+        split (the second test of _split)."""
+        labels = c.labels
+        idx = np.flatnonzero(np.r_[candidates, False][labels])  # label -1: the False
+        members_all = idx[np.argsort(labels[idx], kind="stable")]
+        pts = c.xy(events, members_all)
+        ids, starts, stops = frame_bounds(labels[members_all])
+        first = self._first_halves(c, pts, events.p[members_all], starts, stops)
+        rows, keys = [], []
+        for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
+            members = members_all[a:b]
+            parts = self._split(pts[a:b], events.p[members], by_polarity[j],
+                                None if first is None else first[n])
+            if parts is None:
                 continue
-            rows.extend(self._describe(events, xy, frames, members))
-        out = np.array(rows, CENTROID_DTYPE)
-        return out[np.lexsort((out["x"], out["t"]))]
+            keep[j] = False
+            for half in (0, 1):
+                rows.append(self._row(events, pts[a:b][parts == half], c.frame[j],
+                                      members[parts == half], c.t0, split=True))
+                keys.append(2 * j + half)
+        if not rows:
+            return out, order, keep
+        return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
+                np.r_[keep, np.ones(len(rows), bool)])
 
-    # -- one cluster ----------------------------------------------------------------------
-    def _describe(self, events, xy, frames, members):
-        parts = self._split(xy[members], events.p[members]) if self.split_valley else None
-        groups = [members] if parts is None else [members[parts == k] for k in (0, 1)]
-        return [self._row(events, xy, frames, g, split=parts is not None) for g in groups]
+    def _first_halves(self, c, pts, p, starts, stops):
+        """The first test's (seeds or None, 2-means labels, whether it fails whatever the
+        rest of _halves says) of every candidate at once, where they are exact (grid
+        clustering, integer coordinates); else None. The first test fails where a half has
+        fewer than min_cluster_size events or the halves' polarities differ by more than
+        0.5 (a moving star's lobes: the common case)."""
+        if self.clustering != "grid" or not c.integral or not len(starts):
+            return None
+        im = splitting.images(pts, starts, stops)
+        has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
+        # 2-means of all (the screen leaves few without two peaks): one set of images
+        lab = splitting.two_means_many(pts, starts, stops, a, b, im=im)
+        seg = np.repeat(np.arange(len(starts)), stops - starts)
+        n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
+        on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
+        fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
+        out = [(None, None, True)] * len(starts)  # no two peaks: _split stops there
+        for j in np.flatnonzero(has):
+            out[j] = ((a[j], b[j]), lab[starts[j]:stops[j]], bool(fails[j]))
+        return out
 
-    def _split(self, pts, p):
+    # -- one cluster, event by event (split candidates) ---------------------------------
+    def _split(self, pts, p, by_polarity=True, first=None):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
         trailing edge, so halves that differ in polarity are the two lobes of one target.
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
-        show the pair; their halves are matched by their order along the pair's axis."""
+        show the pair; their halves are matched by their order along the pair's axis.
+        first: the first test's (seeds, 2-means labels, certain failure) when known."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds = _two_peaks(pts)
+        seeds, lab, fails = (_two_peaks(pts), None, False) if first is None else first
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        lab = self._halves(pts, seeds)
+        lab = None if fails else self._halves(pts, seeds, lab)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
+        if not by_polarity:  # a polarity's events hold one peak: _halves would say None
+            return None
         on, off = p == 1, p == 0
         lab_on = self._halves(pts[on])
         lab_off = None if lab_on is None else self._halves(pts[off])
@@ -138,7 +285,7 @@ class Extractor:
         out[on], out[off] = lab_on, lab_off
         return out
 
-    def _halves(self, pts, seeds=None):
+    def _halves(self, pts, seeds=None, lab=None):
         """Labels 0/1 when `pts` hold two compact targets with a clear valley between them,
         else None. The seeds are the two highest peaks of the smoothed count image, so a
         faint star beside a bright one is found (2-means would halve the bright one)."""
@@ -147,7 +294,7 @@ class Extractor:
         seeds = _two_peaks(pts) if seeds is None else seeds
         if seeds is None:
             return None
-        lab = _two_means(pts, *seeds)
+        lab = _two_means(pts, *seeds) if lab is None else lab
         if np.bincount(lab, minlength=2).min() < self.min_cluster_size:
             return None
         c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)
@@ -171,18 +318,17 @@ class Extractor:
         valley = hist[b0 + 1:b1].min() if b1 > b0 + 1 else peaks
         return lab if valley <= self.split_valley * peaks else None
 
-    def _row(self, events, xy, frames, m, split):
-        pts = xy[m]
+    def _row(self, events, pts, frame, m, t0, split):
+        """A centroid row of the events m (at pts) of one frame."""
         cx, cy = self._centre(pts, events.p[m])
         if self.time_ref == "mean":
             t = int(np.round(events.t[m].mean()))
         else:
-            t0 = int(events.t[0]) if self.t_origin_us is None else int(self.t_origin_us)
-            t = t0 + int(frames[m[0]]) * self.dt_us + self.dt_us // 2
+            t = t0 + int(frame) * self.dt_us + self.dt_us // 2
         spread = float(np.sqrt(((pts - (cx, cy)) ** 2).sum(1).mean()))
         border = bool(pts[:, 0].min() < 1 or pts[:, 1].min() < 1
                       or pts[:, 0].max() > events.width - 2 or pts[:, 1].max() > events.height - 2)
-        return (t, cx, cy, -1, len(m), frames[m[0]], spread, border, split, np.nan, "measured")
+        return (t, cx, cy, -1, len(m), frame, spread, border, split, np.nan, "measured")
 
     def _centre(self, pts, p):
         if self.weighting == "pixels":
@@ -192,25 +338,7 @@ class Extractor:
         return tuple(pts.mean(0))
 
 
-_SMOOTH = np.exp(-0.5 * (np.arange(-2, 3) / 0.7) ** 2)  # Gaussian, sigma 0.7 px
-
-
-def _two_peaks(pts):
-    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
-    image smoothed by a Gaussian of 0.7 px; None when there is one."""
-    ij = np.floor(pts + 0.5).astype(np.int64)
-    origin = ij.min(0) - 2
-    w, h = ij.max(0) - origin + 3
-    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
-    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
-    img = ndimage.correlate1d(ndimage.correlate1d(img, _SMOOTH, 0, mode="constant"), _SMOOTH, 1,
-                              mode="constant")
-    is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
-    yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
-    far = [q for q in yx[1:] if np.hypot(*(q - yx[0])) >= 2]
-    if not far:
-        return None
-    return (yx[0][::-1] + origin).astype(float), (far[0][::-1] + origin).astype(float)
+_two_peaks = two_peaks  # (the split's seeds; numpy, per cluster)
 
 
 def _two_means(pts, a, b, iterations=10):
@@ -227,7 +355,50 @@ def _two_means(pts, a, b, iterations=10):
     return lab
 
 
-def _coords(events, xy):
+class _Clusters:
+    """One call's clustering: frame f0 + j holds events offsets[j]:offsets[j + 1]; labels
+    and first (the first event of its cell) per event; frame per cluster; coords: the
+    float coordinates (None: the events' pixels), px, py: the pixels clustered."""
+
+    def __init__(self, t0, f0, offsets, coords, px, py):
+        self.t0, self.f0, self.offsets = t0, f0, offsets
+        self.coords, self.px, self.py = coords, px, py
+        self.labels = self.first = self.frame = None
+        self.integral = coords is None
+
+    def frames(self):
+        """Frame id per event."""
+        return self.f0 + np.repeat(np.arange(len(self.offsets) - 1), np.diff(self.offsets))
+
+    def xy(self, events, idx=slice(None)):
+        """The float coordinates of the events idx."""
+        if self.coords is None:
+            return np.column_stack([events.x[idx], events.y[idx]]).astype(np.float64)
+        return self.coords[idx]
+
+
+def _frame_offsets(t, dt_us, t0):
+    """(first frame id, event index where each frame from it to the last starts, and n)."""
+    if len(t) == 0:
+        return 0, np.zeros(1, np.int64)
+    f0, f1 = (int(t[0]) - t0) // dt_us, (int(t[-1]) - t0) // dt_us
+    return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
+
+
+def _distinct_positions(labels, coords, k):
+    """Per cluster: number and coordinate sums of its distinct positions (to 1e-6 px)."""
+    m = labels >= 0
+    lab, r = labels[m], np.round(coords[m], 6)
+    o = np.lexsort((r[:, 1], r[:, 0], lab))
+    lab, r = lab[o], r[o]
+    new = np.r_[True, (lab[1:] != lab[:-1]) | np.any(r[1:] != r[:-1], axis=1)]
+    return (np.bincount(lab[new], minlength=k), np.bincount(lab[new], r[new, 0], minlength=k),
+            np.bincount(lab[new], r[new, 1], minlength=k))
+
+
+def _coords(events, xy, keep_none=False):
+    if xy is None and keep_none:
+        return None
     if xy is None:
         return np.column_stack([events.x, events.y]).astype(np.float64)
     xy = np.asarray(xy, dtype=np.float64)

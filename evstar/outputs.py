@@ -22,9 +22,10 @@ from .errors import EvstarError, OutputError
 from .io.atomic import check_output_dir
 from .metrics import snr_db
 
-#: every file a run writes (errors.png only with truth)
+#: every file a run writes (errors.png only with truth; attitude.csv only when the camera is
+#: known and a frame was identified)
 RUN_FILES = ("centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml",
-             "denoise.png", "tracks.png", "per_frame.png", "errors.png")
+             "denoise.png", "tracks.png", "per_frame.png", "errors.png", "attitude.csv")
 _TMP_TAG = ".evstar-tmp-"  # temporary folders: .{outdir name}.evstar-tmp-{pid}-{random}
 
 
@@ -33,9 +34,10 @@ def run_files(outdir):
     return [pathlib.Path(outdir) / name for name in RUN_FILES]
 
 
-def write_run(outdir, result, config, truth=None):
-    """Write a pipeline Result (with the Config used and the optional simulator Truth) into
-    `outdir`, created if needed; returns its path."""
+def write_run(outdir, result, config, truth=None, attitude=None):
+    """Write a pipeline Result (with the Config used, the optional simulator Truth and
+    attitude rows of evstar.attitude.estimate) into `outdir`, created if needed; returns
+    its path."""
     outdir = check_output_dir(outdir)
     outdir.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(outdir)
@@ -43,6 +45,10 @@ def write_run(outdir, result, config, truth=None):
                                         dir=outdir.parent))
     try:
         _write_all(tmp, result, config, truth)
+        if attitude is not None and len(attitude):
+            from .attitude import write_attitude
+
+            write_attitude(tmp / "attitude.csv", attitude)
         outdir.mkdir(exist_ok=True)
         written = {f.name for f in tmp.iterdir()}
         for name in sorted(written):
@@ -144,10 +150,11 @@ def track_table(centroids):
     return pd.DataFrame(rows, columns=cols)
 
 
-def summary_text(result, outdir):
-    """The few lines `evstar run` prints: counts, SNR and errors (with truth), throughput."""
+def summary_text(result, outdir, steady=None):
+    """The few lines `evstar run` prints: counts, SNR and errors (with truth), throughput;
+    with `steady` (a second run of the same input) the first call, which compiles or loads
+    the kernels, and the steady state apart."""
     m = result.metrics
-    total = sum(result.timings_s.values())
     lines = [f"events        {m['events']:,} ({m['events_kept']:,} kept)",
              f"centroids     {m['centroids']:,} in {m['tracks']} track(s)"]
     if "snr_before_db" in m:
@@ -155,10 +162,19 @@ def summary_text(result, outdir):
         lines += [f"SNR           {m['snr_before_db']:.1f} dB -> {m['snr_after_db']:.1f} dB "
                   f"(signal retained {100 * m['signal_retained']:.1f} %)",
                   f"centroid err  mean {e['mean']:.3f} px, max {e['max']:.3f} px ({e['n']} matched)"]
+    if steady is None:
+        lines.append(f"throughput    {_throughput(result)}")
+    else:
+        lines += [f"first call    {_throughput(result)}", f"steady state  {_throughput(steady)}"]
+    return "\n".join(lines + [f"wrote         {outdir}/"])
+
+
+def _throughput(result):
+    m, total = result.metrics, sum(result.timings_s.values())
     stages = ", ".join(f"{k} {v:.2f} s" for k, v in result.timings_s.items())
-    lines += [f"throughput    {m['events'] / max(total, 1e-9) / 1e6:.2f} M events/s ({stages})",
-              f"wrote         {outdir}/"]
-    return "\n".join(lines)
+    span_s = m.get("duration_s")
+    real = f", {span_s / total:.1f}x real time" if span_s and total > 0 else ""
+    return f"{m['events'] / max(total, 1e-9) / 1e6:.2f} M events/s{real} ({stages})"
 
 
 def _json(v):

@@ -154,6 +154,9 @@ DEVICES = ("cpu", "cuda")
 METHODS = ("none", "classical", "ndsef", "mr-ndsef")
 COMPENSATIONS = ("none", "imu", "pf")
 WEIGHTINGS = ("events", "pixels", "polarity")
+#: grid: Taichi grid DBSCAN on each frame's cells (evstar_kernels.taichi.clusters);
+#: sklearn: scikit-learn's DBSCAN on the same cells (the reference; identical labels)
+CLUSTERINGS = ("grid", "sklearn")
 TIME_REFS = ("mean", "mid")
 #: "taichi"/"warp": the accelerated kernels; "reference": their numpy specification
 DENOISE_BACKENDS = ("taichi", "reference")
@@ -165,6 +168,13 @@ SCHEDULES = ("auto", "lanes", "events")
 MAX_RADIUS = 64          # px; the counting kernels' disk tables stop here
 MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistake
 MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
+
+
+def check_path(value, key):
+    """A non-empty path string (whether the file is there is the reader's to say)."""
+    if not isinstance(value, str) or not value.strip():
+        raise ParameterError(f"{key} must be a file path, got {value!r}")
+    return value
 
 
 def check_device(device, key="device"):
@@ -211,6 +221,8 @@ EXTRACT = Params(
     Param("eps", float, 2.5, "DBSCAN radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
     Param("min_samples", int, 5, "DBSCAN min_samples (weighted events within eps)", low=1,
           high=10**6),
+    Param("clustering", str, "grid", "DBSCAN backend: Taichi grid kernels or scikit-learn "
+          "(identical clusters)", choices=CLUSTERINGS),
     Param("min_cluster_size", int, None, "smallest cluster reported (default min_samples)",
           low=1, optional=True),
     Param("weighting", str, "events", "centroid weighting", choices=WEIGHTINGS),
@@ -259,8 +271,8 @@ PARTICLE_FILTER = Params(
     Param("star_refine", int, 10, "centroids averaged into a star's direction", low=1,
           high=10**6),
 )
-#: where the event warping runs: Warp kernels, or the numpy specification
-WARP_BACKENDS = ("reference", "warp")
+#: where the event warping runs: Taichi or Warp kernels, or the numpy specification
+WARP_BACKENDS = ("reference", "taichi", "warp")
 
 #: options of the kernels themselves (how to compute, never what): not part of Config
 KERNEL = Params(
@@ -285,6 +297,9 @@ ESTIMATE = Params(
     Param("crossing_radius_px", float, 3.0, "crossings come from all events this close to a "
           "kept event (a filter drops a faint star's flank events)", low=0, high=MAX_RADIUS,
           unit="px"),
+    Param("pixel_lag_file", str, None, "pixel lag by brightness from `evstar calibrate` "
+          "(JSON): each pixel crossing is moved back by its lag (none: no correction)",
+          optional=True, checker=check_path, valid="a file path"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),
@@ -361,6 +376,48 @@ IDENTIFY = Params(
           high=600_000, unit="ms"),
 )
 
+# -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator); not part of Config ----
+ATTITUDE_FILTER = Params(
+    "attitude_filter",
+    Param("rate_hz", float, 100.0, "attitude output rate (predictions between updates)",
+          low=0, high=1000, open_low=True, unit="Hz"),
+    Param("min_stars", int, 3, "identify again while fewer identified stars are tracked",
+          low=1, high=1000),
+    Param("reidentify_ms", float, 100.0, "least time between identifications while tracking",
+          low=0, unit="ms"),
+    Param("gyro_noise", float, 2e-4, "filter's gyro white noise (with an IMU)", low=0,
+          unit="rad/s/√Hz"),
+    Param("bias_walk", float, 1e-4, "filter's gyro bias random walk (with an IMU)", low=0,
+          unit="rad/s²/√Hz"),
+    Param("bias_prior", float, 0.01, "initial gyro bias spread (with an IMU)", low=0,
+          open_low=True, unit="rad/s"),
+    Param("jerk_noise", float, 5.0, "white angular jerk of the constant-acceleration model "
+          "(no IMU)", low=0, open_low=True, unit="rad/s³/√Hz"),
+    Param("rate_prior", float, 1.0, "initial rate spread without track velocities (no IMU)",
+          low=0, open_low=True, unit="rad/s"),
+    Param("accel_prior", float, 1.0, "initial angular acceleration spread (no IMU)", low=0,
+          open_low=True, unit="rad/s²"),
+    Param("rate_prior_tracks", float, 0.005, "initial rate spread when the tracks' image "
+          "velocities gave it (no IMU)", low=0, open_low=True, unit="rad/s"),
+    Param("init_sigma_arcsec", float, 60.0, "attitude spread of a fix", low=0, open_low=True,
+          unit="arcsec"),
+    Param("sigma_px", float, 0.3, "centroid sigma where a centroid has none", low=0,
+          open_low=True, unit="px"),
+    Param("sigma_floor_px", float, 0.03, "smallest centroid sigma used", low=0, open_low=True,
+          unit="px"),
+    Param("sigma_scale", float, 1.0, "centroid sigmas are multiplied by this (smoothed "
+          "centroids are correlated in time)", low=0, open_low=True),
+    Param("centroid_delay_us", float, 0.0, "a centroid's position is the star's at its time "
+          "plus this (a timing bias of the centroid estimator or sensor latency: calibrate "
+          "it against a known motion)", low=-100_000, high=100_000, unit="µs"),
+    Param("gate", float, 5.0, "an identified star's centroid farther than this many sigmas "
+          "is left out", low=0, open_low=True),
+    Param("max_misses", int, 5, "gated-out centroids in a row after which a track's "
+          "identity is forgotten", low=1, high=10**6),
+    Param("lost_sigma_deg", float, 0.5, "the attitude is lost (rows stop) when its 1-sigma "
+          "exceeds this", low=0, open_low=True, unit="deg"),
+)
+
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
             "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
 
@@ -378,9 +435,10 @@ def markdown():
     file equal to this text)."""
     lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
              "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
-             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones).", ""]
+             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones, "
+             "`evstar attitude` the attitude_filter ones).", ""]
     for params in (GLOBAL, *SECTIONS.values(), KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP,
-                   IDENTIFY):
+                   IDENTIFY, ATTITUDE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]

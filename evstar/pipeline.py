@@ -50,6 +50,9 @@ class Pipeline:
         if not isinstance(self.config, Config):
             raise ParameterTypeError(f"config must be an evstar.Config, got {type(config).__name__}")
         self.config.validate()
+        from .estimation import pixel_lag
+
+        pixel_lag(self.config.estimate.pixel_lag_file)   # a bad file fails here, before any work
 
     # -- stage factories ----------------------------------------------------------------
     def make_filter(self, t0_us, rate_hz):
@@ -62,7 +65,8 @@ class Pipeline:
         """Compensated coordinates are positions at the frame mid-time, so their centroids
         carry that time whatever extract.time_ref says."""
         params = {**asdict(self.config.extract), **({"time_ref": "mid"} if compensated else {})}
-        return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, **params)
+        return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, device=self.config.device,
+                         **params)
 
     def make_tracker(self):
         return Tracker(**asdict(self.config.track))
@@ -124,7 +128,8 @@ class Pipeline:
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
         kept = idx[keep_f]
-        xy = np.column_stack([comp.x[kept], comp.y[kept]])
+        # uncompensated coordinates are the kept events' own pixels
+        xy = None if mode == "none" else np.column_stack([comp.x[kept], comp.y[kept]])
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = np.zeros(len(events), bool)
@@ -157,7 +162,8 @@ class Pipeline:
         acc = _Summary(events.width, events.height, self.config.dt_us, t0)
         acc.add(events, keep, truth, 0)
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
-                              self._estimator(state, t0, imu, camera, filter_result, events.t))
+                              self._estimator(state, t0, imu, camera, filter_result, events.t),
+                              span_us=events.t[[0, -1]] if len(events) else None)
         result.keep, result.compensation = keep, comp
         return result
 
@@ -193,7 +199,8 @@ class Pipeline:
         return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior,
                                                  span, state.sensor)
 
-    def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None):
+    def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None,
+                span_us=None):
         stats = acc.stats
         t = time.perf_counter()
         cents = self.make_tracker().link(centroids)
@@ -205,6 +212,8 @@ class Pipeline:
         metrics = {"events": n_events, "events_kept": stats["kept"],
                    "centroids": int(len(cents)),
                    "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0])))}
+        if span_us is not None:  # the recording's time span: throughput as x real time
+            metrics["duration_s"] = (int(span_us[1]) - int(span_us[0])) / 1e6
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:
@@ -264,7 +273,8 @@ class Pipeline:
         if truth is not None:
             accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
-                            self._estimator(state, t0, imu, camera, filter_result, span_t))
+                            self._estimator(state, t0, imu, camera, filter_result, span_t),
+                            span_us=span_t)
 
 
 # -- input checks ------------------------------------------------------------------------

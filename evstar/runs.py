@@ -36,8 +36,19 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
         rec = read_recording(input, format=format, sensor_size=sensor_size, camera=camera,
                              imu=imu, sort=sort)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
-    outputs.write_run(outdir, result, config, truth)
+        cam, imu_data = rec.camera, rec.imu
+    outputs.write_run(outdir, result, config, truth, attitude=attitude_rows(result, cam, imu_data))
     return result
+
+
+def attitude_rows(result, camera, imu=None):
+    """The attitude of a run's centroids (evstar.attitude.estimate) when the camera is
+    known, else None; empty when no frame could be identified."""
+    if camera is None:
+        return None
+    from .attitude import estimate
+
+    return estimate(result.centroids, camera, imu)
 
 
 def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False):

@@ -147,12 +147,14 @@ class TrackSmoother:
         return out
 
     def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1,
-               t0_us=None):
+               t0_us=None, pixel_lag=None):
         """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
         (evstar.crossings.pixel_crossings of the events near the stars) as along-track
         measurements; see :func:`along_track_fit`. Frames of a track's life that had no row
         get one where crossings fall in them (source "measured": the star was seen passing
-        pixels) or within coast_ms of a crossing (coasted). Returns (rows, crossings used)."""
+        pixels) or within coast_ms of a crossing (coasted). A `pixel_lag`
+        (evstar.calibration.PixelLag) moves each crossing back by its pixels' calibrated lag
+        first. Returns (rows, crossings used)."""
         from .crossings import along_track
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
@@ -163,12 +165,16 @@ class TrackSmoother:
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
         for tid in np.unique(est["track"]):
             mine = owner == tid
-            rows = self._fill_frames(est[est["track"] == tid], crossings["t"][got[mine]], t0_us)
+            t_c = crossings["t"][got[mine]]
+            if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
+                t_c, resid[mine] = _lag_corrected(t_c, crossings["pairs"][got[mine]], resid[mine],
+                                                  est[est["track"] == tid], pixel_lag)
+            rows = self._fill_frames(est[est["track"] == tid], t_c, t0_us)
             meas = rows["centroid"][~rows["coasted"]]
             s_cent = np.where(rows["outlier"][~rows["coasted"]], _IGNORED_SIGMA, sig[meas])
             fit, n = along_track_fit(
                 rows, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (crossings["t"][got[mine]], q_all[got[mine]], u[mine], resid[mine]),
+                (t_c, q_all[got[mine]], u[mine], resid[mine]),
                 velocity_prior,
                 along_weight=along_weight, sigma_floor_px=self.sigma_floor_px,
                 process_noise_min=self.process_noise_min)
@@ -424,6 +430,14 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
         return 0.0
     return float(sol[4]) if np.sqrt(s2 / info) <= max_se_s else 0.0
+
+
+def _lag_corrected(t_c, pairs, resid, track, pixel_lag):
+    """Crossing times moved back by the calibrated lag at each one's brightness (level pairs)
+    and the track's speed, and their along-track residuals moved with them."""
+    speed = np.hypot(np.interp(t_c, track["t"], track["vx"]), np.interp(t_c, track["t"], track["vy"]))
+    lag_us = pixel_lag.lag_at(pairs, speed)
+    return t_c - lag_us, resid + speed * lag_us * 1e-6
 
 
 def _pool_crossings(t_c, q, u, est, s_a, pool_us):

@@ -53,3 +53,32 @@ def test_configure_threads_and_cache(tmp_path):
 def test_configure_rejects_bad_threads():
     with pytest.raises(ValueError, match="cpu_threads"):
         backends.configure(cpu_threads=0)
+
+
+_BROKEN_KERNEL = """
+from evstar import backends
+ti = backends.taichi('cpu')
+@ti.kernel
+def broken() -> ti.i32:
+    return undefined_name_here + 1
+try:
+    broken()
+except Exception as e:
+    print(type(e).__name__, str(e))
+"""
+
+
+@pytest.mark.parametrize("mode", ["short", "full"])
+def test_taichi_errors_still_name_file_line_and_source(mode, tmp_path):
+    """evstar shortens the source excerpt Taichi formats per AST node (start-up cost); a
+    kernel error must still say where it is, in both modes."""
+    import os
+
+    env = dict(os.environ, EVSTAR_TAICHI_SOURCE_INFO=mode)
+    script = tmp_path / "broken.py"  # Taichi reads a kernel's source from its file
+    script.write_text(_BROKEN_KERNEL)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                       timeout=300, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "undefined_name_here" in r.stdout and "line 6" in r.stdout and "in broken" in r.stdout
+    assert ("^^^" in r.stdout) == (mode == "full")

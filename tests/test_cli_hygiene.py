@@ -16,7 +16,7 @@ def run(*args):
 
 
 @pytest.mark.parametrize("argv", [[], ["run"], ["extract"], ["denoise"], ["info"], ["convert"],
-                                  ["bench"], ["demo"], ["batch"]])
+                                  ["bench"], ["demo"], ["batch"], ["attitude"]])
 def test_parsing_a_command_line_imports_nothing_heavy(argv):
     code = (f"import sys; from evstar.cli import build_parser; build_parser({argv!r}); "
             f"print(sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r})))")

@@ -101,8 +101,9 @@ def test_integer_events_warp_within_rounding_of_the_reference_position():
     assert smear.max() > 2.0 and smear.mean() > 2 * err.mean()
 
 
+@pytest.mark.parametrize("backend", ["warp", "taichi"])
 @pytest.mark.parametrize("camera", [PINHOLE, DISTORTED], ids=["pinhole", "distorted"])
-def test_warp_kernel_agrees_with_numpy(camera):
+def test_warp_kernel_agrees_with_numpy(camera, backend):
     rng = np.random.default_rng(7)
     t = np.sort(rng.integers(-3000, 123_000, 20_000))  # a little beyond the track at both ends
     x, y = rng.uniform(0, 639, len(t)), rng.uniform(0, 479, len(t))
@@ -110,32 +111,57 @@ def test_warp_kernel_agrees_with_numpy(camera):
     track = imu_track(rate_hz=800, offset_us=1000)
     kw = dict(extrapolate_us=10_000)
     xn, yn = warp_to_reference(t, x, y, t_ref, track, camera, backend="reference", **kw)
-    xw, yw = warp_to_reference(t, x, y, t_ref, track, camera, backend="warp", device="cpu", **kw)
+    xw, yw = warp_to_reference(t, x, y, t_ref, track, camera, backend=backend, device="cpu", **kw)
     np.testing.assert_allclose(xw, xn, atol=1e-9)
     np.testing.assert_allclose(yw, yn, atol=1e-9)
     assert np.abs(xn - x).max() > 1.0  # it did move the events
     # unsorted reference times take the general path
     perm = rng.permutation(len(t))
     xp, _ = warp_to_reference(t[perm], x[perm], y[perm], t_ref[perm], track, camera,
-                              backend="warp", **kw)
+                              backend=backend, **kw)
     np.testing.assert_allclose(xp, xw[perm], atol=1e-9)
+    # event coordinates as they are stored (uint16) warp like their float values
+    xi, yi = np.round(x).astype(np.uint16), np.round(y).astype(np.uint16)
+    xu, _ = warp_to_reference(t, xi, yi, t_ref, track, camera, backend=backend, **kw)
+    xf, _ = warp_to_reference(t, xi.astype(float), yi.astype(float), t_ref, track, camera,
+                              backend="reference", **kw)
+    np.testing.assert_allclose(xu, xf, atol=1e-9)
 
 
-def test_warp_kernel_marks_rays_behind_the_camera():
+@pytest.mark.parametrize("backend", ["warp", "taichi"])
+def test_warp_kernel_marks_rays_behind_the_camera(backend):
     t = np.array([0.0, 50_000.0])
     track = AttitudeTrack(np.array([0.0, 100_000.0]),
                           np.stack([so3.quat_identity(), so3.quat_exp([0.0, 3.0, 0.0])]))
     x, y = warp_to_reference(t, np.array([320.0, 320.0]), np.array([240.0, 240.0]),
-                             np.array([100_000.0, 100_000.0]), track, PINHOLE, backend="warp")
+                             np.array([100_000.0, 100_000.0]), track, PINHOLE, backend=backend)
     assert np.isnan(x[0]) and np.isfinite(x[1])
 
 
 def test_warping_input_errors():
     track = imu_track()
     with pytest.raises(ValueError, match="backend"):
-        warp_to_reference([0], [1.0], [1.0], [0.0], track, PINHOLE, backend="taichi")
+        warp_to_reference([0], [1.0], [1.0], [0.0], track, PINHOLE, backend="cupy")
     with pytest.raises(ValueError, match="CPU only"):
         warp_to_reference([0], [1.0], [1.0], [0.0], track, PINHOLE, device="cuda")
     from evstar import DataError
     with pytest.raises(DataError, match="covers 0..120000"):
         warp_to_reference([0, 130_000], [1.0, 1.0], [1.0, 1.0], [0.0, 0.0], track, PINHOLE)
+
+
+def test_taichi_warp_device_data_path(monkeypatch):
+    """The CUDA data path (Taichi ndarrays, copies in and out, launches cut into pieces)
+    run on the CPU gives the numpy result."""
+    from evstar_kernels.taichi import launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", True)
+    monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", 777)
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.integers(0, 120_000, 3000))
+    x, y = rng.uniform(0, 639, len(t)), rng.uniform(0, 479, len(t))
+    _, t_ref = frame_reference_times(t, 10_000)
+    track = imu_track()
+    xn, yn = warp_to_reference(t, x, y, t_ref, track, DISTORTED, backend="reference")
+    xt, yt = warp_to_reference(t, x, y, t_ref, track, DISTORTED, backend="taichi")
+    np.testing.assert_allclose(xt, xn, atol=1e-9)
+    np.testing.assert_allclose(yt, yn, atol=1e-9)

@@ -15,7 +15,8 @@ def bad_values(param):
     """Values the declaration must reject."""
     if param.kind is bool:
         return ["yes", 1]
-    out = [True, "x"] if param.kind is not str else [3, "cuda:x"]
+    out = [True, "x"] if param.kind is not str else [3, "cuda:x" if param.choices or
+                                                     param.name == "device" else ""]
     if param.choices:
         out.append("no-such-choice")
     if param.low is not None:
@@ -46,6 +47,7 @@ CLASSES = [(denoise.NDSEF, "radius", P.DENOISE), (denoise.NDSEF, "threshold", P.
            (denoise.ClassicalFilter, "device", P.GLOBAL), (Extractor, "eps", P.EXTRACT),
            (Extractor, "min_samples", P.EXTRACT), (Extractor, "weighting", P.EXTRACT),
            (Extractor, "split_valley", P.EXTRACT), (Extractor, "dt_us", P.GLOBAL),
+           (Extractor, "clustering", P.EXTRACT), (Extractor, "device", P.GLOBAL),
            (Tracker, "gate_px", P.TRACK), (Tracker, "max_gap", P.TRACK),
            (Tracker, "min_length", P.TRACK), (ParticleFilter, "n_particles", P.MOTION),
            (ParticleFilter, "seed", P.GLOBAL), (ParticleFilter, "pixel_sigma", P.PARTICLE_FILTER),

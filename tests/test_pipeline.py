@@ -1,5 +1,6 @@
 """The whole pipeline: streaming equals whole runs, CLI outputs, robustness."""
 import json
+import re
 
 import numpy as np
 import pytest
@@ -125,3 +126,7 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
     assert "centroid err" in out and (tmp_path / "demo" / "tracks.png").stat().st_size > 10_000
     m = json.loads((tmp_path / "demo" / "metrics.json").read_text())
     assert m["tracks"] == 1 and m["centroid_error_px"]["mean"] < 0.3
+    # the first call (kernels compiled or loaded) and the steady state are reported apart
+    first = re.search(r"first call +[\d.]+ M events/s, ([\d.]+)x real time", out)
+    steady = re.search(r"steady state +[\d.]+ M events/s, ([\d.]+)x real time", out)
+    assert first and steady and abs(m["duration_s"] - 0.5) < 0.01

@@ -26,6 +26,8 @@ COMMANDS = {
     "denoise": "denoise events: classical, NDSEF or MR-NDSEF filter",
     "extract": "extract star positions and tracks",
     "run": "run the whole pipeline and write results and figures",
+    "calibrate": "measure the pixels' lag by brightness from a recording with IMU",
+    "attitude": "inertial attitude from identified star tracks (camera -> ICRS)",
     "batch": "run the whole pipeline on many recordings at once (Dask)",
     "demo": "simulate the default scene and run the whole pipeline",
     "bench": "measure throughput per stage and backend",

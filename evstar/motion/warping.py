@@ -5,7 +5,8 @@ Frames follow docs/design.md: frame k holds t in [t0 + k·dt, t0 + (k+1)·dt); i
 is the frame's mid-time t0 + (k + ½)·dt (``reference="mid"``) or its start
 (``reference="start"``). Stars are at infinity, so only rotation moves them; lens
 distortion, when the camera has some, is removed before the rotation and applied after.
-Backends: 'reference' (numpy, vectorised: the specification) and 'warp' (one kernel launch, CPU or CUDA).
+Backends: 'reference' (numpy, vectorised: the specification), 'taichi' (a parallel loop: every
+CPU core, or CUDA) and 'warp' (one kernel launch: one CPU thread, or CUDA).
 """
 from __future__ import annotations
 
@@ -56,7 +57,7 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
                       backend="reference", device="cpu"):
     """Warp events (t_us, x, y) to their reference times with an AttitudeTrack: (xw, yw) float64.
 
-    backend 'reference' | 'warp' (device 'cpu' | 'cuda'); both agree to ~1e-9 px.
+    backend 'reference' | 'taichi' | 'warp' (device 'cpu' | 'cuda'); they agree to ~1e-9 px.
     """
     if backend not in WARP_BACKENDS:
         raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
@@ -64,8 +65,8 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
     t_ref = np.asarray(t_ref_us, dtype=np.float64)
     refs, ref_index = _distinct_times(t_ref)
     q_ref = attitude.at(refs, extrapolate_us)
-    if backend == "warp":
-        return _warp_kernel(t, x, y, ref_index, q_ref, attitude, camera, device)
+    if backend in ("warp", "taichi"):
+        return _kernel(backend, t, x, y, ref_index, q_ref, attitude, camera, device)
     if backends.check_device(device) != "cpu":
         raise ParameterError(f"backend='reference' runs on the CPU only, got device={device!r}")
     xw, yw = np.empty(len(t)), np.empty(len(t))
@@ -88,11 +89,15 @@ def _distinct_times(t_ref):
     return np.unique(t_ref, return_inverse=True)
 
 
-def _warp_kernel(t, x, y, ref_index, q_ref, attitude, camera, device):
+def _kernel(backend, t, x, y, ref_index, q_ref, attitude, camera, device):
+    iterations = _UNDISTORT_ITERATIONS if camera.has_distortion else 0
+    params = (camera.fx, camera.fy, camera.cx, camera.cy, camera.k1, camera.k2)
+    track = (ref_index, q_ref, attitude.t_us, attitude.q_cw, attitude.steps, params, iterations)
+    if backend == "taichi":
+        from evstar_kernels.taichi.event_warp_launch import warp_to_reference as launch
+
+        return launch(backends.taichi(device), t, x, y, *track)
     _, dev = backends.warp(device)
     from evstar_kernels.warp.event_warp_launch import warp_to_reference as launch
 
-    iterations = _UNDISTORT_ITERATIONS if camera.has_distortion else 0
-    params = (camera.fx, camera.fy, camera.cx, camera.cy, camera.k1, camera.k2)
-    return launch(t, x, y, ref_index, q_ref, attitude.t_us, attitude.q_cw, attitude.steps, params,
-                  iterations, device=dev)
+    return launch(t, x, y, *track, device=dev)

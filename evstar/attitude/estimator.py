@@ -1,0 +1,323 @@
+"""Attitude from tracked centroids: identification, then the MEKF of :mod:`.filter`.
+
+    rows = evstar.attitude.estimate(result.centroids, camera, imu=None, rate_hz=100)
+
+Frame by frame (the pipeline's `frame` field, else ``frame_us`` bins): while the filter has
+no attitude — and at most every ``reidentify_ms`` while fewer than ``min_stars``
+identified tracks are seen or confirmed tracks are unnamed — the centroids of the frame's
+confirmed tracks, moved to the frame's last centroid time with their tracks' image
+velocities (a fast pan would distort the pattern), are identified; a full search that
+fails is retried ``reidentify_ms`` later, not every frame (a noisy recording would spend
+the solver's timeout on each). A fix names the stars of its tracks: every later
+centroid of such a track measures that star. A fix starts a filter that has no attitude;
+then each frame is one prediction (gyro, or the constant-acceleration model) to its last
+centroid time and one joint update with its identified stars, and each output time
+(``rate_hz``) a prediction and a row. The attitude is lost when its 1-σ exceeds
+``lost_sigma_deg`` or every star is rejected ``max_misses`` frames in a row; rows stop
+until the next fix. docs/attitude.md ("Filter") has the model and the measurements.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import parameters as P
+from ..camera import Camera
+from ..errors import DataError, ParameterError, ParameterTypeError
+from ..imu import Imu
+from .filter import Mekf, hat
+from .output import ATTITUDE_DTYPE, rotation, rows
+
+A = P.ATTITUDE_FILTER
+ARCSEC = math.pi / 180 / 3600
+
+
+def estimate(centroids, camera, imu=None, rate_hz=A["rate_hz"].default, **options):
+    """ATTITUDE_DTYPE rows (evstar.attitude.output) from CENTROID_DTYPE `centroids` (fields
+    t, x, y, track, sigma and, optionally, source); see :class:`AttitudeEstimator`."""
+    return AttitudeEstimator(camera, imu, rate_hz=rate_hz, **options).run(centroids)
+
+
+class AttitudeEstimator:
+    """Options are the [attitude_filter] parameters (evstar.parameters) plus
+    identifier: a callable (xy (n, 2) px, t_us, weight (n,) or None) -> evstar.attitude.Fix;
+    default: evstar.attitude.identify with its cached Solver for the camera and `epoch`
+    (weight: the centroids' event counts, brightest patterns first).
+    After run(): .fixes, a list of (t_us, status, stars matched)."""
+
+    def __init__(self, camera, imu=None, *, identifier=None, epoch=None,
+                 frame_us=P.GLOBAL["dt_us"].default, **options):
+        if camera is None:
+            raise ParameterError("the attitude needs the camera's intrinsics (--camera camera.json)")
+        if not isinstance(camera, Camera):
+            raise ParameterTypeError(f"camera must be an evstar.Camera, got {type(camera).__name__}")
+        if imu is not None and not isinstance(imu, Imu):
+            raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
+        if imu is not None and len(imu) < 2:
+            raise DataError(f"the IMU has {len(imu)} sample(s); the attitude filter needs >= 2")
+        unknown = set(options) - set(A)
+        if unknown:
+            raise ParameterError(f"unknown attitude option(s) {sorted(unknown)}; known: {sorted(A)}")
+        self.o = {k: A.check(k, options.get(k, p.default)) for k, p in A.items()}
+        self.camera, self.imu = camera, imu
+        self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
+        self.identifier = identifier or _default_identifier(camera, epoch)
+        self.fixes = []
+
+    # -- the run ----------------------------------------------------------------------------
+    def run(self, centroids):
+        c = _delayed(_measured(centroids), self.o["centroid_delay_us"])
+        self.fixes, self._out = [], []
+        if not len(c):
+            return np.zeros(0, ATTITUDE_DTYPE)
+        self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
+        self._c, self._xy_dt = c, _track_velocity(c)
+        self._z, self._sig = self._normalised(c)
+        self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
+        self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
+        self._last_used, self._n_used, self._bad = -math.inf, 0, 0
+        step = 1e6 / self.o["rate_hz"]
+        t0, t_end = int(c["t"][0]), int(c["t"][-1])
+        self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
+        self._next_out = 0
+        for idx in _frames(c, self.frame_us):
+            t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
+            self._emit_until(t_ref)
+            self._maybe_identify(idx, t_ref)
+            if self.filt is not None:      # after a (re)start too: the fix's prior is loose
+                self._predict_to(t_ref)
+                self._update(idx, t_ref)
+        self._emit_until(t_end + 1)
+        if not self._out:
+            return np.zeros(0, ATTITUDE_DTYPE)
+        return rows(*(np.array(col) for col in zip(*self._out)))
+
+    def _maybe_identify(self, idx, t_ref):
+        """Identify the frame when needed; a fix names its tracks' stars and (re)starts a
+        filter that has no attitude."""
+        idx = idx[self._c["track"][idx] >= 0]      # confirmed tracks: noise clusters are not
+        c = self._c[idx]
+        tracks = c["track"]
+        known = np.array([k in self._stars for k in tracks.tolist()], bool)
+        lost = self.filt is None
+        few = known.sum() < self.o["min_stars"]
+        due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
+        if not ((lost or few or not known.all()) and (due or lost and t_ref >= self._retry_at)):
+            return
+        if len(c) < 4:                              # no pattern to search: say so, cheaply
+            self.fixes.append((t_ref, "too_few_stars", 0))
+            return
+        self._last_id = t_ref
+        shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
+        xy = np.stack([c["x"], c["y"]], 1) + shift
+        fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
+        self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
+        if not fix.ok:
+            if fix.status != "too_few_stars":        # a full search failed: not every frame
+                self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
+            return
+        for i, d in zip(np.asarray(fix.centroid_index, int), np.asarray(fix.dir_icrs, float)):
+            self._stars[int(tracks[i])] = d / np.linalg.norm(d)
+            self._misses[int(tracks[i])] = 0
+        if lost:
+            self._start(fix, t_ref, idx, xy)
+
+    def _start(self, fix, t_ref, idx, xy):
+        o = self.o
+        R = rotation(fix.q_icrs_cam)[0]
+        if self.imu is not None:
+            s, priors = np.zeros(3), [o["bias_prior"]] * 3
+        else:
+            w = _rate_from_motion(self.camera, xy, self._xy_dt[idx], np.asarray(fix.centroid_index, int))
+            prior = o["rate_prior"] if w is None else o["rate_prior_tracks"]
+            s = np.r_[np.zeros(3) if w is None else w, np.zeros(3)]
+            priors = [prior] * 3 + [o["accel_prior"]] * 3
+        P0 = np.diag([(o["init_sigma_arcsec"] * ARCSEC) ** 2] * 3 + [p * p for p in priors])
+        self.filt = Mekf(R, s, P0, "imu" if self.imu is not None else "rate",
+                         gyro_noise=o["gyro_noise"], bias_walk=o["bias_walk"],
+                         jerk_noise=o["jerk_noise"])
+        self._t_f, self._t_start, self._bad = t_ref, t_ref, 0
+        self._n_used, self._last_used = len(fix.hip), t_ref
+
+    def _update(self, idx, t_ref):
+        """One joint update with the frame's centroids of identified tracks."""
+        tracks = self._c["track"][idx]
+        keep = np.array([k in self._stars for k in tracks.tolist()], bool)
+        if not keep.any():
+            return
+        idx, tracks = idx[keep], tracks[keep]
+        dirs = np.stack([self._stars[int(k)] for k in tracks])
+        dt = (self._c["t"][idx] - t_ref) * 1e-6
+        rates = None if self.imu is None else self._gyro.mean(self._c["t"][idx], t_ref) - self.filt.s
+        used = self.filt.update(self._z[idx], dirs, self._sig[idx], dt, rates, gate=self.o["gate"])
+        for k, u in zip(tracks.tolist(), used.tolist()):
+            # an identity the measurements keep contradicting is forgotten
+            self._misses[k] = 0 if u else self._misses.get(k, 0) + 1
+            if self._misses[k] >= self.o["max_misses"]:
+                self._stars.pop(k, None)
+        if used.any():
+            self._n_used, self._last_used, self._bad = int(used.sum()), t_ref, 0
+        else:
+            self._bad += 1
+        if self._bad >= self.o["max_misses"]:
+            self.filt = None     # every star rejected frame after frame: the attitude is lost
+
+    def _emit_until(self, t_stop):
+        """Rows at the output times before t_stop (predictions from the last update)."""
+        out_t = self._out_t
+        while self._next_out < len(out_t) and out_t[self._next_out] < t_stop:
+            t = int(out_t[self._next_out])
+            self._next_out += 1
+            if self.filt is None or t < self._t_f:
+                continue
+            self._predict_to(t)
+            if self.filt.attitude_sigma > math.radians(self.o["lost_sigma_deg"]):
+                self.filt = None  # lost: rows stop until the next fix
+                continue
+            gyro = self._gyro.at(t) if self.imu is not None else None
+            recent = t - self._last_used < self.frame_us
+            status = "fix" if t - self._t_start < self.frame_us else "tracking" if recent else "coasting"
+            self._out.append((t, self.filt.R.copy(), self.filt.rate(gyro),
+                              self._n_used if recent else 0, status))
+
+    def _predict_to(self, t):
+        if self.imu is None:
+            self.filt.predict((t - self._t_f) * 1e-6)
+        else:
+            for dt, g in self._gyro.steps(self._t_f, t):
+                self.filt.predict(dt, g)
+        self._t_f = t
+
+    def _normalised(self, c):
+        """Pinhole-normalised coordinates (n, 2) and their per-axis sigma (n, 2)."""
+        cam = self.camera
+        r = cam.unproject(np.stack([c["x"], c["y"]], 1))
+        z = r[:, :2] / r[:, 2:]
+        s = c["sigma"] if "sigma" in c.dtype.names else np.full(len(c), np.nan)
+        s = np.where(np.isfinite(s), s, self.o["sigma_px"])
+        s = np.maximum(s, self.o["sigma_floor_px"]) * self.o["sigma_scale"]
+        return z, np.stack([s / cam.fx, s / cam.fy], 1)
+
+
+# -- helpers ------------------------------------------------------------------------------------
+def _measured(centroids):
+    """Measured rows (a smoother's coasted rows are predictions, not data), time-sorted."""
+    names = getattr(getattr(centroids, "dtype", None), "names", None) or ()
+    missing = [f for f in ("t", "x", "y", "track") if f not in names]
+    if missing:
+        raise ParameterTypeError(f"centroids must be a structured array with fields t, x, y, track "
+                                 f"(CENTROID_DTYPE); missing {missing}")
+    c = centroids[centroids["source"] != "coasted"] if "source" in names else centroids
+    c = c[np.isfinite(c["x"]) & np.isfinite(c["y"])]
+    return c[np.argsort(c["t"], kind="stable")]
+
+
+def _delayed(c, delay_us):
+    """Centroids with their times moved to when their positions were the star's."""
+    if delay_us:
+        c = c.copy()
+        c["t"] += int(round(delay_us))
+    return c
+
+
+def _track_velocity(c):
+    """Image velocity (px/s) of each centroid from its track's neighbours (NaN when the
+    centroid has none, e.g. unconfirmed: track −1)."""
+    v = np.full((len(c), 2), np.nan)
+    order = np.lexsort((c["t"], c["track"]))
+    tr, t = c["track"][order], c["t"][order].astype(float)
+    xy = np.stack([c["x"], c["y"]], 1)[order]
+    same_prev = np.r_[False, tr[1:] == tr[:-1]] & (tr >= 0)
+    same_next = np.r_[tr[:-1] == tr[1:], False] & (tr >= 0)
+    i = np.arange(len(c))
+    a = np.where(same_prev, i - 1, i)
+    b = np.where(same_next, i + 1, i)
+    dt = (t[b] - t[a]) * 1e-6
+    ok = dt > 0
+    v[order[ok]] = (xy[b[ok]] - xy[a[ok]]) / dt[ok, None]
+    return v
+
+
+def _rate_from_motion(camera, xy, xy_dt, matched):
+    """Body rate (rad/s) by least squares from the image velocities of the identified
+    centroids: a fixed star's normalised coordinates move as ż = ∂π/∂v · [v]× ω. None
+    with fewer than two identified centroids whose track gives a velocity."""
+    good = matched[np.all(np.isfinite(xy_dt[matched]), axis=1)]
+    if len(good) < 2:
+        return None
+    lhs, rhs = [], []
+    for i in good:
+        x, y = (xy[i, 0] - camera.cx) / camera.fx, (xy[i, 1] - camera.cy) / camera.fy
+        D = np.array([[1.0, 0.0, -x], [0.0, 1.0, -y]])
+        lhs.append(D @ hat(np.array([x, y, 1.0])))
+        rhs.append(xy_dt[i] / [camera.fx, camera.fy])
+    return np.linalg.lstsq(np.vstack(lhs), np.concatenate(rhs), rcond=None)[0]
+
+
+def _frames(c, frame_us):
+    """Index arrays of the centroids of each frame (the pipeline's `frame` field, else
+    frame_us bins from the first centroid), in time order."""
+    if "frame" in c.dtype.names and np.all(c["frame"] >= 0):
+        key = c["frame"]
+    else:
+        key = (c["t"] - c["t"][0]) // frame_us
+    order = np.lexsort((c["t"], key))
+    cuts = np.flatnonzero(np.diff(key[order])) + 1
+    groups = np.split(order, cuts)
+    return sorted(groups, key=lambda g: c["t"][g[-1]])
+
+
+class _GyroIntegral:
+    """The gyro (camera frame and clock) as a piecewise-linear rate: its value, its mean
+    over an interval (from the exact integral) and the pieces between samples."""
+
+    def __init__(self, imu):
+        self.t = imu.t_cam.astype(float)
+        self.g = imu.gyro_cam
+        dt = np.diff(self.t) * 1e-6
+        self.G = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (self.g[1:] + self.g[:-1]) * dt[:, None], 0)]
+
+    def at(self, t):
+        """Readings (n, 3) at times (n,), or (3,) at one time (held beyond the ends)."""
+        one = np.ndim(t) == 0
+        t = np.atleast_1d(np.asarray(t, float))
+        out = np.stack([np.interp(t, self.t, self.g[:, k]) for k in range(3)], 1)
+        return out[0] if one else out
+
+    def integral(self, t):
+        """∫ gyro dt (rad) from the first sample to each t (n,)."""
+        t = np.asarray(t, float)
+        k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, len(self.t) - 1)
+        h = (t - self.t[k]) * 1e-6
+        return self.G[k] + 0.5 * (self.g[k] + self.at(t)) * h[:, None]
+
+    def mean(self, t, t_ref):
+        """Mean reading over [t, t_ref] for each t (n,) (the reading at t_ref where equal)."""
+        t = np.asarray(t, float)
+        span = (t_ref - t) * 1e-6
+        ok = span != 0
+        out = np.tile(self.at(float(t_ref)), (len(t), 1))
+        if ok.any():
+            ref = self.integral(np.full(int(ok.sum()), float(t_ref)))
+            out[ok] = (ref - self.integral(t[ok])) / span[ok, None]
+        return out
+
+    def steps(self, ta, tb):
+        """(dt s, mean reading) of each piece of [ta, tb] between samples."""
+        i0, i1 = np.searchsorted(self.t, [ta, tb], side="right")
+        pts = np.r_[ta, self.t[i0:i1], tb].astype(float)
+        pts = pts[np.r_[True, np.diff(pts) > 0]]
+        if len(pts) < 2:
+            return []
+        gp = self.at(pts)
+        return list(zip((np.diff(pts) * 1e-6).tolist(), 0.5 * (gp[1:] + gp[:-1])))
+
+
+def _default_identifier(camera, epoch):
+    from .identify import identify
+    from .solver import Solver
+
+    solver = Solver.for_camera(camera)
+    return lambda xy, t_us, weight=None: identify(xy, camera, t_us, epoch=epoch, solver=solver,
+                                                  weight=weight)

@@ -1,0 +1,101 @@
+"""`evstar attitude IN -o attitude.csv --camera camera.json`: the inertial attitude.
+
+IN is a recording (the pipeline runs first, with --config's settings) or a centroid file
+written by `evstar extract` / `evstar run` (.csv, .h5, .npz). Stars are identified against
+the Hipparcos catalogue (epoch --epoch, a decimal year), then a multiplicative EKF follows
+the attitude with the identified tracks, driven by the gyro when there is an IMU (--imu,
+or the recording's own), else by a constant-rate model.
+
+CSV header `t,qw,qx,qy,qz` (t µs; unit quaternion, scalar first, camera -> ICRS) followed
+by `ra_deg,dec_deg,roll_deg,wx,wy,wz,n_stars,status`; one row every 1/--rate-hz after the
+first fix (docs/attitude.md defines roll and the statuses).
+"""
+from __future__ import annotations
+
+import pathlib
+
+from .. import parameters as P
+from .common import add_input_options, load
+from .options import add_options, checked
+
+
+def add_arguments(p):
+    p.add_argument("input", metavar="IN", help="recording, or centroid file (.csv .h5 .npz)")
+    p.add_argument("-o", "--output", required=True, metavar="ATTITUDE.csv")
+    p.add_argument("--epoch", type=checked(float, 1000, 3000), metavar="YEAR",
+                   help="epoch of the star positions, decimal year (default: the catalogue's)")
+    p.add_argument("--config", help="pipeline configuration file (.toml or .json) for a recording")
+    add_input_options(p)
+    add_options(p, P.ATTITUDE_FILTER)
+
+
+def run(args):
+    from .. import io
+    from ..attitude import AttitudeEstimator, write_attitude
+    from ..errors import DataError, FormatError, ParameterError
+    from ..io.atomic import check_output_file, check_outputs
+
+    if pathlib.Path(args.output).suffix.lower() != ".csv":
+        raise FormatError(args.output, "the attitude is written as CSV; give a .csv name")
+    check_output_file(args.output)
+    check_outputs([args.output], [args.input, args.imu, args.camera, args.config])
+    options = {k.split(".", 1)[1]: v for k, v in vars(args).items()
+               if k.startswith("attitude_filter.") and v is not None}
+    if is_centroid_file(args.input):
+        from ..runs import read_aux
+
+        centroids = io.read_centroids(args.input)
+        camera, imu = read_aux(args.camera, args.imu, bool(args.sort))
+    else:
+        centroids, camera, imu = _pipeline(args)
+    if camera is None:
+        raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
+    est = AttitudeEstimator(camera, imu, epoch=args.epoch, **options)
+    rows = est.run(centroids)
+    if not len(rows):
+        raise DataError(f"no attitude: {fix_summary(est.fixes)}")
+    write_attitude(args.output, rows)
+    print(f"{len(rows):,} attitudes {rows['t'][0]}..{rows['t'][-1]} µs "
+          f"({'gyro' if imu is not None else 'constant-rate model'}), first fix at "
+          f"{rows['t'][0]} µs, {fix_summary(est.fixes)}; wrote {args.output}")
+
+
+def _pipeline(args):
+    from ..pipeline import Pipeline
+    from .options import config_from_args
+
+    rec = load(args)
+    result = Pipeline(config_from_args(args)).run(rec.events, rec.imu, rec.camera)
+    return result.centroids, rec.camera, rec.imu
+
+
+def is_centroid_file(path):
+    """True for a centroid table (CSV header starting t,x,y,track; NPZ array or HDF5
+    dataset 'centroids'), False for anything else (read as a recording)."""
+    path = pathlib.Path(path)
+    ext = path.suffix.lower()
+    try:
+        if ext == ".csv":
+            with open(path, encoding="utf-8", errors="replace") as f:
+                return f.readline().replace(" ", "").startswith("t,x,y,track")
+        if ext == ".npz":
+            import numpy as np
+            with np.load(path, allow_pickle=False) as z:
+                return "centroids" in z.files
+        if ext in (".h5", ".hdf5"):
+            import h5py
+            with h5py.File(path, "r") as f:
+                return "centroids" in f
+    except (OSError, ValueError):
+        return False   # the recording reader reports what is wrong with it
+    return False
+
+
+def fix_summary(fixes):
+    """'identification: 3 ok, 97 too_few_stars' from AttitudeEstimator.fixes."""
+    if not fixes:
+        return "no frame had centroids to identify"
+    counts = {}
+    for _, status, _ in fixes:
+        counts[status] = counts.get(status, 0) + 1
+    return "identification: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))

@@ -1,0 +1,139 @@
+"""The close-pair split's first steps for many clusters at once (numpy, no loop per cluster).
+
+`two_peaks_many` and `two_means_many` give, for every cluster of a batch, exactly what the
+per-cluster `evstar_kernels.reference.clusters.two_peaks` and `evstar.extract._two_means`
+give (tests/test_clusters.py): the smoothing repeats scipy's symmetric correlation term by
+term (c·w0 + (a₋₂ + a₊₂)·w2 + (a₋₁ + a₊₁)·w1, y then x), maxima and means are exact, and
+the 2-means centres are exact for integer coordinates (sums of integers), which is why
+`Extractor` uses them only then. Points come grouped by cluster: cluster j holds
+pts[starts[j]:stops[j]].
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from evstar_kernels.reference.clusters import SMOOTH
+
+
+def _segments(starts, stops):
+    sizes = stops - starts
+    return np.repeat(np.arange(len(starts)), sizes), sizes
+
+
+def _shifted(img, idx, r, q, h, w, dr, dq, fill):
+    """img at (r + dr, q + dq) of each pixel's own image, `fill` outside it."""
+    rr, qq = r + dr, q + dq
+    inside = (rr >= 0) & (rr < h) & (qq >= 0) & (qq < w)
+    out = np.full(len(idx), fill)
+    out[inside] = img[(idx + dr * w + dq)[inside]]
+    return out
+
+
+def _correlate(img, idx, r, q, h, w, axis):
+    """scipy.ndimage.correlate1d(img, SMOOTH, axis, mode="constant") of every image."""
+    def at(d):
+        return _shifted(img, idx, r, q, h, w, d if axis == 0 else 0, d if axis == 1 else 0, 0.0)
+
+    out = img * SMOOTH[2]
+    for d in (-2, -1):
+        out = out + (at(d) + at(-d)) * SMOOTH[2 + d]
+    return out
+
+
+def images(pts, starts, stops):
+    """Each cluster's count image (its pixel box and a 2-px border), all in one flat array
+    (for two_peaks_many and two_means_many of the same points)."""
+    seg, _ = _segments(starts, stops)
+    k = len(starts)
+    ij = np.floor(pts + 0.5).astype(np.int64)
+    lo = np.minimum.reduceat(ij, starts, axis=0) - 2
+    w, h = (np.maximum.reduceat(ij, starts, axis=0) - lo + 3).T
+    area = w * h
+    base = np.cumsum(area) - area
+    flat = base[seg] + (ij[:, 1] - lo[seg, 1]) * w[seg] + (ij[:, 0] - lo[seg, 0])
+    counts = np.bincount(flat, minlength=int(area.sum()))
+    pix = np.repeat(np.arange(k), area)  # each pixel's cluster
+    local = np.arange(len(counts)) - base[pix]
+    return dict(lo=lo, w=w[pix], h=h[pix], flat=flat, counts=counts, pix=pix,
+                r=local // w[pix], q=local % w[pix])
+
+
+def two_peaks_many(pts, starts, stops, im=None):
+    """(has (k,) bool, a (k, 2), b (k, 2)): two_peaks of each cluster's points, has False
+    where it is None. im: _images of the same points, when made already."""
+    k = len(starts)
+    if not k:
+        return np.zeros(0, bool), np.zeros((0, 2)), np.zeros((0, 2))
+    im = images(pts, starts, stops) if im is None else im
+    lo, pix, r, q, pw, ph = im["lo"], im["pix"], im["r"], im["q"], im["w"], im["h"]
+    img = im["counts"].astype(np.float64)
+    idx = np.arange(len(img))
+    img = _correlate(_correlate(img, idx, r, q, ph, pw, 0), idx, r, q, ph, pw, 1)
+    best = img.copy()  # 3 x 3 maximum (outside an image counts as nothing)
+    for dr in (-1, 0, 1):
+        for dq in (-1, 0, 1):
+            best = np.maximum(best, _shifted(img, idx, r, q, ph, pw, dr, dq, -np.inf))
+    m = np.flatnonzero((img == best) & (img > 0))
+    # per cluster: maxima by value, ties in row-major order; the highest and the first
+    # other one at least 2 px from it
+    m = m[np.lexsort((m, -img[m], pix[m]))]
+    c = pix[m]
+    first = np.r_[True, c[1:] != c[:-1]]
+    top = m[first][np.cumsum(first) - 1]
+    far = ~first & ((r[m] - r[top]) ** 2 + (q[m] - q[top]) ** 2 >= 4)
+    has = np.zeros(k, bool)
+    a, b = np.zeros((k, 2)), np.zeros((k, 2))
+    clusters, at = np.unique(c[far], return_index=True)
+    has[clusters] = True
+    tops = m[first]
+    a[c[first]] = np.column_stack([q[tops], r[tops]]) + lo[c[first]]
+    fars = m[far][at]
+    b[clusters] = np.column_stack([q[fars], r[fars]]) + lo[clusters]
+    return has, a, b
+
+
+def two_means_many(pts, starts, stops, a, b, iterations=10, im=None):
+    """_two_means of each cluster's points started from a[j] and b[j] (labels 0/1 per
+    point), exact for integer coordinates: it runs on the distinct pixels weighted by their
+    counts (the same distances, and the same centres: sums of integers are exact)."""
+    k = len(starts)
+    if not k:
+        return np.zeros(0, np.int64)
+    im = images(pts, starts, stops) if im is None else im
+    px = np.flatnonzero(im["counts"])
+    weight = im["counts"][px].astype(np.float64)
+    seg = im["pix"][px]
+    cx, cy = im["q"][px] + im["lo"][seg, 0], im["r"][px] + im["lo"][seg, 1]
+    n_cells = np.bincount(seg, minlength=k)
+    c = np.stack([a, b], 1).astype(float)  # (k, 2 centres, xy)
+    lab = np.zeros(len(px), np.int64)
+    out = np.zeros(len(px), np.int64)
+    active = np.ones(k, bool)
+    for it in range(iterations):
+        go = np.flatnonzero(active[seg])
+        sg, x, y = seg[go], cx[go], cy[go]
+        d0 = (x - c[sg, 0, 0]) ** 2 + (y - c[sg, 0, 1]) ** 2
+        d1 = (x - c[sg, 1, 0]) ** 2 + (y - c[sg, 1, 1]) ** 2
+        new = (d1 < d0).astype(np.int64)
+        ones = np.bincount(sg, weights=new, minlength=k)
+        done = active & ((ones == 0) | (ones == n_cells))
+        if it:
+            done |= active & (np.bincount(sg, weights=new != lab[go], minlength=k) == 0)
+        lab[go] = new
+        fin = done[sg]
+        out[go[fin]] = new[fin]
+        active &= ~done
+        if not active.any():
+            break
+        # centres of the clusters still going: weighted sums of their halves / counts
+        key = sg * 2 + new
+        n = np.bincount(key, weights=weight[go], minlength=2 * k).reshape(k, 2)
+        for axis, v in enumerate((x, y)):
+            s = np.bincount(key, weights=weight[go] * v, minlength=2 * k).reshape(k, 2)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                c[active, :, axis] = (s / n)[active]
+    else:  # iterations used up: the last labels
+        out[active[seg]] = lab[active[seg]]
+    cell_of = np.zeros(len(im["counts"]), np.int64)
+    cell_of[px] = np.arange(len(px))
+    return out[cell_of[im["flat"]]]

@@ -1,0 +1,331 @@
+"""Grid DBSCAN on pseudo-frames and per-cluster moments (CPU and CUDA).
+
+Specification: `evstar_kernels.reference.clusters` (dbscan_events: identical labels;
+cluster_moments: identical integer sums, float sums to rounding).
+
+Events form frames; each frame is binned into a plane of (rows x stride) cells whose zero
+border (pad >= eps) makes every disk read unconditional.
+
+GPU form (schedule "events"), for a batch of frames [b0, b1), each with its own plane:
+1. `bin_cells` (event-parallel): every event adds 1 to its cell's count and atomically
+   takes the cell's ownership when its index is the smallest (the cell's first event).
+2. `core_cells` (event-parallel): every owner sums the counts of its disk (its weighted
+   neighbourhood) and is core when that reaches min_samples.
+3. `link_frames` (one thread per frame, sequential inside it, so no atomics and the same
+   result on every run and device): union-find of the core owners within eps, each
+   set's root being its first cell in (y, x) order; border owners take the first root
+   among the cores of their disk; every event copies its owner's root; the planes are
+   cleared again by the frame's own events.
+CPU form (schedule "lanes", `cluster_lanes`): one launch; each busy iteration claims a
+private plane (slots.claim) and does steps 1-3 for its run of frames alone, sequentially
+(the first event to arrive owns a cell: no atomics). Both forms give the same roots.
+
+The launcher numbers the roots (canonical labels), then `moments` (one thread per run of
+frames: a frame's clusters are only its own, so no atomics) sums each cluster's events.
+
+Indices are launch-local event indices; NONE marks an unowned cell.
+"""
+import functools
+
+import numpy as np
+import taichi as ti
+
+from ..reference.clusters import SMOOTH, disk_offsets
+from . import slots
+from .event_counts import frame_of
+
+NONE = 2**31 - 1
+i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
+i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
+i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
+i64_2d = ti.types.ndarray(dtype=ti.i64, ndim=2)
+f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
+f64_2d = ti.types.ndarray(dtype=ti.f64, ndim=2)
+i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
+u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+any_1d = ti.types.ndarray(ndim=1)  # compiled per element type (pixels or float coordinates)
+u8_2d = ti.types.ndarray(dtype=ti.u8, ndim=2)
+
+
+def disk(eps, stride):
+    """Flat plane offsets dy·stride + dx of the disk (int32), and of its half after (0, 0)
+    in (dy, dx) order (a pair of cells is linked once). Read in a loop, not unrolled: one
+    compiled kernel serves every eps (up to 64 px, thousands of offsets)."""
+    dy, dx = disk_offsets(eps)
+    flat = (dy * stride + dx).astype(np.int32)
+    after = (dy > 0) | ((dy == 0) & (dx > 0))
+    # eps < 1: no half; a cell linked to itself is a no-op (and arrays cannot be empty)
+    return flat, flat[after] if after.any() else np.zeros(1, np.int32)
+
+
+@ti.func
+def find(parent: ti.template(), e: ti.i32) -> ti.i32:
+    """Root of e's set, halving the path on the way (one thread per frame: no races)."""
+    r = e
+    while parent[r] != r:
+        parent[r] = parent[parent[r]]
+        r = parent[r]
+    return r
+
+
+@functools.lru_cache(maxsize=None)
+def cluster_kernels():
+    """(bin_cells, core_cells, link_frames, cluster_lanes); disks are passed as plane
+    offsets (`disk`)."""
+
+    @ti.func
+    def cell_at(x: ti.template(), y: ti.template(), e: ti.i32, base: ti.i32, stride: ti.i32,
+                pad: ti.i32) -> ti.i32:
+        return base + (y[e] + pad) * stride + x[e] + pad
+
+    @ti.kernel
+    def bin_cells(x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32, b1: ti.i32, plane: ti.i32,
+                  stride: ti.i32, pad: ti.i32, count: i32_1d, owner: i32_1d):
+        for e in range(offsets[b0], offsets[b1]):
+            f = frame_of(offsets, b0, b1, e)
+            at = cell_at(x, y, e, (f - b0) * plane, stride, pad)
+            ti.atomic_add(count[at], 1)
+            ti.atomic_min(owner[at], e)
+
+    @ti.kernel
+    def core_cells(x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32, b1: ti.i32, plane: ti.i32,
+                   stride: ti.i32, pad: ti.i32, full: i32_1d, min_samples: ti.i32, count: i32_1d,
+                   owner: i32_1d, core: u8_1d, parent: i32_1d, first: i32_1d):
+        for e in range(offsets[b0], offsets[b1]):
+            f = frame_of(offsets, b0, b1, e)
+            at = cell_at(x, y, e, (f - b0) * plane, stride, pad)
+            own = owner[at]
+            first[e] = own
+            parent[e] = e
+            is_core = 0
+            if own == e:
+                s = 0
+                for j in range(full.shape[0]):
+                    s += count[at + full[j]]
+                is_core = ti.cast(s >= min_samples, ti.i32)
+            core[e] = ti.cast(is_core, ti.u8)
+
+    @ti.func
+    def key(x: ti.template(), y: ti.template(), e: ti.i32, stride: ti.i32) -> ti.i32:
+        return y[e] * stride + x[e]  # (y, x) order within a frame
+
+    @ti.func
+    def union(parent: ti.template(), x: ti.template(), y: ti.template(), stride: ti.i32,
+              a: ti.i32, b: ti.i32):
+        ra = find(parent, a)
+        rb = find(parent, b)
+        if ra != rb:
+            if key(x, y, ra, stride) < key(x, y, rb, stride):
+                parent[rb] = ra
+            else:
+                parent[ra] = rb
+
+    @ti.func
+    def border_root(x: ti.template(), y: ti.template(), owner: ti.template(), core: ti.template(),
+                    parent: ti.template(), full: ti.template(), at: ti.i32,
+                    stride: ti.i32) -> ti.i32:
+        """The first root (in (y, x) order) among the cores of a non-core cell's disk."""
+        r = -1
+        best = NONE
+        for j in range(full.shape[0]):
+            n = owner[at + full[j]]
+            if n != NONE:
+                if core[n] != 0:
+                    rn = find(parent, n)
+                    k = key(x, y, rn, stride)
+                    if k < best:
+                        r = rn
+                        best = k
+        return r
+
+    @ti.func
+    def link_frame(f: ti.i32, base: ti.i32, x: ti.template(), y: ti.template(),
+                   offsets: ti.template(), stride: ti.i32, pad: ti.i32, full: ti.template(),
+                   half: ti.template(), count: ti.template(), owner: ti.template(),
+                   core: ti.template(), parent: ti.template(), first: ti.template(),
+                   root: ti.template()):
+        """Frame f's roots from its binned plane at base (union-find, borders, copies);
+        clears the plane."""
+        for e in range(offsets[f], offsets[f + 1]):
+            if first[e] == e and core[e] != 0:
+                at = cell_at(x, y, e, base, stride, pad)
+                for j in range(half.shape[0]):
+                    n = owner[at + half[j]]
+                    if n != NONE:
+                        if core[n] != 0:
+                            union(parent, x, y, stride, e, n)
+        # an owner precedes its cell's other events, so its root is set when they copy it
+        for e in range(offsets[f], offsets[f + 1]):
+            own = first[e]
+            if own == e:
+                if core[e] != 0:
+                    root[e] = find(parent, e)
+                else:
+                    root[e] = border_root(x, y, owner, core, parent, full,
+                                          cell_at(x, y, e, base, stride, pad), stride)
+            else:
+                root[e] = root[own]
+        for e in range(offsets[f], offsets[f + 1]):
+            at = cell_at(x, y, e, base, stride, pad)
+            count[at] = 0
+            owner[at] = NONE
+
+    @ti.kernel
+    def link_frames(lo: i32_1d, hi: i32_1d, x: i32_1d, y: i32_1d, offsets: i32_1d, b0: ti.i32,
+                    plane: ti.i32, stride: ti.i32, pad: ti.i32, full: i32_1d, half: i32_1d,
+                    count: i32_1d, owner: i32_1d, core: u8_1d, parent: i32_1d, first: i32_1d,
+                    root: i32_1d):
+        for i in range(lo.shape[0]):
+            for f in range(lo[i], hi[i]):
+                link_frame(f, (f - b0) * plane, x, y, offsets, stride, pad, full, half, count,
+                           owner, core, parent, first, root)
+
+    @ti.kernel
+    def cluster_lanes(lo: i32_1d, hi: i32_1d, x: i32_1d, y: i32_1d, offsets: i32_1d,
+                      plane: ti.i32, stride: ti.i32, pad: ti.i32, full: i32_1d, half: i32_1d,
+                      min_samples: ti.i32, count: i32_1d, owner: i32_1d, core: u8_1d,
+                      parent: i32_1d, first: i32_1d, root: i32_1d, busy: i32_1d, n_slots: ti.i32):
+        """The CPU form: a busy iteration claims a private plane and does a run of frames
+        alone, each frame binned, tested and linked in turn (no atomics but the claim)."""
+        for i in range(lo.shape[0]):
+            if lo[i] < hi[i]:
+                slot = slots.claim(busy, n_slots)
+                base = slot * plane
+                for f in range(lo[i], hi[i]):
+                    # first come owns the cell; the plane is this thread's (`+=` would be atomic)
+                    for e in range(offsets[f], offsets[f + 1]):
+                        at = cell_at(x, y, e, base, stride, pad)
+                        count[at] = count[at] + 1
+                        if owner[at] == NONE:
+                            owner[at] = e
+                    for e in range(offsets[f], offsets[f + 1]):
+                        at = cell_at(x, y, e, base, stride, pad)
+                        own = owner[at]
+                        first[e] = own
+                        parent[e] = e
+                        is_core = 0
+                        if own == e:
+                            s = 0
+                            for j in range(full.shape[0]):
+                                s += count[at + full[j]]
+                            is_core = ti.cast(s >= min_samples, ti.i32)
+                        core[e] = ti.cast(is_core, ti.u8)
+                    link_frame(f, base, x, y, offsets, stride, pad, full, half, count, owner,
+                               core, parent, first, root)
+                slots.release(busy, slot)
+
+    return bin_cells, core_cells, link_frames, cluster_lanes
+
+
+@ti.kernel
+def moments(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, xf: any_1d, yf: any_1d,
+            t: i64_1d, frame_t0: i64_1d, p: i8_1d, first: i32_1d, n: i64_2d, st: i64_2d,
+            sums: f64_2d, box: f64_2d, cells: i64_1d, csum: f64_2d):
+    """Per-cluster sums (reference: cluster_moments). sums[c, 5q + j], j = x, y, xx, yy, xy,
+    for polarity q; box[c] = x min, x max, y min, y max (pre-filled with ±inf); cells and
+    csum: distinct cells and their coordinate sums. Frames of one run are one thread's."""
+    for i in range(lo.shape[0]):
+        for f in range(lo[i], hi[i]):
+            for e in range(offsets[f], offsets[f + 1]):
+                c = labels[e]
+                if c >= 0:  # plain read-modify-writes: `+=` on global memory is atomic
+                    q = ti.cast(p[e] != 0, ti.i32)
+                    x = ti.cast(xf[e], ti.f64)
+                    y = ti.cast(yf[e], ti.f64)
+                    n[c, q] = n[c, q] + 1
+                    st[c, q] = st[c, q] + t[e] - frame_t0[f]
+                    sums[c, 5 * q] = sums[c, 5 * q] + x
+                    sums[c, 5 * q + 1] = sums[c, 5 * q + 1] + y
+                    sums[c, 5 * q + 2] = sums[c, 5 * q + 2] + x * x
+                    sums[c, 5 * q + 3] = sums[c, 5 * q + 3] + y * y
+                    sums[c, 5 * q + 4] = sums[c, 5 * q + 4] + x * y
+                    box[c, 0] = ti.min(box[c, 0], x)
+                    box[c, 1] = ti.max(box[c, 1], x)
+                    box[c, 2] = ti.min(box[c, 2], y)
+                    box[c, 3] = ti.max(box[c, 3], y)
+                    if first[e] == e:
+                        cells[c] = cells[c] + 1
+                        csum[c, 0] = csum[c, 0] + x
+                        csum[c, 1] = csum[c, 1] + y
+
+
+_SMOOTH = tuple(float(v) for v in SMOOTH)
+
+
+@ti.kernel
+def peak_images(lo: i32_1d, hi: i32_1d, offsets: i32_1d, labels: i32_1d, x: any_1d, y: any_1d,
+                p: i8_1d, base: i32_1d, box: i32_2d, img: f64_2d):
+    """Each screened cluster's event count images, img[0] OFF and img[1] ON events, at
+    [base[c]:] (origin box[c, 0:2], width box[c, 2]); base -1: not screened. Frames of one
+    run are one thread's."""
+    for i in range(lo.shape[0]):
+        for f in range(lo[i], hi[i]):
+            for e in range(offsets[f], offsets[f + 1]):
+                c = labels[e]
+                if c >= 0:
+                    if base[c] >= 0:
+                        xe = ti.cast(x[e], ti.i32)
+                        ye = ti.cast(y[e], ti.i32)
+                        at = base[c] + (ye - box[c, 1]) * box[c, 2] + xe - box[c, 0]
+                        q = ti.cast(p[e] != 0, ti.i32)
+                        img[q, at] = img[q, at] + 1.0
+
+
+@ti.func
+def two_near_maxima(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, w: ti.i32,
+                    h: ti.i32, rtol: ti.f64) -> ti.u8:
+    """Whether image k at [b:] (w x h), smoothed by SMOOTH along y then x (in place), has
+    two near-maxima of their 3 x 3 neighbourhood 2 px apart (bounding box of them all)."""
+    for r, q in ti.ndrange(h, w):  # along y into tmp
+        s = ti.f64(0.0)
+        for d in ti.static(range(-2, 3)):
+            if r + d >= 0 and r + d < h:
+                s += _SMOOTH[d + 2] * img[k, b + (r + d) * w + q]
+        tmp[b + r * w + q] = s
+    for r, q in ti.ndrange(h, w):  # along x back into the image
+        s = ti.f64(0.0)
+        for d in ti.static(range(-2, 3)):
+            if q + d >= 0 and q + d < w:
+                s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
+        img[k, b + r * w + q] = s
+    x0 = w  # the near-maxima's bounding box
+    x1 = -1
+    y0 = h
+    y1 = -1
+    for r, q in ti.ndrange(h, w):
+        v = img[k, b + r * w + q]
+        if v > 0:
+            m = v
+            for dr in ti.static(range(-1, 2)):
+                for dq in ti.static(range(-1, 2)):
+                    if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
+                        m = ti.max(m, img[k, b + (r + dr) * w + q + dq])
+            if v >= m * (1 - rtol):
+                x0 = ti.min(x0, q)
+                x1 = ti.max(x1, q)
+                y0 = ti.min(y0, r)
+                y1 = ti.max(y1, r)
+    return ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)
+
+
+@ti.kernel
+def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: f64_1d,
+                rtol: ti.f64, maybe: u8_2d):
+    """maybe[c, 0] = 0 only where two_peaks of all the cluster's events is None, maybe[c, 1]
+    (looked at only where maybe[c, 0] and polarities[c]) = 0 only where it is None for the
+    OFF or for the ON events (reference: maybe_two_peaks). img[2] holds the sum of img[0]
+    and img[1]. One thread per cluster."""
+    for c in range(base.shape[0]):
+        if base[c] >= 0:
+            b = base[c]
+            w = box[c, 2]
+            h = box[c, 3]
+            for j in range(w * h):
+                img[2, b + j] = img[0, b + j] + img[1, b + j]
+            both = ti.u8(0)
+            if two_near_maxima(img, 2, tmp, b, w, h, rtol) != 0:
+                maybe[c, 0] = ti.u8(1)
+                if polarities[c] != 0:
+                    if two_near_maxima(img, 0, tmp, b, w, h, rtol) != 0:
+                        both = two_near_maxima(img, 1, tmp, b, w, h, rtol)
+            maybe[c, 1] = both

@@ -1,0 +1,104 @@
+"""Taichi kernel that moves events to their reference times: u' = π(K·R(t_ref ← t)·K⁻¹ ũ).
+
+The same math as the Warp kernel `evstar_kernels.warp.event_warp` (term by term), as a
+parallel loop: Taichi runs it on every CPU core (a Warp CPU launch runs on one thread).
+Specification: `evstar.motion.warping.warp_to_reference` with backend="reference".
+"""
+import taichi as ti
+
+vec3d = ti.types.vector(3, ti.f64)
+vec4d = ti.types.vector(4, ti.f64)
+
+
+@ti.func
+def quat_mul(a: vec4d, b: vec4d) -> vec4d:
+    """Hamilton product a ⊗ b, (x, y, z, w)."""
+    return vec4d(a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1],
+                 a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
+                 a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3],
+                 a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2])
+
+
+@ti.func
+def quat_exp(tx: ti.f64, ty: ti.f64, tz: ti.f64) -> vec4d:
+    """Rotation vector -> unit quaternion; Taylor polynomial below 0.01 rad (no sin/cos)."""
+    a2 = tx * tx + ty * ty + tz * tz
+    w = ti.f64(0.0)
+    s = ti.f64(0.0)
+    if a2 < 1e-4:
+        w = 1.0 - a2 * (0.125 - a2 * (0.0026041666666666665 - a2 * 2.170138888888889e-05))
+        s = 0.5 - a2 * (0.020833333333333332 - a2 * (
+            0.00026041666666666666 - a2 * 1.5500992063492063e-06))
+    else:
+        angle = ti.sqrt(a2)
+        w = ti.cos(0.5 * angle)
+        s = ti.sin(0.5 * angle) / angle
+    return vec4d(s * tx, s * ty, s * tz, w)
+
+
+@ti.func
+def quat_rotate(q: vec4d, v: vec3d) -> vec3d:
+    """R(q) v = v + w·t + u × t with t = 2 u × v."""
+    tx = 2.0 * (q[1] * v[2] - q[2] * v[1])
+    ty = 2.0 * (q[2] * v[0] - q[0] * v[2])
+    tz = 2.0 * (q[0] * v[1] - q[1] * v[0])
+    return vec3d(v[0] + q[3] * tx + (q[1] * tz - q[2] * ty),
+                 v[1] + q[3] * ty + (q[2] * tx - q[0] * tz),
+                 v[2] + q[3] * tz + (q[0] * ty - q[1] * tx))
+
+
+@ti.func
+def distortion_scale(xn: ti.f64, yn: ti.f64, k1: ti.f64, k2: ti.f64) -> ti.f64:
+    r2 = xn * xn + yn * yn
+    return 1.0 + k1 * r2 + k2 * r2 * r2
+
+
+@ti.func
+def attitude_at(ti_: ti.f64, node_t: ti.template(), node_q: ti.template(),
+                node_phi: ti.template()) -> vec4d:
+    """Exp(s·φ_k) ⊗ q_k between attitude nodes k, k+1 (searchsorted side='right')."""
+    n = node_t.shape[0]
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if node_t[mid] <= ti_:
+            lo = mid + 1
+        else:
+            hi = mid
+    k = ti.min(ti.max(lo - 1, 0), n - 2)
+    s = (ti_ - node_t[k]) / (node_t[k + 1] - node_t[k])
+    q_k = vec4d(node_q[k, 0], node_q[k, 1], node_q[k, 2], node_q[k, 3])
+    return quat_mul(quat_exp(s * node_phi[k, 0], s * node_phi[k, 1], s * node_phi[k, 2]), q_k)
+
+
+@ti.kernel
+def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarray(),
+                ref_index: ti.types.ndarray(), ref_q: ti.types.ndarray(),
+                node_t: ti.types.ndarray(), node_q: ti.types.ndarray(),
+                node_phi: ti.types.ndarray(), fx: ti.f64, fy: ti.f64, cx: ti.f64, cy: ti.f64,
+                k1: ti.f64, k2: ti.f64, undistort_iterations: ti.i32,
+                out_x: ti.types.ndarray(), out_y: ti.types.ndarray()):
+    """(out_x, out_y)[i] = event i moved to its reference attitude ref_q[ref_index[i]];
+    NaN where the rotation turns its ray behind the camera."""
+    for i in range(t.shape[0]):
+        q_t = attitude_at(ti.cast(t[i], ti.f64), node_t, node_q, node_phi)
+        r_i = ref_index[i]
+        q_ref = vec4d(ref_q[r_i, 0], ref_q[r_i, 1], ref_q[r_i, 2], ref_q[r_i, 3])
+        q_rel = quat_mul(q_ref, vec4d(-q_t[0], -q_t[1], -q_t[2], q_t[3]))
+        xd = (ti.cast(x[i], ti.f64) - cx) / fx
+        yd = (ti.cast(y[i], ti.f64) - cy) / fy
+        xn, yn = xd, yd
+        for _ in range(undistort_iterations):
+            sc = distortion_scale(xn, yn, k1, k2)
+            xn, yn = xd / sc, yd / sc
+        r = quat_rotate(q_rel, vec3d(xn, yn, 1.0))
+        if r[2] <= 0.0:
+            out_x[i] = ti.math.nan
+            out_y[i] = ti.math.nan
+        else:
+            xo, yo = r[0] / r[2], r[1] / r[2]
+            if undistort_iterations > 0:
+                sc = distortion_scale(xo, yo, k1, k2)
+                xo, yo = xo * sc, yo * sc
+            out_x[i] = fx * xo + cx
+            out_y[i] = fy * yo + cy

@@ -1,0 +1,26 @@
+"""Launch of the Taichi event-warping kernel: host arrays in, warped float coordinates out."""
+import numpy as np
+
+from . import launch
+from .event_warp import warp_events
+
+
+def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, camera_params,
+                      undistort_iterations):
+    """Warped (x, y) float64 arrays; camera_params = (fx, fy, cx, cy, k1, k2). Event arrays
+    are read as they are (int64 t, uint16 or float x, y: no conversion copies)."""
+    arrays = launch.Arrays(ti)
+    n = len(t)
+    out_x, out_y = np.empty(n), np.empty(n)
+    track = [arrays.put(np.asarray(a, np.float64)) for a in (ref_q, node_t, node_q, node_phi)]
+    for a in range(0, n, launch.MAX_LAUNCH_EVENTS):
+        b = min(n, a + launch.MAX_LAUNCH_EVENTS)
+        ev = [arrays.put(v[a:b]) for v in (t, x, y)] + [arrays.put(np.asarray(ref_index[a:b], np.int32))]
+        ox, oy = ((out_x[a:b], out_y[a:b]) if not arrays.on_device else
+                  (arrays.empty(b - a, np.float64), arrays.empty(b - a, np.float64)))
+        with launch.RUNTIME_LOCK:
+            warp_events(*ev, *track, *map(float, camera_params), int(undistort_iterations), ox, oy)
+        if arrays.on_device:
+            arrays.get(ox, out_x[a:b])
+            arrays.get(oy, out_y[a:b])
+    return out_x, out_y

@@ -1,0 +1,303 @@
+"""Grid DBSCAN: the numpy reference equals scikit-learn's weighted DBSCAN, the Taichi kernels
+equal the reference, and the Extractor gives the same centroids with either backend."""
+import numpy as np
+import pytest
+from sklearn.cluster import DBSCAN
+
+import evstar
+from evstar import Config, ParameterError
+from evstar.extract import Extractor
+from evstar_kernels.reference import clusters as ref
+from evstar_kernels.taichi import clusters_launch, launch
+from evstar_kernels.taichi.scratch import Scratch
+
+EPS = [0.5, 1.0, 1.5, 2.5, 3.2, 7.5]
+
+
+def ti():
+    return evstar.backends.taichi("cpu")
+
+
+def random_frames(seed, n, n_frames=4, width=40, height=25, hot=0.3):
+    """Events spread over frames; a share piled on a few pixels (weights > 1) and negative x."""
+    rng = np.random.default_rng(seed)
+    frame = np.sort(rng.integers(0, n_frames, n))
+    x, y = rng.integers(-3, width, n), rng.integers(0, height, n)
+    on = rng.random(n) < hot
+    x[on], y[on] = rng.integers(5, 9, on.sum()), rng.integers(5, 9, on.sum())
+    return frame, x, y
+
+
+def star_frames(seed, n_frames=6, stars=8, per_star=60, noise=150, width=120, height=90):
+    """Gaussian blobs (some pairs close enough to touch) plus uniform noise, per frame."""
+    rng = np.random.default_rng(seed)
+    fs, xs, ys = [], [], []
+    for f in range(n_frames):
+        centres = rng.uniform(5, [width - 5, height - 5], (stars, 2))
+        centres[1] = centres[0] + (3.5, 0.5)  # a close pair
+        pts = np.concatenate([c + rng.normal(0, 0.8, (per_star, 2)) for c in centres])
+        pts = np.concatenate([pts, rng.uniform(0, [width, height], (noise, 2))])
+        fs.append(np.full(len(pts), f))
+        xs.append(np.round(pts[:, 0]))
+        ys.append(np.round(pts[:, 1]))
+    return (np.concatenate(a).astype(np.int64) for a in (fs, xs, ys))
+
+
+def sklearn_labels(frame, x, y, eps, min_samples):
+    cf, cx, cy, weight, inverse = ref.cells(frame, x, y)
+    pts = np.column_stack([cx, cy, cf * 1e6]).astype(np.float64)
+    labels = DBSCAN(eps=eps, min_samples=min_samples).fit_predict(pts, sample_weight=weight)
+    return labels[inverse]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_reference_equals_sklearn_on_random_frames(seed):
+    rng = np.random.default_rng(100 + seed)
+    frame, x, y = random_frames(seed, int(rng.integers(1, 500)))
+    eps, min_samples = float(rng.choice(EPS)), int(rng.integers(1, 12))
+    labels = ref.dbscan_events(frame, x, y, eps, min_samples)
+    # the tie rule (a border cell joins the cluster whose first core comes first) is
+    # scikit-learn's own: labels are equal, border cells included
+    np.testing.assert_array_equal(labels, sklearn_labels(frame, x, y, eps, min_samples))
+    assert labels.max() >= 0 or min_samples > 1
+
+
+@pytest.mark.parametrize("seed,eps,min_samples", [(0, 2.5, 5), (1, 2.5, 8), (2, 1.5, 3), (3, 3.2, 12)])
+def test_reference_equals_sklearn_on_star_frames(seed, eps, min_samples):
+    frame, x, y = star_frames(seed)
+    labels = ref.dbscan_events(frame, x, y, eps, min_samples)
+    np.testing.assert_array_equal(labels, sklearn_labels(frame, x, y, eps, min_samples))
+    assert labels.max() >= 5 * 6  # most stars of the six frames are found
+
+
+def test_reference_border_tie_goes_to_the_first_cluster():
+    # cores A (0, 0) and B (2, 2), each made core by a partner C cannot see; the border
+    # cell C (2, 0) is 2 px from both and joins A's cluster (first core in (y, x) order)
+    cells = {(-1, 0): 5, (0, 0): 4, (2, 2): 4, (2, 3): 5, (2, 0): 1}
+    x = np.repeat([c[0] for c in cells], list(cells.values()))
+    y = np.repeat([c[1] for c in cells], list(cells.values()))
+    frame = np.zeros(len(x), int)
+    labels = ref.dbscan_events(frame, x, y, 2.0, 10)
+    np.testing.assert_array_equal(labels, [0] * 9 + [1] * 9 + [0])
+    np.testing.assert_array_equal(labels, sklearn_labels(frame, x, y, 2.0, 10))
+    np.testing.assert_array_equal(run_kernels(frame, x, y, 2.0, 10)[0], labels)
+
+
+def offsets_of(frame):
+    return np.searchsorted(frame, np.arange(frame[0], frame[-1] + 2))
+
+
+def run_kernels(frame, x, y, eps, min_samples, scratch=None, schedule="auto"):
+    labels, first, roots = clusters_launch.dbscan(ti(), offsets_of(frame), x, y, eps, min_samples,
+                                                  scratch=scratch or Scratch(), schedule=schedule)
+    # each cluster's root: the first event of its first cell, in (frame, y, x) order
+    np.testing.assert_array_equal(labels[roots], np.arange(len(roots)))
+    assert np.all(first[roots] == roots)
+    assert np.all(np.diff(frame[roots] * 10**6 + y[roots] * 1000 + x[roots]) > 0)
+    return labels, first
+
+
+@pytest.fixture
+def small_launches(monkeypatch):
+    """Many launches, many batches of planes, and the device-array (CUDA) data path."""
+    monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", 150)
+    monkeypatch.setattr(clusters_launch, "GRID_BYTES", 2_000)
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", True)
+
+
+@pytest.mark.parametrize("schedule,layout", [("lanes", "plain"), ("lanes", "small_launches"),
+                                             ("events", "plain"), ("events", "small_launches")])
+@pytest.mark.parametrize("seed", range(5))
+def test_kernels_equal_reference(seed, schedule, layout, request):
+    if layout == "small_launches":
+        request.getfixturevalue("small_launches")
+    rng = np.random.default_rng(200 + seed)
+    frame, x, y = random_frames(seed, int(rng.integers(1, 600)), n_frames=int(rng.integers(1, 6)))
+    eps, min_samples = EPS[seed % len(EPS)], int(rng.integers(1, 12))
+    labels, first = run_kernels(frame, x, y, eps, min_samples, schedule=schedule)
+    np.testing.assert_array_equal(labels, ref.dbscan_events(frame, x, y, eps, min_samples))
+    # first: the cell's first event
+    assert np.all(first <= np.arange(len(x)))
+    assert np.all((x[first] == x) & (y[first] == y) & (frame[first] == frame))
+    # moments: integer sums exact (integer coordinates are summed exactly too)
+    t = np.sort(rng.integers(0, 50_000, len(x))) + 10**12
+    p = rng.integers(0, 2, len(x)).astype(np.int8)
+    frame_t0 = 10**12 + np.arange(frame[-1] - frame[0] + 1) * 10_000
+    k = int(labels.max()) + 1
+    want = ref.cluster_moments(labels, frame - frame[0], x, y, t, p, frame_t0,
+                               first == np.arange(len(x)))
+    got = clusters_launch.moments(ti(), offsets_of(frame), labels, first, x.astype(float),
+                                  y.astype(float), t, p, frame_t0, k)
+    assert set(got) == set(want)
+    for name in want:
+        np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+
+
+def test_kernel_float_coordinates_and_scratch_reuse():
+    frame, x, y = star_frames(4)
+    scratch = Scratch()
+    for eps, schedule in ((2.5, "lanes"), (1.5, "events"), (2.5, "events"), (1.5, "lanes")):
+        # scratch planes come back clean after every call
+        labels, first = run_kernels(frame, x, y, eps, 5, scratch, schedule)
+        np.testing.assert_array_equal(labels, ref.dbscan_events(frame, x, y, eps, 5))
+    rng = np.random.default_rng(0)
+    xf, yf = x + rng.uniform(-0.5, 0.5, len(x)), y + rng.uniform(-0.5, 0.5, len(x))
+    t, p = np.arange(len(x)), rng.integers(0, 2, len(x)).astype(np.int8)
+    frame_t0 = np.zeros(frame[-1] + 1, np.int64)
+    k = int(labels.max()) + 1
+    want = ref.cluster_moments(labels, frame, xf, yf, t, p, frame_t0, first == np.arange(len(x)))
+    got = clusters_launch.moments(ti(), offsets_of(frame), labels, first, xf, yf, t, p, frame_t0, k)
+    for name in want:
+        np.testing.assert_allclose(got[name], want[name], rtol=1e-12, err_msg=name)
+
+
+def test_empty_and_all_noise():
+    z = np.zeros(0, np.int64)
+    labels, first, roots = clusters_launch.dbscan(ti(), np.zeros(1, np.int64), z, z, 2.5, 5,
+                                                  scratch=Scratch())
+    assert len(labels) == len(first) == len(roots) == 0
+    labels, _ = run_kernels(np.zeros(3, int), np.array([0, 10, 20]), np.zeros(3, int), 2.5, 2)
+    np.testing.assert_array_equal(labels, [-1, -1, -1])
+    assert clusters_launch.moments(ti(), np.array([0, 3]), labels, np.arange(3), np.zeros(3),
+                                   np.zeros(3), np.zeros(3, np.int64), np.zeros(3, np.int8),
+                                   np.zeros(1, np.int64), 0)["n"].shape == (0, 2)
+
+
+@pytest.mark.parametrize("device_arrays", [False, True])
+def test_peak_screen_passes_every_cluster_with_two_peaks(device_arrays, monkeypatch):
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    frame, x, y = star_frames(5, n_frames=8, per_star=80)
+    labels, first = run_kernels(frame, x, y, 2.5, 5)
+    k = int(labels.max()) + 1
+    p = np.random.default_rng(0).integers(0, 2, len(x)).astype(np.int8)
+    m = ref.cluster_moments(labels, frame, x, y, np.zeros(len(x), np.int64), p,
+                            np.zeros(frame[-1] + 1, np.int64))
+    every = np.ones(k, bool)
+    maybe, both = clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, p, m["box"],
+                                              every, every)
+    pts = np.column_stack([x, y]).astype(float)
+
+    def exact(c, q=None):
+        sel = (labels == c) & ((p == q) if q is not None else True)
+        return sel.any() and ref.two_peaks(pts[sel]) is not None
+
+    two = np.array([exact(c) for c in range(k)])
+    slack = np.array([ref.maybe_two_peaks(pts[labels == c]) for c in range(k)])
+    assert np.all(maybe[two]) and np.all(slack[two])  # never rules out a split
+    np.testing.assert_array_equal(maybe, slack)
+    assert two.any() and not maybe.all()  # it does rule out some
+    two_each = np.array([exact(c, 0) and exact(c, 1) for c in range(k)])
+    assert np.all(both[two_each & two]) and not np.any(both & ~maybe)
+    assert (both & ~two_each).sum() < both.sum()
+    # clusters not screened, or not asked for their polarities
+    none = np.zeros(k, bool)
+    assert not any(a.any() for a in clusters_launch.peak_screen(
+        ti(), offsets_of(frame), labels, x, y, p, m["box"], none, every))
+    assert not clusters_launch.peak_screen(ti(), offsets_of(frame), labels, x, y, p, m["box"],
+                                           every, none)[1].any()
+
+
+def blob_events(seed=0, stars=((50, 40, 0, 0), (120, 60, 300, 100), (60, 90, 0, 0), (63.5, 90, 0, 0)),
+                per_frame=120, noise=300):
+    rng = np.random.default_rng(seed)
+    ts, xs, ys = [], [], []
+    for x0, y0, vx, vy in stars:
+        t = rng.integers(0, 100_000, per_frame * 10)
+        ts.append(t)
+        xs.append(x0 + vx * t * 1e-6 + rng.normal(0, 0.6, len(t)))
+        ys.append(y0 + vy * t * 1e-6 + rng.normal(0, 0.6, len(t)))
+    ts.append(rng.integers(0, 100_000, noise))
+    xs.append(rng.uniform(0, 199, noise))
+    ys.append(rng.uniform(0, 149, noise))
+    t, x, y = (np.concatenate(a) for a in (ts, xs, ys))
+    o = np.argsort(t, kind="stable")
+    return evstar.Events(t[o], np.round(x[o]), np.round(y[o]), rng.integers(0, 2, len(o)), 200, 150)
+
+
+@pytest.mark.parametrize("kw", [{}, {"weighting": "pixels"}, {"weighting": "polarity"},
+                                {"time_ref": "mid", "t_origin_us": -5}, {"split_valley": None},
+                                {"eps": 1.5, "min_samples": 3, "min_cluster_size": 20}])
+def test_extractor_backends_agree(kw):
+    ev = blob_events()
+    grid = Extractor(clustering="grid", **kw).centroids(ev)
+    skl = Extractor(clustering="sklearn", **kw).centroids(ev)
+    assert len(grid) == len(skl) > 0
+    for name in ("t", "frame", "n_events", "border", "split", "track", "source"):
+        np.testing.assert_array_equal(grid[name], skl[name], err_msg=name)
+    for name in ("x", "y", "spread"):
+        np.testing.assert_allclose(grid[name], skl[name], rtol=0, atol=1e-9, err_msg=name)
+    if kw.get("split_valley", 0.35) is not None:
+        assert grid["split"].sum() >= 10  # the close pair is split in every frame
+
+
+def test_extractor_backends_agree_on_float_coordinates():
+    ev = blob_events(1)
+    rng = np.random.default_rng(1)
+    xy = np.column_stack([ev.x, ev.y]) + rng.uniform(-0.49, 0.49, (len(ev), 2))
+    for w in ("events", "pixels"):
+        grid = Extractor(weighting=w).centroids(ev, xy=xy)
+        skl = Extractor(weighting=w, clustering="sklearn").centroids(ev, xy=xy)
+        np.testing.assert_array_equal(grid["n_events"], skl["n_events"])
+        np.testing.assert_allclose(grid["x"], skl["x"], atol=1e-9)
+        np.testing.assert_allclose(grid["spread"], skl["spread"], atol=1e-9)
+
+
+def test_extractor_labels_equal():
+    ev = blob_events(2)
+    f1, a = Extractor().labels(ev)
+    f2, b = Extractor(clustering="sklearn").labels(ev)
+    np.testing.assert_array_equal(f1, f2)
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("kw,name", [({"clustering": "dbscan"}, "clustering"),
+                                     ({"clustering": None}, "clustering"),
+                                     ({"device": "tpu"}, "device"), ({"eps": -1}, "eps"),
+                                     ({"min_samples": 0}, "min_samples")])
+def test_bad_parameters_are_rejected(kw, name):
+    with pytest.raises(ParameterError, match=name):
+        Extractor(**kw)
+
+
+def test_config_declares_the_clustering_backend():
+    assert Config().extract.clustering == "grid"
+    assert Config().replace(**{"extract.clustering": "sklearn"}).extract.clustering == "sklearn"
+    with pytest.raises(ParameterError, match="clustering"):
+        Config().replace(**{"extract.clustering": "kmeans"})
+
+
+def test_batched_split_steps_equal_the_per_cluster_ones():
+    from evstar import splitting
+    from evstar.extract import _two_means
+
+    frame, x, y = star_frames(7, n_frames=10, per_star=120)
+    labels = ref.dbscan_events(frame, x, y, 2.5, 5)
+    order = np.argsort(labels, kind="stable")
+    order = order[labels[order] >= 0]
+    pts = np.column_stack([x, y]).astype(float)[order]
+    bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
+    starts, stops = bounds[:-1], bounds[1:]
+    has, a, b = splitting.two_peaks_many(pts, starts, stops)
+    lab = splitting.two_means_many(pts, starts, stops, a, b)
+    n_two = 0
+    for j, (s, e) in enumerate(zip(starts, stops)):
+        seeds = ref.two_peaks(pts[s:e])
+        assert has[j] == (seeds is not None)
+        if seeds is not None:
+            n_two += 1
+            np.testing.assert_array_equal(a[j], seeds[0])
+            np.testing.assert_array_equal(b[j], seeds[1])
+            np.testing.assert_array_equal(lab[s:e], _two_means(pts[s:e], *seeds))
+    assert 5 <= n_two < len(starts)
+
+
+def test_whole_pixel_float_coordinates_give_the_pixel_results():
+    # the pipeline passes uncompensated coordinates as floats: the same centroids
+    ev = blob_events(3)
+    xy = np.column_stack([ev.x, ev.y]).astype(float)
+    a, b = Extractor().centroids(ev), Extractor().centroids(ev, xy=xy)
+    c = Extractor(clustering="sklearn").centroids(ev, xy=xy)
+    assert a["split"].any()
+    for name in ("t", "x", "y", "n_events", "split", "spread"):
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+        np.testing.assert_array_equal(b[name], c[name], err_msg=name)
