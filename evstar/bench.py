@@ -42,7 +42,7 @@ def run(n_events=1_000_000, device="cpu", repeats=3, seed=0, progress=print):
     n = len(ev)
     rows = [_row("simulate", "numpy", n, {"median_s": sim_s, "first_s": sim_s}, "one run")]
     progress(f"scene: {n:,} events over {ev.duration_us / 1e6:.1f} s")
-    for backend, dev in (("reference", "cpu"), ("warp", device)):  # numpy is the CPU reference
+    for backend, dev in (("reference", "cpu"), ("warp", device), ("taichi", device)):  # numpy: the spec
         r = time_call(lambda: compensate(ev, imu, cam, 10_000, "imu", backend=backend, device=dev),
                       repeats=repeats)
         rows.append(_row("compensate (imu)", backend, n, r))
