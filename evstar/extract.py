@@ -230,16 +230,16 @@ class Extractor:
 
     def _first_halves(self, c, pts, p, starts, stops):
         """The first test's (seeds or None, 2-means labels, whether it fails whatever the
-        rest of _halves says) of every candidate at once, where they are exact (grid
-        clustering, integer coordinates); else None. The first test fails where a half has
+        rest of _halves says) of every candidate at once (grid clustering; exact for integer
+        coordinates, to the last bits of the 2-means centres for floats); else None. The first test fails where a half has
         fewer than min_cluster_size events or the halves' polarities differ by more than
         0.5 (a moving star's lobes: the common case)."""
-        if self.clustering != "grid" or not c.integral or not len(starts):
+        if self.clustering != "grid" or not len(starts):
             return None
         im = splitting.images(pts, starts, stops)
         has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
         # 2-means of all (the screen leaves few without two peaks): one set of images
-        lab = splitting.two_means_many(pts, starts, stops, a, b, im=im)
+        lab = splitting.two_means_many(pts, starts, stops, a, b, im=im, integral=c.integral)
         seg = np.repeat(np.arange(len(starts)), stops - starts)
         n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
         on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)

@@ -92,22 +92,28 @@ def two_peaks_many(pts, starts, stops, im=None):
     return has, a, b
 
 
-def two_means_many(pts, starts, stops, a, b, iterations=10, im=None):
+def two_means_many(pts, starts, stops, a, b, iterations=10, im=None, integral=True):
     """_two_means of each cluster's points started from a[j] and b[j] (labels 0/1 per
-    point), exact for integer coordinates: it runs on the distinct pixels weighted by their
-    counts (the same distances, and the same centres: sums of integers are exact)."""
+    point). integral: exact for integer coordinates, run on the distinct pixels weighted by
+    their counts (the same distances, and the same centres: sums of integers are exact);
+    else on the points themselves, whose centres are sums in another order than numpy's
+    mean (equal to the last bits: a label can differ only on an exact tie)."""
     k = len(starts)
     if not k:
         return np.zeros(0, np.int64)
-    im = images(pts, starts, stops) if im is None else im
-    px = np.flatnonzero(im["counts"])
-    weight = im["counts"][px].astype(np.float64)
-    seg = im["pix"][px]
-    cx, cy = im["q"][px] + im["lo"][seg, 0], im["r"][px] + im["lo"][seg, 1]
+    if integral:
+        im = images(pts, starts, stops) if im is None else im
+        px = np.flatnonzero(im["counts"])
+        weight = im["counts"][px].astype(np.float64)
+        seg = im["pix"][px]
+        cx, cy = im["q"][px] + im["lo"][seg, 0], im["r"][px] + im["lo"][seg, 1]
+    else:
+        seg, _ = _segments(starts, stops)
+        weight, cx, cy = np.ones(len(pts)), pts[:, 0], pts[:, 1]
     n_cells = np.bincount(seg, minlength=k)
     c = np.stack([a, b], 1).astype(float)  # (k, 2 centres, xy)
-    lab = np.zeros(len(px), np.int64)
-    out = np.zeros(len(px), np.int64)
+    lab = np.zeros(len(seg), np.int64)
+    out = np.zeros(len(seg), np.int64)
     active = np.ones(k, bool)
     for it in range(iterations):
         go = np.flatnonzero(active[seg])
@@ -134,6 +140,8 @@ def two_means_many(pts, starts, stops, a, b, iterations=10, im=None):
                 c[active, :, axis] = (s / n)[active]
     else:  # iterations used up: the last labels
         out[active[seg]] = lab[active[seg]]
+    if not integral:
+        return out
     cell_of = np.zeros(len(im["counts"]), np.int64)
     cell_of[px] = np.arange(len(px))
     return out[cell_of[im["flat"]]]

@@ -289,6 +289,15 @@ def test_batched_split_steps_equal_the_per_cluster_ones():
             np.testing.assert_array_equal(b[j], seeds[1])
             np.testing.assert_array_equal(lab[s:e], _two_means(pts[s:e], *seeds))
     assert 5 <= n_two < len(starts)
+    # sub-pixel (compensated) coordinates: the same peaks (their image is of rounded
+    # pixels) and the same 2-means labels (centres equal to the last bits)
+    fpts = pts + np.random.default_rng(3).uniform(-0.49, 0.49, pts.shape)
+    has_f, a_f, b_f = splitting.two_peaks_many(fpts, starts, stops)
+    np.testing.assert_array_equal(has_f, has)
+    lab_f = splitting.two_means_many(fpts, starts, stops, a_f, b_f, integral=False)
+    for j, (s, e) in enumerate(zip(starts, stops)):
+        if has[j]:
+            np.testing.assert_array_equal(lab_f[s:e], _two_means(fpts[s:e], a_f[j], b_f[j]))
 
 
 def test_whole_pixel_float_coordinates_give_the_pixel_results():
