@@ -151,10 +151,9 @@ def cluster_moments(labels, frame, x, y, t, p, frame_t0, cell_first=None):
 SMOOTH = np.exp(-0.5 * (np.arange(-2, 3) / 0.7) ** 2)
 
 
-def two_peaks(pts):
-    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
-    image smoothed by a Gaussian of 0.7 px; None when there is one. (`pts`: float (n, 2),
-    counted at their rounded pixels.)"""
+def smoothed_image(pts):
+    """(image, origin): the count image of `pts` at their rounded pixels, with a 2-px
+    border, smoothed by SMOOTH along y then x; origin = the (x, y) of pixel [0, 0]."""
     ij = np.floor(pts + 0.5).astype(np.int64)
     origin = ij.min(0) - 2
     w, h = ij.max(0) - origin + 3
@@ -162,6 +161,14 @@ def two_peaks(pts):
     img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
     img = ndimage.correlate1d(ndimage.correlate1d(img, SMOOTH, 0, mode="constant"), SMOOTH, 1,
                               mode="constant")
+    return img, origin
+
+
+def two_peaks(pts):
+    """(x, y) of the two highest local maxima, at least 2 px apart, of the events' count
+    image smoothed by a Gaussian of 0.7 px; None when there is one. (`pts`: float (n, 2),
+    counted at their rounded pixels.)"""
+    img, origin = smoothed_image(pts)
     is_max = (img == ndimage.maximum_filter(img, size=3)) & (img > 0)
     yx = np.argwhere(is_max)[np.argsort(-img[is_max], kind="stable")]
     far = np.flatnonzero(((yx[1:] - yx[0]) ** 2).sum(1) >= 4)  # >= 2 px from the highest
@@ -174,13 +181,7 @@ def maybe_two_peaks(pts, rtol=1e-9):
     """False only where two_peaks(pts) is None: no two near-maxima (within rtol of their
     3 x 3 neighbourhood's maximum) lie 2 px apart. A superset test, safe against rounding
     differences in the smoothed image, which the Taichi screen computes in its own order."""
-    ij = np.floor(pts + 0.5).astype(np.int64)
-    origin = ij.min(0) - 2
-    w, h = ij.max(0) - origin + 3
-    flat = (ij[:, 1] - origin[1]) * w + (ij[:, 0] - origin[0])
-    img = np.bincount(flat, minlength=w * h).reshape(h, w).astype(np.float64)
-    img = ndimage.correlate1d(ndimage.correlate1d(img, SMOOTH, 0, mode="constant"), SMOOTH, 1,
-                              mode="constant")
+    img, origin = smoothed_image(pts)
     near = (img >= ndimage.maximum_filter(img, size=3) * (1 - rtol)) & (img > 0)
     ys, xs = np.nonzero(near)
     return bool(np.hypot(xs.max() - xs.min(), ys.max() - ys.min()) >= 2)

@@ -68,6 +68,24 @@ def find(parent: ti.template(), e: ti.i32) -> ti.i32:
     return r
 
 
+@ti.func
+def core_test(e: ti.i32, at: ti.i32, full: ti.template(), min_samples: ti.i32,
+              count: ti.template(), owner: ti.template(), core: ti.template(),
+              parent: ti.template(), first: ti.template()):
+    """Event e at plane cell `at`: its cell's first event, its own set, and whether it owns
+    a core cell (weighted count within eps >= min_samples; the cell's other events copy it)."""
+    own = owner[at]
+    first[e] = own
+    parent[e] = e
+    is_core = 0
+    if own == e:
+        s = 0
+        for j in range(full.shape[0]):
+            s += count[at + full[j]]
+        is_core = ti.cast(s >= min_samples, ti.i32)
+    core[e] = ti.cast(is_core, ti.u8)
+
+
 @functools.lru_cache(maxsize=None)
 def cluster_kernels():
     """(bin_cells, core_cells, link_frames, cluster_lanes); disks are passed as plane
@@ -94,16 +112,7 @@ def cluster_kernels():
         for e in range(offsets[b0], offsets[b1]):
             f = frame_of(offsets, b0, b1, e)
             at = cell_at(x, y, e, (f - b0) * plane, stride, pad)
-            own = owner[at]
-            first[e] = own
-            parent[e] = e
-            is_core = 0
-            if own == e:
-                s = 0
-                for j in range(full.shape[0]):
-                    s += count[at + full[j]]
-                is_core = ti.cast(s >= min_samples, ti.i32)
-            core[e] = ti.cast(is_core, ti.u8)
+            core_test(e, at, full, min_samples, count, owner, core, parent, first)
 
     @ti.func
     def key(x: ti.template(), y: ti.template(), e: ti.i32, stride: ti.i32) -> ti.i32:
@@ -200,16 +209,7 @@ def cluster_kernels():
                             owner[at] = e
                     for e in range(offsets[f], offsets[f + 1]):
                         at = cell_at(x, y, e, base, stride, pad)
-                        own = owner[at]
-                        first[e] = own
-                        parent[e] = e
-                        is_core = 0
-                        if own == e:
-                            s = 0
-                            for j in range(full.shape[0]):
-                                s += count[at + full[j]]
-                            is_core = ti.cast(s >= min_samples, ti.i32)
-                        core[e] = ti.cast(is_core, ti.u8)
+                        core_test(e, at, full, min_samples, count, owner, core, parent, first)
                     link_frame(f, base, x, y, offsets, stride, pad, full, half, count, owner,
                                core, parent, first, root)
                 slots.release(busy, slot)
