@@ -40,7 +40,7 @@ SPEED_EDGES = (25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0)
 MIN_CROSSINGS = 30
 _ROBUST_PASSES = 4
 #: a cell known less precisely than this (µs) is filled from its neighbours instead
-MAX_CELL_SE_US = 300.0
+MAX_CELL_SE_US = 100.0
 _UNKNOWN_SE = 1e9   # σ of a cell filled from its neighbours (no crossings of its own)
 
 
