@@ -238,8 +238,11 @@ class Extractor:
             return None
         im = splitting.images(pts, starts, stops)
         has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
-        # 2-means of all (the screen leaves few without two peaks): one set of images
-        lab = splitting.two_means_many(pts, starts, stops, a, b, im=im, integral=c.integral)
+        # 2-means of all (the screen leaves few without two peaks): a Taichi thread per
+        # cluster (splitting.two_means_many is its numpy form)
+        from evstar_kernels.taichi import clusters_launch
+
+        lab = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops, a, b)
         seg = np.repeat(np.arange(len(starts)), stops - starts)
         n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
         on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)

@@ -300,6 +300,32 @@ def test_batched_split_steps_equal_the_per_cluster_ones():
             np.testing.assert_array_equal(lab_f[s:e], _two_means(fpts[s:e], a_f[j], b_f[j]))
 
 
+@pytest.mark.parametrize("device_arrays", [False, True])
+def test_two_means_kernel_equals_numpy(device_arrays, monkeypatch):
+    """The Taichi 2-means (a thread per cluster) gives the numpy batched form's labels, on
+    whole pixels and on sub-pixel points."""
+    from evstar import backends, splitting
+    from evstar_kernels.taichi import clusters_launch, launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    frame, x, y = star_frames(8, n_frames=10, per_star=120)
+    labels = ref.dbscan_events(frame, x, y, 2.5, 5)
+    order = np.argsort(labels, kind="stable")
+    order = order[labels[order] >= 0]
+    bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
+    starts, stops = bounds[:-1], bounds[1:]
+    ti = backends.taichi("cpu")
+    for pts, integral in ((np.column_stack([x, y]).astype(float)[order], True),
+                          (np.column_stack([x, y])[order] + np.random.default_rng(4).uniform(
+                              -0.49, 0.49, (len(order), 2)), False)):
+        has, a, b = splitting.two_peaks_many(pts, starts, stops)
+        want = splitting.two_means_many(pts, starts, stops, a, b, integral=integral)
+        got = clusters_launch.two_means(ti, pts, starts, stops, a, b)
+        keep = np.repeat(has, stops - starts)   # clusters with two seeds
+        np.testing.assert_array_equal(got[keep], want[keep])
+        assert 0 < got[keep].mean() < 1
+
+
 def test_whole_pixel_float_coordinates_give_the_pixel_results():
     # the pipeline passes uncompensated coordinates as floats: the same centroids
     ev = blob_events(3)

@@ -329,3 +329,40 @@ def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: 
                     if two_near_maxima(img, 0, tmp, b, w, h, rtol) != 0:
                         both = two_near_maxima(img, 1, tmp, b, w, h, rtol)
             maybe[c, 1] = both
+
+
+@ti.kernel
+def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d,
+              iterations: ti.i32, lab: i32_1d):
+    """Lloyd's 2-means of each cluster's points pts[starts[j]:stops[j]] from the centres
+    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster.
+
+    Specification: `evstar.extract._two_means` per cluster (stop when the labels repeat or
+    one half is empty; centres: sums in point order / counts, as `evstar.splitting`'s
+    batched form)."""
+    for j in range(starts.shape[0]):
+        s, e = starts[j], stops[j]
+        c0x, c0y, c1x, c1y = seeds[j, 0], seeds[j, 1], seeds[j, 2], seeds[j, 3]
+        for it in range(iterations):
+            ones, changed = 0, 0
+            for i in range(s, e):
+                d0 = (x[i] - c0x) ** 2 + (y[i] - c0y) ** 2
+                d1 = (x[i] - c1x) ** 2 + (y[i] - c1y) ** 2
+                new = ti.cast(d1 < d0, ti.i32)
+                if it > 0 and new != lab[i]:
+                    changed += 1
+                lab[i] = new
+                ones += new
+            if (it > 0 and changed == 0) or ones == 0 or ones == e - s:
+                break
+            sx0, sy0, sx1, sy1 = ti.f64(0.0), ti.f64(0.0), ti.f64(0.0), ti.f64(0.0)
+            for i in range(s, e):
+                if lab[i] == 1:
+                    sx1 += x[i]
+                    sy1 += y[i]
+                else:
+                    sx0 += x[i]
+                    sy0 += y[i]
+            n1 = ti.cast(ones, ti.f64)
+            n0 = ti.cast(e - s - ones, ti.f64)
+            c0x, c0y, c1x, c1y = sx0 / n0, sy0 / n0, sx1 / n1, sy1 / n1

@@ -205,3 +205,22 @@ def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e
         out = np.empty((k, 2), np.uint8)
         arrays.get(maybe, out)
     return out[:, 0].astype(bool), out[:, 1].astype(bool)
+
+
+def two_means(ti, pts, starts, stops, a, b, iterations=10):
+    """2-means labels (int64 per point) of every cluster pts[starts[j]:stops[j]] from the
+    centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False)."""
+    if not len(starts):
+        return np.zeros(len(pts), np.int64)
+    with launch.RUNTIME_LOCK:
+        arrays = launch.Arrays(ti)
+        lab = arrays.empty(len(pts), np.int32)
+        clusters.two_means(arrays.put(pts[:, 0].astype(np.float64)),
+                           arrays.put(pts[:, 1].astype(np.float64)),
+                           arrays.put(np.asarray(starts, np.int32)),
+                           arrays.put(np.asarray(stops, np.int32)),
+                           arrays.put(np.column_stack([a, b]).astype(np.float64)),
+                           int(iterations), lab)
+        out = np.empty(len(pts), np.int32)
+        arrays.get(lab, out)
+    return out.astype(np.int64)
