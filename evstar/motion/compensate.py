@@ -27,20 +27,20 @@ EXTRAPOLATE_US = P.MOTION["extrapolate_us"].default
 
 
 class Compensation:
-    """Per-event result: x, y float64 (warped), xi, yi int64 (rounded), inside (rounded pixel on
-    the sensor), frame int64, t_ref_us float64, plus the attitude track and, for 'pf', the
-    FilterResult used. Mode 'none' (:meth:`identity`) computes these arrays only when read."""
+    """Per-event result: x, y float64 (warped), xi, yi int64 (rounded; made when read), inside
+    (rounded pixel on the sensor), frame int64, t_ref_us float64, plus the attitude track and,
+    for 'pf', the FilterResult used. Mode 'none' (:meth:`identity`) computes these arrays only
+    when read."""
 
     def __init__(self, events, mode, x, y, frame, t_ref_us, attitude=None, filter_result=None):
         self.mode = mode
         self.x, self.y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         self.frame, self.t_ref_us = frame, t_ref_us
         self.attitude, self.filter_result = attitude, filter_result
-        finite = np.isfinite(self.x) & np.isfinite(self.y)
-        self.xi = np.floor(np.where(finite, self.x, -1.0) + 0.5).astype(np.int64)
-        self.yi = np.floor(np.where(finite, self.y, -1.0) + 0.5).astype(np.int64)
-        self.inside = (finite & (self.xi >= 0) & (self.xi < events.width)
-                       & (self.yi >= 0) & (self.yi < events.height))
+        # rounded as floats: NaN (behind the camera) fails every comparison, so it is outside
+        self._rx, self._ry = np.floor(self.x + 0.5), np.floor(self.y + 0.5)
+        self.inside = ((self._rx >= 0) & (self._rx < events.width)
+                       & (self._ry >= 0) & (self._ry < events.height))
         self._events = events
 
     @classmethod
@@ -56,8 +56,8 @@ class Compensation:
     # made on first access, for identity() only (__init__ sets them: they shadow these)
     x = functools.cached_property(lambda self: np.asarray(self._events.x, np.float64))
     y = functools.cached_property(lambda self: np.asarray(self._events.y, np.float64))
-    xi = functools.cached_property(lambda self: self._events.x.astype(np.int64))
-    yi = functools.cached_property(lambda self: self._events.y.astype(np.int64))
+    xi = functools.cached_property(lambda self: self._pixels("x"))
+    yi = functools.cached_property(lambda self: self._pixels("y"))
     inside = functools.cached_property(lambda self: np.ones(len(self._events), bool))
     frame = functools.cached_property(lambda self: self._reference_times[0])
     t_ref_us = functools.cached_property(lambda self: self._reference_times[1])
@@ -66,6 +66,13 @@ class Compensation:
 
     def __len__(self):
         return len(self._events)
+
+    def _pixels(self, axis):
+        """Rounded coordinates, int64; -1 where the ray turned behind the camera."""
+        if self.mode == "none":
+            return getattr(self._events, axis).astype(np.int64)
+        r = self._rx if axis == "x" else self._ry
+        return np.where(np.isnan(r), -1.0, r).astype(np.int64)
 
     def coordinates(self, index):
         """(len(index), 2) float64 (x, y) of the events `index` (as x[index], y[index])."""
@@ -81,8 +88,8 @@ class Compensation:
         if self.mode == "none":
             return ev, np.arange(len(ev))
         idx = np.flatnonzero(self.inside)
-        return Events._trusted(ev.t[idx], self.xi[idx].astype(np.uint16),
-                               self.yi[idx].astype(np.uint16), ev.p[idx],
+        return Events._trusted(ev.t[idx], self._rx[idx].astype(np.uint16),
+                               self._ry[idx].astype(np.uint16), ev.p[idx],
                                ev.width, ev.height), idx
 
     def __repr__(self):
