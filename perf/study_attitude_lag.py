@@ -13,6 +13,7 @@ Writes perf/results/study_attitude_lag.json and .md.
 """
 import pathlib
 import sys
+import tempfile
 
 import numpy as np
 
@@ -33,7 +34,7 @@ def lag_file(cam):
     motion = sim.Sinusoid(10.0, 0.5, axis=(0.0, -1.0, 0.0), R0=sim.attitude_from_radec(100.0, 20.0))
     stars = sim.hipparcos_field_along(cam, motion, 4.0, mag_limit=6.5, max_stars=20)
     cal = sim.simulate(sim.Scenario(cam, stars, motion, 4.0), seed=5)
-    path = RESULTS / ".pixel_lag_evk4.json"
+    path = pathlib.Path(tempfile.mkdtemp()) / "pixel_lag_evk4.json"
     calibrate(cal.events, cal.imu, cal.camera).save(path)
     return str(path)
 
