@@ -130,3 +130,8 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
     first = re.search(r"first call +[\d.]+ M events/s, ([\d.]+)x real time", out)
     steady = re.search(r"steady state +[\d.]+ M events/s, ([\d.]+)x real time", out)
     assert first and steady and abs(m["duration_s"] - 0.5) < 0.01
+    # then a star field to the inertial attitude, checked against the truth
+    rms = re.search(r"cross-boresight error RMS ([\d.]+) px", out)
+    assert rms and float(rms.group(1)) < 0.1, out
+    att = (tmp_path / "demo" / "field" / "attitude.csv").read_text().splitlines()
+    assert att[0].startswith("t,qw,qx,qy,qz") and len(att) > 30
