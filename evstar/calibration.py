@@ -161,19 +161,17 @@ def tracks_with_velocity(centroids):
     velocity by finite differences along each track (for assigning crossings to tracks)."""
     c = centroids[centroids["track"] >= 0]
     c = c[np.lexsort((c["t"], c["track"]))]
+    c = c[np.r_[True, (np.diff(c["track"]) != 0) | (np.diff(c["t"]) > 0)]]  # one row per time
     out = np.zeros(len(c), [("t", "<f8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
                             ("vx", "<f8"), ("vy", "<f8")])
     for f in ("t", "track", "x", "y"):
         out[f] = c[f]
-    keep = np.ones(len(c), bool)
-    for tid in np.unique(c["track"]):
-        m = np.flatnonzero(c["track"] == tid)
-        m = m[np.r_[True, np.diff(c["t"][m]) > 0]]   # one row per time
-        keep[np.setdiff1d(np.flatnonzero(c["track"] == tid), m)] = False
-        if len(m) >= 2:
-            ts = c["t"][m] * 1e-6
-            out["vx"][m], out["vy"][m] = np.gradient(c["x"][m], ts), np.gradient(c["y"][m], ts)
-    return out[keep]
+    for rows in np.split(np.arange(len(c)), np.flatnonzero(np.diff(c["track"])) + 1):
+        if len(rows) >= 2:
+            ts = c["t"][rows] * 1e-6
+            out["vx"][rows], out["vy"][rows] = (np.gradient(c["x"][rows], ts),
+                                                np.gradient(c["y"][rows], ts))
+    return out
 
 
 def calibrate(events, imu, camera, config=None, progress=None):
@@ -181,9 +179,7 @@ def calibrate(events, imu, camera, config=None, progress=None):
     pipeline (IMU compensation, crossings estimator) finds the stars, their tracks and
     crossings, then :func:`fit_pixel_lag`."""
     from . import Config, Pipeline
-    from .estimation import chunk_crossings
-    from .motion import hold_ends
-    from .smoothing import imu_velocity_prior
+    from .estimation import chunk_crossings, velocity_prior
 
     if imu is None or camera is None:
         raise DataError("calibration needs the recording's IMU and camera")
@@ -194,9 +190,8 @@ def calibrate(events, imu, camera, config=None, progress=None):
     if progress:
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
     crossings = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px)
-    imu = hold_ends(imu, int(events.t[0]), int(events.t[-1]), config.motion.extrapolate_us)
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
-                        imu_velocity_prior(imu, camera))
+                        velocity_prior(config, imu, camera, events.t))
     lag.meta.update(events=len(events), duration_s=events.duration_us / 1e6,
                     created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"))
     return lag
@@ -205,25 +200,20 @@ def calibrate(events, imu, camera, config=None, progress=None):
 # -- the least-squares fit ------------------------------------------------------------------
 def _track_rows(crossings, idx, u, prior, max_pairs, speed_edges):
     """(u·(q − D), regressors [u, u·t], cell k·S + speed bin (−1: none), −u·v) of one track's
-    crossings, time-sorted."""
-    from .smoothing import _prior_displacement as prior_displacement
-    from .smoothing import _prior_velocity as prior_velocity
+    crossings, time-sorted (evstar.smoothing.lag_regression)."""
+    from .smoothing import lag_regression
 
     if len(idx) < 2:
         return None
     order = np.argsort(crossings["t"][idx], kind="stable")
     idx, u = idx[order], u[order]
-    t = crossings["t"][idx]
     q = np.column_stack([crossings["x"][idx], crossings["y"][idx]]).astype(np.float64)
-    disp = prior_displacement(prior, t, t, q)
-    v = prior_velocity(prior, t, q[:, 0], q[:, 1])
-    ts = (t - t[0]) * 1e-6
-    local = np.column_stack([u[:, 0], u[:, 1], u[:, 0] * ts, u[:, 1] * ts])
+    y, local, lag_col, v = lag_regression(crossings["t"][idx], q, u, prior)
     k = np.minimum(crossings["pairs"][idx], max_pairs)
     s_bin = np.searchsorted(speed_edges, np.hypot(v[:, 0], v[:, 1]), side="right") - 1
     n_s = len(speed_edges) - 1
     cell = np.where((s_bin >= 0) & (s_bin < n_s), k * n_s + s_bin, -1)
-    return (u * (q - disp)).sum(1), local, cell, -(u * v).sum(1) * 1e-6   # τ in µs
+    return y, local, cell, lag_col * 1e-6   # τ in µs
 
 
 def _design(blocks, cells):

@@ -157,7 +157,7 @@ class TrackSmoother:
         t_all = t_all[order]
         measured = order < len(t_meas)
         z = np.column_stack([cents["x"], cents["y"]]).astype(float)
-        shift = _prior_displacement(velocity_prior, t_all, t_meas, z)
+        shift = prior_displacement(velocity_prior, t_all, t_meas, z)
         resid = z - shift[measured]
         ts = (t_all - t_all[0]) * 1e-6
         return _Track(cents, sigma, index, coast_f, order, t_all, measured, shift, resid, ts)
@@ -169,7 +169,7 @@ class TrackSmoother:
         out["t"], out["track"] = tr.t_all, cents["track"][0]
         out["frame"] = np.concatenate([cents["frame"].astype(np.int64), coast_f])[order]
         out["x"], out["y"] = x[:, 0] + shift[:, 0], x[:, 2] + shift[:, 1]
-        v_prior = _prior_velocity(velocity_prior, tr.t_all, out["x"], out["y"])
+        v_prior = prior_velocity(velocity_prior, tr.t_all, out["x"], out["y"])
         out["vx"], out["vy"] = x[:, 1] + v_prior[:, 0], x[:, 3] + v_prior[:, 1]
         # rounding can leave a variance a hair below zero
         out["sigma_x"] = np.sqrt(np.maximum(P[:, 0, 0], 0.0))
@@ -432,7 +432,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     order = np.argsort(t_all, kind="stable")
     t_s, m_s, c_s = t_all[order], is_meas[order], is_cent[order]
     z_meas = z[order][m_s]
-    shift = _prior_displacement(velocity_prior, t_s, t_s[m_s], z_meas)
+    shift = prior_displacement(velocity_prior, t_s, t_s[m_s], z_meas)
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
@@ -460,11 +460,22 @@ def _along_track_rows(p, x, P, velocity_prior):
     shift = p.shift
     out = est.copy()
     out["x"], out["y"] = x[back, 0] + shift[back, 0], x[back, 2] + shift[back, 1]
-    v_prior = _prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
+    v_prior = prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
     out["vx"], out["vy"] = x[back, 1] + v_prior[:, 0], x[back, 3] + v_prior[:, 1]
     out["sigma_x"] = np.sqrt(np.maximum(P[back, 0, 0], 0.0))   # rounding can make it -0
     out["sigma_y"] = np.sqrt(np.maximum(P[back, 2, 2], 0.0))
     return out
+
+
+def lag_regression(t_us, q, u, velocity_prior):
+    """The crossings' lag model u·q = u·(s0 + D(t) + b·t) − τ·u·v(t) as least-squares rows,
+    for time-sorted crossings (t µs, pixel q, motion direction u): (y = u·(q − D),
+    the offset and drift regressors [u, u·t] (n, 4), τ's regressor −u·v (s), v (n, 2) px/s)."""
+    disp = prior_displacement(velocity_prior, t_us, t_us, q)
+    v = prior_velocity(velocity_prior, t_us, q[:, 0], q[:, 1])
+    ts = (t_us - t_us[0]) * 1e-6
+    local = np.column_stack([u[:, 0], u[:, 1], u[:, 0] * ts, u[:, 1] * ts])
+    return (u * (q - disp)).sum(1), local, -(u * v).sum(1), v
 
 
 def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
@@ -478,12 +489,9 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     if len(t_us) < MIN_CROSSINGS:
         return 0.0
     order = np.argsort(t_us, kind="stable")
-    t, q, u = np.asarray(t_us, float)[order], q[order], u[order]
-    disp = _prior_displacement(velocity_prior, t, t, q)
-    v = _prior_velocity(velocity_prior, t, q[:, 0], q[:, 1])
-    ts = (t - t[0]) * 1e-6
-    A = np.column_stack([u[:, 0], u[:, 1], u[:, 0] * ts, u[:, 1] * ts, -(u * v).sum(1)])
-    y = (u * (q - disp)).sum(1)
+    y, local, lag_col, _ = lag_regression(np.asarray(t_us, float)[order], q[order], u[order],
+                                          velocity_prior)
+    A = np.column_stack([local, lag_col])
     for _ in range(3):
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ sol
@@ -535,7 +543,7 @@ def _covariances(u, s_along, s_cross):
             + s_cross[:, None, None] ** 2 * n[:, :, None] * n[:, None, :])
 
 
-def _prior_velocity(prior, t_us, x, y):
+def prior_velocity(prior, t_us, x, y):
     if prior is None:
         return np.zeros((len(t_us), 2))
     v = np.asarray(prior(np.asarray(t_us), np.asarray(x, float), np.asarray(y, float)), float)
@@ -544,7 +552,7 @@ def _prior_velocity(prior, t_us, x, y):
     return v
 
 
-def _prior_displacement(prior, t_all, t_meas, z):
+def prior_displacement(prior, t_all, t_meas, z):
     """(n, 2) px the prior moves a star from t_all[0] to each t_all: the trapezoid rule on
     a grid of at most _PRIOR_STEP_S (so a prior from noisy gyro samples is averaged over
     each interval, not read at its two ends), along the measured positions interpolated."""
@@ -555,7 +563,7 @@ def _prior_displacement(prior, t_all, t_meas, z):
     starts = np.r_[0, np.cumsum(n_sub)]            # node index of each t_all on the fine grid
     frac = np.arange(starts[-1]) - np.repeat(starts[:-1], n_sub)
     fine = np.r_[np.repeat(t[:-1], n_sub) + frac * np.repeat(np.diff(t) / n_sub, n_sub), t[-1:]]
-    v = _prior_velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]), np.interp(fine, t_meas, z[:, 1]))
+    v = prior_velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]), np.interp(fine, t_meas, z[:, 1]))
     steps = (v[1:] + v[:-1]) / 2 * (np.diff(fine) * 1e-6)[:, None]
     return np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])[starts]
 
