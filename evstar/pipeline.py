@@ -151,6 +151,7 @@ class Pipeline:
             accuracy.check_truth(truth, len(events), events.width, events.height,
                         events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
+        span = (t0, int(events.t[-1])) if len(events) else None   # the recording's first, last µs
         rate = self.calibration_rate(events, t0)
         timings = {}
         filter_result = None
@@ -164,8 +165,8 @@ class Pipeline:
         acc = _Summary(events.width, events.height, self.config.dt_us, t0)
         acc.add(events, keep, truth, 0)
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
-                              self._estimator(state, t0, imu, camera, filter_result, events.t),
-                              span_us=events.t[[0, -1]] if len(events) else None)
+                              self._estimator(state, t0, imu, camera, filter_result, span),
+                              span_us=span)
         result.keep, result.compensation = keep, comp
         return result
 
@@ -190,14 +191,14 @@ class Pipeline:
         timings["particle_filter"] = time.perf_counter() - t
         return result, timings
 
-    def _estimator(self, state, t0, imu, camera, filter_result, t_events):
+    def _estimator(self, state, t0, imu, camera, filter_result, span):
         """linked centroids -> star positions (evstar.estimation), with the run's crossings
         and, when the run compensates with the IMU, the gyro's image velocity as the motion
-        prior (an IMU that only came along in the file is not trusted with that)."""
+        prior (an IMU that only came along in the file is not trusted with that); span: the
+        recording's (first, last) event µs, None when it has none."""
         from . import estimation
 
-        prior = estimation.velocity_prior(self.config, imu, camera, t_events, filter_result)
-        span = (int(t_events[0]), int(t_events[-1])) if len(t_events) else None
+        prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
         return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior,
                                                  span, state.sensor)
 
@@ -260,7 +261,7 @@ class Pipeline:
         timings, filter_result = {}, None
         if mode == "pf":
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
-        parts, offset, span_t = [], 0, [t0, t0]
+        parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
         state = _RunState(self.config, first[1].width, first[1].height,
                           self.calibration_hot_pixels(first[1], t0))
@@ -271,12 +272,12 @@ class Pipeline:
             parts.append(cents)
             acc.add(events, keep, truth, offset)
             offset += len(events)
-            span_t[1] = int(events.t[-1])
+            first_last[1] = int(events.t[-1])
         if truth is not None:
             accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
-                            self._estimator(state, t0, imu, camera, filter_result, span_t),
-                            span_us=span_t)
+                            self._estimator(state, t0, imu, camera, filter_result, first_last),
+                            span_us=first_last)
 
 
 # -- input checks ------------------------------------------------------------------------
