@@ -53,7 +53,8 @@ class Compensation:
         frame_reference_times(events.t[:1], dt_us, t0_us, reference)   # arguments checked now
         return self
 
-    # made on first access, for identity() only (__init__ sets them: they shadow these)
+    # made on first access: x, y, inside, frame, t_ref_us for identity() only (__init__ sets
+    # them: they shadow these); xi, yi in both modes
     x = functools.cached_property(lambda self: np.asarray(self._events.x, np.float64))
     y = functools.cached_property(lambda self: np.asarray(self._events.y, np.float64))
     xi = functools.cached_property(lambda self: self._pixels("x"))
