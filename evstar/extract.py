@@ -92,9 +92,6 @@ class Extractor:
             ij = np.floor(coords + 0.5).astype(np.int64)
             px, py = ij[:, 0], ij[:, 1]
         c = _Clusters(t0, f0, offsets, coords, px, py)
-        # whole-pixel coordinates (the pipeline passes its uncompensated ones as floats) are
-        # summed exactly: the batched split steps apply
-        c.integral = xy is None or bool(np.array_equal(coords, ij))
         if len(events) == 0:
             c.labels, c.first, c.frame = (np.zeros(0, np.int64) for _ in range(3))
         elif self.clustering == "grid":
@@ -367,7 +364,6 @@ class _Clusters:
         self.t0, self.f0, self.offsets = t0, f0, offsets
         self.coords, self.px, self.py = coords, px, py
         self.labels = self.first = self.frame = None
-        self.integral = coords is None
 
     def frames(self):
         """Frame id per event."""
