@@ -14,15 +14,9 @@ support[i] = number of the 8 neighbours with t_i − ts < dt; keep[i] = support[
 import taichi as ti
 
 from . import slots
+from .arrays import i32_1d, i64_1d, i64_3d, i8_1d, u16_1d, u8_1d
 
 BORDER = -(1 << 62)
-
-i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
-u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
-i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
-i64_3d = ti.types.ndarray(dtype=ti.i64, ndim=3)
-i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
-u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 
 
 @ti.kernel

@@ -17,8 +17,10 @@ import functools
 
 import taichi as ti
 
+from .arrays import i8_1d, i32_1d, i64_1d, u8_1d, u16_1d
+from .classical import BORDER
+
 NONE = 2**31 - 1
-from .classical import BORDER, i8_1d, i32_1d, i64_1d, u8_1d, u16_1d  # noqa: F401
 
 
 @functools.lru_cache(maxsize=None)

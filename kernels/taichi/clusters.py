@@ -33,18 +33,9 @@ import taichi as ti
 from ..reference.clusters import SMOOTH, disk_offsets
 from . import slots
 from .event_counts import frame_of
+from .arrays import any_1d, f64_1d, f64_2d, i32_1d, i32_2d, i64_1d, i64_2d, i8_1d, u8_1d, u8_2d
 
 NONE = 2**31 - 1
-i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
-i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
-i64_1d = ti.types.ndarray(dtype=ti.i64, ndim=1)
-i64_2d = ti.types.ndarray(dtype=ti.i64, ndim=2)
-f64_1d = ti.types.ndarray(dtype=ti.f64, ndim=1)
-f64_2d = ti.types.ndarray(dtype=ti.f64, ndim=2)
-i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
-u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
-any_1d = ti.types.ndarray(ndim=1)  # compiled per element type (pixels or float coordinates)
-u8_2d = ti.types.ndarray(dtype=ti.u8, ndim=2)
 
 
 def disk(eps, stride):

@@ -12,11 +12,7 @@ import taichi as ti
 
 from . import frame_grids as fg
 from .disk_reads import disk_padding, make_disk_count
-
-u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
-i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
-i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
-u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
+from .arrays import i32_1d, i32_2d, u16_1d, u8_1d
 
 
 @ti.func

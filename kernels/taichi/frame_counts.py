@@ -37,12 +37,8 @@ from . import frame_grids as fg
 from . import slots
 from .disk_reads import annulus_segments, disk_padding, make_direct_count, make_prefix_count
 from .frame_costs import Costs, disk_costs
+from .arrays import i32_1d, i32_2d, u16_1d, u64_1d, u8_1d
 
-u16_1d = ti.types.ndarray(dtype=ti.u16, ndim=1)
-u64_1d = ti.types.ndarray(dtype=ti.u64, ndim=1)
-i32_1d = ti.types.ndarray(dtype=ti.i32, ndim=1)
-i32_2d = ti.types.ndarray(dtype=ti.i32, ndim=2)
-u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 
 #: layouts of a frame (see the module doc)
 SPARSE, FULL, PREFIX = 0, 1, 2
