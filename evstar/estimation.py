@@ -9,8 +9,9 @@
   per-frame mean of a moving star's events is biased by its ON/OFF lobes.
 
 The result has the centroid layout (:data:`evstar.extract.CENTROID_DTYPE`): one row per
-measured frame of a track (its position at the centroid's time) and per coasted frame
-(``source`` "coasted", at the frame's mid-time), plus the unconfirmed centroids as measured.
+measured frame of a track (its position at the centroid's time; ``source`` "pooled" where
+the centroid pooled several frames, evstar.pooling) and per coasted frame (``source``
+"coasted", at the frame's mid-time), plus the unconfirmed frame centroids as measured.
 """
 from __future__ import annotations
 
@@ -82,11 +83,14 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     (width, height) are dropped: there is no star to report there."""
     from .smoothing import TrackSmoother
 
+    # a pooled centroid no track took is noise that once pooled into a cluster (evstar.pooling)
+    centroids = centroids[(centroids["track"] >= 0) | (centroids["source"] != "pooled")]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
     out = centroids.copy()
-    out["sigma"], out["source"] = sigma, "measured"
+    out["sigma"] = sigma
+    out["source"] = np.where(out["source"] == "pooled", "pooled", "measured")
     if e.estimator == "mean" or not (centroids["track"] >= 0).any():
         return out
     est = smoother.smooth(centroids, t0_us, velocity_prior, sigma)
@@ -114,6 +118,6 @@ def _merge(unconfirmed, measured, est):
     for f in ("t", "x", "y", "track", "frame"):
         rows[f] = est[f]
     rows["sigma"] = np.sqrt((est["sigma_x"] ** 2 + est["sigma_y"] ** 2) / 2)
-    rows["source"] = est["source"]
+    rows["source"] = np.where(rows["source"] == "pooled", "pooled", est["source"])
     out = np.concatenate([unconfirmed, rows])
     return out[np.lexsort((out["x"], out["t"]))]

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.cluster import DBSCAN
 
-from . import backends, parameters as P, splitting
+from . import backends, lobes, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import check_dt, frame_bounds
@@ -21,13 +21,14 @@ from evstar_kernels.taichi.scratch import Scratch
 #: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
 #: edge), split (separated from a DBSCAN cluster that held two targets); sigma: per-axis
 #: uncertainty in px (NaN until an estimator sets it); source: "measured" (this frame's
-#: events) or "coasted" (a frame of a track without a centroid, from the track's motion)
+#: events), "pooled" (events of several frames: a faint star, evstar.pooling) or "coasted"
+#: (a frame of a track without a centroid, from the track's motion)
 CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "<i8"),
                            ("n_events", "<i4"), ("frame", "<i8"), ("spread", "<f8"),
                            ("border", "?"), ("split", "?"), ("sigma", "<f8"), ("source", "<U8")])
 E = P.EXTRACT
 WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
-SOURCES = ("measured", "coasted")   # values of the `source` field (HDF5 stores their index)
+SOURCES = ("measured", "coasted", "pooled")   # values of the `source` field (HDF5 stores their index)
 # frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
 _FRAME_GAP = 1e6
 # the grid kernels' planes, kept zeroed between calls (the pipeline makes an Extractor per
@@ -48,6 +49,8 @@ class Extractor:
     single smeared streak has a flat profile and halves as wide as their separation allows,
     and a moving star's leading ON and trailing OFF lobes differ in polarity, so both stay
     whole. None disables the check.
+    lobe_gap_px: an ON-only and an OFF-only cluster of one frame closer than this are a
+    slow star's two lobes and are joined (evstar.lobes); None never joins.
     clustering: "grid" (Taichi kernels on `device`: grid DBSCAN, per-cluster moments and a
     screen that leaves the split test only the clusters that may hold two peaks) or
     "sklearn" (scikit-learn's DBSCAN on the same weighted cells: the reference). Both give
@@ -57,7 +60,8 @@ class Extractor:
     def __init__(self, dt_us=P.GLOBAL["dt_us"].default, eps=E["eps"].default,
                  min_samples=E["min_samples"].default, min_cluster_size=None,
                  weighting=E["weighting"].default, time_ref=E["time_ref"].default,
-                 split_valley=E["split_valley"].default, t_origin_us=None,
+                 split_valley=E["split_valley"].default,
+                 lobe_gap_px=E["lobe_gap_px"].default, t_origin_us=None,
                  clustering=E["clustering"].default, device=P.GLOBAL["device"].default):
         self.dt_us = check_dt(dt_us)
         self.eps = float(E.check("eps", eps))
@@ -66,6 +70,7 @@ class Extractor:
         self.weighting = E.check("weighting", weighting)
         self.time_ref = E.check("time_ref", time_ref)
         self.split_valley = E.check("split_valley", split_valley)
+        self.lobe_gap_px = E.check("lobe_gap_px", lobe_gap_px)
         self.t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
         self.clustering = E.check("clustering", clustering)
         self.device = P.GLOBAL.check("device", device)
@@ -132,6 +137,8 @@ class Extractor:
             return np.zeros(0, CENTROID_DTYPE)
         frame_t0 = c.t0 + np.arange(c.f0, c.f0 + len(c.offsets) - 1, dtype=np.int64) * self.dt_us
         m = self._moments(events, c, frame_t0, k)
+        if self.lobe_gap_px is not None:
+            m, k = self._join_lobes(c, m)
         if self.weighting == "pixels" and xy is not None:  # distinct float positions
             m["cells"], m["cx"], m["cy"] = _distinct_positions(c.labels, c.coords, k)
         out = self._table(m, c.frame, frame_t0[c.frame - c.f0], c.t0, events)
@@ -146,6 +153,14 @@ class Extractor:
                                                     by_polarity)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))]
+
+    def _join_lobes(self, c, m):
+        """A slow star's ON-only and OFF-only clusters joined into one (evstar.lobes):
+        moments, c.labels and c.frame updated; (moments, number of clusters)."""
+        a, b = lobes.pairs(c.frame, m["n"], m["sx"], m["sy"], self.lobe_gap_px)
+        if len(a):
+            m, c.frame, c.labels = lobes.join(m, c.frame, c.labels, a, b)
+        return m, len(c.frame)
 
     def _moments(self, events, c, frame_t0, k):
         if self.clustering == "grid":

@@ -65,6 +65,7 @@ class Pipeline:
         """Compensated coordinates are positions at the frame mid-time, so their centroids
         carry that time whatever extract.time_ref says."""
         params = {**asdict(self.config.extract), **({"time_ref": "mid"} if compensated else {})}
+        params.pop("pool_frames")       # the pipeline's second look (evstar.pooling)
         return Extractor(dt_us=self.config.dt_us, t_origin_us=t0_us, device=self.config.device,
                          **params)
 
@@ -138,9 +139,26 @@ class Pipeline:
         keep[kept] = True
         if state is not None:
             t = time.perf_counter()
+            cents = self._with_pooled(cents, events, keep, state, t0_us, rate)
+            timings["extract"] += time.perf_counter() - t
+            t = time.perf_counter()
             state.add_crossings(events, keep)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
+
+    def _with_pooled(self, cents, events, keep, state, t0_us, rate):
+        """The frame centroids and the pooled ones of the events the filter rejected
+        (evstar.pooling; hot pixels' events left out), in time order."""
+        from .pooling import pooled_centroids
+
+        rejected = ~keep
+        if state.hot is not None:
+            rejected &= ~state.hot[events.y, events.x]
+        pooled = pooled_centroids(self.config, events, rejected, t0_us, rate, cents)
+        if not len(pooled):
+            return cents
+        out = np.concatenate([cents, pooled])
+        return out[np.lexsort((out["x"], out["t"]))]
 
     # -- whole recordings in memory -----------------------------------------------------
     def run(self, events, imu=None, camera=None, truth=None):

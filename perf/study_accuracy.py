@@ -7,11 +7,16 @@ over the centroids) and "crossings" (the smoother also fed with pixel-crossing t
 compared with the simulator's truth at each row's own time.
 
 The grid has a development part (looked at while the estimators were written: the paper's
-camera, PSF σ 1 px, default sensor, rates 2/8/20 °/s, magnitudes 3 and 5, seed 1) and a
-held-out part (never looked at before this table was made: other rates, magnitudes 2 and 4,
-PSF σ 0.8, 1.2 and 1.5 px, the dark-sky sensor with its photoreceptor low-pass, the 10°/1 Hz
-sinusoid, IMU compensation, seed 7). The pixel-lag fit was written on two more development
-scenes (dark-sky sinusoid with IMU, magnitudes 3 and 5, seed 4).
+camera, PSF σ 1 px, default sensor, rates 2/8/20 °/s, magnitudes 3 and 5, seed 1), a
+held-out part (other rates, magnitudes 2 and 4, PSF σ 0.8, 1.2 and 1.5 px, the dark-sky
+sensor with its photoreceptor low-pass, the 10°/1 Hz sinusoid, IMU compensation, seed 7:
+held out until the sixth session, whose lobe joining and pooled second look were written
+after seeing its slow wide-PSF and faint rows) and a fresh part (rates 3/6/16 °/s,
+magnitudes 3.5 and 4.5, PSF σ 1.2, mismatched thresholds with twice the noise, a faster
+dark-sky photoreceptor, seed 11: run once, when the sixth session ended). The pixel-lag fit
+was written on two more development scenes (dark-sky sinusoid with IMU, magnitudes 3 and 5,
+seed 4). Dark-sky rows also show the crossings estimator with the lag `evstar calibrate`
+measured on a separate calibration recording of the same sensor (evstar.calibration).
 
     python perf/study_accuracy.py [--quick]
 
@@ -33,6 +38,14 @@ from evstar import Config, Pipeline, accuracy, estimation, sim
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 ESTIMATORS = ("mean", "track", "crossings")
+#: sensor settings of the grid: evstar.sim.sensor_model names and two variants
+SENSORS = {"default": lambda: sim.sensor_model("default"),
+           "dark-sky": lambda: sim.sensor_model("dark-sky"),
+           # mismatched ON/OFF thresholds, twice the background, more timestamp jitter
+           "asym": lambda: sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15,
+                                            noise_hz=3.0, jitter_us=50.0),
+           # a dark sky with a photoreceptor twice as fast at the background level
+           "dark-sky-60": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=60.0)}
 
 
 def dev_grid():
@@ -54,8 +67,24 @@ def held_out_grid(quick):
         yield dict(set="held-out", motion="sine", mag=mag, psf=psf, sensor="dark-sky", comp="imu", seed=7)
 
 
+def fresh_grid():
+    """Settings no estimator was written on: run once, at the end of the session that made
+    them (seed 11)."""
+    for rate, mag in itertools.product((3, 6, 16), (3.5, 4.5)):
+        yield dict(set="fresh", motion=rate, mag=mag, psf=1.2, sensor="default", comp="none", seed=11)
+    for rate in (3, 16):
+        yield dict(set="fresh", motion=rate, mag=3.5, psf=1.0, sensor="asym", comp="none", seed=11)
+    for rate, mag in ((6, 3.5), (16, 4.5)):
+        yield dict(set="fresh", motion=rate, mag=mag, psf=1.0, sensor="dark-sky-60", comp="none",
+                   seed=11)
+    yield dict(set="fresh", motion=6, mag=4.5, psf=1.0, sensor="default", comp="imu", seed=11)
+    yield dict(set="fresh", motion="sine", mag=3.5, psf=1.0, sensor="asym", comp="imu", seed=11)
+    yield dict(set="fresh", motion="sine", mag=4.5, psf=1.2, sensor="dark-sky-60", comp="imu",
+               seed=11)
+
+
 def scenario(s):
-    sensor = sim.sensor_model(s["sensor"])
+    sensor = SENSORS[s["sensor"]]()
     if s["motion"] == "sine":
         return sim.paper_sinusoid(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"])
     return sim.paper_preset(float(s["motion"]), magnitude=s["mag"], sensor=sensor,
@@ -86,24 +115,44 @@ def run_scene(s):
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
-    for name in ESTIMATORS:
+    for name in ESTIMATORS + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         c = cfg.replace(**{"estimate.estimator": name})
+        if name == "calibrated":   # crossings, moved back by a calibration recording's lag
+            c = cfg.replace(**{"estimate.estimator": "crossings",
+                               "estimate.pixel_lag_file": lag_file(s["sensor"], s["psf"])})
         rows = estimation.estimate(linked, c, t0, crossings, prior, (t0, int(ev.t[-1])),
                                    (ev.width, ev.height))
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 
 
+def lag_file(sensor, psf, _done={}):
+    """`evstar calibrate`'s file for this sensor and PSF, from its own recording (a star field
+    on a 10°/0.5 Hz sinusoid with IMU, seed 100: not a scene of the grid); made once."""
+    if (sensor, psf) not in _done:
+        from study_calibration import calibration_run
+
+        from evstar.calibration import calibrate
+
+        cal = calibration_run(SENSORS[sensor](), psf, seed=100)
+        path = RESULTS / f".lag_{sensor}_{psf:g}.json"
+        calibrate(cal.events, cal.imu, cal.camera).save(str(path))
+        _done[(sensor, psf)] = str(path)
+    return _done[(sensor, psf)]
+
+
 def markdown(rows):
     head = ("| set | motion | mag | PSF σ | sensor | comp | ev/frame | bound px | "
             + " | ".join(f"{e} mean / max / frames / false" for e in ESTIMATORS) + " |")
-    lines = [head, "|" + "---|" * (8 + len(ESTIMATORS))]
+    head += " crossings + lag file (dark sky) |"
+    lines = [head, "|" + "---|" * (9 + len(ESTIMATORS))]
     for r in rows:
         cells = [r["set"], str(r["motion"]), str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
                  f"{r['events_per_frame']:.0f}", f"{r['bound_px']:.3f}"]
-        for e in ESTIMATORS:
-            m = r[e]
-            cells.append(f"{m['mean']:.3f} / {m['max']:.2f} / {100 * m['frames']:.0f} % / "
+        for e in ESTIMATORS + ("calibrated",):
+            m = r.get(e)
+            cells.append("—" if m is None else
+                         f"{m['mean']:.3f} / {m['max']:.2f} / {100 * m['frames']:.0f} % / "
                          f"{m['false_per_100']:.1f}")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -119,11 +168,14 @@ def plot(rows, path):
 
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.add_subplot()
-    for name, colour in zip(ESTIMATORS, ("tab:grey", "tab:blue", "tab:red")):
-        for part, fill in (("dev", colour), ("held-out", "none")):
-            sel = [r for r in rows if r["set"] == part and np.isfinite(r[name]["mean"])]
+    for name, colour in zip(ESTIMATORS + ("calibrated",),
+                            ("tab:grey", "tab:blue", "tab:red", "tab:green")):
+        for part, fill in (("dev", colour), ("held-out", "none"), ("fresh", "none")):
+            sel = [r for r in rows if r["set"] == part and name in r
+                   and np.isfinite(r[name]["mean"])]
             ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
-                       facecolors=fill, edgecolors=colour, label=f"{name} ({part})")
+                       facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
+                       marker="^" if part == "fresh" else "o")
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
@@ -141,7 +193,8 @@ def main(argv=None):
     if args.plot_only:
         plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
         return
-    rows = [run_scene(s) for s in itertools.chain(dev_grid(), held_out_grid(args.quick))]
+    rows = [run_scene(s) for s in itertools.chain(dev_grid(), held_out_grid(args.quick),
+                                                  fresh_grid())]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "study_accuracy.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / "study_accuracy.md").write_text("# Star-position accuracy by estimator\n\n"

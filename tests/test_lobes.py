@@ -1,0 +1,68 @@
+"""A slow star's ON-only and OFF-only clusters joined into one target (evstar.lobes)."""
+import numpy as np
+import pytest
+
+from evstar import Events
+from evstar.errors import ParameterError
+from evstar.extract import Extractor
+
+
+def lobes_scene(centre=(60.0, 40.0), gap=5.5, n=12, frames=5, sigma=0.6, seed=0, lone_on=None):
+    """Per 10 ms frame: an ON blob gap/2 ahead of `centre` (+x) and an OFF blob gap/2 behind
+    (a slow star's two lobes); lone_on: (x, y) of a further ON-only blob (another target)."""
+    rng = np.random.default_rng(seed)
+    parts = []
+    blobs = [(centre[0] + gap / 2, centre[1], 1), (centre[0] - gap / 2, centre[1], 0)]
+    if lone_on is not None:
+        blobs.append((*lone_on, 1))
+    for f in range(frames):
+        for x, y, p in blobs:
+            t = f * 10_000 + rng.integers(0, 10_000, n)
+            parts.append(np.column_stack([t, np.round(x + rng.normal(0, sigma, n)),
+                                          np.round(y + rng.normal(0, sigma, n)), np.full(n, p)]))
+    a = np.concatenate(parts).astype(np.int64)
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    return Events(a[:, 0], a[:, 1], a[:, 2], a[:, 3], 120, 80)
+
+
+@pytest.mark.parametrize("clustering", ["grid", "sklearn"])
+def test_two_lobes_become_one_centroid_at_the_star(clustering):
+    ev = lobes_scene()
+    apart = Extractor(lobe_gap_px=None, clustering=clustering).centroids(ev)
+    joined = Extractor(clustering=clustering).centroids(ev)
+    assert len(apart) == 10                               # two lobes per frame
+    assert len(joined) == 5 and joined["n_events"].sum() == 120   # every event in a star
+    assert np.all(np.abs(joined["x"] - 60.0) < 0.5) and np.all(np.abs(joined["y"] - 40.0) < 0.5)
+    assert np.all(joined["spread"] > 2.5)                 # both lobes' events are in it
+
+
+def test_lobes_farther_than_the_gap_stay_apart():
+    ev = lobes_scene(gap=10.0)
+    assert len(Extractor(lobe_gap_px=8.0).centroids(ev)) == 10
+    assert len(Extractor(lobe_gap_px=12.0).centroids(ev)) == 5
+
+
+def test_a_lobe_pairs_only_with_its_mutual_nearest_opposite():
+    # a second ON-only target beyond the star's ON lobe: the OFF lobe pairs with the nearer
+    ev = lobes_scene(lone_on=(71.0, 40.0))
+    c = Extractor().centroids(ev)
+    assert len(c) == 10
+    star = c[np.abs(c["x"] - 60.0) < 1.0]
+    assert len(star) == 5 and np.all(star["n_events"] >= 20)
+
+
+def test_mixed_polarity_clusters_are_never_joined():
+    rng = np.random.default_rng(3)
+    n = 40
+    t = np.sort(rng.integers(0, 10_000, 2 * n))
+    x = np.r_[np.round(30 + rng.normal(0, 0.6, n)), np.round(36 + rng.normal(0, 0.6, n))]
+    y = np.round(20 + rng.normal(0, 0.6, 2 * n))
+    p = rng.integers(0, 2, 2 * n)                          # both clusters mixed
+    ev = Events(t, x, y, p, 60, 40, sort=True)
+    assert len(Extractor().centroids(ev)) == 2
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, "wide"])
+def test_bad_lobe_gap_is_rejected_by_name(bad):
+    with pytest.raises(ParameterError, match="lobe_gap_px"):
+        Extractor(lobe_gap_px=bad)
