@@ -245,7 +245,8 @@ TRACK = Params(
           open_low=True, unit="px"),
     Param("init_gate_px", float, 40.0, "largest jump between a track's first two centroids",
           low=0, open_low=True, unit="px"),
-    Param("max_gap", int, 3, "frames a track survives without a centroid", low=0, high=10**6),
+    Param("max_gap", int, 3, "frames a track survives without a centroid (the pipeline "
+          "raises it to 2·extract.pool_frames − 1 for pooled centroids)", low=0, high=10**6),
     Param("min_length", int, 3, "centroids a track needs to be confirmed", low=1, high=10**6),
 )
 

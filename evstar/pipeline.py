@@ -70,7 +70,12 @@ class Pipeline:
                          **params)
 
     def make_tracker(self):
-        return Tracker(**asdict(self.config.track))
+        """A faint star's pooled centroids (evstar.pooling) can come up to 2·pool_frames − 1
+        frames apart: its track survives that long without a centroid."""
+        params = asdict(self.config.track)
+        pooled_gap = 2 * self.config.extract.pool_frames - 1 if self.config.extract.pool_frames > 1 else 0
+        params["max_gap"] = max(params["max_gap"], pooled_gap)
+        return Tracker(**params)
 
     def calibration_rate(self, events, t0_us):
         """Background rate (events/pixel/s) of the first chunk_frames frames."""

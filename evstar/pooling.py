@@ -2,24 +2,25 @@
 
 A star that gives a few events per frame passes neither the density filter's per-frame
 thresholds nor DBSCAN's min_samples in most frames, though its events are there. All events
-are filtered again in frames ``extract.pool_frames`` times as long (thresholds for that
-length: the noise per frame grows k-fold, but so does the star's count, and a slow star
-stays compact), and those the frame filter had dropped but this one keeps are clustered in
-the long frames. A pooled centroid's ``t`` is its members' mean
-time (where a linearly moving star was at its position), its ``frame`` the frame of that
-time and its ``source`` "pooled". One within ``track.gate_px`` of a frame centroid of the
-same long frame is dropped (that star was seen there already); the tracker links the rest
-with the frame centroids, and the estimator drops pooled centroids no track took (noise
-that once pooled into a cluster).
+are filtered again (NDSEF at ``denoise.radius``, whatever the frame filter) in frames
+``extract.pool_frames`` (k) times as long (its threshold for that length: the noise per
+frame grows k-fold, but so does the star's count, and a slow star stays compact), and those the frame filter had dropped but this one keeps are clustered in
+the long frames; a cluster needs k - 1 times the frame clusters' smallest size. A pooled
+centroid's ``t`` is its members' mean time (where a linearly moving star was at its
+position), its ``frame`` the frame of that time and its ``source`` "pooled". One within
+``track.gate_px`` of a frame centroid of its own frame is dropped (the tracker would see two
+candidates for one star); the tracker links the rest with the frame centroids, and the
+estimator drops pooled centroids no track took (noise that once pooled into a cluster).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
-from .parameters import MAX_DT_US
+from .parameters import AUTO, MAX_DT_US
 
-# long frames are kept apart in one nearest-neighbour search by a coordinate this far apart
+# frames are kept apart in one nearest-neighbour search by a coordinate this far apart
 _FRAME_GAP = 1e6
 
 
@@ -32,27 +33,38 @@ def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
     k = config.extract.pool_frames
     if k <= 1 or config.dt_us * k > MAX_DT_US or not rejected.any():
         return np.zeros(0, CENTROID_DTYPE)
-    long = Pipeline(config.replace(dt_us=config.dt_us * k))
-    flt = long.make_filter(t0_us, rate_hz)
-    if flt is not None:  # the density of all events (a faint star's kept ones too) decides
-        rejected = rejected & flt.apply(events)
+    e = config.extract
+    # a pooled cluster must hold (k - 1) frames' worth of the smallest cluster: a weaker one
+    # is as often a noise clump (or a bright star's stray flank) as a faint star
+    min_size = (k - 1) * (e.min_cluster_size or e.min_samples)
+    long = Pipeline(config.replace(dt_us=config.dt_us * k,
+                                   **{"extract.min_cluster_size": min_size}))
+    d = config.denoise
+    # one density test, NDSEF at denoise.radius with its threshold for the long frame (a
+    # third of MR-NDSEF's cost, as good here); all events' density (a faint star's kept ones
+    # too) decides which of the rejected ones it keeps
+    flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
+                rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
+                device=config.device)
+    rejected = rejected & flt.apply(events)
     if not rejected.any():
         return np.zeros(0, CENTROID_DTYPE)
     cents = long.make_extractor(t0_us).centroids(events[rejected])
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
     cents["source"] = "pooled"
-    return cents
+    return cents[~_seen(cents, frame_centroids, config.track.gate_px)]
 
 
-def _seen(pooled, frame_centroids, k, radius):
-    """Per pooled centroid (its frame counted in long frames): whether a frame centroid of
-    the same long frame lies within `radius`."""
+def _seen(pooled, frame_centroids, radius):
+    """Per pooled centroid: whether a frame centroid of its own frame lies within `radius`
+    (the tracker would have two candidates for one star there)."""
     from scipy.spatial import cKDTree
 
     if not len(pooled) or not len(frame_centroids):
         return np.zeros(len(pooled), bool)
-    def pts(c, long_frame):
-        return np.column_stack([c["x"], c["y"], long_frame * _FRAME_GAP])
-    tree = cKDTree(pts(frame_centroids, frame_centroids["frame"] // k))
-    d, _ = tree.query(pts(pooled, pooled["frame"]), distance_upper_bound=radius)
+
+    def pts(c):
+        return np.column_stack([c["x"], c["y"], c["frame"] * _FRAME_GAP])
+
+    d, _ = cKDTree(pts(frame_centroids)).query(pts(pooled), distance_upper_bound=radius)
     return np.isfinite(d)

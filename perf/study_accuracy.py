@@ -116,10 +116,11 @@ def run_scene(s):
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
     for name in ESTIMATORS + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
-        c = cfg.replace(**{"estimate.estimator": name})
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
                                "estimate.pixel_lag_file": lag_file(s["sensor"], s["psf"])})
+        else:
+            c = cfg.replace(**{"estimate.estimator": name})
         rows = estimation.estimate(linked, c, t0, crossings, prior, (t0, int(ev.t[-1])),
                                    (ev.width, ev.height))
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)

@@ -33,14 +33,14 @@ def test_pooling_gives_a_faint_slow_star_a_position_in_far_more_frames():
     assert err < 0.4
 
 
-def test_a_pooled_centroid_where_a_frame_centroid_saw_the_star_is_dropped():
+def test_a_pooled_centroid_in_a_frame_where_a_frame_centroid_saw_the_star_is_dropped():
     frame = np.zeros(2, CENTROID_DTYPE)
     frame["x"], frame["y"], frame["frame"] = (10.0, 50.0), (10.0, 10.0), (5, 9)
     pooled = np.zeros(3, CENTROID_DTYPE)
-    # long frames of 4: the first is seen (frame 5 -> long frame 1, 2 px away), the second is
-    # far from both, the third is near the star of frame 9 but in another long frame (3)
-    pooled["x"], pooled["y"], pooled["frame"] = (12.0, 30.0, 50.0), (10.0, 10.0, 10.0), (1, 1, 3)
-    assert _seen(pooled, frame, 4, 6.0).tolist() == [True, False, False]
+    # the first shares frame 5 with a frame centroid 2 px away; the second is far from both;
+    # the third is near the star of frame 9 but in frame 8
+    pooled["x"], pooled["y"], pooled["frame"] = (12.0, 30.0, 50.0), (10.0, 10.0, 10.0), (5, 5, 8)
+    assert _seen(pooled, frame, 6.0).tolist() == [True, False, False]
 
 
 def test_unlinked_pooled_centroids_are_dropped_by_the_estimator():
