@@ -271,3 +271,14 @@ def test_the_pipeline_gives_the_positions_of_the_filterpy_reference(monkeypatch)
 def test_the_engine_is_checked_by_name():
     with pytest.raises(ValueError, match="engine"):
         TrackSmoother(DT, engine="scipy")
+
+
+def test_one_level_crossings_are_left_out_only_when_enough_others_remain():
+    from evstar.smoothing import MIN_CROSSINGS, _multi_level
+
+    pairs = np.array([1, 2, 1, 3] * MIN_CROSSINGS)
+    mine = np.arange(len(pairs))
+    kept = _multi_level(mine, pairs)
+    assert len(kept) == 2 * MIN_CROSSINGS and np.all(pairs[kept] >= 2)
+    few = mine[:MIN_CROSSINGS]                      # only half of them have two levels
+    assert np.array_equal(_multi_level(few, pairs), few)
