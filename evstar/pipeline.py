@@ -373,13 +373,12 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        pixel = events.y.astype(np.int64) * events.width + events.x
+        pixel = events.y.astype(np.int32) * np.int32(events.width) + events.x
         size = self.before.size
         self.before += np.bincount(pixel, minlength=size).reshape(self.before.shape)
         self.after += np.bincount(pixel[keep], minlength=size).reshape(self.after.shape)
-        frames = (events.t - self.t0) // self.dt_us
         series = {"before": None, "after": keep}                 # None: every event
-        new = {"kept": int(keep.sum())}
+        new = {"kept": int(np.count_nonzero(keep))}
         if truth is not None:
             if offset + len(events) > len(truth.labels):
                 raise DataError(f"the truth labels {len(truth.labels):,} events but the recording "
@@ -390,10 +389,14 @@ class _Summary:
             new.update(signal=int(sig.sum()), noise=int((~sig).sum()),
                        signal_kept=int((sig & keep).sum()), noise_kept=int((~sig & keep).sum()))
         _add(self.stats, new)
-        if len(frames):
-            lo, n = int(frames[0]), int(frames[-1] - frames[0]) + 1
+        if len(events):
+            # events are time-sorted: a frame's events are one run, found by its bounds
+            lo = (int(events.t[0]) - self.t0) // self.dt_us
+            n = (int(events.t[-1]) - self.t0) // self.dt_us - lo + 1
+            bounds = np.searchsorted(events.t, self.t0 + (lo + np.arange(n + 1)) * self.dt_us)
             for name, m in series.items():
-                counts = np.bincount((frames if m is None else frames[m]) - lo, minlength=n)
+                counts = np.diff(bounds) if m is None else \
+                    np.diff(np.r_[0, np.cumsum(m, dtype=np.int64)][bounds])
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):
