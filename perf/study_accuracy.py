@@ -31,6 +31,7 @@ import argparse
 import itertools
 import json
 import pathlib
+import tempfile
 
 import numpy as np
 
@@ -136,7 +137,7 @@ def lag_file(sensor, psf, _done={}):
         from evstar.calibration import calibrate
 
         cal = calibration_run(SENSORS[sensor](), psf, seed=100)
-        path = RESULTS / f".lag_{sensor}_{psf:g}.json"
+        path = pathlib.Path(tempfile.gettempdir()) / f"evstar-study-lag_{sensor}_{psf:g}.json"
         calibrate(cal.events, cal.imu, cal.camera).save(str(path))
         _done[(sensor, psf)] = str(path)
     return _done[(sensor, psf)]
