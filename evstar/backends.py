@@ -106,6 +106,12 @@ def _short_taichi_source_info():
     ctx.get_pos_info = get_pos_info
 
 
+def taichi_running():
+    """The taichi module on the arch this process started it on (the CPU if not started yet):
+    for small kernels that follow the run's other stages wherever they are."""
+    return taichi(_taichi_arch or "cpu")
+
+
 def warp(device="cpu"):
     """Initialise Warp and return (warp module, device string) after checking the device exists."""
     global _warp_ready

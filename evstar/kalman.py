@@ -51,6 +51,16 @@ def cv_rts(problems):
     return out
 
 
+def cv_rts_taichi(problems):
+    """:func:`cv_rts` as a Taichi kernel, a thread per track (evstar_kernels.taichi.kalman;
+    this module is its specification), on the arch Taichi runs on in this process."""
+    from evstar_kernels.taichi import kalman_launch
+
+    from .backends import taichi_running
+
+    return kalman_launch.cv_rts(taichi_running(), problems, DIFFUSE)
+
+
 def cv_rts_filterpy(problems):
     """The reference: :func:`cv_rts` through filterpy, one problem and step at a time."""
     return [_filterpy_one(p) for p in problems]
@@ -175,6 +185,16 @@ def innovation_loglik(tracks, q_grid):
         for i, ll in zip(group, _loglik_batch([tracks[i] for i in group], q_grid)):
             out[i] = ll
     return out
+
+
+def innovation_loglik_taichi(tracks, q_grid):
+    """:func:`innovation_loglik` as a Taichi kernel, a thread per track and q."""
+    from evstar_kernels.taichi import kalman_launch
+
+    from .backends import taichi_running
+
+    return kalman_launch.innovation_loglik(taichi_running(), tracks, np.asarray(q_grid, float),
+                                           V0_VAR, HUBER_C)
 
 
 def innovation_loglik_one(ts, z, sigma, q_grid):

@@ -428,9 +428,9 @@ ATTITUDE_FILTER = Params(
 #: how the track smoother computes (never what): not part of Config
 SMOOTHER = Params(
     "smoother",
-    Param("engine", str, "numpy", "track smoother's Kalman filter: numpy, all tracks at once, "
-          "or filterpy, one track and step at a time (the reference; slow)",
-          choices=("numpy", "filterpy")),
+    Param("engine", str, "taichi", "track smoother's Kalman filter: a Taichi kernel, a thread "
+          "per track; numpy, all tracks at once (the kernel's specification); or filterpy, one "
+          "track and step at a time (the reference; slow)", choices=("taichi", "numpy", "filterpy")),
 )
 
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,

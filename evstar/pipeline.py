@@ -131,8 +131,10 @@ class Pipeline:
         else:
             keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
         whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
-        if state is not None and state.hot is not None:  # a hot pixel's events are no star's
-            keep_f &= ~state.hot[(events.y, events.x) if whole else (events.y[idx], events.x[idx])]
+        hot = None                          # per event: on a hot pixel (no star's)
+        if state is not None and state.hot is not None:
+            hot = state.hot[events.y, events.x]
+            keep_f &= ~(hot if whole else hot[idx])
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
         kept = np.flatnonzero(keep_f) if whole else idx[keep_f]
@@ -144,22 +146,20 @@ class Pipeline:
         keep[kept] = True
         if state is not None:
             t = time.perf_counter()
-            cents = self._with_pooled(cents, events, keep, state, t0_us, rate)
+            cents = self._with_pooled(cents, events, keep if hot is None else keep | hot,
+                                      t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
             state.add_crossings(events, keep)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
-    def _with_pooled(self, cents, events, keep, state, t0_us, rate):
-        """The frame centroids and the pooled ones of the events the filter rejected
-        (evstar.pooling; hot pixels' events left out), in time order."""
+    def _with_pooled(self, cents, events, used, t0_us, rate):
+        """The frame centroids and the pooled ones of the events neither kept nor on a hot
+        pixel (`used`: those that are; evstar.pooling), in time order."""
         from .pooling import pooled_centroids
 
-        rejected = ~keep
-        if state.hot is not None:
-            rejected &= ~state.hot[events.y, events.x]
-        pooled = pooled_centroids(self.config, events, rejected, t0_us, rate, cents)
+        pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents)
         if not len(pooled):
             return cents
         out = np.concatenate([cents, pooled])

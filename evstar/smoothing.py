@@ -5,8 +5,9 @@ pooled by a motion model, can. Per confirmed track (``track >= 0``) this runs, i
 continuous time (the centroids' own timestamps, irregular where frames are missed), a
 constant-velocity model per image axis — state (position, velocity), process noise white
 acceleration of spectral density q (px²/s³) — through a Kalman filter and its
-Rauch–Tung–Striebel smoother (:mod:`evstar.kalman`: all tracks at once; filterpy's, one
-step at a time, is the reference, ``engine="filterpy"``).
+Rauch–Tung–Striebel smoother (:mod:`evstar.kalman`: a Taichi kernel, a thread per track,
+by default; its numpy specification steps all tracks at once, ``engine="numpy"``;
+filterpy's, one step at a time, is the reference, ``engine="filterpy"``).
 
 * q is estimated per track from the data (``process_noise="auto"``): the value on a log
   grid that maximises the likelihood of the track's innovation sequence (the filter is run
@@ -54,6 +55,7 @@ MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the 
 LAG_MAX_SE_S = 0.2e-3                  # s: a pixel lag fitted less precisely is not applied
 #: per engine: (smoothed states of CVProblems, innovation log-likelihoods of tracks)
 _ENGINES = {
+    "taichi": (kalman.cv_rts_taichi, kalman.innovation_loglik_taichi),
     "numpy": (kalman.cv_rts, kalman.innovation_loglik),
     "filterpy": (kalman.cv_rts_filterpy,
                  lambda tracks, grid: [kalman.innovation_loglik_one(*t, grid) for t in tracks]),

@@ -76,3 +76,49 @@ def test_tracks_split_into_several_batches_come_out_the_same(problems, monkeypat
     assert len(kalman._groups([len(p.ts) for p in problems])) > 3
     for (x, P), (xs, Ps) in zip(kalman.cv_rts(problems), whole):
         assert np.array_equal(x, xs) and np.array_equal(P, Ps)
+
+
+# -- the Taichi kernels against their numpy specification ---------------------------------
+def test_taichi_filter_and_smoother_equal_the_numpy_batch(problems):
+    """Not bit for bit (the kernel's 4×4 inverse is Gauss–Jordan, numpy's LAPACK's LU), but
+    positions to 1e-7 px, and velocities and covariances wherever the state is known: the
+    diffuse first steps (variance ~1e8) carry the rounding of ill-conditioned sums."""
+    ours, ref = kalman.cv_rts_taichi(problems), kalman.cv_rts(problems)
+    for p, (x, P), (xr, Pr) in zip(problems, ours, ref):
+        assert x.shape == (len(p.ts), 4) and P.shape == (len(p.ts), 4, 4)
+        np.testing.assert_allclose(x[:, [0, 2]], xr[:, [0, 2]], rtol=0, atol=1e-7)      # px
+        known = Pr[:, 1, 1] < 1e4                            # velocity variance (px/s)²
+        np.testing.assert_allclose(x[known][:, [1, 3]], xr[known][:, [1, 3]], rtol=0, atol=1e-3)
+        # a covariance of the first steps is a difference of ~1e8 terms in both
+        pos = np.ix_(np.flatnonzero(known), [0, 2], [0, 2])
+        np.testing.assert_allclose(P[pos], Pr[pos], rtol=0.1)
+        later = np.ix_(np.flatnonzero(known & (np.arange(len(p.ts)) >= 3)), [0, 2], [0, 2])
+        np.testing.assert_allclose(P[later], Pr[later], rtol=1e-6, atol=1e-12)
+
+
+def test_taichi_smoother_follows_a_straight_track_exactly():
+    ts = np.linspace(0, 1, 50)
+    z = np.column_stack([3 + 40 * ts, 7 - 12 * ts])
+    p = kalman.CVProblem(ts, np.ones(50, bool), z, kalman.diagonal_covariances(np.full(50, 0.1)), 0.0)
+    x, _ = kalman.cv_rts_taichi([p])[0]
+    np.testing.assert_allclose(x[:, [0, 2]], z, atol=1e-6)
+    np.testing.assert_allclose(x[:, [1, 3]], np.tile([40.0, -12.0], (50, 1)), atol=1e-5)
+
+
+def test_taichi_launches_split_into_batches_come_out_the_same(problems, monkeypatch):
+    from evstar_kernels.taichi import kalman_launch
+
+    whole = kalman.cv_rts_taichi(problems)
+    monkeypatch.setattr(kalman_launch, "MAX_STEPS", 150)
+    for (x, P), (xs, Ps) in zip(kalman.cv_rts_taichi(problems), whole):
+        assert np.array_equal(x, xs) and np.array_equal(P, Ps)
+
+
+def test_taichi_likelihood_equals_the_per_track_one(problems):
+    rng = np.random.default_rng(4)
+    tracks = [(p.ts[p.measured], p.z, rng.uniform(0.02, 0.5, len(p.z))) for p in problems
+              if p.measured.sum() >= 4]
+    for t, ll in zip(tracks, kalman.innovation_loglik_taichi(tracks, GRID)):
+        ref = kalman.innovation_loglik_one(*t, GRID)
+        np.testing.assert_allclose(ll, ref, rtol=1e-9)
+        assert np.argmax(ll) == np.argmax(ref)

@@ -1,0 +1,181 @@
+"""Taichi kernels of the constant-velocity Kalman filter + RTS smoother and of its innovation
+likelihood: one thread per track (per track and q for the likelihood). A track's steps are
+sequential, tracks are not; the numpy batch steps every track together through Python, one
+step at a time, which costs ~15 array operations per step whatever the track count.
+
+Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
+(x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
+update, the diffuse start about the first position. Tracks are concatenated: track i holds
+steps start[i] .. start[i + 1] − 1 of the flat arrays.
+"""
+import taichi as ti
+
+from .arrays import f64_1d, f64_2d, f64_3d, i32_1d, i64_1d
+
+mat4 = ti.types.matrix(4, 4, ti.f64)
+mat42 = ti.types.matrix(4, 2, ti.f64)
+mat2 = ti.types.matrix(2, 2, ti.f64)
+vec4 = ti.types.vector(4, ti.f64)
+vec2 = ti.types.vector(2, ti.f64)
+
+
+@ti.func
+def _transition(h: ti.f64, q: ti.f64):
+    F = ti.Matrix.identity(ti.f64, 4)
+    F[0, 1] = h
+    F[2, 3] = h
+    Q = mat4(0.0)
+    for a in ti.static((0, 2)):
+        Q[a, a] = q * (h ** 3 / 3)
+        Q[a, a + 1] = q * (h ** 2 / 2)
+        Q[a + 1, a] = q * (h ** 2 / 2)
+        Q[a + 1, a + 1] = q * h
+    return F, Q
+
+
+@ti.func
+def _inv4(A: mat4) -> mat4:
+    """A⁻¹ by Gauss–Jordan elimination with partial pivoting (as LAPACK's LU, which numpy's
+    inv uses: the cofactor formula loses digits on the filter's diffuse first steps, where
+    entries span 12 orders of magnitude)."""
+    M = A
+    X = ti.Matrix.identity(ti.f64, 4)
+    for c in ti.static(range(4)):
+        piv = c
+        big = ti.abs(M[c, c])
+        for r in ti.static(range(c + 1, 4)):
+            if ti.abs(M[r, c]) > big:
+                big = ti.abs(M[r, c])
+                piv = r
+        if piv != c:
+            for j in ti.static(range(4)):
+                for r in ti.static(range(c + 1, 4)):
+                    if r == piv:
+                        M[c, j], M[r, j] = M[r, j], M[c, j]
+                        X[c, j], X[r, j] = X[r, j], X[c, j]
+        d = M[c, c]
+        for j in ti.static(range(4)):
+            M[c, j] /= d
+            X[c, j] /= d
+        for r in ti.static(range(4)):
+            if r != c:
+                f = M[r, c]
+                for j in ti.static(range(4)):
+                    M[r, j] -= f * M[c, j]
+                    X[r, j] -= f * X[c, j]
+    return X
+
+
+@ti.func
+def _get4(a: ti.template(), k: ti.i64) -> mat4:
+    m = mat4(0.0)
+    for r, c in ti.static(ti.ndrange(4, 4)):
+        m[r, c] = a[k, r, c]
+    return m
+
+
+@ti.func
+def _put4(a: ti.template(), k: ti.i64, m: mat4):
+    for r, c in ti.static(ti.ndrange(4, 4)):
+        a[k, r, c] = m[r, c]
+
+
+@ti.func
+def _getv(a: ti.template(), k: ti.i64) -> vec4:
+    return vec4(a[k, 0], a[k, 1], a[k, 2], a[k, 3])
+
+
+@ti.func
+def _putv(a: ti.template(), k: ti.i64, v: vec4):
+    for r in ti.static(range(4)):
+        a[k, r] = v[r]
+
+
+@ti.kernel
+def cv_rts(start: i64_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: f64_1d,
+           diffuse: ti.f64, xp: f64_2d, Pp: f64_3d, xf: f64_2d, Pf: f64_3d, xs: f64_2d,
+           Ps: f64_3d):
+    """Filter then smooth each track; xp, Pp, xf, Pf: predicted and filtered scratch;
+    xs, Ps: the smoothed states and covariances. z, R: per step (read where measured; the
+    first step is measured and gives the start)."""
+    for i in range(start.shape[0] - 1):
+        a, b = start[i], start[i + 1]
+        x = vec4(z[a, 0], 0.0, z[a, 1], 0.0)
+        P = ti.Matrix.identity(ti.f64, 4) * diffuse
+        for k in range(a, b):
+            F, Q = _transition(h[k], q[i])
+            x = F @ x
+            P = F @ P @ F.transpose() + Q
+            _putv(xp, k, x)
+            _put4(Pp, k, P)
+            if measured[k]:
+                PHT = mat42(0.0)
+                for r in ti.static(range(4)):
+                    PHT[r, 0] = P[r, 0]
+                    PHT[r, 1] = P[r, 2]
+                Rk = mat2([[R[k, 0, 0], R[k, 0, 1]], [R[k, 1, 0], R[k, 1, 1]]])
+                S = mat2([[P[0, 0], P[0, 2]], [P[2, 0], P[2, 2]]]) + Rk
+                K = PHT @ S.inverse()
+                y = vec2(z[k, 0] - x[0], z[k, 1] - x[2])
+                x = x + K @ y
+                IKH = ti.Matrix.identity(ti.f64, 4)
+                for r in ti.static(range(4)):
+                    IKH[r, 0] -= K[r, 0]
+                    IKH[r, 2] -= K[r, 1]
+                P = IKH @ P @ IKH.transpose() + K @ Rk @ K.transpose()
+            _putv(xf, k, x)
+            _put4(Pf, k, P)
+        # Rauch–Tung–Striebel, backwards from the last step
+        xn, Pn = x, P
+        _putv(xs, b - 1, xn)
+        _put4(Ps, b - 1, Pn)
+        for j in range(b - a - 1):
+            k = b - 2 - j
+            F, _ = _transition(h[k + 1], q[i])
+            Ppn = _get4(Pp, k + 1)
+            Pk = _get4(Pf, k)
+            G = Pk @ F.transpose() @ _inv4(Ppn)
+            xn = _getv(xf, k) + G @ (xn - _getv(xp, k + 1))
+            Pn = Pk + G @ (Pn - Ppn) @ G.transpose()
+            _putv(xs, k, xn)
+            _put4(Ps, k, Pn)
+
+
+@ti.func
+def _huber(u: ti.f64, c: ti.f64) -> ti.f64:
+    out = ti.f64(u / 2)
+    if u > c * c:
+        out = c * ti.sqrt(u) - c * c / 2
+    return out
+
+
+@ti.kernel
+def innovation_loglik(start: i64_1d, ts: f64_1d, z: f64_2d, s2: f64_1d, q_grid: f64_1d,
+                      v0_var: ti.f64, huber_c: ti.f64, ll: f64_2d):
+    """ll[i, g]: the log-likelihood of track i's innovations under q_grid[g], both axes
+    (every step measured with per-axis variance s2; the first two steps left out)."""
+    n_q = q_grid.shape[0]
+    for i, g in ti.ndrange(start.shape[0] - 1, n_q):
+        a, b = start[i], start[i + 1]
+        q = q_grid[g]
+        total = ti.f64(0.0)
+        for axis in range(2):
+            p, v = z[a, axis], ti.f64(0.0)
+            p00, p01, p11 = s2[a], ti.f64(0.0), v0_var
+            acc = ti.f64(0.0)
+            for k in range(a + 1, b):
+                hk = ts[k] - ts[k - 1]
+                p = p + hk * v
+                p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk ** 3 / 3
+                p01 = p01 + hk * p11 + q * hk * hk / 2
+                p11 = p11 + q * hk
+                s = p00 + s2[k]
+                y = z[k, axis] - p
+                if k >= a + 2:
+                    acc -= 0.5 * ti.log(s) + _huber(y * y / s, huber_c)
+                k0, k1 = p00 / s, p01 / s
+                p, v = p + k0 * y, v + k1 * y
+                p11 = p11 - k1 * p01
+                p00, p01 = (1 - k0) * p00, (1 - k0) * p01
+            total += acc
+        ll[i, g] = total
