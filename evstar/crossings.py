@@ -70,12 +70,19 @@ def key_crossings(t, key, p, width, max_pairs=16):
     return out[np.argsort(out["t"], kind="stable")]
 
 
-def _pixel_then_time(key, t):
+def _pixel_then_time(key, t, engine="taichi"):
     """The order by pixel key (< 2³²), then time (ties kept in input order). Events of a
-    stream are time-sorted already: then a stable sort by key, done as two 16-bit radix
-    passes (numpy's stable sort of 16-bit integers), is that order."""
+    stream are time-sorted already: then a stable sort by key is that order — a Taichi
+    counting sort (evstar_kernels.taichi.sorting), or (engine "numpy", its specification's
+    fast form) two 16-bit radix passes (numpy's stable sort of 16-bit integers)."""
     if not np.all(t[1:] >= t[:-1]):
         return np.lexsort((t, key))
+    if engine == "taichi" and len(key):
+        from evstar_kernels.taichi import sorting_launch
+
+        from .backends import taichi_running
+
+        return sorting_launch.stable_order(taichi_running(), key, int(key.max()) + 1)
     low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
     return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
 

@@ -228,3 +228,19 @@ def test_along_track_equals_the_per_track_reference():
     assert len(ref[0]) > 1000 and 12 not in ref[1] and 3 not in ref[1]
     for a, b in zip(got, ref):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("n_keys", [1, 7, 70_000, 921_600])
+def test_the_counting_sort_kernel_equals_numpys_stable_sort(n_keys):
+    from evstar import backends
+    from evstar.crossings import _pixel_then_time
+    from evstar_kernels.taichi import sorting_launch
+
+    rng = np.random.default_rng(n_keys)
+    key = rng.integers(0, n_keys, 50_000).astype(np.uint32)
+    ref = np.argsort(key, kind="stable")
+    assert np.array_equal(sorting_launch.stable_order(backends.taichi_running(), key, n_keys), ref)
+    t = np.sort(rng.integers(0, 10**6, len(key)))
+    assert np.array_equal(_pixel_then_time(key, t), _pixel_then_time(key, t, engine="numpy"))
+    assert np.array_equal(_pixel_then_time(key, t), np.lexsort((t, key)))
+    assert len(sorting_launch.stable_order(backends.taichi_running(), key[:0], n_keys)) == 0

@@ -1,0 +1,19 @@
+"""Launch of the Taichi counting sort: keys in, stable sorting permutation out."""
+import numpy as np
+
+from . import launch
+from .sorting import stable_order as _stable_order
+
+
+def stable_order(ti, key, n_keys):
+    """np.argsort(key, kind="stable") of uint32 keys below n_keys (int64 permutation)."""
+    key = np.ascontiguousarray(key, np.uint32)
+    arrays = launch.Arrays(ti)
+    start = arrays.put(np.zeros(n_keys + 1, np.int64))
+    order = arrays.empty(len(key), np.int64)
+    if len(key):
+        with launch.RUNTIME_LOCK:
+            _stable_order(arrays.put(key), start, order)
+    out = np.empty(len(key), np.int64)
+    arrays.get(order, out)
+    return out
