@@ -3,7 +3,8 @@
 For each camera preset (DAVIS346 behind 16 mm, f ≈ 865 px; EVK4 behind 12 mm, f ≈ 2469 px),
 each motion (constant pan 0, 5, 10, 20, 30 °/s about the image's up axis, and the paper's
 10°/1 Hz sinusoid) over a Hipparcos field (Orion, mag <= 6, ICRS), the simulator's events go
-through evstar.Pipeline (defaults) and evstar.attitude.estimate, with and without the IMU;
+through evstar.Pipeline (defaults; "events-imu" rows: motion.compensate = "imu" as well) and
+evstar.attitude.estimate, with and without the IMU;
 identification is evstar.attitude.identify (the plate solver). "events-cal" rows set
 centroid_delay_us to the time by which the pipeline's centroids lead their timestamps,
 measured against the truth on a separate run (20 °/s, seed 2) per camera, as a sensor's
@@ -58,16 +59,18 @@ def trajectory(motion):
     return sim.ConstantRate(float(motion), R0=R0)
 
 
-def scene(camera_name, motion, seed=1):
-    """(centroids, truth, imu) of one simulated run, cached on disk."""
-    path = CACHE / f"{camera_name}-{motion}-{seed}.pkl"
+def scene(camera_name, motion, seed=1, compensate="none"):
+    """(centroids, truth, imu) of one simulated run through the pipeline with
+    motion.compensate = `compensate`, cached on disk."""
+    path = CACHE / f"{camera_name}-{motion}-{seed}-{compensate}.pkl"
     if path.exists():
         return pickle.loads(path.read_bytes())
     cam = sim.camera_preset(camera_name, CAMERAS[camera_name])
     traj = trajectory(motion)
     stars = sim.hipparcos_field_along(cam, traj, DURATION_S, mag_limit=MAG_LIMIT)
     run = sim.simulate(sim.Scenario(cam, stars, traj, DURATION_S), seed=seed)
-    res = evstar.Pipeline(evstar.Config()).run(run.events, run.imu, run.camera)
+    cfg = evstar.Config().replace(**{"motion.compensate": compensate})
+    res = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera)
     out = (res.centroids, run.truth, run.imu)
     CACHE.mkdir(parents=True, exist_ok=True)
     path.write_bytes(pickle.dumps(out))
@@ -212,9 +215,16 @@ def study(cameras, motions):
             c, truth, imu = scene(cam_name, motion)
             for with_imu in (False, True):
                 use = imu if with_imu else None
-                for method in ("events", "events-cal", "aps"):
-                    res = (aps_attitude(truth, use) if method == "aps" else
-                           event_attitude(c, truth, use, delay if method == "events-cal" else 0.0))
+                # with a gyro, also the pipeline compensating with it ("events-imu"): its
+                # velocity prior carries the smoother through the sinusoid's turnarounds
+                methods = ("events", "events-cal") + (("events-imu",) if with_imu else ()) + ("aps",)
+                for method in methods:
+                    if method == "aps":
+                        res = aps_attitude(truth, use)
+                    elif method == "events-imu":
+                        res = event_attitude(scene(cam_name, motion, compensate="imu")[0], truth, use)
+                    else:
+                        res = event_attitude(c, truth, use, delay if method == "events-cal" else 0.0)
                     rows.append(dict(camera=cam_name, f_px=round(truth.camera.fx, 1), motion=motion,
                                      imu=with_imu, method=method, **res))
                     print(table_row(rows[-1]), flush=True)
@@ -253,7 +263,7 @@ def plot(rows, path):
         for j, (key, label) in enumerate(keys):
             ax = axes[i, j]
             for method, imu, style in (("events", False, "o-"), ("events", True, "s-"),
-                                       ("events-cal", False, "^-"), ("events-cal", True, "v-"),
+                                       ("events-cal", False, "^-"), ("events-cal", True, "v-"), ("events-imu", True, "D-"),
                                        ("aps", False, "o--"), ("aps", True, "s--")):
                 sel = {r["motion"]: r for r in rows if r["camera"] == cam and r["method"] == method and r["imu"] == imu}
                 y = [sel[m].get(key, np.nan) if m in sel else np.nan for m in motions]
