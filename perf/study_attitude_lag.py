@@ -3,9 +3,10 @@ a pixel-lag calibration instead of a truth-measured centroid delay.
 
 `evstar.calibration.calibrate` runs on a separate recording of the same sensor (a 20-star
 field at another pointing, 10°/0.5 Hz sinusoid, 4 s, IMU; no truth used); then the study's
-Orion scenes (perf/study_attitude.py: 1 s, mag ≤ 6) at 10, 20, 30 °/s go through the
-pipeline without and with `estimate.pixel_lag_file`, and the attitude filter with and
-without the IMU (centroid_delay_us 0).
+Orion scenes (perf/study_attitude.py: 1 s, mag ≤ 6) at 10, 20, 30 °/s and the 10°/1 Hz
+sinusoid go through the pipeline without and with `estimate.pixel_lag_file` (and, for the
+IMU rows, also with motion.compensate = "imu"), and the attitude filter with and without
+the IMU (centroid_delay_us 0).
 
     python perf/study_attitude_lag.py
 
@@ -43,19 +44,24 @@ def main():
     cam = sim.camera_preset("evk4", sa.CAMERAS["evk4"])
     lag = lag_file(cam)
     rows = []
-    for motion in ("10", "20", "30"):
+    for motion in ("10", "20", "30", "sine"):
         traj = sa.trajectory(motion)
         stars = sim.hipparcos_field_along(cam, traj, sa.DURATION_S, mag_limit=sa.MAG_LIMIT)
         run = sim.simulate(sim.Scenario(cam, stars, traj, sa.DURATION_S), seed=1)
         for name, path in (("as they come", None), ("lag-calibrated", lag)):
-            cfg = evstar.Config().replace(**{"estimate.pixel_lag_file": path})
-            res = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera)
-            for imu in (None, run.imu):
-                r = sa.event_attitude(res.centroids, run.truth, imu)
-                rows.append({"motion": motion, "positions": name, "imu": imu is not None,
-                             **{k: r.get(k, np.nan) for k in ("cross_rms_px", "cross_max_px",
-                                                              "about_rms_px")}})
-                print(profiling.table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
+            # without and with the pipeline compensating with the gyro (IMU rows only)
+            for comp, imus in (("none", (None, run.imu)), ("imu", (run.imu,))):
+                cfg = evstar.Config().replace(**{"estimate.pixel_lag_file": path,
+                                                 "motion.compensate": comp})
+                res = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera)
+                for imu in imus:
+                    r = sa.event_attitude(res.centroids, run.truth, imu)
+                    rows.append({"motion": motion, "positions": name + (", IMU-compensated" if
+                                                                         comp == "imu" else ""),
+                                 "imu": imu is not None,
+                                 **{k: r.get(k, np.nan) for k in ("cross_rms_px", "cross_max_px",
+                                                                  "about_rms_px")}})
+                    print(profiling.table(rows[-1:], COLUMNS).splitlines()[-1], flush=True)
     pathlib.Path(lag).unlink()
     return rows
 
