@@ -39,9 +39,35 @@ def pixel_keys(x, y, width):
     return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
 
 
-def key_crossings(t, key, p, width, max_pairs=16):
-    """pixel_crossings of events given by their pixel_keys."""
-    order = _pixel_then_time(key, t)
+def key_crossings(t, key, p, width, max_pairs=16, engine="taichi"):
+    """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
+    by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
+    same bits). Both end in the same rows: mean, spread and the sort by time below."""
+    order = _pixel_then_time(key, t, engine)
+    if engine == "taichi" and len(order):
+        from evstar_kernels.taichi import crossings_launch
+
+        from .backends import taichi_running
+
+        change, k, sums, sq = crossings_launch.level_pairs(taichi_running(), order, key, t, p,
+                                                           max_pairs)
+        pixel = key[order.take(change)]
+    else:
+        pixel, k, sums, sq = _level_pairs(order, key, t, p, max_pairs)
+    mean = sums / k
+    # sorted by time as columns: a gather of the packed rows would take as long as the sort
+    by_t = np.argsort(mean, kind="stable")
+    pixel, k, sq, mean = pixel[by_t], k[by_t], sq[by_t], mean[by_t]
+    out = np.zeros(len(k), CROSSING_DTYPE)
+    out["x"], out["y"] = pixel % width, pixel // width
+    out["t"], out["pairs"] = mean, k
+    out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
+    return out
+
+
+def _level_pairs(order, key, t, p, max_pairs):
+    """Per ON→OFF change with k > 0 level pairs, in the order's (pixel-major, then time):
+    its pixel key, k, and the sums of its pair midpoints and of their squares."""
     key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
     # c: last ON before an OFF at the same pixel; its pairs (c − j, c + j), j = 1 .. k, reach
     # through the rest of its ON run and into the OFF run after it
@@ -61,13 +87,7 @@ def key_crossings(t, key, p, width, max_pairs=16):
         sums[:m] += mid
         sq[:m] += mid * mid
     sums[by_k], sq[by_k] = sums.copy(), sq.copy()       # back to the changes' order
-    out = np.zeros(len(change), CROSSING_DTYPE)
-    pixel = key[change]
-    out["x"], out["y"] = pixel % width, pixel // width
-    mean = sums / k
-    out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
-    return out[np.argsort(out["t"], kind="stable")]
+    return key[change], k, sums, sq
 
 
 def _pixel_then_time(key, t, engine="taichi"):

@@ -244,3 +244,56 @@ def test_the_counting_sort_kernel_equals_numpys_stable_sort(n_keys):
     assert np.array_equal(_pixel_then_time(key, t), _pixel_then_time(key, t, engine="numpy"))
     assert np.array_equal(_pixel_then_time(key, t), np.lexsort((t, key)))
     assert len(sorting_launch.stable_order(backends.taichi_running(), key[:0], n_keys)) == 0
+
+
+# -- the Taichi level-pair kernel against its numpy specification: the same bits ----------
+def assert_same_crossings(t, key, p, width, max_pairs):
+    from evstar.crossings import key_crossings
+
+    got = key_crossings(t, key, p, width, max_pairs)
+    ref = key_crossings(t, key, p, width, max_pairs, engine="numpy")
+    assert got.dtype == ref.dtype and len(got) == len(ref)
+    for f in ref.dtype.names:
+        assert np.array_equal(got[f], ref[f]), f
+    return ref
+
+
+@pytest.mark.parametrize("n,n_pixels,max_pairs", [
+    (0, 10, 16), (1, 1, 16), (5000, 1, 16), (5000, 1, 1), (40_000, 3000, 2),
+    (40_000, 300, 16), (40_000, 50, 4), (40_000, 50, 200),     # runs to 15 pairs: 4 caps
+])
+def test_the_level_pair_kernel_equals_the_numpy_crossings_bit_for_bit(n, n_pixels, max_pairs):
+    rng = np.random.default_rng(n + n_pixels + max_pairs)
+    pixels = rng.integers(0, 1280 * 720, n_pixels).astype(np.uint32)   # keys past 2¹⁶
+    key = rng.choice(pixels, n)
+    # repeated timestamps; an hour's offset makes the squared midpoints round (~1e19 µs²)
+    t = np.sort(rng.integers(0, n // 4 + 1, n)) * 997 + 3_600_000_000
+    p = (np.sin(t / 5e4 + key) + rng.normal(0, 0.7, n) > 0).astype(np.int8)   # ON and OFF runs
+    ref = assert_same_crossings(t, key, p, 1280, max_pairs)
+    if n > 1:                   # runs long enough to pair several levels and to meet a cap
+        assert len(ref) > 100
+        assert (ref["pairs"].max() == max_pairs) if max_pairs <= 4 else (ref["pairs"].max() > 5)
+
+
+def test_the_level_pair_kernel_takes_bool_polarities_unsorted_times_and_device_arrays(
+        monkeypatch):
+    from evstar_kernels.taichi import launch
+
+    rng = np.random.default_rng(3)
+    key = rng.integers(0, 200, 20_000).astype(np.uint32)
+    t = np.sort(rng.integers(0, 10**6, len(key)))
+    p = rng.random(len(key)) < 0.5
+    assert len(assert_same_crossings(t, key, p, 64, 16)) > 100
+    perm = rng.permutation(len(key))                    # the order by np.lexsort
+    assert_same_crossings(t[perm], key[perm], p[perm], 64, 16)
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", True)
+    assert_same_crossings(t, key, p.astype(np.int8), 64, 16)
+
+
+def test_the_level_pair_kernel_equals_the_numpy_crossings_on_a_simulated_star():
+    from evstar.crossings import pixel_keys
+
+    run = sim.simulate(sim.paper_preset(12.0, duration_s=0.1), seed=2)
+    ev = run.events                                          # the star's events and the noise
+    ref = assert_same_crossings(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p, ev.width, 16)
+    assert len(ref) > 20
