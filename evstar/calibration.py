@@ -189,7 +189,8 @@ def calibrate(events, imu, camera, config=None, progress=None):
     result = Pipeline(config).run(events, imu, camera)
     if progress:
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
-    crossings = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px)
+    crossings = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
+                                config.estimate.threshold_ratio)
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
     lag.meta.update(events=len(events), duration_s=events.duration_us / 1e6,

@@ -8,8 +8,13 @@ before it mark the same level on the two flanks of the pixel's intensity profile
 symmetric PSF moving at constant speed their mean time is the time of the peak — the time
 the star's centre was closest to q. Unlike the mean position of events (ON events lead the
 centre, OFF events trail it by amounts that depend on the thresholds, the PSF and the pixel's
-bandwidth), this needs no model of the sensor: the count imbalance between ON and OFF,
-mismatched thresholds or a skipped level shift the pairs, not their midpoints.
+bandwidth), this needs no model of the PSF: a count imbalance between ON and OFF or a
+pixel's own threshold mismatch shifts the pairs, not their midpoints. A sensor whose OFF
+threshold differs from its ON one (C_off = r·C_on, set by its biases) puts the j-th OFF
+j·C_off below the top: the rising time at that level lies j·r ON steps back, interpolated
+between ON events (r = 1 gives the pairs above). r is measured from the data: the ON and
+OFF runs of one passage span the same log intensity (threshold_ratio_of); at r 0.6 and 1.7
+the midpoints of unequal levels put the positions 0.13–0.26 px off.
 
 A pixel low-pass delays the peak by ~1/(2π f_c), f_c growing with intensity; the number of
 level pairs k (∝ the pixel's peak contrast) comes with each crossing, so that delay can be
@@ -19,19 +24,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from .parameters import AUTO
+
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
                            ("t_spread", "<f8")])
 
 
-def pixel_crossings(t, x, y, p, max_pairs=16):
+def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
     """One row per ON→OFF change of a pixel with at least one level pair: the pixel, the mean
     of its paired midpoint times (µs, float), the number of pairs and their std (µs).
 
-    t, x, y, p: events (any order); p 1 = ON, 0 = OFF.
+    t, x, y, p: events (any order); p 1 = ON, 0 = OFF. threshold_ratio: C_off / C_on, or
+    "auto" (measured: threshold_ratio_of).
     """
     width = int(np.max(x, initial=0)) + 1
     key = pixel_keys(x, y, width)
-    return key_crossings(np.asarray(t, np.int64), key, np.asarray(p), width, max_pairs)
+    return key_crossings(np.asarray(t, np.int64), key, np.asarray(p), width, max_pairs,
+                         threshold_ratio=threshold_ratio)
 
 
 def pixel_keys(x, y, width):
@@ -39,21 +48,24 @@ def pixel_keys(x, y, width):
     return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
 
 
-def key_crossings(t, key, p, width, max_pairs=16, engine="taichi"):
+#: the run lengths are counted up to this (a hot pixel's run must not cost without bound)
+_RUN_CAP = 4096
+#: fewest changes with >= 3 levels on both flanks for a measured threshold ratio (else 1)
+_MIN_RATIO_CHANGES = 50
+
+
+def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO):
     """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
     by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
-    same bits). Both end in the same rows: mean, spread and the sort by time below."""
-    order = _pixel_then_time(key, t, engine)
-    if engine == "taichi" and len(order):
-        from evstar_kernels.taichi import crossings_launch
-
-        from .backends import taichi_running
-
-        change, k, sums, sq = crossings_launch.level_pairs(taichi_running(), order, key, t, p,
-                                                           max_pairs)
-        pixel = key[order.take(change)]
-    else:
-        pixel, k, sums, sq = _level_pairs(order, key, t, p, max_pairs)
+    same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
+    runs: threshold_ratio_of)."""
+    order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
+    r = threshold_ratio_of(on_before, off_after) if threshold_ratio == AUTO else float(threshold_ratio)
+    k = pair_counts(on_before, off_after, r, max_pairs)
+    keep = k > 0
+    change, k = change[keep], k[keep]
+    sums, sq = kern.sums(change, k, r) if kern is not None else _pair_sums(order, t, change, k, r)
+    pixel = key[order.take(change)]
     mean = sums / k
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
@@ -65,29 +77,83 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi"):
     return out
 
 
-def _level_pairs(order, key, t, p, max_pairs):
-    """Per ON→OFF change with k > 0 level pairs, in the order's (pixel-major, then time):
-    its pixel key, k, and the sums of its pair midpoints and of their squares."""
-    key, t, pol = key[order], t[order], np.asarray(p)[order] > 0
-    # c: last ON before an OFF at the same pixel; its pairs (c − j, c + j), j = 1 .. k, reach
-    # through the rest of its ON run and into the OFF run after it
+def measured_threshold_ratio(t, key, p, engine="taichi"):
+    """threshold_ratio_of the runs of events given by their pixel keys."""
+    _, _, (_, on_before, off_after) = _change_runs(t, key, p, engine)
+    return threshold_ratio_of(on_before, off_after)
+
+
+def _change_runs(t, key, p, engine):
+    """(the pixel-then-time order, the Taichi kernels' state or None, (positions of the
+    ON→OFF changes in the order, their ON runs before, OFF runs after))."""
+    order = _pixel_then_time(key, t, engine)
+    if engine == "taichi" and len(order):
+        from evstar_kernels.taichi import crossings_launch
+
+        from .backends import taichi_running
+
+        kern = crossings_launch.LevelPairs(taichi_running(), order, key, t, p, _RUN_CAP)
+        return order, kern, (kern.change, kern.on_before, kern.off_after)
+    return order, None, _runs(order, key, p)
+
+
+def threshold_ratio_of(on_before, off_after):
+    """C_off / C_on measured from the changes' runs. A star rising through a pixel from its
+    reference level to the peak fires ON every C_on and falls back through OFF every C_off, so
+    the ON run a (the change's ON included) and the OFF run b hold the same log-intensity
+    span: a·C_on ≈ b·C_off, less the first level's phase and the last OFF's, which give
+    a + 1/2 ≈ r·(b + 1) on average. Changes with >= 3 events on each flank; 1 when there are
+    too few."""
+    a, b = np.asarray(on_before) + 1, np.asarray(off_after)
+    m = (a >= 3) & (b >= 3)
+    if m.sum() < _MIN_RATIO_CHANGES:
+        return 1.0
+    return float(np.clip(np.sum(a[m] + 0.5) / np.sum(b[m] + 1.0), 0.25, 4.0))
+
+
+def pair_counts(on_before, off_after, ratio, max_pairs):
+    """Level pairs per change: OFF j (level j·C_off below the change's) pairs with the rising
+    time j·ratio ON steps back, so ceil(j·ratio) ON events must precede the change."""
+    on_levels = np.floor(np.asarray(on_before) / ratio + 1e-9).astype(np.int64)
+    return np.minimum(np.minimum(on_levels, off_after), max_pairs).astype(np.int64)
+
+
+def _runs(order, key, p):
+    """Per ON→OFF change of a pixel, in the order's (pixel-major, then time): its position c
+    in `order`, the ON events right before it and the OFF events right after it."""
+    key, pol = key[order], np.asarray(p)[order] > 0
+    # c: last ON before an OFF at the same pixel; its ON run ends at c, its OFF run follows
     change = np.flatnonzero((key[1:] == key[:-1]) & pol[:-1] & ~pol[1:])
     runs = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]) | (pol[1:] != pol[:-1]), True])
     at = np.searchsorted(runs, change, "right")          # the run after c's: c + 1 ...
-    k = np.minimum(np.minimum(change - runs[at - 1], runs[at + 1] - change - 1), max_pairs)
-    keep = k > 0
-    change, k = change[keep], k[keep]
+    on_before = np.minimum(change - runs[at - 1], _RUN_CAP)
+    off_after = np.minimum(runs[at + 1] - change - 1, _RUN_CAP)
+    return change, on_before, off_after
+
+
+def _pair_sums(order, t, change, k, ratio):
+    """Sums of the pair midpoints and of their squares per change (the kernel's
+    specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
+    ON steps before c, interpolated between the ON events around it where not whole."""
+    t = t[order]
     # changes by pairs, most first: those still pairing at j are a prefix
     by_k = np.argsort(-k, kind="stable")
-    c, n_at = change[by_k], np.bincount(k, minlength=max_pairs + 1)[::-1].cumsum()[::-1]
+    c, n_at = change[by_k], np.bincount(k, minlength=int(k.max(initial=0)) + 1)[::-1].cumsum()[::-1]
     sums, sq = np.zeros(len(c)), np.zeros(len(c))
     for j in range(1, int(k.max(initial=0)) + 1):
         m = n_at[j]
-        mid = 0.5 * (t[c[:m] - j] + t[c[:m] + j])
+        x = j * ratio
+        j0 = int(np.floor(x + 1e-9))
+        f = x - j0
+        if f < 1e-9:
+            mid = 0.5 * (t[c[:m] - j0] + t[c[:m] + j])
+        else:
+            rise = t[c[:m] - j0].astype(np.float64) * (1 - f) + t[c[:m] - j0 - 1].astype(np.float64) * f
+            mid = 0.5 * (rise + t[c[:m] + j].astype(np.float64))
         sums[:m] += mid
         sq[:m] += mid * mid
     sums[by_k], sq[by_k] = sums.copy(), sq.copy()       # back to the changes' order
-    return key[change], k, sums, sq
+    return sums, sq
 
 
 def _pixel_then_time(key, t, engine="taichi"):

@@ -20,6 +20,7 @@ import numpy as np
 from .crossings import CROSSING_DTYPE, dilate, key_crossings, pixel_keys
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
+from .parameters import AUTO
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
@@ -48,17 +49,32 @@ def pixel_lag(path):
 _LAG_FILES = {}
 
 
-def chunk_crossings(events, keep, radius_px):
+def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
-    drops a faint star's flank events, which the level pairs need."""
+    drops a faint star's flank events, which the level pairs need. threshold_ratio: the
+    sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of)."""
     if not keep.any():
         return np.zeros(0, CROSSING_DTYPE)
+    return key_crossings(*_near_kept(events, keep, radius_px), events.width,
+                         threshold_ratio=threshold_ratio)
+
+
+def window_threshold_ratio(events, keep, radius_px):
+    """The sensor's C_off / C_on measured (evstar.crossings.threshold_ratio_of) on the runs
+    of the events within `radius_px` of a kept event; 1 when none is kept."""
+    from .crossings import measured_threshold_ratio
+
+    return measured_threshold_ratio(*_near_kept(events, keep, radius_px)) if keep.any() else 1.0
+
+
+def _near_kept(events, keep, radius_px):
+    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
     key = pixel_keys(events.x, events.y, events.width)
     near = np.zeros(events.height * events.width, bool)
     # flatnonzero + take: several times faster than boolean indexing of these long arrays
     near[key.take(np.flatnonzero(keep))] = True
     sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel()[key])
-    return key_crossings(events.t.take(sel), key.take(sel), events.p.take(sel), events.width)
+    return events.t.take(sel), key.take(sel), events.p.take(sel)
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -304,6 +304,9 @@ ESTIMATE = Params(
     Param("crossing_radius_px", float, 3.0, "crossings come from all events this close to a "
           "kept event (a filter drops a faint star's flank events)", low=0, high=MAX_RADIUS,
           unit="px"),
+    Param("threshold_ratio", float, AUTO, "the sensor's OFF / ON contrast threshold, for "
+          "pairing crossing levels (auto: measured from the ON and OFF runs of the data)",
+          low=0.25, high=4, auto=True),
     Param("pixel_lag_file", str, None, "pixel lag by brightness from `evstar calibrate` "
           "(JSON): each pixel crossing is moved back by its lag (none: no correction)",
           optional=True, checker=check_path, valid="a file path"),

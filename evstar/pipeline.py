@@ -27,6 +27,7 @@ from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
 from .imu import Imu
+from .parameters import AUTO
 from .tracking import Tracker
 
 
@@ -98,7 +99,11 @@ class Pipeline:
 
     def _calibration_window(self, events, t0_us):
         """The events of the first chunk_frames frames."""
-        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        return events.time_window(t0_us, self._window_end(t0_us))
+
+    def _window_end(self, t0_us):
+        """The end (µs) of the calibration window: the first chunk_frames frames."""
+        return t0_us + self.config.chunk_frames * self.config.dt_us
 
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
@@ -180,7 +185,7 @@ class Pipeline:
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        state = _RunState(self.config, events.width, events.height,
+        state = _RunState(self.config, events.width, events.height, self._window_end(t0),
                           self.calibration_hot_pixels(events, t0))
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
                                                  state=state)
@@ -286,7 +291,7 @@ class Pipeline:
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height,
+        state = _RunState(self.config, first[1].width, first[1].height, self._window_end(t0),
                           self.calibration_hot_pixels(first[1], t0))
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
@@ -331,18 +336,29 @@ def _check_inputs(events, imu, camera, mode):
 # -- helpers -----------------------------------------------------------------------------
 class _RunState:
     """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their
-    events are dropped before extraction), and the pixel crossings it gathers for its
-    estimator (a crossing whose flanks fall in two chunks of a streamed run is lost)."""
+    events are dropped before extraction), the sensor's OFF/ON threshold ratio measured there
+    too (unless configured), and the pixel crossings it gathers for its estimator (a crossing
+    whose flanks fall in two chunks of a streamed run is lost). window_end_us: the end of the
+    calibration window (the first chunk_frames frames)."""
 
-    def __init__(self, config, width, height, hot=None):
+    def __init__(self, config, width, height, window_end_us, hot=None):
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
+        self.window_end_us = window_end_us
+        e = config.estimate
+        self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
 
     def add_crossings(self, events, keep):
-        from .estimation import chunk_crossings
+        from .estimation import chunk_crossings, window_threshold_ratio
 
-        if self.config.estimate.estimator == "crossings" and len(events):
-            self._crossings.append(chunk_crossings(events, keep,
-                                                   self.config.estimate.crossing_radius_px))
+        e = self.config.estimate
+        if e.estimator != "crossings" or not len(events):
+            return
+        if self.threshold_ratio is None:   # the first chunk holds the calibration window
+            n = int(np.searchsorted(events.t, self.window_end_us))
+            self.threshold_ratio = window_threshold_ratio(events[:n], keep[:n],
+                                                          e.crossing_radius_px)
+        self._crossings.append(chunk_crossings(events, keep, e.crossing_radius_px,
+                                               self.threshold_ratio))
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None

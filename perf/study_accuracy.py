@@ -111,7 +111,8 @@ def run_scene(s):
     t0 = int(ev.t[0])
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
-    crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px)
+    crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
+                                           cfg.estimate.threshold_ratio)
     signal = (run.truth.labels >= 0).sum() / n_frames
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}

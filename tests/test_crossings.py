@@ -101,8 +101,9 @@ def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
 
 
 # -- the vectorised code against straightforward references -------------------------------
-def crossings_reference(t, x, y, p, max_pairs=16):
-    """pixel_crossings one pixel and one polarity change at a time."""
+def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
+    """pixel_crossings one pixel and one polarity change at a time; OFF j pairs with the
+    rising time j·ratio ON events back (interpolated)."""
     from evstar.crossings import CROSSING_DTYPE
 
     rows = []
@@ -115,11 +116,18 @@ def crossings_reference(t, x, y, p, max_pairs=16):
                 continue
             s = sq = 0.0
             k = 0
-            for j in range(1, max_pairs + 1):    # the (j+1)-th ON before, the j-th OFF after
-                a, b = i - j, i + j
-                if a < 0 or b >= len(tt) or not on[a] or on[b]:
+            for j in range(1, max_pairs + 1):    # the j-th OFF after, its level's ON time
+                level = j * ratio
+                j0 = int(np.floor(level + 1e-9))
+                f = level - j0
+                a, b = i - j0 - (f >= 1e-9), i + j
+                if a < 0 or b >= len(tt) or not on[a:i + 1].all() or on[i + 1:b + 1].any():
                     break
-                mid = 0.5 * (tt[a] + tt[b])
+                if f < 1e-9:
+                    mid = 0.5 * (tt[i - j0] + tt[b])
+                else:
+                    rise = float(tt[i - j0]) * (1 - f) + float(tt[i - j0 - 1]) * f
+                    mid = 0.5 * (rise + float(tt[b]))
                 s, sq, k = s + mid, sq + mid * mid, k + 1
             if k:
                 rows.append((px, py, s / k, k, np.sqrt(max(sq / k - (s / k) ** 2, 0.0))))
@@ -138,7 +146,7 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
     if not time_sorted:
         perm = rng.permutation(n)
         t, x, y, p = t[perm], x[perm], y[perm], p[perm]
-    got, ref = pixel_crossings(t, x, y, p), crossings_reference(t, x, y, p)
+    got, ref = pixel_crossings(t, x, y, p, threshold_ratio=1.0), crossings_reference(t, x, y, p)
     assert len(ref) > 50 and (ref["pairs"] > 1).any()
     for f in ("x", "y", "pairs"):
         np.testing.assert_array_equal(got[f], ref[f])
@@ -146,12 +154,48 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
 
 
-def test_pixel_crossings_of_a_simulated_star_equal_the_reference():
+@pytest.mark.parametrize("ratio", [1.0, 0.6, 1.7])
+def test_pixel_crossings_of_a_simulated_star_equal_the_reference(ratio):
     run = sim.simulate(sim.paper_preset(12.0, duration_s=0.1), seed=2)
     t, x, y, p = star_events(run)
-    got, ref = pixel_crossings(t, x, y, p), crossings_reference(t, x, y, p)
+    got = pixel_crossings(t, x, y, p, threshold_ratio=ratio)
+    ref = crossings_reference(t, x, y, p, ratio=ratio)
     assert len(ref) > 20
-    assert got.tobytes() == ref.tobytes()
+    for f in ("x", "y", "pairs"):
+        np.testing.assert_array_equal(got[f], ref[f])
+    if ratio == 1.0:
+        assert got.tobytes() == ref.tobytes()
+    np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("on,off", [(0.15, 0.25), (0.25, 0.15), (0.2, 0.2)])
+def test_the_threshold_ratio_is_measured_from_the_runs(on, off):
+    from evstar.crossings import _pixel_then_time, _runs, pixel_keys, threshold_ratio_of
+
+    sensor = sim.sensor_model("default", threshold_on=on, threshold_off=off)
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.3, sensor=sensor), seed=4)
+    ev = run.events
+    key = pixel_keys(ev.x, ev.y, ev.width)
+    _, before, after = _runs(_pixel_then_time(key, ev.t), key, ev.p)
+    assert threshold_ratio_of(before, after) == pytest.approx(off / on, rel=0.12)
+    assert threshold_ratio_of(before[:10], after[:10]) == 1.0          # too few: no claim
+
+
+def test_unequal_thresholds_no_longer_shift_the_crossings():
+    """ON 0.15, OFF 0.25: level pairs of equal count sit at unequal levels (0.2–0.3 px along
+    the motion); pairing by level with the measured ratio removes it."""
+    from evstar import Config, Pipeline, accuracy
+
+    sensor = sim.sensor_model("default", threshold_on=0.15, threshold_off=0.25)
+    run = sim.simulate(sim.paper_preset(6.0, duration_s=0.3, sensor=sensor, magnitude=3.5),
+                       seed=5)
+    errors = {}
+    for ratio in (1.0, "auto"):
+        cfg = Config().replace(**{"estimate.threshold_ratio": ratio})
+        rows = Pipeline(cfg).run(run.events).centroids
+        star, err = accuracy.match(rows, run.truth.star_position)
+        errors[ratio] = err[star >= 0].mean()
+    assert errors["auto"] < 0.08 and errors["auto"] < 0.5 * errors[1.0], errors
 
 
 @pytest.mark.parametrize("radius", [0, 1, 2.5, 3])
@@ -247,14 +291,27 @@ def test_the_counting_sort_kernel_equals_numpys_stable_sort(n_keys):
 
 
 # -- the Taichi level-pair kernel against its numpy specification: the same bits ----------
-def assert_same_crossings(t, key, p, width, max_pairs):
+def assert_same_crossings(t, key, p, width, max_pairs, ratio=1.0):
     from evstar.crossings import key_crossings
 
-    got = key_crossings(t, key, p, width, max_pairs)
-    ref = key_crossings(t, key, p, width, max_pairs, engine="numpy")
+    got = key_crossings(t, key, p, width, max_pairs, threshold_ratio=ratio)
+    ref = key_crossings(t, key, p, width, max_pairs, engine="numpy", threshold_ratio=ratio)
     assert got.dtype == ref.dtype and len(got) == len(ref)
-    for f in ref.dtype.names:
+    if ratio == 1.0:             # integer midpoints: the same bits
+        for f in ref.dtype.names:
+            assert np.array_equal(got[f], ref[f]), f
+        return ref
+    # interpolated rising times: equal to the last bits of the sums, which may reorder
+    # crossings of one time
+    def rows(c):
+        return c[np.lexsort((c["pairs"], c["y"], c["x"], np.round(c["t"], 3)))]
+    got, ref = rows(got), rows(ref)
+    for f in ("x", "y", "pairs"):
         assert np.array_equal(got[f], ref[f]), f
+    np.testing.assert_allclose(got["t"], ref["t"], rtol=1e-14, atol=0)
+    # the spread is a difference of squares ~t²: its rounding grows with t (an hour: ~50 µs)
+    atol = 1e-3 + 1e-7 * float(np.abs(ref["t"]).max(initial=0))
+    np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=atol)
     return ref
 
 
@@ -270,6 +327,8 @@ def test_the_level_pair_kernel_equals_the_numpy_crossings_bit_for_bit(n, n_pixel
     t = np.sort(rng.integers(0, n // 4 + 1, n)) * 997 + 3_600_000_000
     p = (np.sin(t / 5e4 + key) + rng.normal(0, 0.7, n) > 0).astype(np.int8)   # ON and OFF runs
     ref = assert_same_crossings(t, key, p, 1280, max_pairs)
+    for ratio in (0.6, 1.7, "auto"):                       # rising times interpolated
+        assert_same_crossings(t, key, p, 1280, max_pairs, ratio)
     if n > 1:                   # runs long enough to pair several levels and to meet a cap
         assert len(ref) > 100
         assert (ref["pairs"].max() == max_pairs) if max_pairs <= 4 else (ref["pairs"].max() > 5)

@@ -1,11 +1,13 @@
 """Taichi kernels of the level pairs of evstar.crossings: per ON→OFF polarity change of a
-pixel, the number of pairs and the sums of their midpoint times and of their squares.
+pixel, the lengths of the ON run before it and the OFF run after it, and the sums of its
+pairs' midpoint times and of their squares.
 
-Specification: evstar.crossings.key_crossings with engine "numpy", which sums the pairs of
-all changes together, j = 1, 2, ... in turn; here one thread per change sums its pairs in
-the same order j = 1 .. k, with the same operations (an int64 sum of the two times, then
-× 0.5), so the floats are the same bits. The events are read through the pixel-then-time
-order, not gathered into sorted copies: those random reads are most of the time.
+Specification: evstar.crossings.key_crossings with engine "numpy", which handles all changes
+together, pair i = 1, 2, ... in turn; here one thread per change sums its pairs in the same
+order i = 1 .. k with the same operations (where the rising level falls on an ON event, an
+int64 sum of the two times, then × 0.5; else the interpolated rising time), so the floats
+are the same bits. The events are read through the pixel-then-time order, not gathered into
+sorted copies: those random reads are most of the time.
 """
 import taichi as ti
 
@@ -13,37 +15,55 @@ from .arrays import any_1d, f64_1d, i32_1d, i64_1d, u32_1d
 
 
 @ti.kernel
-def pair_counts(order: i64_1d, key: u32_1d, p: any_1d, max_pairs: ti.i32, pairs: i32_1d):
-    """Events key, p (ON: p > 0) read in `order`. pairs[c]: the number k <= max_pairs of
-    level pairs (c − j, c + j), j = 1 .. k, of position c: c and c − j ON, c + j OFF, all of
-    c's pixel (0 where c is not the last ON before an OFF of its pixel, or has no ON before
-    it in its run)."""
+def run_lengths(order: i64_1d, key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d,
+                off_after: i32_1d):
+    """Events key, p (ON: p > 0) read in `order`. Where position c is an ON followed by an
+    OFF of its pixel: on_before[c], the ON events of its pixel right before it, and
+    off_after[c] >= 1, the OFF events right after it (each at most `cap`); elsewhere 0, 0."""
     n = order.shape[0]
     for c in range(n):
         a = order[c]
-        k = 0
-        if p[a] > 0:
-            # c ± j were read by this thread's neighbouring iterations: mostly cached
-            while k < max_pairs and c - k - 1 >= 0 and c + k + 1 < n:
-                on = order[c - k - 1]
-                off = order[c + k + 1]
-                if key[on] != key[a] or p[on] <= 0 or key[off] != key[a] or p[off] > 0:
-                    break
-                k += 1
-        pairs[c] = k
+        before, after = 0, 0
+        if p[a] > 0 and c + 1 < n:
+            nxt = order[c + 1]
+            if key[nxt] == key[a] and p[nxt] <= 0:
+                # c ± m were read by this thread's neighbouring iterations: mostly cached
+                while after < cap and c + after + 1 < n:
+                    e = order[c + after + 1]
+                    if key[e] != key[a] or p[e] > 0:
+                        break
+                    after += 1
+                while before < cap and c - before - 1 >= 0:
+                    e = order[c - before - 1]
+                    if key[e] != key[a] or p[e] <= 0:
+                        break
+                    before += 1
+        on_before[c] = before
+        off_after[c] = after
 
 
 @ti.kernel
-def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, sums: f64_1d,
-              sq: f64_1d):
-    """Per change c = change[i] (a position in `order` with pairs[c] = k > 0): the sums of
-    its pair midpoints 0.5·(t[c − j] + t[c + j]) and of their squares, j = 1 .. k in turn."""
+def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, ratio: ti.f64,
+              sums: f64_1d, sq: f64_1d):
+    """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of
+    their squares, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
+    c's) and the rising time at the same level, j·ratio ON steps before c (ratio =
+    C_off / C_on), interpolated between ON events where that is not whole."""
     for i in range(change.shape[0]):
         c = change[i]
         s = ti.f64(0.0)
         s2 = ti.f64(0.0)
-        for j in range(1, pairs[c] + 1):
-            mid = 0.5 * ti.cast(t[order[c - j]] + t[order[c + j]], ti.f64)
+        for j in range(1, pairs[i] + 1):
+            x = j * ratio
+            j0 = ti.cast(ti.floor(x + 1e-9), ti.i64)
+            f = x - j0
+            mid = ti.f64(0.0)
+            if f < 1e-9:
+                mid = 0.5 * ti.cast(t[order[c - j0]] + t[order[c + j]], ti.f64)
+            else:
+                rise = (ti.cast(t[order[c - j0]], ti.f64) * (1 - f)
+                        + ti.cast(t[order[c - j0 - 1]], ti.f64) * f)
+                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
             s += mid
             s2 += mid * mid
         sums[i] = s

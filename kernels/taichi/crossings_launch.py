@@ -1,30 +1,41 @@
 """Launch of the Taichi level-pair kernels: events and their pixel-then-time order in, per
-ON→OFF change with pairs its position in the order, its pair count and pair sums out."""
+ON→OFF change its position in the order, run lengths and pair sums out."""
 import numpy as np
 
 from . import launch
-from .crossings import pair_counts as _pair_counts, pair_sums as _pair_sums
+from .crossings import pair_sums as _pair_sums, run_lengths as _run_lengths
 
 
-def level_pairs(ti, order, key, t, p, max_pairs):
-    """(positions c in `order` of the changes with k > 0 pairs, ascending; k; the sums of
-    their pair midpoints; the sums of their squares) — evstar.crossings' changes in its
-    order (pixel-major, then time). p: ON where > 0 (bool or numbers)."""
-    n, p = len(order), np.asarray(p)
-    p = p.view(np.uint8) if p.dtype == bool else p      # no bool arrays in Taichi kernels
-    arrays = launch.Arrays(ti)
-    order, t = arrays.put(np.asarray(order, np.int64)), arrays.put(np.asarray(t, np.int64))
-    key, p = arrays.put(np.asarray(key, np.uint32)), arrays.put(p)
-    # a thread per event counts, then (the changes picked out on the host) one per change sums
-    pairs = arrays.empty(n, np.int32)
-    with launch.RUNTIME_LOCK:
-        _pair_counts(order, key, p, int(max_pairs), pairs)
-    k = pairs if not arrays.on_device else pairs.to_numpy()
-    change = np.flatnonzero(k)
-    sums, sq = arrays.empty(len(change), np.float64), arrays.empty(len(change), np.float64)
-    if len(change):
+class LevelPairs:
+    """The kernels' arrays for one input, kept between the two launches (the pair counts
+    are decided on the host from the run lengths)."""
+
+    def __init__(self, ti, order, key, t, p, cap):
+        p = np.asarray(p)
+        p = p.view(np.uint8) if p.dtype == bool else p      # no bool arrays in Taichi kernels
+        self.arrays = arrays = launch.Arrays(ti)
+        self.order = arrays.put(np.asarray(order, np.int64))
+        self.t = arrays.put(np.asarray(t, np.int64))
+        n = len(order)
+        on, off = arrays.empty(n, np.int32), arrays.empty(n, np.int32)
         with launch.RUNTIME_LOCK:
-            _pair_sums(order, t, arrays.put(change), pairs, sums, sq)
-    if arrays.on_device:
-        sums, sq = sums.to_numpy(), sq.to_numpy()
-    return change, k.take(change), sums, sq
+            _run_lengths(self.order, arrays.put(np.asarray(key, np.uint32)), arrays.put(p),
+                         int(cap), on, off)
+        on, off = (on, off) if not arrays.on_device else (on.to_numpy(), off.to_numpy())
+        #: positions c in the order of every ON→OFF change (pixel-major, then time) and the
+        #: ON run before / OFF run after each
+        self.change = np.flatnonzero(off)
+        self.on_before, self.off_after = on.take(self.change), off.take(self.change)
+
+    def sums(self, change, pairs, ratio):
+        """(sums of pair midpoints, of their squares) of the changes at positions `change`
+        with `pairs` pairs each (> 0)."""
+        arrays = self.arrays
+        sums, sq = arrays.empty(len(change), np.float64), arrays.empty(len(change), np.float64)
+        if len(change):
+            with launch.RUNTIME_LOCK:
+                _pair_sums(self.order, self.t, arrays.put(np.asarray(change, np.int64)),
+                           arrays.put(np.asarray(pairs, np.int32)), float(ratio), sums, sq)
+        if arrays.on_device:
+            sums, sq = sums.to_numpy(), sq.to_numpy()
+        return sums, sq
