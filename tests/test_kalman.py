@@ -47,24 +47,28 @@ def test_a_track_comes_out_the_same_alone_or_padded_in_a_batch(problems):
         assert np.array_equal(x, xa) and np.array_equal(P, Pa)
 
 
-def test_batched_likelihood_equals_the_per_track_one(problems):
+@pytest.mark.parametrize("engine,rtol", [("numpy", 1e-12), ("taichi", 1e-9)])
+def test_batched_likelihood_equals_the_per_track_one(problems, engine, rtol):
+    """The numpy batch and the Taichi kernel (a thread per track and q) against the
+    per-track reference."""
     rng = np.random.default_rng(4)
     tracks = [(p.ts[p.measured], p.z, rng.uniform(0.02, 0.5, len(p.z))) for p in problems
               if p.measured.sum() >= 4]
-    batched = kalman.innovation_loglik(tracks, GRID)
-    for t, ll in zip(tracks, batched):
+    run = kalman.innovation_loglik if engine == "numpy" else kalman.innovation_loglik_taichi
+    for t, ll in zip(tracks, run(tracks, GRID)):
         ref = kalman.innovation_loglik_one(*t, GRID)
-        np.testing.assert_allclose(ll, ref, rtol=1e-12)
+        np.testing.assert_allclose(ll, ref, rtol=rtol)
         assert np.argmax(ll) == np.argmax(ref)
 
 
-def test_a_straight_track_is_followed_exactly():
+@pytest.mark.parametrize("engine", ["numpy", "taichi"])
+def test_a_straight_track_is_followed_exactly(engine):
     """No noise, no process noise: the smoother returns the line (a check that does not
     lean on filterpy)."""
     ts = np.linspace(0, 1, 50)
     z = np.column_stack([3 + 40 * ts, 7 - 12 * ts])
     p = kalman.CVProblem(ts, np.ones(50, bool), z, kalman.diagonal_covariances(np.full(50, 0.1)), 0.0)
-    x, P = kalman.cv_rts([p])[0]
+    x, P = (kalman.cv_rts if engine == "numpy" else kalman.cv_rts_taichi)([p])[0]
     np.testing.assert_allclose(x[:, [0, 2]], z, atol=1e-6)
     np.testing.assert_allclose(x[:, [1, 3]], np.tile([40.0, -12.0], (50, 1)), atol=1e-5)
     assert np.all(P[:, 0, 0] > 0) and np.all(P[:, 0, 0] < 0.1 ** 2)
@@ -96,14 +100,6 @@ def test_taichi_filter_and_smoother_equal_the_numpy_batch(problems):
         np.testing.assert_allclose(P[later], Pr[later], rtol=1e-6, atol=1e-12)
 
 
-def test_taichi_smoother_follows_a_straight_track_exactly():
-    ts = np.linspace(0, 1, 50)
-    z = np.column_stack([3 + 40 * ts, 7 - 12 * ts])
-    p = kalman.CVProblem(ts, np.ones(50, bool), z, kalman.diagonal_covariances(np.full(50, 0.1)), 0.0)
-    x, _ = kalman.cv_rts_taichi([p])[0]
-    np.testing.assert_allclose(x[:, [0, 2]], z, atol=1e-6)
-    np.testing.assert_allclose(x[:, [1, 3]], np.tile([40.0, -12.0], (50, 1)), atol=1e-5)
-
 
 def test_taichi_launches_split_into_batches_come_out_the_same(problems, monkeypatch):
     from evstar_kernels.taichi import kalman_launch
@@ -112,13 +108,3 @@ def test_taichi_launches_split_into_batches_come_out_the_same(problems, monkeypa
     monkeypatch.setattr(kalman_launch, "MAX_STEPS", 150)
     for (x, P), (xs, Ps) in zip(kalman.cv_rts_taichi(problems), whole):
         assert np.array_equal(x, xs) and np.array_equal(P, Ps)
-
-
-def test_taichi_likelihood_equals_the_per_track_one(problems):
-    rng = np.random.default_rng(4)
-    tracks = [(p.ts[p.measured], p.z, rng.uniform(0.02, 0.5, len(p.z))) for p in problems
-              if p.measured.sum() >= 4]
-    for t, ll in zip(tracks, kalman.innovation_loglik_taichi(tracks, GRID)):
-        ref = kalman.innovation_loglik_one(*t, GRID)
-        np.testing.assert_allclose(ll, ref, rtol=1e-9)
-        assert np.argmax(ll) == np.argmax(ref)
