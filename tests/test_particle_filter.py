@@ -28,11 +28,11 @@ def assert_same(a, b):
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
 
 
-def warp_particles(q, b, device="cpu"):
+def warp_particles(q, b, device="cpu", threads=1):
     from evstar_kernels.warp.particle_launch import WarpParticles
 
     _, dev = backends.warp(device)
-    return WarpParticles(q, b, device=dev)
+    return WarpParticles(q, b, device=dev, threads=threads)
 
 
 def random_particles(n, seed=0):
@@ -105,11 +105,13 @@ def test_prediction_with_given_normals_is_bit_identical():
         np.testing.assert_allclose(qw, q_ref, atol=1e-15)
 
 
-def test_prediction_with_counter_noise_matches_the_reference():
+@pytest.mark.parametrize("threads", [1, 3])  # 3: launches over 3 particle ranges at once
+def test_prediction_with_counter_noise_matches_the_reference(threads):
     rng = np.random.default_rng(6)
-    q, b = random_particles(500)
+    q, b = random_particles(1000)
     omega, dt = rng.normal(size=(25, 3)) * 0.3, np.full(25, 1e-3)
-    wpart = warp_particles(q, b)
+    wpart = warp_particles(q, b, threads=threads)
+    assert len(wpart._ranges) == threads
     wpart.predict(omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
     q_ref, b_ref = ref.predict(q, b, omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
     qw, bw, _ = wpart.host()
@@ -128,14 +130,15 @@ def test_prediction_noise_has_the_stated_spread():
     np.testing.assert_allclose(b1.std(0), 0.5 * math.sqrt(0.1), rtol=0.06)
 
 
-def test_likelihood_weights_and_resampling_are_bit_identical():
+@pytest.mark.parametrize("threads", [1, 3])
+def test_likelihood_weights_and_resampling_are_bit_identical(threads):
     rng = np.random.default_rng(8)
     q, b = random_particles(1000)
     q[:500] = so3.quat_mul(so3.quat_exp(rng.normal(size=(500, 3)) * 1e-3), so3.quat_identity(500))
     stars = so3.quat_rotate(so3.quat_identity(), CAMERA.unproject(rng.uniform(50, 400, (6, 2))))
     uv = CAMERA.project(stars) + rng.normal(size=(6, 2)) * 0.3
     cam = dict(fx=CAMERA.fx, fy=CAMERA.fy, cx=CAMERA.cx, cy=CAMERA.cy, pixel_sigma=0.3, gate=5.0)
-    wpart = warp_particles(q, b)
+    wpart = warp_particles(q, b, threads=threads)
     wpart.add_log_likelihood(stars, uv, **cam)
     logw = ref.log_likelihood(q, stars, uv, **cam)
     assert_same(wpart.host()[2], np.zeros(1000) + logw)

@@ -31,12 +31,13 @@ def predict_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64, gyro
 def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                     omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
                     seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
-                    walk_sigma: wp.float64):
+                    walk_sigma: wp.float64, first: wp.int32):
     """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
-    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step).
+    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step). Thread t moves
+    particle first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.predict`."""
-    i = wp.tid()
+    i = wp.tid() + first
     p = wp.uint32(i)
     qi = q[i]
     bi = b[i]
@@ -90,11 +91,12 @@ def counter_normals(seed: wp.uint32, step: wp.uint32, component0: wp.uint32,
 def add_log_likelihood(q: wp.array(dtype=wp.vec4d), stars: wp.array(dtype=wp.vec3d),
                        uv: wp.array(dtype=wp.vec2d), fx: wp.float64, fy: wp.float64,
                        cx: wp.float64, cy: wp.float64, inv_sigma: wp.float64, gate2: wp.float64,
-                       logw: wp.array(dtype=wp.float64)):
+                       logw: wp.array(dtype=wp.float64), first: wp.int32):
     """logw += Σ_j −½·min(|pinhole(R(q)·d_j) − uv_j|²/σ², gate²); a star behind costs gate²/2.
+    Thread t weighs particle first + t.
 
     Specification: `evstar_kernels.reference.particle_filter.log_likelihood`."""
-    i = wp.tid()
+    i = wp.tid() + first
     qi = q[i]
     acc = wp.float64(0.0)
     for j in range(stars.shape[0]):
