@@ -48,6 +48,8 @@ class WarpParticles:
         # particle ranges of one launch each: >= 256 particles a range
         k = max(1, min(int(threads), self.n // 256)) if is_cpu else 1
         self._ranges = [(self.n * j // k, self.n * (j + 1) // k) for j in range(k)]
+        if k > 1:  # compiled and loaded here, not by two launches at once
+            wp.load_module(K, device=device)
 
     def _launch(self, kernel, inputs):
         """kernel over every particle: inputs + [first particle], one launch per range."""
