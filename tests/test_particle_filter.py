@@ -130,15 +130,14 @@ def test_prediction_noise_has_the_stated_spread():
     np.testing.assert_allclose(b1.std(0), 0.5 * math.sqrt(0.1), rtol=0.06)
 
 
-@pytest.mark.parametrize("threads", [1, 3])
-def test_likelihood_weights_and_resampling_are_bit_identical(threads):
+def test_likelihood_weights_and_resampling_are_bit_identical():
     rng = np.random.default_rng(8)
     q, b = random_particles(1000)
     q[:500] = so3.quat_mul(so3.quat_exp(rng.normal(size=(500, 3)) * 1e-3), so3.quat_identity(500))
     stars = so3.quat_rotate(so3.quat_identity(), CAMERA.unproject(rng.uniform(50, 400, (6, 2))))
     uv = CAMERA.project(stars) + rng.normal(size=(6, 2)) * 0.3
     cam = dict(fx=CAMERA.fx, fy=CAMERA.fy, cx=CAMERA.cx, cy=CAMERA.cy, pixel_sigma=0.3, gate=5.0)
-    wpart = warp_particles(q, b, threads=threads)
+    wpart = warp_particles(q, b)
     wpart.add_log_likelihood(stars, uv, **cam)
     logw = ref.log_likelihood(q, stars, uv, **cam)
     assert_same(wpart.host()[2], np.zeros(1000) + logw)

@@ -4,9 +4,10 @@
 filter and launches the kernels of particle_kernels.py. On the CPU the weight sums run in
 index order on one thread (bit-identical to the numpy reference); on a GPU they use atomics
 and a parallel scan (equal to rounding). A Warp CPU launch runs on one thread, so on the
-CPU the per-particle kernels (prediction, likelihood) are launched over `threads` ranges of
-the particles at once from a thread pool (the launch releases the GIL); each particle's
-arithmetic is the same, so the bits are too.
+CPU the prediction (a block of IMU steps per particle: the filter's bulk) is launched over
+`threads` ranges of the particles at once from a thread pool (the launch releases the GIL);
+each particle's arithmetic is the same, so the bits are too. The likelihood launch is too
+short for that (a thread hand-off costs about as much as it).
 """
 from concurrent.futures import ThreadPoolExecutor
 
@@ -52,13 +53,14 @@ class WarpParticles:
             wp.load_module(K, device=device)
 
     def _launch(self, kernel, inputs):
-        """kernel over every particle: inputs + [first particle], one launch per range."""
+        """kernel over every particle: inputs + [first particle], one launch per range (the
+        last on this thread, which so works while the pool's threads wake up)."""
         def one(r):
             wp.launch(kernel, r[1] - r[0], device=self.device, inputs=inputs + [r[0]])
-        if len(self._ranges) == 1:
-            one(self._ranges[0])
-        else:
-            list(_pool(len(self._ranges)).map(one, self._ranges))
+        others = [_pool(len(self._ranges) - 1).submit(one, r) for r in self._ranges[:-1]]
+        one(self._ranges[-1])
+        for f in others:
+            f.result()
 
     # -- prediction --------------------------------------------------------------------------
     def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
@@ -94,9 +96,9 @@ class WarpParticles:
         stars = wp.array(np.ascontiguousarray(stars_world, np.float64), dtype=wp.vec3d,
                          device=self.device)
         uv_d = wp.array(np.ascontiguousarray(uv, np.float64), dtype=wp.vec2d, device=self.device)
-        self._launch(K.add_log_likelihood,
-                     [self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
-                      1.0 / pixel_sigma, float(gate) * float(gate), self.logw])
+        wp.launch(K.add_log_likelihood, self.n, device=self.device,
+                  inputs=[self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
+                          1.0 / pixel_sigma, float(gate) * float(gate), self.logw])
 
     def weight_sums(self, q_ref):
         """Fill self.cdf and return the nine sums of reference.particle_filter.weight_sums."""
