@@ -38,6 +38,14 @@ def settings():
     return dict(_settings)
 
 
+def cpu_threads():
+    """CPU threads a kernel may use: configure()'s cpu_threads, else the cores this process
+    may run on."""
+    if _settings["cpu_threads"]:
+        return int(_settings["cpu_threads"])
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
 def initialised():
     """True once Taichi or Warp has started in this process (configure() is too late then)."""
     return _taichi_arch is not None or _warp_ready

@@ -158,8 +158,13 @@ class Events:
         """Slice or boolean mask / index array (order kept; fancy indices must be increasing)."""
         if isinstance(index, (int, np.integer)):
             raise ParameterTypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
-        sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}
         ordered = isinstance(index, slice) or np.asarray(index).dtype == bool   # order kept
+        if not isinstance(index, slice) and ordered:   # a mask: its events found once for
+            mask = np.asarray(index)                   # the four arrays (~3x a mask each)
+            if mask.shape != self.t.shape:
+                raise IndexError(f"boolean index of shape {mask.shape} for {len(self)} events")
+            index = np.flatnonzero(mask)
+        sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}
         if not ordered and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
             raise DataError("an index array must keep events in time order")
         return Events._trusted(sel["t"], sel["x"], sel["y"], sel["p"], self.width, self.height)

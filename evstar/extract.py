@@ -225,6 +225,8 @@ class Extractor:
         first = self._first_halves(c, pts, events.p[members_all], starts, stops)
         rows, keys = [], []
         for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
+            if first is not None and first[n][2] and not by_polarity[j]:
+                continue  # _split would return None: the first test fails, no second one
             members = members_all[a:b]
             parts = self._split(pts[a:b], events.p[members], by_polarity[j],
                                 None if first is None else first[n])

@@ -1,6 +1,7 @@
 """Throughput of motion compensation: particle-filter IMU steps/s and event warping events/s.
 
-Goals (issue 6): 4,096 particles at >= 2,000 IMU steps/s on the CPU (twice real time at
+The CPU prediction is also timed on one thread (one launch: the parallel launches over
+particle ranges against it). Goals (issue 6): 4,096 particles at >= 2,000 IMU steps/s on the CPU (twice real time at
 1 kHz); 100,000 particles at >= 1,000 steps/s on a GPU. The filter is timed end to end
 (ParticleFilter.run: prediction, star-likelihood updates at 100 Hz with 10 stars, weights,
 resampling, estimates) and its prediction kernel alone. Writes perf/results/motion.json and
@@ -52,8 +53,14 @@ def bench_filter(n, device, backend, duration_s, repeats):
                 unit="IMU steps/s")
 
 
-def bench_predict(n, device, steps, repeats):
+def bench_predict(n, device, steps, repeats, threads=None):
+    """threads: CPU threads of the launches (None: the engine's default, every core)."""
     engine = make_engine("warp", device, so3.quat_identity(n), np.zeros((n, 3)))
+    if threads is not None:
+        from evstar_kernels.warp.particle_launch import WarpParticles
+
+        engine = WarpParticles(so3.quat_identity(n), np.zeros((n, 3)), device=engine.device,
+                               threads=threads)
     omega, dt = np.full((steps, 3), 0.1), np.full(steps, 1e-3)
 
     def run():
@@ -61,7 +68,8 @@ def bench_predict(n, device, steps, repeats):
         engine.host()  # waits for the device
 
     r = time_call(run, repeats=repeats)
-    return dict(stage="PF prediction kernel", backend="warp", device=device, n=n, steps=steps,
+    stage = "PF prediction kernel" + ("" if threads is None else f", {threads} thread(s)")
+    return dict(stage=stage, backend="warp", device=device, n=n, steps=steps,
                 median_s=r["median_s"], first_s=r["first_s"], rate=steps / r["median_s"],
                 unit="IMU steps/s")
 
@@ -91,6 +99,8 @@ def main(argv=None):
     devices = ["cpu"] + (["cuda"] if backends.available()["cuda"] else [])
     for device in devices:
         rows.append(bench_predict(4096, device, int(2000 * k), args.repeats))
+        if device == "cpu":  # the launches over particle ranges against one launch
+            rows.append(bench_predict(4096, device, int(2000 * k), args.repeats, threads=1))
         rows.append(bench_predict(100_000, device, int(200 * k) if device == "cpu" else 2000,
                                   args.repeats))
         rows.append(bench_filter(4096, device, "warp", 2.0 * k, args.repeats))

@@ -28,11 +28,11 @@ def assert_same(a, b):
         np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-15)
 
 
-def warp_particles(q, b, device="cpu"):
+def warp_particles(q, b, device="cpu", threads=1):
     from evstar_kernels.warp.particle_launch import WarpParticles
 
     _, dev = backends.warp(device)
-    return WarpParticles(q, b, device=dev)
+    return WarpParticles(q, b, device=dev, threads=threads)
 
 
 def random_particles(n, seed=0):
@@ -105,11 +105,13 @@ def test_prediction_with_given_normals_is_bit_identical():
         np.testing.assert_allclose(qw, q_ref, atol=1e-15)
 
 
-def test_prediction_with_counter_noise_matches_the_reference():
+@pytest.mark.parametrize("threads", [1, 3])  # 3: launches over 3 particle ranges at once
+def test_prediction_with_counter_noise_matches_the_reference(threads):
     rng = np.random.default_rng(6)
-    q, b = random_particles(500)
+    q, b = random_particles(1000)
     omega, dt = rng.normal(size=(25, 3)) * 0.3, np.full(25, 1e-3)
-    wpart = warp_particles(q, b)
+    wpart = warp_particles(q, b, threads=threads)
+    assert len(wpart._ranges) == threads
     wpart.predict(omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
     q_ref, b_ref = ref.predict(q, b, omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
     qw, bw, _ = wpart.host()

@@ -62,5 +62,5 @@ def make_engine(backend, device, q, b):
     if backend == "warp":
         _, dev = backends.warp(device)
         from evstar_kernels.warp.particle_launch import WarpParticles
-        return WarpParticles(q, b, device=dev)
+        return WarpParticles(q, b, device=dev, threads=backends.cpu_threads())
     raise ParameterError(f"backend must be one of {BACKENDS}, got {backend!r}")

@@ -31,12 +31,13 @@ def predict_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64, gyro
 def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                     omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
                     seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
-                    walk_sigma: wp.float64):
+                    walk_sigma: wp.float64, first: wp.int32):
     """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
-    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step).
+    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step). Thread t moves
+    particle first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.predict`."""
-    i = wp.tid()
+    i = wp.tid() + first
     p = wp.uint32(i)
     qi = q[i]
     bi = b[i]

@@ -3,19 +3,34 @@
 `WarpParticles` holds the particle arrays on one Warp device; each method is one step of the
 filter and launches the kernels of particle_kernels.py. On the CPU the weight sums run in
 index order on one thread (bit-identical to the numpy reference); on a GPU they use atomics
-and a parallel scan (equal to rounding).
+and a parallel scan (equal to rounding). A Warp CPU launch runs on one thread, so on the
+CPU the prediction (a block of IMU steps per particle: the filter's bulk) is launched over
+`threads` ranges of the particles at once from a thread pool (the launch releases the GIL);
+each particle's arithmetic is the same, so the bits are too. The likelihood launch is too
+short for that (a thread hand-off costs about as much as it).
 """
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import warp as wp
 
 from . import particle_kernels as K
 
+_POOLS = {}  # thread count -> ThreadPoolExecutor (shared by all filters of the process)
+
+
+def _pool(k):
+    if k not in _POOLS:
+        _POOLS[k] = ThreadPoolExecutor(k, thread_name_prefix="evstar-particles")
+    return _POOLS[k]
+
 
 class WarpParticles:
     """Particles q (N, 4) and b (N, 3) with their log-weights on a Warp device."""
 
-    def __init__(self, q, b, device="cpu", sequential=None):
-        """sequential: weight sums on one thread in index order (default: on the CPU only)."""
+    def __init__(self, q, b, device="cpu", sequential=None, threads=1):
+        """sequential: weight sums on one thread in index order (default: on the CPU only);
+        threads: CPU threads of the per-particle kernels (1 on a GPU)."""
         q, b = np.asarray(q, np.float64), np.asarray(b, np.float64)
         self.n = len(q)
         self.device = device
@@ -29,7 +44,23 @@ class WarpParticles:
         self._sums = wp.zeros(9, dtype=wp.float64, device=device)
         self._w = wp.zeros(self.n, dtype=wp.float64, device=device)
         self._max = wp.zeros(1, dtype=wp.float64, device=device)
-        self._sequential = wp.get_device(device).is_cpu if sequential is None else bool(sequential)
+        is_cpu = wp.get_device(device).is_cpu
+        self._sequential = is_cpu if sequential is None else bool(sequential)
+        # particle ranges of one launch each: >= 256 particles a range
+        k = max(1, min(int(threads), self.n // 256)) if is_cpu else 1
+        self._ranges = [(self.n * j // k, self.n * (j + 1) // k) for j in range(k)]
+        if k > 1:  # compiled and loaded here, not by two launches at once
+            wp.load_module(K, device=device)
+
+    def _launch(self, kernel, inputs):
+        """kernel over every particle: inputs + [first particle], one launch per range (the
+        last on this thread, which so works while the pool's threads wake up)."""
+        def one(r):
+            wp.launch(kernel, r[1] - r[0], device=self.device, inputs=inputs + [r[0]])
+        others = [_pool(len(self._ranges) - 1).submit(one, r) for r in self._ranges[:-1]]
+        one(self._ranges[-1])
+        for f in others:
+            f.result()
 
     # -- prediction --------------------------------------------------------------------------
     def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
@@ -42,10 +73,9 @@ class WarpParticles:
         dt_d = wp.array(dt, dtype=wp.float64, device=self.device)
         walk_sigma = float(bias_walk * np.sqrt(np.sum(dt)))
         if step_normals is None:
-            wp.launch(K.predict_counter, self.n, device=self.device,
-                      inputs=[self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
-                              wp.uint32(step0 & 0xFFFFFFFF),
-                              float(gyro_noise), walk_sigma])
+            self._launch(K.predict_counter,
+                         [self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
+                          wp.uint32(step0 & 0xFFFFFFFF), float(gyro_noise), walk_sigma])
         else:
             sn = wp.array(np.ascontiguousarray(step_normals, np.float64), dtype=wp.vec3d,
                           device=self.device)
