@@ -6,11 +6,12 @@ step at a time, which costs ~15 array operations per step whatever the track cou
 Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
 (x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
 update, the diffuse start about the first position. Tracks are concatenated: track i holds
-steps start[i] .. start[i + 1] − 1 of the flat arrays.
+steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a launch holds at most
+kalman_launch.MAX_STEPS steps).
 """
 import taichi as ti
 
-from .arrays import f64_1d, f64_2d, f64_3d, i32_1d, i64_1d
+from .arrays import f64_1d, f64_2d, f64_3d, i32_1d
 
 mat4 = ti.types.matrix(4, 4, ti.f64)
 mat42 = ti.types.matrix(4, 2, ti.f64)
@@ -67,7 +68,7 @@ def _inv4(A: mat4) -> mat4:
 
 
 @ti.func
-def _get4(a: ti.template(), k: ti.i64) -> mat4:
+def _get4(a: ti.template(), k: ti.i32) -> mat4:
     m = mat4(0.0)
     for r, c in ti.static(ti.ndrange(4, 4)):
         m[r, c] = a[k, r, c]
@@ -75,24 +76,24 @@ def _get4(a: ti.template(), k: ti.i64) -> mat4:
 
 
 @ti.func
-def _put4(a: ti.template(), k: ti.i64, m: mat4):
+def _put4(a: ti.template(), k: ti.i32, m: mat4):
     for r, c in ti.static(ti.ndrange(4, 4)):
         a[k, r, c] = m[r, c]
 
 
 @ti.func
-def _getv(a: ti.template(), k: ti.i64) -> vec4:
+def _getv(a: ti.template(), k: ti.i32) -> vec4:
     return vec4(a[k, 0], a[k, 1], a[k, 2], a[k, 3])
 
 
 @ti.func
-def _putv(a: ti.template(), k: ti.i64, v: vec4):
+def _putv(a: ti.template(), k: ti.i32, v: vec4):
     for r in ti.static(range(4)):
         a[k, r] = v[r]
 
 
 @ti.kernel
-def cv_rts(start: i64_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: f64_1d,
+def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: f64_1d,
            diffuse: ti.f64, xp: f64_2d, Pp: f64_3d, xf: f64_2d, Pf: f64_3d, xs: f64_2d,
            Ps: f64_3d):
     """Filter then smooth each track; xp, Pp, xf, Pf: predicted and filtered scratch;
@@ -150,7 +151,7 @@ def _huber(u: ti.f64, c: ti.f64) -> ti.f64:
 
 
 @ti.kernel
-def innovation_loglik(start: i64_1d, ts: f64_1d, z: f64_2d, s2: f64_1d, q_grid: f64_1d,
+def innovation_loglik(start: i32_1d, ts: f64_1d, z: f64_2d, s2: f64_1d, q_grid: f64_1d,
                       v0_var: ti.f64, huber_c: ti.f64, ll: f64_2d):
     """ll[i, g]: the log-likelihood of track i's innovations under q_grid[g], both axes
     (every step measured with per-axis variance s2; the first two steps left out)."""

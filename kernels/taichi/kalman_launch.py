@@ -22,7 +22,7 @@ def cv_rts(ti, problems, diffuse):
 
 def _cv_rts_batch(ti, problems, diffuse):
     lengths = np.array([len(p.ts) for p in problems], np.int64)
-    start = np.r_[0, np.cumsum(lengths)].astype(np.int64)
+    start = np.r_[0, np.cumsum(lengths)].astype(np.int32)
     n = int(start[-1])
     h = np.zeros(n)
     measured = np.zeros(n, np.int32)
@@ -50,7 +50,7 @@ def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c):
     if not tracks:
         return []
     lengths = np.array([len(t[0]) for t in tracks], np.int64)
-    start = np.r_[0, np.cumsum(lengths)].astype(np.int64)
+    start = np.r_[0, np.cumsum(lengths)].astype(np.int32)
     ts = np.concatenate([np.asarray(t[0], np.float64) for t in tracks])
     z = np.concatenate([np.asarray(t[1], np.float64) for t in tracks])
     s2 = np.concatenate([np.asarray(t[2], np.float64) ** 2 for t in tracks])
