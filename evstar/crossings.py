@@ -61,7 +61,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     runs: threshold_ratio_of)."""
     order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
     r = threshold_ratio_of(on_before, off_after) if threshold_ratio == AUTO else float(threshold_ratio)
-    k = pair_counts(on_before, off_after, r, max_pairs)
+    k = _pair_counts(on_before, off_after, r, max_pairs)
     keep = k > 0
     change, k = change[keep], k[keep]
     sums, sq = kern.sums(change, k, r) if kern is not None else _pair_sums(order, t, change, k, r)
@@ -111,7 +111,7 @@ def threshold_ratio_of(on_before, off_after):
     return float(np.clip(np.sum(a[m] + 0.5) / np.sum(b[m] + 1.0), 0.25, 4.0))
 
 
-def pair_counts(on_before, off_after, ratio, max_pairs):
+def _pair_counts(on_before, off_after, ratio, max_pairs):
     """Level pairs per change: OFF j (level j·C_off below the change's) pairs with the rising
     time j·ratio ON steps back, so ceil(j·ratio) ON events must precede the change."""
     on_levels = np.floor(np.asarray(on_before) / ratio + 1e-9).astype(np.int64)

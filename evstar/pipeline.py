@@ -73,9 +73,9 @@ class Pipeline:
     def make_tracker(self):
         """A faint star's pooled centroids (evstar.pooling) can come up to 2·pool_frames − 1
         frames apart: its track survives that long without a centroid."""
-        params = asdict(self.config.track)
-        pooled_gap = 2 * self.config.extract.pool_frames - 1 if self.config.extract.pool_frames > 1 else 0
-        params["max_gap"] = max(params["max_gap"], pooled_gap)
+        params, k = asdict(self.config.track), self.config.extract.pool_frames
+        if k > 1:
+            params["max_gap"] = max(params["max_gap"], 2 * k - 1)
         return Tracker(**params)
 
     def calibration_rate(self, events, t0_us):
@@ -389,7 +389,7 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        pixel = events.y.astype(np.int32) * np.int32(events.width) + events.x
+        pixel = events.y.astype(np.int64) * events.width + events.x
         size = self.before.size
         self.before += np.bincount(pixel, minlength=size).reshape(self.before.shape)
         self.after += np.bincount(pixel[keep], minlength=size).reshape(self.after.shape)
