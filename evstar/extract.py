@@ -225,7 +225,13 @@ class Extractor:
         split (the second test of _split); peaks: the screen's certain peaks (_screen)."""
         labels = c.labels
         idx = np.flatnonzero(np.r_[candidates, False][labels])  # label -1: the False
-        members_all = idx[np.argsort(labels[idx], kind="stable")]
+        if self.clustering == "grid":  # a counting sort by cluster (Taichi)
+            from evstar_kernels.taichi import sorting_launch
+
+            members_all = idx[sorting_launch.stable_order(backends.taichi(self.device),
+                                                          labels[idx], len(candidates))]
+        else:
+            members_all = idx[np.argsort(labels[idx], kind="stable")]
         pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
         first = self._first_halves(c, pts, events.p[members_all], starts, stops,
@@ -237,7 +243,8 @@ class Extractor:
             members = members_all[a:b]
             parts = self._split(pts[a:b], events.p[members], by_polarity[j],
                                 None if first is None else first[n],
-                                None if peaks is None else (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
+                                (None, None) if peaks is None else
+                                (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
             if parts is None:
                 continue
             keep[j] = False
@@ -275,10 +282,9 @@ class Extractor:
         # cluster (splitting.two_means_many is its numpy form)
         from evstar_kernels.taichi import clusters_launch
 
-        lab = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops, a, b)
-        seg = np.repeat(np.arange(len(starts)), stops - starts)
-        n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
-        on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)
+        lab, halves = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops,
+                                                a, b, p=p)
+        n, on = halves[:, :2], halves[:, 2:]  # sizes and ON counts of the halves
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
         fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)

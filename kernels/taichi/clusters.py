@@ -411,9 +411,10 @@ def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: 
 
 @ti.kernel
 def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d,
-              iterations: ti.i32, lab: i32_1d):
+              iterations: ti.i32, lab: i32_1d, p: i8_1d, halves: i64_2d):
     """Lloyd's 2-means of each cluster's points pts[starts[j]:stops[j]] from the centres
-    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster.
+    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster; halves[j] =
+    (points labelled 0, labelled 1, those with p != 0 labelled 0, labelled 1).
 
     Specification: `evstar.extract._two_means` per cluster (stop when the labels repeat or
     one half is empty; centres: sums in point order / counts, as `evstar.splitting`'s
@@ -444,3 +445,9 @@ def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d
             n1 = ti.cast(ones, ti.f64)
             n0 = ti.cast(e - s - ones, ti.f64)
             c0x, c0y, c1x, c1y = sx0 / n0, sy0 / n0, sx1 / n1, sy1 / n1
+        for h in ti.static(range(4)):
+            halves[j, h] = 0
+        for i in range(s, e):
+            halves[j, lab[i]] = halves[j, lab[i]] + 1
+            if p[i] != 0:
+                halves[j, 2 + lab[i]] = halves[j, 2 + lab[i]] + 1

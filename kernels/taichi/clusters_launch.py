@@ -231,20 +231,28 @@ def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e
     return maybe, both, res
 
 
-def two_means(ti, pts, starts, stops, a, b, iterations=10):
+def two_means(ti, pts, starts, stops, a, b, iterations=10, p=None):
     """2-means labels (int64 per point) of every cluster pts[starts[j]:stops[j]] from the
-    centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False)."""
-    if not len(starts):
-        return np.zeros(len(pts), np.int64)
+    centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False).
+    p (0/1 per point): also the halves' sizes and ON counts, int64 (k, 4): points labelled
+    0, labelled 1, ON points labelled 0, labelled 1."""
+    k = len(starts)
+    halves = np.zeros((k, 4), np.int64)
+    if not k:
+        lab = np.zeros(len(pts), np.int64)
+        return lab if p is None else (lab, halves)
     with launch.RUNTIME_LOCK:
         arrays = launch.Arrays(ti)
-        lab = arrays.empty(len(pts), np.int32)
+        lab, halves_d = arrays.empty(len(pts), np.int32), arrays.empty((k, 4), np.int64)
+        q = np.zeros(len(pts), np.int8) if p is None else np.asarray(p, np.int8)
         clusters.two_means(arrays.put(pts[:, 0].astype(np.float64)),
                            arrays.put(pts[:, 1].astype(np.float64)),
                            arrays.put(np.asarray(starts, np.int32)),
                            arrays.put(np.asarray(stops, np.int32)),
                            arrays.put(np.column_stack([a, b]).astype(np.float64)),
-                           int(iterations), lab)
+                           int(iterations), lab, arrays.put(q), halves_d)
         out = np.empty(len(pts), np.int32)
         arrays.get(lab, out)
-    return out.astype(np.int64)
+        arrays.get(halves_d, halves)
+    out = out.astype(np.int64)
+    return out if p is None else (out, halves)
