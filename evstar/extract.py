@@ -146,11 +146,11 @@ class Extractor:
         keep = out["n_events"] >= self.min_cluster_size
         if self.split_valley:
             maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
-            by_polarity = maybe.copy()
+            by_polarity, peaks = maybe.copy(), None
             if self.clustering == "grid":  # the reference looks at every cluster
-                maybe, by_polarity = self._screen(events, c, m, maybe)
+                maybe, by_polarity, peaks = self._screen(events, c, m, maybe)
             out, order, keep = self._split_clusters(events, c, out, order, keep, maybe,
-                                                    by_polarity)
+                                                    by_polarity, peaks)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))]
 
@@ -205,31 +205,46 @@ class Extractor:
 
     def _screen(self, events, c, m, maybe):
         """(clusters whose smoothed image may hold two peaks, those of which each polarity's
-        image may too): Taichi passes over all clusters. The others cannot split: _split
-        stops at _two_peaks, and its per-polarity test needs both polarities split."""
+        image may too, the peaks of those images where certain): Taichi passes over all
+        clusters. The others cannot split: _split stops at _two_peaks, and its per-polarity
+        test needs both polarities split. peaks: clusters_launch.peak_screen's (k, 3, 5)
+        (all events, OFF, ON; status 0 none, 1 found, 2 not decided)."""
         from evstar_kernels.taichi import clusters_launch
 
         polarities = np.all(m["n"] >= 2 * self.min_cluster_size, axis=1)  # else _halves: None
-        return clusters_launch.peak_screen(backends.taichi(self.device), c.offsets, c.labels,
-                                           c.px, c.py, events.p, m["box"], maybe, polarities)
+        maybe, both, peaks = clusters_launch.peak_screen(
+            backends.taichi(self.device), c.offsets, c.labels, c.px, c.py, events.p, m["box"],
+            maybe, polarities, peaks=True)
+        # a polarity whose image certainly holds one peak: its _halves is None
+        both &= (peaks[:, 1, 0] != 0) & (peaks[:, 2, 0] != 0)
+        return maybe, both, peaks
 
-    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity):
+    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity, peaks=None):
         """Replace every candidate cluster that holds two targets by its two halves (flag
         split); the others keep their row. by_polarity: clusters whose polarities may each
-        split (the second test of _split)."""
+        split (the second test of _split); peaks: the screen's certain peaks (_screen)."""
         labels = c.labels
         idx = np.flatnonzero(np.r_[candidates, False][labels])  # label -1: the False
-        members_all = idx[np.argsort(labels[idx], kind="stable")]
+        if self.clustering == "grid":  # a counting sort by cluster (Taichi)
+            from evstar_kernels.taichi import sorting_launch
+
+            members_all = idx[sorting_launch.stable_order(backends.taichi(self.device),
+                                                          labels[idx], len(candidates))]
+        else:
+            members_all = idx[np.argsort(labels[idx], kind="stable")]
         pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
-        first = self._first_halves(c, pts, events.p[members_all], starts, stops)
+        first = self._first_halves(c, pts, events.p[members_all], starts, stops,
+                                   None if peaks is None else peaks[ids, 0])
         rows, keys = [], []
         for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
             if first is not None and first[n][2] and not by_polarity[j]:
                 continue  # _split would return None: the first test fails, no second one
             members = members_all[a:b]
             parts = self._split(pts[a:b], events.p[members], by_polarity[j],
-                                None if first is None else first[n])
+                                None if first is None else first[n],
+                                (None, None) if peaks is None else
+                                (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
             if parts is None:
                 continue
             keep[j] = False
@@ -242,24 +257,34 @@ class Extractor:
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
 
-    def _first_halves(self, c, pts, p, starts, stops):
+    def _first_halves(self, c, pts, p, starts, stops, peaks=None):
         """The first test's (seeds or None, 2-means labels, whether it fails whatever the
         rest of _halves says) of every candidate at once (grid clustering; exact for integer
-        coordinates, to the last bits of the 2-means centres for floats); else None. The first test fails where a half has
-        fewer than min_cluster_size events or the halves' polarities differ by more than
-        0.5 (a moving star's lobes: the common case)."""
+        coordinates, to the last bits of the 2-means centres for floats); else None. The
+        first test fails where a half has fewer than min_cluster_size events or the halves'
+        polarities differ by more than 0.5 (a moving star's lobes: the common case).
+        peaks: the screen's (status, ax, ay, bx, by) of each candidate's image (_screen);
+        the seeds are computed here (splitting.two_peaks_many) only where it is undecided."""
         if self.clustering != "grid" or not len(starts):
             return None
-        im = splitting.images(pts, starts, stops)
-        has, a, b = splitting.two_peaks_many(pts, starts, stops, im)
+        k = len(starts)
+        has, a, b = np.zeros(k, bool), np.zeros((k, 2)), np.zeros((k, 2))
+        todo = np.arange(k) if peaks is None else np.flatnonzero(peaks[:, 0] > 1)
+        if peaks is not None:
+            has, a[:], b[:] = peaks[:, 0] == 1, peaks[:, 1:3], peaks[:, 3:5]
+        if len(todo):
+            sizes = (stops - starts)[todo]
+            sub = np.repeat(starts[todo] - (np.cumsum(sizes) - sizes), sizes) + np.arange(sizes.sum())
+            sub_stops = np.cumsum(sizes)
+            has[todo], a[todo], b[todo] = splitting.two_peaks_many(pts[sub], sub_stops - sizes,
+                                                                   sub_stops)
         # 2-means of all (the screen leaves few without two peaks): a Taichi thread per
         # cluster (splitting.two_means_many is its numpy form)
         from evstar_kernels.taichi import clusters_launch
 
-        lab = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops, a, b)
-        seg = np.repeat(np.arange(len(starts)), stops - starts)
-        n = np.bincount(seg * 2 + lab, minlength=2 * len(starts)).reshape(-1, 2)
-        on = np.bincount(seg * 2 + lab, weights=p, minlength=2 * len(starts)).reshape(-1, 2)
+        lab, halves = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops,
+                                                a, b, p=p)
+        n, on = halves[:, :2], halves[:, 2:]  # sizes and ON counts of the halves
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
         fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
@@ -269,7 +294,7 @@ class Extractor:
         return out
 
     # -- one cluster, event by event (split candidates) ---------------------------------
-    def _split(self, pts, p, by_polarity=True, first=None):
+    def _split(self, pts, p, by_polarity=True, first=None, polarity_seeds=(None, None)):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
@@ -277,7 +302,8 @@ class Extractor:
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
-        first: the first test's (seeds, 2-means labels, certain failure) when known."""
+        first: the first test's (seeds, 2-means labels, certain failure) when known;
+        polarity_seeds: the OFF and the ON events' _two_peaks when known."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
         seeds, lab, fails = (_two_peaks(pts), None, False) if first is None else first
@@ -289,8 +315,9 @@ class Extractor:
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
             return None
         on, off = p == 1, p == 0
-        lab_on = self._halves(pts[on])
-        lab_off = None if lab_on is None else self._halves(pts[off])
+        seeds_off, seeds_on = polarity_seeds
+        lab_on = self._halves(pts[on], seeds_on)
+        lab_off = None if lab_on is None else self._halves(pts[off], seeds_off)
         if lab_off is None:
             return None
         c_on = np.array([pts[on][lab_on == k].mean(0) for k in (0, 1)])
@@ -356,6 +383,12 @@ class Extractor:
 
 
 _two_peaks = two_peaks  # (the split's seeds; numpy, per cluster)
+
+
+def _seeds(peak):
+    """_two_peaks' seeds from the screen's (status, ax, ay, bx, by) where it found them; None
+    (compute them) otherwise. Status 0 (no two peaks) never reaches a _halves."""
+    return (peak[1:3].astype(float), peak[3:5].astype(float)) if peak[0] == 1 else None
 
 
 def _two_means(pts, a, b, iterations=10):

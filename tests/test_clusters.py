@@ -336,3 +336,131 @@ def test_whole_pixel_float_coordinates_give_the_pixel_results():
     for name in ("t", "x", "y", "n_events", "split", "spread"):
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)
         np.testing.assert_array_equal(b[name], c[name], err_msg=name)
+
+
+def peak_clusters(seed):
+    """Point sets whose smoothed images have every kind of maxima: Gaussian blobs, close
+    pairs, symmetric count patterns (exact ties) and single pixels."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(300):
+        n = int(rng.integers(1, 150))
+        kind = i % 4
+        if kind == 0:
+            pts = rng.normal(0, rng.uniform(0.3, 3), (n, 2))
+        elif kind == 1:
+            pts = np.concatenate([rng.normal(0, 0.8, (n, 2)),
+                                  rng.normal(0, 0.8, (n // 2 + 1, 2)) + rng.uniform(1, 6, 2)])
+        elif kind == 2:  # mirror-symmetric: equal smoothed values at mirrored pixels
+            base = rng.integers(0, 4, (max(1, n // 10), 2))
+            pts = np.concatenate([base, -base, base * [1, -1], base * [-1, 1]]).astype(float)
+        else:
+            pts = np.zeros((int(rng.integers(1, 4)), 2))
+        out.append(np.round(pts) + rng.integers(10, 30, 2))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_certain_two_peaks_is_two_peaks_where_decided(seed):
+    status = []
+    for pts in peak_clusters(seed):
+        s, a, b = ref.certain_two_peaks(pts)
+        want = ref.two_peaks(pts)
+        status.append(s)
+        if s == ref.PEAKS_NONE:
+            assert want is None
+        elif s == ref.PEAKS_FOUND:
+            np.testing.assert_array_equal(a, want[0])
+            np.testing.assert_array_equal(b, want[1])
+    status = np.array(status)
+    # symmetric patterns leave some undecided; blobs and pairs are decided
+    assert (status == ref.PEAKS_UNSURE).any() and (status == ref.PEAKS_FOUND).sum() > 100
+    assert (status == ref.PEAKS_NONE).sum() > 50
+
+
+@pytest.mark.parametrize("device_arrays", [False, True])
+def test_peak_screen_peaks_equal_the_reference(device_arrays, monkeypatch):
+    """The screen's certain peaks (all events, OFF, ON) are certain_two_peaks' of the same
+    events; where the screen rules an image out, two_peaks is None."""
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    groups = peak_clusters(7)
+    rng = np.random.default_rng(8)
+    pts = np.concatenate(groups)
+    k = len(groups)
+    labels = np.repeat(np.arange(k), [len(g) for g in groups])
+    x, y = pts[:, 0].astype(np.int64), pts[:, 1].astype(np.int64)
+    p = rng.integers(0, 2, len(x)).astype(np.int8)
+    m = ref.cluster_moments(labels, np.zeros(len(x), np.int64), x, y, np.zeros(len(x), np.int64),
+                            p, np.zeros(1, np.int64))
+    every, polarities = np.ones(k, bool), m["n"].min(1) > 0
+    maybe, both, peaks = clusters_launch.peak_screen(ti(), np.array([0, len(x)]), labels, x, y, p,
+                                                     m["box"], every, polarities, peaks=True)
+    seen = np.zeros(3, int)
+    for c in range(k):
+        for s, sel in enumerate((labels == c, (labels == c) & (p == 0), (labels == c) & (p == 1))):
+            status = peaks[c, s, 0]
+            if s and not (maybe[c] and polarities[c]):  # polarities not looked at
+                assert status == ref.PEAKS_UNSURE
+                continue
+            if s and status == ref.PEAKS_UNSURE:  # undecided, or the ON image not looked at
+                continue  # (the OFF one ruled out by the screen)
+            want, a, b = ref.certain_two_peaks(pts[sel])
+            if status == ref.PEAKS_NONE and want != ref.PEAKS_NONE:  # ruled out by the screen
+                assert ref.two_peaks(pts[sel]) is None
+                continue
+            assert status == want, (c, s)
+            seen[status] += 1
+            if want == ref.PEAKS_FOUND:
+                np.testing.assert_array_equal(peaks[c, s, 1:3], a)
+                np.testing.assert_array_equal(peaks[c, s, 3:5], b)
+    assert seen.min() > 0
+    assert not maybe.all() and np.all(peaks[~maybe, 0, 0] == ref.PEAKS_NONE)
+
+
+def test_two_means_kernel_counts_the_halves():
+    from evstar import splitting
+
+    frame, x, y = star_frames(9, n_frames=6, per_star=100)
+    labels = ref.dbscan_events(frame, x, y, 2.5, 5)
+    order = np.argsort(labels, kind="stable")
+    order = order[labels[order] >= 0]
+    pts = np.column_stack([x, y]).astype(float)[order]
+    p = np.random.default_rng(9).integers(0, 2, len(pts)).astype(np.int8)
+    bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
+    starts, stops = bounds[:-1], bounds[1:]
+    _, a, b = splitting.two_peaks_many(pts, starts, stops)
+    lab, halves = clusters_launch.two_means(ti(), pts, starts, stops, a, b, p=p)
+    np.testing.assert_array_equal(lab, clusters_launch.two_means(ti(), pts, starts, stops, a, b))
+    seg = np.repeat(np.arange(len(starts)), stops - starts)
+    np.testing.assert_array_equal(halves[:, :2], np.bincount(seg * 2 + lab, minlength=2 * len(starts))
+                                  .reshape(-1, 2))
+    np.testing.assert_array_equal(halves[:, 2:], np.bincount(seg * 2 + lab, weights=p, minlength=2
+                                                             * len(starts)).reshape(-1, 2))
+
+
+@pytest.mark.parametrize("float_coords", [False, True])
+def test_split_from_the_screen_peaks_equals_the_split_without(float_coords, monkeypatch):
+    """The extractor's split seeded by the screen's certain peaks gives the centroids of the
+    split that computes every seed itself (numpy two_peaks), field for field."""
+    from evstar import extract
+
+    ev = blob_events(4)
+    xy = None
+    if float_coords:
+        xy = np.column_stack([ev.x, ev.y]) + np.random.default_rng(4).uniform(-0.49, 0.49,
+                                                                              (len(ev), 2))
+    for kw in ({}, {"weighting": "polarity"}, {"eps": 1.5, "min_samples": 3}):
+        got = Extractor(**kw).centroids(ev, xy=xy)
+        screen = extract.Extractor._screen
+
+        def undecided(self, *a):
+            maybe, both, peaks = screen(self, *a)
+            peaks[:, :, 0] = ref.PEAKS_UNSURE
+            return maybe, both, peaks
+
+        with monkeypatch.context() as mp:
+            mp.setattr(extract.Extractor, "_screen", undecided)
+            want = Extractor(**kw).centroids(ev, xy=xy)
+        assert got["split"].sum() >= 10
+        for name in want.dtype.names:
+            np.testing.assert_array_equal(got[name], want[name], err_msg=name)

@@ -185,3 +185,56 @@ def maybe_two_peaks(pts, rtol=1e-9):
     near = (img >= ndimage.maximum_filter(img, size=3) * (1 - rtol)) & (img > 0)
     ys, xs = np.nonzero(near)
     return bool(np.hypot(xs.max() - xs.min(), ys.max() - ys.min()) >= 2)
+
+
+#: certain_two_peaks' status: two_peaks is None, two_peaks is (a, b), or not decided
+PEAKS_NONE, PEAKS_FOUND, PEAKS_UNSURE = 0, 1, 2
+
+
+def certain_peaks_of_image(img, rtol=1e-9):
+    """(status, a, b) of a smoothed image whose values may differ from two_peaks' own by a
+    relative error far below rtol (another rounding order, fused multiply-adds): every value
+    is a sum of non-negative terms, so each carries a small relative error, and only
+    comparisons decided by more than rtol are trusted. a, b: the (row, col) of the two
+    peaks where status is PEAKS_FOUND.
+
+    Each pixel > 0 is certainly a maximum (every 3 x 3 neighbour < v·(1 - rtol)), certainly
+    not (one > v·(1 + rtol)) or maybe one; C = the certain and maybe ones (every true
+    maximum is in C), T = those of C within rtol of C's highest value (the true highest is
+    in T). PEAKS_NONE: no pixel of C lies 2 px or more from a pixel of T. PEAKS_FOUND: T is
+    one certain maximum and the highest of C 2 px or more from it is a certain maximum
+    higher by more than rtol than the rest. Else PEAKS_UNSURE (near ties: exact ties of
+    symmetric count patterns among them)."""
+    h, w = img.shape
+    pad = np.pad(img, 1)  # outside the image counts as nothing (values are >= 0)
+    nb = np.max([pad[1 + dr:1 + dr + h, 1 + dq:1 + dq + w] for dr in (-1, 0, 1) for dq in (-1, 0, 1)
+                 if (dr, dq) != (0, 0)], axis=0)
+    pos = img > 0
+    sure = pos & (nb < img * (1 - rtol))
+    cand = pos & (nb <= img * (1 + rtol))
+    r, q = np.nonzero(cand)
+    v = img[r, q]
+    top = np.argmax(v)  # the first highest in row-major order
+    in_t = v >= v[top] * (1 - rtol)
+    d2 = (r[:, None] - r[None, in_t]) ** 2 + (q[:, None] - q[None, in_t]) ** 2
+    if not (d2 >= 4).any():
+        return PEAKS_NONE, None, None
+    if in_t.sum() > 1 or not sure[r[top], q[top]]:
+        return PEAKS_UNSURE, None, None
+    far = (r - r[top]) ** 2 + (q - q[top]) ** 2 >= 4
+    s = np.flatnonzero(far)[np.argmax(v[far])]
+    if (far & (v >= v[s] * (1 - rtol))).sum() > 1 or not sure[r[s], q[s]]:
+        return PEAKS_UNSURE, None, None
+    return PEAKS_FOUND, (r[top], q[top]), (r[s], q[s])
+
+
+def certain_two_peaks(pts, rtol=1e-9):
+    """(status, a, b): two_peaks(pts) decided from certain comparisons only (the
+    specification of the Taichi screen's peaks, which smooths in its own rounding order):
+    PEAKS_NONE where two_peaks is None, PEAKS_FOUND where it is (a, b), PEAKS_UNSURE where
+    near ties leave it open (the caller then runs two_peaks itself)."""
+    img, origin = smoothed_image(pts)
+    status, a, b = certain_peaks_of_image(img, rtol)
+    if status != PEAKS_FOUND:
+        return status, None, None
+    return status, (np.array(a[::-1]) + origin).astype(float), (np.array(b[::-1]) + origin).astype(float)

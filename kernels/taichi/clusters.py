@@ -299,14 +299,94 @@ def two_near_maxima(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32
     return ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)
 
 
+UNSURE = 2  # reference.clusters.PEAKS_UNSURE (NONE 0, FOUND 1)
+
+
+@ti.func
+def max_class(img: ti.template(), k: ti.i32, b: ti.i32, w: ti.i32, h: ti.i32, r: ti.i32,
+              q: ti.i32, rtol: ti.f64) -> ti.i32:
+    """Pixel (r, q) of smoothed image k at [b:]: 0 zero or certainly not a 3 x 3 maximum, 1
+    maybe one (a neighbour within rtol), 2 certainly one."""
+    v = img[k, b + r * w + q]
+    cls = 0
+    if v > 0:
+        m = ti.f64(0.0)  # the neighbours' maximum (values are >= 0)
+        for dr in ti.static(range(-1, 2)):
+            for dq in ti.static(range(-1, 2)):
+                if ti.static(dr != 0 or dq != 0):
+                    if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
+                        m = ti.max(m, img[k, b + (r + dr) * w + q + dq])
+        if m < v * (1 - rtol):
+            cls = 2
+        elif m <= v * (1 + rtol):
+            cls = 1
+    return cls
+
+
+@ti.func
+def far_apart(i: ti.i32, j: ti.i32, w: ti.i32) -> ti.i32:
+    dr = i // w - j // w
+    dq = i % w - j % w
+    return ti.cast(dr * dr + dq * dq >= 4, ti.i32)
+
+
+@ti.func
+def certain_peaks(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, w: ti.i32,
+                  h: ti.i32, rtol: ti.f64, peaks: ti.template(), c: ti.i32, col: ti.i32):
+    """two_peaks of smoothed image k at [b:] from certain comparisons only (reference:
+    certain_peaks_of_image): peaks[c, col] = status, peaks[c, col + 1], peaks[c, col + 2] =
+    the flat pixel indices of the two peaks where status is FOUND (1). tmp[b:] holds the
+    pixels' max_class meanwhile."""
+    n = w * h
+    top = -1
+    vmax = ti.f64(0.0)
+    for j in range(n):  # classes; C's highest (the first in row-major order)
+        cls = max_class(img, k, b, w, h, j // w, j % w, rtol)
+        tmp[b + j] = ti.cast(cls, ti.f64)
+        if cls > 0 and img[k, b + j] > vmax:
+            vmax = img[k, b + j]
+            top = j
+    n_top = 0
+    far = 0
+    for j in range(n):  # T: C within rtol of the highest; is any of C 2 px from one?
+        if tmp[b + j] > 0 and img[k, b + j] >= vmax * (1 - rtol):
+            n_top += 1
+            for i in range(n):
+                if tmp[b + i] > 0:
+                    far = ti.max(far, far_apart(i, j, w))
+    status = UNSURE
+    second = -1
+    if far == 0:
+        status = 0
+    elif n_top == 1 and tmp[b + top] == 2:
+        vs = ti.f64(0.0)
+        for i in range(n):  # the highest of C 2 px from the top
+            if tmp[b + i] > 0 and far_apart(i, top, w) != 0 and img[k, b + i] > vs:
+                vs = img[k, b + i]
+                second = i
+        n_second = 0
+        for i in range(n):
+            if tmp[b + i] > 0 and far_apart(i, top, w) != 0 and img[k, b + i] >= vs * (1 - rtol):
+                n_second += 1
+        if n_second == 1 and tmp[b + second] == 2:
+            status = 1
+    peaks[c, col] = status
+    peaks[c, col + 1] = top
+    peaks[c, col + 2] = second
+
+
 @ti.kernel
 def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: f64_1d,
-                rtol: ti.f64, maybe: u8_2d):
+                rtol: ti.f64, maybe: u8_2d, peaks: i32_2d):
     """maybe[c, 0] = 0 only where two_peaks of all the cluster's events is None, maybe[c, 1]
     (looked at only where maybe[c, 0] and polarities[c]) = 0 only where it is None for the
     OFF or for the ON events (reference: maybe_two_peaks). img[2] holds the sum of img[0]
-    and img[1]. One thread per cluster."""
+    and img[1]. peaks[c, 3s:3s + 3]: certain_peaks of all events (s = 0), the OFF (1) and
+    the ON ones (2); status 0 where the screen rules the image out, UNSURE where not looked
+    at. One thread per cluster."""
     for c in range(base.shape[0]):
+        for s in range(3):
+            peaks[c, 3 * s] = UNSURE
         if base[c] >= 0:
             b = base[c]
             w = box[c, 2]
@@ -314,19 +394,27 @@ def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: 
             for j in range(w * h):
                 img[2, b + j] = img[0, b + j] + img[1, b + j]
             both = ti.u8(0)
+            peaks[c, 0] = 0
             if two_near_maxima(img, 2, tmp, b, w, h, rtol) != 0:
                 maybe[c, 0] = ti.u8(1)
+                certain_peaks(img, 2, tmp, b, w, h, rtol, peaks, c, 0)
                 if polarities[c] != 0:
+                    peaks[c, 3] = 0
                     if two_near_maxima(img, 0, tmp, b, w, h, rtol) != 0:
+                        certain_peaks(img, 0, tmp, b, w, h, rtol, peaks, c, 3)
+                        peaks[c, 6] = 0
                         both = two_near_maxima(img, 1, tmp, b, w, h, rtol)
+                        if both != 0:
+                            certain_peaks(img, 1, tmp, b, w, h, rtol, peaks, c, 6)
             maybe[c, 1] = both
 
 
 @ti.kernel
 def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d,
-              iterations: ti.i32, lab: i32_1d):
+              iterations: ti.i32, lab: i32_1d, p: i8_1d, halves: i64_2d):
     """Lloyd's 2-means of each cluster's points pts[starts[j]:stops[j]] from the centres
-    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster.
+    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster; halves[j] =
+    (points labelled 0, labelled 1, those with p != 0 labelled 0, labelled 1).
 
     Specification: `evstar.extract._two_means` per cluster (stop when the labels repeat or
     one half is empty; centres: sums in point order / counts, as `evstar.splitting`'s
@@ -357,3 +445,9 @@ def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d
             n1 = ti.cast(ones, ti.f64)
             n0 = ti.cast(e - s - ones, ti.f64)
             c0x, c0y, c1x, c1y = sx0 / n0, sy0 / n0, sx1 / n1, sy1 / n1
+        for h in ti.static(range(4)):
+            halves[j, h] = 0
+        for i in range(s, e):
+            halves[j, lab[i]] = halves[j, lab[i]] + 1
+            if p[i] != 0:
+                halves[j, 2 + lab[i]] = halves[j, 2 + lab[i]] + 1

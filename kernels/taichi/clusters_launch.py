@@ -169,22 +169,33 @@ def moments(ti, offsets, labels, first, xf, yf, t, p, frame_t0, n_clusters, on_l
     return out
 
 
-def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e-9):
+def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e-9,
+                peaks=False):
     """(maybe, both) bools per cluster. maybe: False where the cluster is not `screened` or
     where two_peaks of its events is certainly None; both: False unless maybe and
     `polarities` and neither polarity's two_peaks is certainly None (reference:
     maybe_two_peaks). x, y: the events' pixels, p their polarity; box: the clusters'
-    (x min, x max, y min, y max) as cluster_moments gives it."""
+    (x min, x max, y min, y max) as cluster_moments gives it.
+
+    peaks=True: also (maybe, both, peaks), peaks int64 (k, 3, 5): for all the cluster's
+    events, its OFF and its ON events, (status, ax, ay, bx, by) of
+    reference.clusters.certain_two_peaks from the screen's images: status 0 (two_peaks is
+    None), 1 (two_peaks is ((ax, ay), (bx, by))) or 2 (not decided: near ties, or not
+    looked at — where maybe is False, or both for the polarities)."""
     k = len(screened)
+    unsure = np.zeros((k, 3, 5), np.int64)
+    unsure[:, :, 0] = clusters.UNSURE
     if not screened.any():
-        return np.zeros(k, bool), np.zeros(k, bool)
+        out = np.zeros(k, bool), np.zeros(k, bool)
+        return (*out, unsure) if peaks else out
     # each image holds the cluster's pixel box and a 2-pixel zero border
     lo = np.floor(box[:, 0::2] + 0.5).astype(np.int64) - 2
     size = np.floor(box[:, 1::2] + 0.5).astype(np.int64) - lo + 3
     area = np.where(screened, size[:, 0] * size[:, 1], 0)
     ends = np.cumsum(area)
     if ends[-1] > _I32:  # far beyond any star image: every one goes to the exact test
-        return screened.copy(), screened & polarities
+        out = screened.copy(), screened & polarities
+        return (*out, unsure) if peaks else out
     base = np.where(screened, ends - area, -1).astype(np.int32)
     geom = np.column_stack([lo, size]).astype(np.int32)
     with launch.RUNTIME_LOCK:
@@ -199,28 +210,49 @@ def peak_screen(ti, offsets, labels, x, y, p, box, screened, polarities, rtol=1e
             clusters.peak_images(lo_d, hi_d, arrays.put(local),
                                  arrays.put(labels[e0:e1].astype(np.int32)), arrays.put(x[e0:e1]),
                                  arrays.put(y[e0:e1]), arrays.put(p[e0:e1]), base_d, geom_d, img)
-        maybe = arrays.put(np.zeros((k, 2), np.uint8))
+        maybe, found = arrays.put(np.zeros((k, 2), np.uint8)), arrays.empty((k, 9), np.int32)
         clusters.peak_screen(base_d, geom_d, arrays.put(polarities.astype(np.uint8)), img, tmp,
-                             rtol, maybe)
+                             rtol, maybe, found)
         out = np.empty((k, 2), np.uint8)
         arrays.get(maybe, out)
-    return out[:, 0].astype(bool), out[:, 1].astype(bool)
+        flat = np.empty((k, 9), np.int32)
+        arrays.get(found, flat)
+    maybe, both = out[:, 0].astype(bool), out[:, 1].astype(bool)
+    if not peaks:
+        return maybe, both
+    flat = flat.reshape(k, 3, 3).astype(np.int64)
+    res = np.empty((k, 3, 5), np.int64)
+    res[:, :, 0] = flat[:, :, 0]
+    w = size[:, 0, None]
+    for col, at in ((1, flat[:, :, 1]), (3, flat[:, :, 2])):  # flat pixel -> (x, y)
+        res[:, :, col] = lo[:, 0, None] + at % w
+        res[:, :, col + 1] = lo[:, 1, None] + at // w
+    res[res[:, :, 0] != 1, 1:] = 0
+    return maybe, both, res
 
 
-def two_means(ti, pts, starts, stops, a, b, iterations=10):
+def two_means(ti, pts, starts, stops, a, b, iterations=10, p=None):
     """2-means labels (int64 per point) of every cluster pts[starts[j]:stops[j]] from the
-    centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False)."""
-    if not len(starts):
-        return np.zeros(len(pts), np.int64)
+    centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False).
+    p (0/1 per point): also the halves' sizes and ON counts, int64 (k, 4): points labelled
+    0, labelled 1, ON points labelled 0, labelled 1."""
+    k = len(starts)
+    halves = np.zeros((k, 4), np.int64)
+    if not k:
+        lab = np.zeros(len(pts), np.int64)
+        return lab if p is None else (lab, halves)
     with launch.RUNTIME_LOCK:
         arrays = launch.Arrays(ti)
-        lab = arrays.empty(len(pts), np.int32)
+        lab, halves_d = arrays.empty(len(pts), np.int32), arrays.empty((k, 4), np.int64)
+        q = np.zeros(len(pts), np.int8) if p is None else np.asarray(p, np.int8)
         clusters.two_means(arrays.put(pts[:, 0].astype(np.float64)),
                            arrays.put(pts[:, 1].astype(np.float64)),
                            arrays.put(np.asarray(starts, np.int32)),
                            arrays.put(np.asarray(stops, np.int32)),
                            arrays.put(np.column_stack([a, b]).astype(np.float64)),
-                           int(iterations), lab)
+                           int(iterations), lab, arrays.put(q), halves_d)
         out = np.empty(len(pts), np.int32)
         arrays.get(lab, out)
-    return out.astype(np.int64)
+        arrays.get(halves_d, halves)
+    out = out.astype(np.int64)
+    return out if p is None else (out, halves)
