@@ -266,17 +266,22 @@ def test_config_declares_the_clustering_backend():
         Config().replace(**{"extract.clustering": "kmeans"})
 
 
-def test_batched_split_steps_equal_the_per_cluster_ones():
-    from evstar import splitting
-    from evstar.extract import _two_means
-
-    frame, x, y = star_frames(7, n_frames=10, per_star=120)
+def clustered_points(seed, **frames):
+    """(points grouped by DBSCAN cluster, each cluster's start and stop) of star_frames."""
+    frame, x, y = star_frames(seed, **frames)
     labels = ref.dbscan_events(frame, x, y, 2.5, 5)
     order = np.argsort(labels, kind="stable")
     order = order[labels[order] >= 0]
     pts = np.column_stack([x, y]).astype(float)[order]
     bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
-    starts, stops = bounds[:-1], bounds[1:]
+    return pts, bounds[:-1], bounds[1:]
+
+
+def test_batched_split_steps_equal_the_per_cluster_ones():
+    from evstar import splitting
+    from evstar.extract import _two_means
+
+    pts, starts, stops = clustered_points(7, n_frames=10, per_star=120)
     has, a, b = splitting.two_peaks_many(pts, starts, stops)
     lab = splitting.two_means_many(pts, starts, stops, a, b)
     n_two = 0
@@ -420,14 +425,8 @@ def test_peak_screen_peaks_equal_the_reference(device_arrays, monkeypatch):
 def test_two_means_kernel_counts_the_halves():
     from evstar import splitting
 
-    frame, x, y = star_frames(9, n_frames=6, per_star=100)
-    labels = ref.dbscan_events(frame, x, y, 2.5, 5)
-    order = np.argsort(labels, kind="stable")
-    order = order[labels[order] >= 0]
-    pts = np.column_stack([x, y]).astype(float)[order]
+    pts, starts, stops = clustered_points(9, n_frames=6, per_star=100)
     p = np.random.default_rng(9).integers(0, 2, len(pts)).astype(np.int8)
-    bounds = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0, True])
-    starts, stops = bounds[:-1], bounds[1:]
     _, a, b = splitting.two_peaks_many(pts, starts, stops)
     lab, halves = clusters_launch.two_means(ti(), pts, starts, stops, a, b, p=p)
     np.testing.assert_array_equal(lab, clusters_launch.two_means(ti(), pts, starts, stops, a, b))
