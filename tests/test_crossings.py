@@ -356,3 +356,12 @@ def test_the_level_pair_kernel_equals_the_numpy_crossings_on_a_simulated_star():
     ev = run.events                                          # the star's events and the noise
     ref = assert_same_crossings(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p, ev.width, 16)
     assert len(ref) > 20
+
+
+@pytest.mark.parametrize("bad", [0, 0.1, 5.0, "high"])
+def test_a_bad_threshold_ratio_is_rejected_by_name(bad):
+    from evstar import Config
+    from evstar.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="threshold_ratio"):
+        Config().replace(**{"estimate.threshold_ratio": bad})

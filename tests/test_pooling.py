@@ -26,7 +26,8 @@ def coverage(pool_frames, seed=3):
 
 
 def test_pooling_gives_a_faint_slow_star_a_position_in_far_more_frames():
-    without, _, _ = coverage(1)
+    without, _, plain = coverage(1)
+    assert not (plain["source"] == "pooled").any()             # pool_frames 1: no second look
     with_pool, err, cents = coverage(4)
     assert (cents["source"] == "pooled").any()
     assert with_pool >= 0.95 and with_pool >= without + 0.15
