@@ -54,11 +54,12 @@ _RUN_CAP = 4096
 _MIN_RATIO_CHANGES = 50
 
 
-def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO):
+def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
+                  with_ratio=False):
     """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
     by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
     same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
-    runs: threshold_ratio_of)."""
+    runs: threshold_ratio_of). with_ratio: return (crossings, the ratio used)."""
     order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
     r = threshold_ratio_of(on_before, off_after) if threshold_ratio == AUTO else float(threshold_ratio)
     k = _pair_counts(on_before, off_after, r, max_pairs)
@@ -74,13 +75,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     out["x"], out["y"] = pixel % width, pixel // width
     out["t"], out["pairs"] = mean, k
     out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
-    return out
-
-
-def measured_threshold_ratio(t, key, p, engine="taichi"):
-    """threshold_ratio_of the runs of events given by their pixel keys."""
-    _, _, (_, on_before, off_after) = _change_runs(t, key, p, engine)
-    return threshold_ratio_of(on_before, off_after)
+    return (out, r) if with_ratio else out
 
 
 def _change_runs(t, key, p, engine):

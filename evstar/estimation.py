@@ -49,22 +49,16 @@ def pixel_lag(path):
 _LAG_FILES = {}
 
 
-def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO):
+def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
-    sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of)."""
+    sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of). with_ratio:
+    return (crossings, the ratio used)."""
     if not keep.any():
-        return np.zeros(0, CROSSING_DTYPE)
+        none = np.zeros(0, CROSSING_DTYPE)
+        return (none, 1.0 if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return key_crossings(*_near_kept(events, keep, radius_px), events.width,
-                         threshold_ratio=threshold_ratio)
-
-
-def window_threshold_ratio(events, keep, radius_px):
-    """The sensor's C_off / C_on measured (evstar.crossings.threshold_ratio_of) on the runs
-    of the events within `radius_px` of a kept event; 1 when none is kept."""
-    from .crossings import measured_threshold_ratio
-
-    return measured_threshold_ratio(*_near_kept(events, keep, radius_px)) if keep.any() else 1.0
+                         threshold_ratio=threshold_ratio, with_ratio=with_ratio)
 
 
 def _near_kept(events, keep, radius_px):

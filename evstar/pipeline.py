@@ -99,11 +99,7 @@ class Pipeline:
 
     def _calibration_window(self, events, t0_us):
         """The events of the first chunk_frames frames."""
-        return events.time_window(t0_us, self._window_end(t0_us))
-
-    def _window_end(self, t0_us):
-        """The end (µs) of the calibration window: the first chunk_frames frames."""
-        return t0_us + self.config.chunk_frames * self.config.dt_us
+        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
 
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
@@ -185,7 +181,7 @@ class Pipeline:
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        state = _RunState(self.config, events.width, events.height, self._window_end(t0),
+        state = _RunState(self.config, events.width, events.height, t0,
                           self.calibration_hot_pixels(events, t0))
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
                                                  state=state)
@@ -291,7 +287,7 @@ class Pipeline:
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height, self._window_end(t0),
+        state = _RunState(self.config, first[1].width, first[1].height, t0,
                           self.calibration_hot_pixels(first[1], t0))
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
@@ -336,29 +332,34 @@ def _check_inputs(events, imu, camera, mode):
 # -- helpers -----------------------------------------------------------------------------
 class _RunState:
     """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their
-    events are dropped before extraction), the sensor's OFF/ON threshold ratio measured there
-    too (unless configured), and the pixel crossings it gathers for its estimator (a crossing
-    whose flanks fall in two chunks of a streamed run is lost). window_end_us: the end of the
-    calibration window (the first chunk_frames frames)."""
+    events are dropped before extraction) and the pixel crossings it gathers for its
+    estimator, span by span of the calibration window's length (chunk_frames frames; a
+    crossing whose flanks fall in two spans is lost), the sensor's OFF/ON threshold ratio
+    measured on the first span (the calibration window) unless configured. A streamed run's
+    chunks are those spans, so it gathers the same crossings as a run in memory."""
 
-    def __init__(self, config, width, height, window_end_us, hot=None):
+    def __init__(self, config, width, height, t0_us, hot=None):
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
-        self.window_end_us = window_end_us
+        self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
 
     def add_crossings(self, events, keep):
-        from .estimation import chunk_crossings, window_threshold_ratio
+        from .estimation import chunk_crossings
 
         e = self.config.estimate
         if e.estimator != "crossings" or not len(events):
             return
-        if self.threshold_ratio is None:   # the first chunk holds the calibration window
-            n = int(np.searchsorted(events.t, self.window_end_us))
-            self.threshold_ratio = window_threshold_ratio(events[:n], keep[:n],
-                                                          e.crossing_radius_px)
-        self._crossings.append(chunk_crossings(events, keep, e.crossing_radius_px,
-                                               self.threshold_ratio))
+        first, last = ((events.t[[0, -1]] - self.t0_us) // self.span_us).tolist()
+        bounds = np.searchsorted(events.t, self.t0_us + np.arange(first, last + 2) * self.span_us)
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            if self.threshold_ratio is None:   # the first span: the calibration window
+                crossings, self.threshold_ratio = chunk_crossings(
+                    events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True)
+            else:
+                crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
+                                            self.threshold_ratio)
+            self._crossings.append(crossings)
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None

@@ -74,7 +74,7 @@ def inputs(rec, config):
     ev = rec.events
     pipe = evstar.Pipeline(config)
     t0 = int(ev.t[0])
-    state = _RunState(config, ev.width, ev.height, pipe._window_end(t0),
+    state = _RunState(config, ev.width, ev.height, t0,
                       pipe.calibration_hot_pixels(ev, t0))
     keep, cents, _, _ = pipe._chunk(ev, None, None, t0, pipe.calibration_rate(ev, t0), "none",
                                     None, state=state)
