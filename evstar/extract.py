@@ -14,7 +14,7 @@ from sklearn.cluster import DBSCAN
 from . import backends, lobes, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
-from .frames import check_dt, frame_bounds
+from .frames import FRAME_GAP, check_dt, frame_bounds, frame_offsets
 from evstar_kernels.reference.clusters import cluster_moments, two_peaks
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -29,8 +29,6 @@ CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "
 E = P.EXTRACT
 WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 SOURCES = ("measured", "coasted", "pooled")   # values of the `source` field (HDF5 stores their index)
-# frames are kept apart in one DBSCAN call by a third coordinate this far apart (>> eps)
-_FRAME_GAP = 1e6
 # the grid kernels' planes, kept zeroed between calls (the pipeline makes an Extractor per
 # chunk); Scratch serialises the calls
 _SCRATCH = Scratch()
@@ -85,11 +83,11 @@ class Extractor:
         """The events' frames, clusters and cells (_Clusters)."""
         if not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
-        coords = _coords(events, xy, keep_none=True)
+        coords = _coords(events, xy)
         t0 = self.t_origin_us
         if t0 is None:
             t0 = int(events.t[0]) if len(events) else 0
-        f0, offsets = _frame_offsets(events.t, self.dt_us, t0)
+        f0, offsets = frame_offsets(events.t, self.dt_us, t0)
         if xy is None:  # integer pixels already
             px, py = events.x, events.y
         else:  # membership is decided on the pixel grid (floats are rounded as the filters
@@ -122,7 +120,7 @@ class Extractor:
         cells, first, inverse, counts = np.unique(key, return_index=True, return_inverse=True,
                                                   return_counts=True)
         inverse = inverse.ravel()
-        pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * _FRAME_GAP])
+        pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * FRAME_GAP])
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
             pts.astype(np.float64), sample_weight=counts)
         c.labels, c.first = labels[inverse].astype(np.int64), first[inverse].astype(np.int64)
@@ -206,7 +204,7 @@ class Extractor:
     def _screen(self, events, c, m, maybe):
         """(clusters whose smoothed image may hold two peaks, those of which each polarity's
         image may too, the peaks of those images where certain): Taichi passes over all
-        clusters. The others cannot split: _split stops at _two_peaks, and its per-polarity
+        clusters. The others cannot split: _split stops at two_peaks, and its per-polarity
         test needs both polarities split. peaks: clusters_launch.peak_screen's (k, 3, 5)
         (all events, OFF, ON; status 0 none, 1 found, 2 not decided)."""
         from evstar_kernels.taichi import clusters_launch
@@ -303,10 +301,10 @@ class Extractor:
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
         first: the first test's (seeds, 2-means labels, certain failure) when known;
-        polarity_seeds: the OFF and the ON events' _two_peaks when known."""
+        polarity_seeds: the OFF and the ON events' two_peaks when known."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds, lab, fails = (_two_peaks(pts), None, False) if first is None else first
+        seeds, lab, fails = (two_peaks(pts), None, False) if first is None else first
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
         lab = None if fails else self._halves(pts, seeds, lab)
@@ -335,7 +333,7 @@ class Extractor:
         faint star beside a bright one is found (2-means would halve the bright one)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds = _two_peaks(pts) if seeds is None else seeds
+        seeds = two_peaks(pts) if seeds is None else seeds
         if seeds is None:
             return None
         lab = _two_means(pts, *seeds) if lab is None else lab
@@ -382,11 +380,8 @@ class Extractor:
         return tuple(pts.mean(0))
 
 
-_two_peaks = two_peaks  # (the split's seeds; numpy, per cluster)
-
-
 def _seeds(peak):
-    """_two_peaks' seeds from the screen's (status, ax, ay, bx, by) where it found them; None
+    """two_peaks' seeds from the screen's (status, ax, ay, bx, by) where it found them; None
     (compute them) otherwise. Status 0 (no two peaks) never reaches a _halves."""
     return (peak[1:3].astype(float), peak[3:5].astype(float)) if peak[0] == 1 else None
 
@@ -426,14 +421,6 @@ class _Clusters:
         return self.coords[idx]
 
 
-def _frame_offsets(t, dt_us, t0):
-    """(first frame id, event index where each frame from it to the last starts, and n)."""
-    if len(t) == 0:
-        return 0, np.zeros(1, np.int64)
-    f0, f1 = (int(t[0]) - t0) // dt_us, (int(t[-1]) - t0) // dt_us
-    return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
-
-
 def _distinct_positions(labels, coords, k):
     """Per cluster: number and coordinate sums of its distinct positions (to 1e-6 px)."""
     m = labels >= 0
@@ -445,11 +432,10 @@ def _distinct_positions(labels, coords, k):
             np.bincount(lab[new], r[new, 1], minlength=k))
 
 
-def _coords(events, xy, keep_none=False):
-    if xy is None and keep_none:
-        return None
+def _coords(events, xy):
+    """xy checked as float coordinates of the events (None: the events' own pixels)."""
     if xy is None:
-        return np.column_stack([events.x, events.y]).astype(np.float64)
+        return None
     xy = np.asarray(xy, dtype=np.float64)
     if xy.shape != (len(events), 2):
         raise ParameterError(f"xy must have shape ({len(events)}, 2), got {xy.shape}")

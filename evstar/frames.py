@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
+#: frames are kept apart in one spatial search by a coordinate this far apart (>> any px)
+FRAME_GAP = 1e6
+
 
 def check_dt(dt_us):
     """dt_us as the declaration in evstar.parameters accepts it (ParameterError otherwise)."""
@@ -28,8 +31,29 @@ def frame_bounds(frames):
     return frames[starts], starts, stops
 
 
-def accumulated(events):
-    """Event counts per pixel as a (height, width) int64 image."""
-    img = np.bincount(events.y.astype(np.int64) * events.width + events.x,
-                      minlength=events.width * events.height)
+def frame_offsets(t, dt_us, t0):
+    """(first frame id, index where each frame from it to the last starts, then len(t)) of
+    time-sorted t in frames of dt_us from t0."""
+    if len(t) == 0:
+        return 0, np.zeros(1, np.int64)
+    f0, f1 = (int(t[0]) - t0) // dt_us, (int(t[-1]) - t0) // dt_us
+    return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
+
+
+def nearest_in_frame(ref_xy, ref_frame, xy, frame, max_px):
+    """(distance, index into ref) of the nearest reference point of the same frame to each
+    point within max_px (inf and len(ref) where none is), as scipy's cKDTree.query."""
+    from scipy.spatial import cKDTree
+
+    def pts(p, f):
+        return np.column_stack([np.asarray(p, float), np.asarray(f, float) * FRAME_GAP])
+
+    return cKDTree(pts(ref_xy, ref_frame)).query(pts(xy, frame), distance_upper_bound=max_px)
+
+
+def accumulated(events, keep=None):
+    """Event counts per pixel as a (height, width) int64 image (of the events `keep`
+    selects, when given)."""
+    pixel = events.y.astype(np.int64) * events.width + events.x
+    img = np.bincount(pixel if keep is None else pixel[keep], minlength=events.width * events.height)
     return img.reshape(events.height, events.width)

@@ -13,26 +13,24 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frames import nearest_in_frame
+
 #: a cluster is one polarity's lobe when at least this share of its events has it
 PURITY = 2 / 3
-# frames are kept apart in one nearest-neighbour search by a coordinate this far apart
-_FRAME_GAP = 1e6
 
 
 def pairs(frame, n_by_p, sx, sy, max_px):
     """(ON lobes, OFF lobes): index arrays of the cluster pairs to join. frame: frame per
     cluster; n_by_p, sx, sy: per-cluster (OFF, ON) event counts and coordinate sums."""
-    from scipy.spatial import cKDTree
-
     n = n_by_p.sum(1)
     with np.errstate(invalid="ignore", divide="ignore"):
         on_share = n_by_p[:, 1] / n
-        pts = np.column_stack([sx.sum(1) / n, sy.sum(1) / n, frame * _FRAME_GAP])
+        xy = np.column_stack([sx.sum(1) / n, sy.sum(1) / n])
     on, off = np.flatnonzero(on_share >= PURITY), np.flatnonzero(on_share <= 1 - PURITY)
     if not len(on) or not len(off):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    _, j = cKDTree(pts[off]).query(pts[on], distance_upper_bound=max_px)
-    _, i = cKDTree(pts[on]).query(pts[off], distance_upper_bound=max_px)
+    _, j = nearest_in_frame(xy[off], frame[off], xy[on], frame[on], max_px)
+    _, i = nearest_in_frame(xy[on], frame[on], xy[off], frame[off], max_px)
     found = j < len(off)                     # query's "none within the bound" is len(off)
     mutual = np.zeros(len(on), bool)
     mutual[found] = i[j[found]] == np.arange(len(on))[found]

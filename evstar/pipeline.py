@@ -26,6 +26,7 @@ from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
+from .frames import accumulated, frame_offsets
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
@@ -91,7 +92,6 @@ class Pipeline:
         h = self.config.hotpixels
         if not h.remove:
             return None
-        from .frames import accumulated
         from .hotpixels import hot_pixels
 
         return hot_pixels(accumulated(self._calibration_window(events, t0_us)), h.alpha,
@@ -350,8 +350,7 @@ class _RunState:
         e = self.config.estimate
         if e.estimator != "crossings" or not len(events):
             return
-        first, last = ((events.t[[0, -1]] - self.t0_us) // self.span_us).tolist()
-        bounds = np.searchsorted(events.t, self.t0_us + np.arange(first, last + 2) * self.span_us)
+        _, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
         for a, b in zip(bounds[:-1], bounds[1:]):
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, self.threshold_ratio = chunk_crossings(
@@ -390,10 +389,8 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        pixel = events.y.astype(np.int64) * events.width + events.x
-        size = self.before.size
-        self.before += np.bincount(pixel, minlength=size).reshape(self.before.shape)
-        self.after += np.bincount(pixel[keep], minlength=size).reshape(self.after.shape)
+        self.before += accumulated(events)
+        self.after += accumulated(events, keep)
         series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(np.count_nonzero(keep))}
         if truth is not None:
@@ -408,9 +405,8 @@ class _Summary:
         _add(self.stats, new)
         if len(events):
             # events are time-sorted: a frame's events are one run, found by its bounds
-            lo = (int(events.t[0]) - self.t0) // self.dt_us
-            n = (int(events.t[-1]) - self.t0) // self.dt_us - lo + 1
-            bounds = np.searchsorted(events.t, self.t0 + (lo + np.arange(n + 1)) * self.dt_us)
+            lo, bounds = frame_offsets(events.t, self.dt_us, self.t0)
+            n = len(bounds) - 1
             for name, m in series.items():
                 counts = np.diff(bounds) if m is None else \
                     np.diff(np.r_[0, np.cumsum(m, dtype=np.int64)][bounds])

@@ -18,10 +18,8 @@ import numpy as np
 
 from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
+from .frames import nearest_in_frame
 from .parameters import AUTO, MAX_DT_US
-
-# frames are kept apart in one nearest-neighbour search by a coordinate this far apart
-_FRAME_GAP = 1e6
 
 
 def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
@@ -58,13 +56,9 @@ def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
 def _seen(pooled, frame_centroids, radius):
     """Per pooled centroid: whether a frame centroid of its own frame lies within `radius`
     (the tracker would have two candidates for one star there)."""
-    from scipy.spatial import cKDTree
-
     if not len(pooled) or not len(frame_centroids):
         return np.zeros(len(pooled), bool)
-
-    def pts(c):
-        return np.column_stack([c["x"], c["y"], c["frame"] * _FRAME_GAP])
-
-    d, _ = cKDTree(pts(frame_centroids)).query(pts(pooled), distance_upper_bound=radius)
+    d, _ = nearest_in_frame(np.column_stack([frame_centroids["x"], frame_centroids["y"]]),
+                            frame_centroids["frame"],
+                            np.column_stack([pooled["x"], pooled["y"]]), pooled["frame"], radius)
     return np.isfinite(d)
