@@ -197,6 +197,7 @@ class TrackSmoother:
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         got, owner, u, resid = along_track(crossings, est)
         q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
+        pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
         parts, used = [], 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
@@ -204,10 +205,10 @@ class TrackSmoother:
         tids, est_rows = _groups(est["track"])
         mine = dict(zip(*_groups(owner)))
         for tid, rows in zip(tids, est_rows):
-            m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), crossings["pairs"][got])
+            m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
             t_c, r_c = crossings["t"][got[m]], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, r_c = _lag_corrected(t_c, crossings["pairs"][got[m]], r_c, est[rows], pixel_lag)
+                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, est[rows], pixel_lag)
             full = self._fill_frames(est[rows], t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
