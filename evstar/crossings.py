@@ -168,14 +168,6 @@ def _pixel_then_time(key, t, engine="taichi"):
     return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
 
 
-def near_pixels(x, y, width, height, radius_px):
-    """Bool (height, width): pixels within `radius_px` (square) of any pixel in (x, y) —
-    where a star's flank events are, including those a density filter dropped."""
-    img = np.zeros((height, width), bool)
-    img[np.asarray(y, np.int64), np.asarray(x, np.int64)] = True
-    return dilate(img, radius_px)
-
-
 def dilate(img, radius_px):
     """Bool image `img` dilated by a square of half-width ceil(radius_px): a row dilation,
     then a column one (running maxima, linear in the pixels)."""

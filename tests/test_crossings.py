@@ -199,10 +199,10 @@ def test_unequal_thresholds_no_longer_shift_the_crossings():
 
 
 @pytest.mark.parametrize("radius", [0, 1, 2.5, 3])
-def test_near_pixels_is_the_square_dilation(radius):
+def test_dilate_is_the_square_binary_dilation(radius):
     from scipy import ndimage
 
-    from evstar.crossings import near_pixels
+    from evstar.crossings import dilate
 
     rng = np.random.default_rng(int(radius * 10))
     x, y = rng.integers(0, 64, 40), rng.integers(0, 48, 40)
@@ -211,7 +211,7 @@ def test_near_pixels_is_the_square_dilation(radius):
     img[y, x] = True
     r = int(np.ceil(radius))
     ref = ndimage.binary_dilation(img, np.ones((2 * r + 1, 2 * r + 1), bool)) if r else img
-    np.testing.assert_array_equal(near_pixels(x, y, 64, 48, radius), ref)
+    np.testing.assert_array_equal(dilate(img.copy(), radius), ref)
 
 
 def along_track_reference(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
