@@ -6,8 +6,8 @@ step at a time, which costs ~15 array operations per step whatever the track cou
 Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
 (x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
 update, the diffuse start about the first position. Tracks are concatenated: track i holds
-steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a launch holds at most
-kalman_launch.MAX_STEPS steps).
+steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a smoother launch holds
+at most kalman_launch.MAX_STEPS steps, a likelihood launch the tracks' steps, far below 2³¹).
 """
 import taichi as ti
 

@@ -21,8 +21,7 @@ def cv_rts(ti, problems, diffuse):
 
 
 def _cv_rts_batch(ti, problems, diffuse):
-    lengths = np.array([len(p.ts) for p in problems], np.int64)
-    start = np.r_[0, np.cumsum(lengths)].astype(np.int32)
+    start = _starts([len(p.ts) for p in problems])
     n = int(start[-1])
     h = np.zeros(n)
     measured = np.zeros(n, np.int32)
@@ -49,8 +48,7 @@ def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c):
     """[log-likelihood (len(q_grid),)] per track (ts (n,) s, z (n, 2), σ (n,))."""
     if not tracks:
         return []
-    lengths = np.array([len(t[0]) for t in tracks], np.int64)
-    start = np.r_[0, np.cumsum(lengths)].astype(np.int32)
+    start = _starts([len(t[0]) for t in tracks])
     ts = np.concatenate([np.asarray(t[0], np.float64) for t in tracks])
     z = np.concatenate([np.asarray(t[1], np.float64) for t in tracks])
     s2 = np.concatenate([np.asarray(t[2], np.float64) ** 2 for t in tracks])
@@ -63,3 +61,8 @@ def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c):
     out = np.empty((len(tracks), len(grid)))
     arrays.get(ll, out)
     return list(out)
+
+
+def _starts(lengths):
+    """int32 offsets of concatenated tracks: track i holds steps start[i] .. start[i + 1] − 1."""
+    return np.r_[0, np.cumsum(np.asarray(lengths, np.int64))].astype(np.int32)
