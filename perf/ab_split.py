@@ -1,6 +1,7 @@
 """A/B of the close-pair split (issue 13): evstar/extract.py and the cluster kernels at a
 git revision (A, --before) against the working tree (B), in one process, interleaved pairs.
-Asserts identical centroids (every field) for each compensate mode.
+Asserts identical centroids (every field) for each compensate mode. Writes
+perf/results/ab_split.json and prints the table.
 
     python perf/ab_split.py /tmp/scene_split/events.h5 --before <rev> --pairs 5
 """
@@ -16,7 +17,13 @@ import numpy as np
 
 import evstar
 import evstar.pipeline
-from evstar import extract
+from evstar import extract, profiling
+
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+COLUMNS = [("compensate", "compensate", ""), ("variant", "variant", ""),
+           ("centroids", "centroids", ","), ("extract_median_s", "extraction median s", ".3f"),
+           ("extract_range_s", "range s", ""), ("pipeline_median_s", "pipeline median s", ".3f"),
+           ("pipeline_range_s", "range s", "")]
 
 
 _DIR = tempfile.mkdtemp(prefix="ab_split_")
@@ -73,6 +80,7 @@ def main():
         return Timed
 
     variants = {k: timed(v) for k, v in variants.items()}
+    rows = []
     for mode in args.modes.split(","):
         pipe = evstar.Pipeline(evstar.Config().replace(**{"motion.compensate": mode}))
         res, times = {}, {"A": ([], []), "B": ([], [])}
@@ -91,14 +99,19 @@ def main():
                 times[v][1].append(time.perf_counter() - t)
                 times[v][0].append(stage["s"])
                 assert len(r.centroids) == len(res["A"].centroids)
-        n = len(res["A"].centroids)
-        print(f"compensate={mode}: {n} centroids identical (every field), "
-              f"{int(res['A'].centroids['split'].sum())} split rows")
         for v in ("A", "B"):
             ex, whole = (np.array(t) for t in times[v])
-            print(f"  {v}: extraction median {np.median(ex):.3f} s [{ex.min():.3f}-{ex.max():.3f}], "
-                  f"pipeline median {np.median(whole):.3f} s [{whole.min():.3f}-{whole.max():.3f}]")
+            rows.append(dict(compensate=mode, variant=f"{v} ({args.before})" if v == "A" else
+                             f"{v} (working tree)", centroids=len(res[v].centroids),
+                             extract_median_s=float(np.median(ex)),
+                             extract_range_s=f"{ex.min():.3f}–{ex.max():.3f}",
+                             pipeline_median_s=float(np.median(whole)),
+                             pipeline_range_s=f"{whole.min():.3f}–{whole.max():.3f}"))
     evstar.pipeline.Extractor = extract.Extractor
+    profiling.write_results(os.path.join(RESULTS, "ab_split.json"), rows,
+                            dict(path=args.path, before=args.before, pairs=args.pairs,
+                                 note="centroids identical, every field, in every mode"))
+    print(profiling.table(rows, COLUMNS))
 
 
 if __name__ == "__main__":
