@@ -424,6 +424,9 @@ ATTITUDE_FILTER = Params(
           "is left out", low=0, open_low=True),
     Param("max_misses", int, 5, "gated-out centroids in a row after which a track's "
           "identity is forgotten", low=1, high=10**6),
+    Param("smooth", bool, True, "smooth over the whole recording (an RTS pass): each row "
+          "uses the centroids after it too; false: the causal filter, each row from the "
+          "centroids before it"),
     Param("lost_sigma_deg", float, 0.5, "the attitude is lost (rows stop) when its 1-sigma "
           "exceeds this", low=0, open_low=True, unit="deg"),
 )

@@ -8,13 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import KalmanFilter, rts_smoother
 from scipy.spatial.transform import Rotation
 
 import evstar
 from evstar import sim
 from evstar.attitude import AttitudeEstimator, Fix, Mekf, estimate, ra_dec_roll, rotation
-from evstar.attitude.filter import exp_so3
+from evstar.attitude.filter import exp_so3, log_so3, smooth
 from evstar.attitude.oracle import synthetic_run, truth_identifier
 
 CAM = sim.camera_preset("davis346", 16.0)          # f ≈ 865 px
@@ -118,6 +118,57 @@ def test_gate_leaves_out_an_outlier():
     z[2] += 0.01                                         # ~9 px off at f = 865
     used = f.update(z, d, np.full((6, 2), 1e-4), gate=5.0)
     assert used.tolist() == [True, True, False, True, True, True]
+
+
+def test_log_is_the_inverse_of_exp():
+    rng = np.random.default_rng(7)
+    for phi in rng.normal(0, 1, (20, 3)):
+        np.testing.assert_allclose(log_so3(exp_so3(phi)), phi, atol=1e-9)
+    np.testing.assert_allclose(log_so3(exp_so3(np.array([1e-9, 0, 0]))), [1e-9, 0, 0], atol=1e-15)
+
+
+def test_smoother_is_filterpys_rts_on_the_error_state():
+    """Attitudes fixed at R0 and no coupling of the state into them: the pass is the linear
+    RTS smoother of the rest (filterpy's), and the attitude stays put."""
+    rng = np.random.default_rng(8)
+    n = 3
+    A = np.eye(n) + 0.1 * rng.normal(size=(n, n))
+    F = np.eye(n + 3)
+    F[3:, 3:] = A
+    kf = KalmanFilter(dim_x=n, dim_z=1)
+    kf.F, kf.Q, kf.H, kf.R = A, 0.01 * np.eye(n), rng.normal(size=(1, n)), np.eye(1) * 0.1
+    kf.x, kf.P = rng.normal(size=n), np.eye(n)
+    nodes, Xs, Ps = [], [], []
+    for k in range(12):
+        if k:
+            kf.predict()
+        x_pred, P_pred = kf.x.copy(), kf.P.copy()
+        kf.update(rng.normal(size=1))
+        block = lambda P: np.block([[np.eye(3) * 1e-3, np.zeros((3, n))], [np.zeros((n, 3)), P]])
+        nodes.append(dict(F=F, R_pred=R0, s_pred=x_pred, P_pred=block(P_pred), R=R0,
+                          s=kf.x.copy(), P=block(kf.P), row=k))
+        Xs.append(kf.x.copy())
+        Ps.append(kf.P.copy())
+    xs, Pss, _, _ = rts_smoother(np.array(Xs), np.array(Ps), [A] * 12, [kf.Q] * 12)
+    out = smooth(nodes)
+    np.testing.assert_allclose([s for _, s, _ in out], xs, atol=1e-12)
+    np.testing.assert_allclose([P[3:, 3:] for _, _, P in out], Pss, atol=1e-12)
+    assert all(np.allclose(R, R0, atol=1e-12) for R, _, _ in out)
+
+
+def test_smoothed_rows_beat_the_causal_filter_and_end_equal(pan):
+    """The gyro's noise between frames and the constant-acceleration model's lag are what
+    the causal rows carry; the smoothed rows are nearer the truth, and the last row, which
+    has no later data, is the causal one."""
+    c, truth, imu = pan
+    for use in (None, imu):
+        smooth_rows, causal = (estimate(c, CAM, use, identifier=truth_identifier(truth), smooth=on)
+                               for on in (True, False))
+        assert len(smooth_rows) == len(causal)
+        e_s, e_c = (np.sqrt(np.mean(errors_px(r, truth)[0][5:] ** 2)) for r in (smooth_rows, causal))
+        assert e_s < 0.9 * e_c
+        last = [smooth_rows[-1][k] for k in ("qw", "qx", "qy", "qz")]
+        np.testing.assert_allclose(last, [causal[-1][k] for k in ("qw", "qx", "qy", "qz")], atol=1e-12)
 
 
 # -- convergence on simulated truth -------------------------------------------------------

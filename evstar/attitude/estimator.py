@@ -26,7 +26,7 @@ from .. import parameters as P
 from ..camera import Camera
 from ..errors import DataError, ParameterError, ParameterTypeError
 from ..imu import Imu
-from .filter import Mekf, hat
+from .filter import Mekf, hat, smooth
 from .output import ATTITUDE_DTYPE, rotation, rows
 
 A = P.ATTITUDE_FILTER
@@ -81,6 +81,7 @@ class AttitudeEstimator:
         t0, t_end = int(c["t"][0]), int(c["t"][-1])
         self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
         self._next_out = 0
+        self._chains = []      # per filter run: its nodes (updates and rows) for the smoother
         for idx in _frames(c, self.frame_us):
             t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
             self._emit_until(t_ref)
@@ -91,6 +92,9 @@ class AttitudeEstimator:
         self._emit_until(t_end + 1)
         if not self._out:
             return np.zeros(0, ATTITUDE_DTYPE)
+        if self.o["smooth"]:
+            for chain in self._chains:
+                self._smooth_rows(chain)
         return rows(*(np.array(col) for col in zip(*self._out)))
 
     def _maybe_identify(self, idx, t_ref):
@@ -139,6 +143,8 @@ class AttitudeEstimator:
                          jerk_noise=o["jerk_noise"])
         self._t_f, self._t_start, self._bad = t_ref, t_ref, 0
         self._n_used, self._last_used = len(fix.hip), t_ref
+        self._chains.append([])
+        self._F = np.eye(len(P0))
 
     def _update(self, idx, t_ref):
         """One joint update with the frame's centroids of identified tracks."""
@@ -150,7 +156,9 @@ class AttitudeEstimator:
         dirs = np.stack([self._stars[int(k)] for k in tracks])
         dt = (self._c["t"][idx] - t_ref) * 1e-6
         rates = None if self.imu is None else self._gyro.mean(self._c["t"][idx], t_ref) - self.filt.s
+        pred = (self.filt.R.copy(), self.filt.s.copy(), self.filt.P.copy())
         used = self.filt.update(self._z[idx], dirs, self._sig[idx], dt, rates, gate=self.o["gate"])
+        self._node(pred)
         for k, u in zip(tracks.tolist(), used.tolist()):
             # an identity the measurements keep contradicting is forgotten
             self._misses[k] = 0 if u else self._misses.get(k, 0) + 1
@@ -178,16 +186,37 @@ class AttitudeEstimator:
             gyro = self._gyro.at(t) if self.imu is not None else None
             recent = t - self._last_used < self.frame_us
             status = "fix" if t - self._t_start < self.frame_us else "tracking" if recent else "coasting"
+            self._node(None, row=len(self._out))
             self._out.append((t, self.filt.R.copy(), self.filt.rate(gyro),
                               self._n_used if recent else 0, status))
 
     def _predict_to(self, t):
         if self.imu is None:
-            self.filt.predict((t - self._t_f) * 1e-6)
+            self._F = self.filt.predict((t - self._t_f) * 1e-6) @ self._F
         else:
             for dt, g in self._gyro.steps(self._t_f, t):
-                self.filt.predict(dt, g)
+                self._F = self.filt.predict(dt, g) @ self._F
         self._t_f = t
+
+    def _node(self, pred, row=None):
+        """Record the filter's state for the smoother: `pred` (R, s, P) before an update, or
+        None at a row (no update); the transition since the previous node restarts."""
+        f = self.filt
+        R_pred, s_pred, P_pred = pred if pred is not None else (f.R.copy(), f.s.copy(), f.P.copy())
+        self._chains[-1].append(dict(F=self._F, R_pred=R_pred, s_pred=s_pred, P_pred=P_pred,
+                                     R=f.R.copy(), s=f.s.copy(), P=f.P.copy(), row=row))
+        self._F = np.eye(len(f.P))
+
+    def _smooth_rows(self, chain):
+        """Rows of one filter run replaced by their smoothed attitude and rate."""
+        if not chain:
+            return
+        for node, (R, s, _) in zip(chain, smooth(chain)):
+            if node["row"] is None:
+                continue
+            t, _, _, n, status = self._out[node["row"]]
+            rate = s[:3] if self.imu is None else self._gyro.at(t) - s
+            self._out[node["row"]] = (t, R, rate, n, status)
 
     def _normalised(self, c):
         """Pinhole-normalised coordinates (n, 2) and their per-axis sigma (n, 2)."""

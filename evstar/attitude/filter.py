@@ -91,10 +91,10 @@ class Mekf:
     # -- prediction -----------------------------------------------------------------------
     def predict(self, dt, gyro=None):
         """Advance by dt seconds; in imu mode `gyro` is the mean gyro reading over the step
-        (camera frame)."""
-        if dt <= 0:
-            return
+        (camera frame). Returns the error-state transition F of the step (a smoother's)."""
         n, I = len(self.P), np.eye(3)
+        if dt <= 0:
+            return np.eye(n)
         F, Q = np.eye(n), np.zeros((n, n))
         if self.mode == "rate":
             w, a = self.s[:3], self.s[3:]
@@ -114,6 +114,7 @@ class Mekf:
         F[:3, :3] = step.T                      # δθ' = Exp(−ω dt) δθ + ...
         P = F @ self.P @ F.T + Q
         self.P = 0.5 * (P + P.T)
+        return F
 
     # -- update ---------------------------------------------------------------------------
     def residuals(self, z, dirs, dt=None, rates=None):
@@ -200,6 +201,39 @@ class Mekf:
         """1-σ attitude error (rad): the root of the trace of its covariance (a bound on
         the largest axis's, cheaper than eigenvalues at every output)."""
         return math.sqrt(max(self.P[0, 0] + self.P[1, 1] + self.P[2, 2], 0.0))
+
+
+def log_so3(R):
+    """The rotation vector of rotation matrix R (3, 3), angle below π (inverse of exp_so3;
+    a smoother's corrections are small)."""
+    w = 0.5 * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    a = math.acos(min(1.0, max(-1.0, (R[0, 0] + R[1, 1] + R[2, 2] - 1) / 2)))
+    return w if a < 1e-6 else w * (a / math.sin(a))
+
+
+def rts_gains(P, P_next_pred, F_next):
+    """Rauch–Tung–Striebel gain C = P Fᵀ (P⁻)⁻¹ of one node: its filtered covariance P, and
+    the transition F to the next node with that node's predicted covariance P⁻."""
+    return np.linalg.solve(P_next_pred, F_next @ P).T
+
+
+def smooth(nodes):
+    """RTS pass over one filter's nodes, in time order, of the error state [δθ, δs]. Each
+    node is a dict with the filter's R, s, P after its update (R, s, P), before it (R_pred,
+    s_pred, P_pred) and F, the transition from the previous node. Returns (R, s, P) smoothed
+    per node; the last node's equal its filtered ones. The error of a node is
+    e = [Log(Rᵀ R_s), s_s − s] (R_true = R·Exp(δθ)), carried back as e_k = C_k e_{k+1}."""
+    last = nodes[-1]
+    out = [None] * len(nodes)
+    out[-1] = (last["R"], last["s"], last["P"])
+    for k in range(len(nodes) - 2, -1, -1):
+        a, b = nodes[k], nodes[k + 1]
+        R_n, s_n, P_n = out[k + 1]
+        C = rts_gains(a["P"], b["P_pred"], b["F"])
+        e = C @ np.r_[log_so3(b["R_pred"].T @ R_n), s_n - b["s_pred"]]
+        P = a["P"] + C @ (P_n - b["P_pred"]) @ C.T
+        out[k] = (a["R"] @ exp_so3(e[:3]), a["s"] + e[3:], 0.5 * (P + P.T))
+    return out
 
 
 def _stacked(r, H, var, used):
