@@ -190,7 +190,8 @@ def calibrate(events, imu, camera, config=None, progress=None):
     if progress:
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
     crossings = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
-                                config.estimate.threshold_ratio)
+                                config.estimate.threshold_ratio,
+                                refractory_us=config.estimate.refractory_us)
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
     lag.meta.update(events=len(events), duration_s=events.duration_us / 1e6,

@@ -49,16 +49,19 @@ def pixel_lag(path):
 _LAG_FILES = {}
 
 
-def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False):
+def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
+                    refractory_us=0.0):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
-    sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of). with_ratio:
-    return (crossings, the ratio used)."""
+    sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
+    the pixels' refractory period (evstar.crossings.key_crossings). with_ratio: return
+    (crossings, the ratio used)."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, 1.0 if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return key_crossings(*_near_kept(events, keep, radius_px), events.width,
-                         threshold_ratio=threshold_ratio, with_ratio=with_ratio)
+                         threshold_ratio=threshold_ratio, with_ratio=with_ratio,
+                         refractory_us=refractory_us)
 
 
 def _near_kept(events, keep, radius_px):

@@ -354,10 +354,11 @@ class _RunState:
         for a, b in zip(bounds[:-1], bounds[1:]):
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, self.threshold_ratio = chunk_crossings(
-                    events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True)
+                    events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
+                    refractory_us=e.refractory_us)
             else:
                 crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
-                                            self.threshold_ratio)
+                                            self.threshold_ratio, refractory_us=e.refractory_us)
             self._crossings.append(crossings)
 
     def crossings(self):

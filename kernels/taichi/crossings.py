@@ -68,3 +68,65 @@ def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, ratio: ti
             s2 += mid * mid
         sums[i] = s
         sq[i] = s2
+
+
+@ti.func
+def _level_step(gap, refractory, max_step):
+    """evstar.crossings.level_step of one gap (µs, float)."""
+    out = max_step
+    if gap > refractory:
+        out = ti.min(gap / ti.max(gap - refractory, 1e-9), max_step)
+    return out
+
+
+@ti.kernel
+def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i32_1d,
+                         off_after: i32_1d, ratio: ti.f64, refractory: ti.f64, max_step: ti.f64,
+                         max_pairs: ti.i32, pairs: i32_1d, sums: f64_1d, sq: f64_1d):
+    """Per change c = change[i]: the level pairs of a sensor with a refractory period, their
+    count and the sums of their midpoints and of their squares (specification:
+    evstar.crossings._refractory_pairs, one change per thread with the same operations).
+    ON event c − m lies d_m levels below the last ON; d_next is the depth of the next one
+    back (has_next false past the run's first); OFF j lies d_off below."""
+    for i in range(change.shape[0]):
+        c, nb, na = change[i], ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
+        m = ti.i64(0)
+        d_m, d_next = ti.f64(0.0), ti.f64(0.0)
+        has_next = nb > 0
+        top = ti.f64(0.0)
+        if has_next:
+            d_next = _level_step(ti.cast(t[order[c]] - t[order[c - 1]], ti.f64), refractory, max_step)
+            top = d_next - 1
+        d_off = ratio - top
+        k = 0
+        s, s2 = ti.f64(0.0), ti.f64(0.0)
+        alive = na >= 1
+        j = ti.i64(1)
+        while alive:
+            if j > 1:
+                d_off = d_off + ratio * _level_step(
+                    ti.cast(t[order[c + j]] - t[order[c + j - 1]], ti.f64), refractory, max_step)
+            while has_next and d_next <= d_off + 1e-9:
+                m += 1
+                d_m = d_next
+                has_next = m < nb
+                if has_next:
+                    d_next = d_m + _level_step(ti.cast(t[order[c - m]] - t[order[c - m - 1]], ti.f64),
+                                               refractory, max_step)
+            beyond = (m == nb) and (d_off > d_m + 1e-9)
+            if not beyond and d_off >= -1e-9:
+                f = ti.f64(0.0)
+                if has_next:
+                    f = (d_off - d_m) / (d_next - d_m)
+                rise = ti.cast(t[order[c - m]], ti.f64)
+                if f >= 1e-9:
+                    rise = rise * (1 - f) + ti.cast(t[order[c - m - 1]], ti.f64) * f
+                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
+                s += mid
+                s2 += mid * mid
+                k += 1
+            alive = (not beyond) and j < na and k < max_pairs
+            j += 1
+        pairs[i] = k
+        sums[i] = s
+        sq[i] = s2

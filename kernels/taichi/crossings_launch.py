@@ -3,7 +3,8 @@ ON→OFF change its position in the order, run lengths and pair sums out."""
 import numpy as np
 
 from . import launch
-from .crossings import pair_sums as _pair_sums, run_lengths as _run_lengths
+from .crossings import pair_sums as _pair_sums, refractory_pair_sums as _refractory_sums
+from .crossings import run_lengths as _run_lengths
 
 
 class LevelPairs:
@@ -39,3 +40,21 @@ class LevelPairs:
         if arrays.on_device:
             sums, sq = sums.to_numpy(), sq.to_numpy()
         return sums, sq
+
+    def refractory_sums(self, change, on_before, off_after, ratio, refractory_us, max_step,
+                        max_pairs):
+        """(pairs, sums of pair midpoints, of their squares) of the changes at positions
+        `change`, of a sensor with a refractory period."""
+        arrays, n = self.arrays, len(change)
+        pairs = arrays.empty(n, np.int32)
+        sums, sq = arrays.empty(n, np.float64), arrays.empty(n, np.float64)
+        if n:
+            with launch.RUNTIME_LOCK:
+                _refractory_sums(self.order, self.t, arrays.put(np.asarray(change, np.int64)),
+                                 arrays.put(np.asarray(on_before, np.int32)),
+                                 arrays.put(np.asarray(off_after, np.int32)), float(ratio),
+                                 float(refractory_us), float(max_step), int(max_pairs), pairs,
+                                 sums, sq)
+        if arrays.on_device:
+            pairs, sums, sq = pairs.to_numpy(), sums.to_numpy(), sq.to_numpy()
+        return pairs.astype(np.int64), sums, sq
