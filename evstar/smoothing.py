@@ -594,10 +594,12 @@ def imu_velocity_prior(imu, camera):
     """A velocity prior from gyro rates: the image velocity (px/s) of a fixed star at pixel
     (x, y) at camera time t when the camera turns at ω (camera frame; ḋ = −ω × d for a
     camera-frame direction d), through the camera model (distortion included)."""
-    from .motion.imu_integration import interpolate
+    from .motion.imu_integration import gyro_at
+
+    gyro = gyro_at(imu)
 
     def prior(t_us, x, y):
-        omega, _ = interpolate(imu, t_us)
+        omega = gyro(t_us)
         d = camera.unproject(np.column_stack([x, y]))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         h = 1e-4   # s: a step small against any slew, large against rounding
