@@ -45,7 +45,10 @@ def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
 
 def pixel_keys(x, y, width):
     """y·width + x (uint32: a sensor has at most 2¹⁶ × 2¹⁶ pixels)."""
-    return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
+    key = np.asarray(y).astype(np.uint32)
+    key *= np.uint32(width)                 # in place: these arrays are millions of events
+    key += np.asarray(x).astype(np.uint32, copy=False)
+    return key
 
 
 #: the run lengths are counted up to this (a hot pixel's run must not cost without bound)

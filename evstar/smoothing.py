@@ -196,7 +196,9 @@ class TrackSmoother:
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         got, owner, u, resid = along_track(crossings, est)
-        q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
+        # the assigned crossings' fields, gathered once (m below indexes them)
+        t_got = crossings["t"][got]
+        q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
         used = 0
         if t0_us is None and len(est):
@@ -206,7 +208,7 @@ class TrackSmoother:
         mine = dict(zip(*_groups(owner)))
         for tid, rows in zip(tids, est_rows):
             m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
-            t_c, r_c = crossings["t"][got[m]], resid[m]
+            t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
                 t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, est[rows], pixel_lag)
             full = self._fill_frames(est[rows], t_c, t0_us)
@@ -214,7 +216,7 @@ class TrackSmoother:
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
             steps.append(_along_track_problem(
                 full, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (t_c, q_all[got[m]], u[m], r_c),
+                (t_c, q_got[m], u[m], r_c),
                 velocity_prior, along_weight=along_weight, sigma_floor_px=self.sigma_floor_px))
         problems = _batched(steps, velocity_prior)
         # rows added for crossings stand only when the crossings are used
