@@ -45,7 +45,10 @@ def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
 
 def pixel_keys(x, y, width):
     """y·width + x (uint32: a sensor has at most 2¹⁶ × 2¹⁶ pixels)."""
-    return np.asarray(y).astype(np.uint32) * np.uint32(width) + np.asarray(x).astype(np.uint32)
+    key = np.asarray(y).astype(np.uint32)
+    key *= np.uint32(width)                 # in place: these arrays are millions of events
+    key += np.asarray(x).astype(np.uint32, copy=False)
+    return key
 
 
 #: the run lengths are counted up to this (a hot pixel's run must not cost without bound)
@@ -290,19 +293,28 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
     ci, seg = _candidates(crossings, tracks, max_offset_px)
     t = crossings["t"][ci]
-    q = np.column_stack([crossings["x"][ci], crossings["y"][ci]]).astype(np.float64)
-    pos = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y")])
-    vel = np.column_stack([_interp(t, tracks["t"], tracks[f], seg) for f in ("vx", "vy")])
-    speed = np.linalg.norm(vel, axis=1)
-    d = q - pos
-    dist = np.linalg.norm(d, axis=1)
-    ok = (dist < max_offset_px) & (speed >= min_speed_px_s)
-    ci, tid, vel, speed, d, dist = ci[ok], tracks["track"][seg[ok]], vel[ok], speed[ok], d[ok], dist[ok]
-    # per crossing the nearest track, the lowest id among equals
-    order = np.lexsort((tid, dist, ci))
-    first = order[np.r_[True, ci[order][1:] != ci[order][:-1]]] if len(order) else order
-    u = vel[first] / speed[first, None]
-    return ci[first], tid[first], u, (d[first] * u).sum(1)
+    px, py, vx, vy = (_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y", "vx", "vy"))
+    dx, dy = crossings["x"][ci] - px, crossings["y"][ci] - py
+    # np.linalg.norm's arithmetic, without its (n, 2) temporaries
+    speed, dist = np.sqrt(vx * vx + vy * vy), np.sqrt(dx * dx + dy * dy)
+    ok = np.flatnonzero((dist < max_offset_px) & (speed >= min_speed_px_s))
+    first = ok[_nearest(ci[ok], dist[ok], tracks["track"][seg[ok]], len(crossings["t"]))]
+    ux, uy = vx[first] / speed[first], vy[first] / speed[first]
+    return (ci[first], tracks["track"][seg[first]], np.column_stack([ux, uy]),
+            dx[first] * ux + dy[first] * uy)
+
+
+def _nearest(ci, dist, tid, n):
+    """Per distinct crossing ci (< n, ascending) the candidate of least dist, then least tid,
+    then first. A crossing mostly has one: only those with several are sorted."""
+    several = np.bincount(ci, minlength=n)[ci] > 1
+    best = np.full(n, -1, np.int64)
+    best[ci[~several]] = np.flatnonzero(~several)
+    m = np.flatnonzero(several)
+    m = m[np.lexsort((tid[m], dist[m], ci[m]))]
+    m = m[np.r_[True, ci[m][1:] != ci[m][:-1]]] if len(m) else m
+    best[ci[m]] = m
+    return best[best >= 0]
 
 
 def _candidates(crossings, tracks, max_offset_px):
@@ -334,14 +346,18 @@ def _candidates(crossings, tracks, max_offset_px):
     hi = np.searchsorted(key, qbin * kx + np.clip(np.floor(x_hi), -1, kx - 1).astype(np.int64),
                          "right")
     n = np.maximum(hi - lo, 0)
-    seg = np.repeat(qseg, n)
-    ci = srt[np.repeat(lo, n) + _ranks(n)]
-    t, y = crossings["t"][ci], crossings["y"][ci]
-    end = _is_last_row(tr)[seg + 1]
-    inside = (t >= t_row[seg]) & ((t < t_row[seg + 1]) | (end & (t == t_row[seg + 1])))
-    inside &= (y >= np.minimum(tracks["y"][seg], tracks["y"][seg + 1]) - r)
-    inside &= (y <= np.maximum(tracks["y"][seg], tracks["y"][seg + 1]) + r)
-    return ci[inside], seg[inside]
+    # per candidate its place in the sorted crossings and its query's segment bounds:
+    # repeated per query (sequential copies), not gathered per candidate
+    at = np.arange(n.sum()) + np.repeat(lo - (np.cumsum(n) - n), n)
+    t, y = crossings["t"][srt][at], crossings["y"][srt][at]
+    end = _is_last_row(tr)[qseg + 1]
+    y_lo = np.minimum(tracks["y"][qseg], tracks["y"][qseg + 1]) - r
+    y_hi = np.maximum(tracks["y"][qseg], tracks["y"][qseg + 1]) + r
+    t_lo, t_hi = (np.repeat(v, n) for v in (t_row[qseg], t_row[qseg + 1]))
+    inside = (t >= t_lo) & ((t < t_hi) | (np.repeat(end, n) & (t == t_hi)))
+    inside &= (y >= np.repeat(y_lo, n)) & (y <= np.repeat(y_hi, n))
+    keep = np.flatnonzero(inside)
+    return srt[at[keep]], np.repeat(qseg, n)[keep]
 
 
 def _is_last_row(track):

@@ -133,23 +133,23 @@ class TrackSmoother:
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         if t0_us is None and len(centroids):
             t0_us = int((centroids["t"] - centroids["frame"] * self.dt_us).min())
-        tracks = []
-        for rows in _track_rows(centroids):
-            tracks.append(self._prepare(centroids[rows], sig[rows], t0_us, velocity_prior, rows))
+        tracks = _batched([self._prepare(centroids[rows], sig[rows], t0_us, velocity_prior, rows)
+                           for rows in _track_rows(centroids)], velocity_prior)
         fits = self._fit_many(tracks)
-        parts = [self._rows(tr, *fit, velocity_prior) for tr, fit in zip(tracks, fits)]
+        parts = _batched([self._rows(tr, *fit, velocity_prior) for tr, fit in zip(tracks, fits)],
+                         velocity_prior)
         return np.concatenate(parts) if parts else np.zeros(0, ESTIMATE_DTYPE)
 
     # -- one track ----------------------------------------------------------------------
     def smooth_track(self, cents, sigma, t0_us, velocity_prior=None, index=None):
         """Rows for one track's time-sorted centroids (see :meth:`smooth`)."""
         idx = np.arange(len(cents)) if index is None else np.asarray(index)
-        tr = self._prepare(cents, sigma, t0_us, velocity_prior, idx)
-        return self._rows(tr, *self._fit_many([tr])[0], velocity_prior)
+        [tr] = _batched([self._prepare(cents, sigma, t0_us, velocity_prior, idx)], velocity_prior)
+        return _batched([self._rows(tr, *self._fit_many([tr])[0], velocity_prior)], velocity_prior)[0]
 
     def _prepare(self, cents, sigma, t0_us, velocity_prior, index):
         """The _Track of one track's time-sorted centroids: their steps and the coasted
-        frames', positions less the prior's displacement."""
+        frames', positions less the prior's displacement (a _batched step)."""
         t_meas = cents["t"].astype(np.int64)
         frames = cents["frame"].astype(np.int64)
         coast_f = self._coast_frames(t_meas, frames, t0_us)
@@ -159,19 +159,19 @@ class TrackSmoother:
         t_all = t_all[order]
         measured = order < len(t_meas)
         z = np.column_stack([cents["x"], cents["y"]]).astype(float)
-        shift = prior_displacement(velocity_prior, t_all, t_meas, z)
+        shift = yield from _displacement(velocity_prior, t_all, t_meas, z)
         resid = z - shift[measured]
         ts = (t_all - t_all[0]) * 1e-6
         return _Track(cents, sigma, index, coast_f, order, t_all, measured, shift, resid, ts)
 
     def _rows(self, tr, x, P, outlier, velocity_prior):
-        """ESTIMATE_DTYPE rows of a fitted _Track."""
+        """ESTIMATE_DTYPE rows of a fitted _Track (a _batched step)."""
         cents, coast_f, order, measured, shift = tr.cents, tr.coast_f, tr.order, tr.measured, tr.shift
         out = np.zeros(len(tr.t_all), ESTIMATE_DTYPE)
         out["t"], out["track"] = tr.t_all, cents["track"][0]
         out["frame"] = np.concatenate([cents["frame"].astype(np.int64), coast_f])[order]
         out["x"], out["y"] = x[:, 0] + shift[:, 0], x[:, 2] + shift[:, 1]
-        v_prior = prior_velocity(velocity_prior, tr.t_all, out["x"], out["y"])
+        v_prior = yield from _velocity(velocity_prior, tr.t_all, out["x"], out["y"])
         out["vx"], out["vy"] = x[:, 1] + v_prior[:, 0], x[:, 3] + v_prior[:, 1]
         # rounding can leave a variance a hair below zero
         out["sigma_x"] = np.sqrt(np.maximum(P[:, 0, 0], 0.0))
@@ -196,28 +196,31 @@ class TrackSmoother:
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         got, owner, u, resid = along_track(crossings, est)
-        q_all = np.column_stack([crossings["x"], crossings["y"]]).astype(float)
+        # the assigned crossings' fields, gathered once (m below indexes them)
+        t_got = crossings["t"][got]
+        q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
-        parts, used = [], 0
+        used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
-        problems = []
+        steps = []
         tids, est_rows = _groups(est["track"])
         mine = dict(zip(*_groups(owner)))
         for tid, rows in zip(tids, est_rows):
             m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
-            t_c, r_c = crossings["t"][got[m]], resid[m]
+            t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
                 t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, est[rows], pixel_lag)
             full = self._fill_frames(est[rows], t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
-            problems.append(_along_track_problem(
+            steps.append(_along_track_problem(
                 full, np.column_stack([centroids["x"][meas], centroids["y"][meas]]), s_cent,
-                (t_c, q_all[got[m]], u[m], r_c),
+                (t_c, q_got[m], u[m], r_c),
                 velocity_prior, along_weight=along_weight, sigma_floor_px=self.sigma_floor_px))
-            # rows added for crossings stand only when the crossings are used
-            parts.append(est[rows] if problems[-1] is None else None)
+        problems = _batched(steps, velocity_prior)
+        # rows added for crossings stand only when the crossings are used
+        parts = [est[rows] if p is None else None for rows, p in zip(est_rows, problems)]
         fits = iter(_along_track_fit_many([p for p in problems if p is not None],
                                           velocity_prior, self.process_noise_min, self.engine))
         for i, p in enumerate(problems):
@@ -379,8 +382,8 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     one measurement (the filter's cost is per step). Returns new rows (est's times, frames
     and flags) and the number of crossings used.
     """
-    p = _along_track_problem(est, z_cent, sigma, crossings, velocity_prior, along_weight,
-                             gate_sigma, sigma_floor_px, pool_us)
+    [p] = _batched([_along_track_problem(est, z_cent, sigma, crossings, velocity_prior, along_weight,
+                                         gate_sigma, sigma_floor_px, pool_us)], velocity_prior)
     if p is None:
         return est, 0
     return _along_track_fit_many([p], velocity_prior, process_noise_min,
@@ -402,7 +405,7 @@ class _AlongTrack(NamedTuple):
 def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
                          gate_sigma=4.0, sigma_floor_px=0.01, pool_us=10_000):
     """along_track_fit up to the filter: an _AlongTrack, or None when the crossings do not
-    pin the track."""
+    pin the track (a _batched step)."""
     t_c, q, u, r = crossings
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
@@ -414,7 +417,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     ok = np.abs(r - med) <= gate_sigma * s_a
     t_c, q, u = t_c[ok], q[ok], u[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
-        t_c = t_c - 1e6 * pixel_lag_s(t_c, q, u, velocity_prior)
+        t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c, q, u, velocity_prior))
     t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
     t_c = np.round(t_c).astype(np.int64)
     measured = ~est["coasted"]
@@ -435,7 +438,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     order = np.argsort(t_all, kind="stable")
     t_s, m_s, c_s = t_all[order], is_meas[order], is_cent[order]
     z_meas = z[order][m_s]
-    shift = prior_displacement(velocity_prior, t_s, t_s[m_s], z_meas)
+    shift = yield from _displacement(velocity_prior, t_s, t_s[m_s], z_meas)
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
@@ -450,12 +453,14 @@ def _along_track_fit_many(problems, velocity_prior, process_noise_min, engine):
     qs = _estimate_q_many([p.q_data for p in problems], engine)
     fits = _ENGINES[engine][0]([p.problem._replace(q=max(q, process_noise_min))
                                 for p, q in zip(problems, qs)])
-    return [(_along_track_rows(p, x, P, velocity_prior), p.n_used)
-            for p, (x, P) in zip(problems, fits)]
+    rows = _batched([_along_track_rows(p, x, P, velocity_prior) for p, (x, P) in zip(problems, fits)],
+                    velocity_prior)
+    return [(r, p.n_used) for r, p in zip(rows, problems)]
 
 
 def _along_track_rows(p, x, P, velocity_prior):
-    """est's rows of an _AlongTrack with the smoothed positions, velocities and σ."""
+    """est's rows of an _AlongTrack with the smoothed positions, velocities and σ (a _batched
+    step)."""
     est, n_est = p.est, len(p.est)
     back = np.empty(len(p.order), np.int64)
     back[p.order] = np.arange(len(p.order))
@@ -463,7 +468,7 @@ def _along_track_rows(p, x, P, velocity_prior):
     shift = p.shift
     out = est.copy()
     out["x"], out["y"] = x[back, 0] + shift[back, 0], x[back, 2] + shift[back, 1]
-    v_prior = prior_velocity(velocity_prior, out["t"], out["x"], out["y"])
+    v_prior = yield from _velocity(velocity_prior, out["t"], out["x"], out["y"])
     out["vx"], out["vy"] = x[back, 1] + v_prior[:, 0], x[back, 3] + v_prior[:, 1]
     out["sigma_x"] = np.sqrt(np.maximum(P[back, 0, 0], 0.0))   # rounding can make it -0
     out["sigma_y"] = np.sqrt(np.maximum(P[back, 2, 2], 0.0))
@@ -474,8 +479,13 @@ def lag_regression(t_us, q, u, velocity_prior):
     """The crossings' lag model u·q = u·(s0 + D(t) + b·t) − τ·u·v(t) as least-squares rows,
     for time-sorted crossings (t µs, pixel q, motion direction u): (y = u·(q − D),
     the offset and drift regressors [u, u·t] (n, 4), τ's regressor −u·v (s), v (n, 2) px/s)."""
-    disp = prior_displacement(velocity_prior, t_us, t_us, q)
-    v = prior_velocity(velocity_prior, t_us, q[:, 0], q[:, 1])
+    return _batched([_lag_regression(t_us, q, u, velocity_prior)], velocity_prior)[0]
+
+
+def _lag_regression(t_us, q, u, velocity_prior):
+    """lag_regression as a _batched step."""
+    disp = yield from _displacement(velocity_prior, t_us, t_us, q)
+    v = yield from _velocity(velocity_prior, t_us, q[:, 0], q[:, 1])
     ts = (t_us - t_us[0]) * 1e-6
     local = np.column_stack([u[:, 0], u[:, 1], u[:, 0] * ts, u[:, 1] * ts])
     return (u * (q - disp)).sum(1), local, -(u * v).sum(1), v
@@ -489,12 +499,21 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     apart from s0 and b only when the speed changes (a sinusoidal slew, not a constant rate):
     0 when its standard error exceeds `max_se_s`, or too few crossings. Robust: three passes
     dropping residuals beyond 5 MAD."""
+    return _batched([_pixel_lag_s(t_us, q, u, velocity_prior, max_se_s)], velocity_prior)[0]
+
+
+def _pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
+    """pixel_lag_s as a _batched step."""
     if len(t_us) < MIN_CROSSINGS:
         return 0.0
     order = np.argsort(t_us, kind="stable")
-    y, local, lag_col, _ = lag_regression(np.asarray(t_us, float)[order], q[order], u[order],
-                                          velocity_prior)
-    A = np.column_stack([local, lag_col])
+    y, local, lag_col, _ = yield from _lag_regression(np.asarray(t_us, float)[order], q[order],
+                                                      u[order], velocity_prior)
+    return _lag_fit(y, np.column_stack([local, lag_col]), max_se_s)
+
+
+def _lag_fit(y, A, max_se_s):
+    """pixel_lag_s's robust fit of its regression rows."""
     for _ in range(3):
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ sol
@@ -568,6 +587,11 @@ def prior_displacement(prior, t_all, t_meas, z):
     """(n, 2) px the prior moves a star from t_all[0] to each t_all: the trapezoid rule on
     a grid of at most _PRIOR_STEP_S (so a prior from noisy gyro samples is averaged over
     each interval, not read at its two ends), along the measured positions interpolated."""
+    return _batched([_displacement(prior, t_all, t_meas, z)], prior)[0]
+
+
+def _displacement(prior, t_all, t_meas, z):
+    """prior_displacement as a _batched step."""
     if prior is None:
         return np.zeros((len(t_all), 2))
     t = np.asarray(t_all, float)
@@ -575,9 +599,40 @@ def prior_displacement(prior, t_all, t_meas, z):
     starts = np.r_[0, np.cumsum(n_sub)]            # node index of each t_all on the fine grid
     frac = np.arange(starts[-1]) - np.repeat(starts[:-1], n_sub)
     fine = np.r_[np.repeat(t[:-1], n_sub) + frac * np.repeat(np.diff(t) / n_sub, n_sub), t[-1:]]
-    v = prior_velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]), np.interp(fine, t_meas, z[:, 1]))
+    v = yield from _velocity(prior, fine, np.interp(fine, t_meas, z[:, 0]),
+                             np.interp(fine, t_meas, z[:, 1]))
     steps = (v[1:] + v[:-1]) / 2 * (np.diff(fine) * 1e-6)[:, None]
     return np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])[starts]
+
+
+def _velocity(prior, t_us, x, y):
+    """prior_velocity as a _batched step: yields the query (t_us, x, y), is sent the answer."""
+    if prior is None:
+        return np.zeros((len(t_us), 2))
+    return (yield np.asarray(t_us), np.asarray(x, float), np.asarray(y, float))
+
+
+def _batched(steps, prior):
+    """The return values of generators that yield velocity-prior queries (t_us, x, y) and are
+    sent prior_velocity's answers: each round's queries of all in one call (a prior's cost
+    is mostly per call, and the answer for a point does not depend on the others)."""
+    out, answer = [None] * len(steps), [None] * len(steps)
+    todo = list(range(len(steps)))
+    while todo:
+        live, queries = [], []
+        for i in todo:
+            try:
+                queries.append(steps[i].send(answer[i]))
+                live.append(i)
+            except StopIteration as done:
+                out[i] = done.value
+        if live:
+            v = prior_velocity(prior, *(np.concatenate(c) for c in zip(*queries)))
+            cuts = np.cumsum([len(q[0]) for q in queries])[:-1]
+            for i, part in zip(live, np.split(v, cuts)):
+                answer[i] = part
+        todo = live
+    return out
 
 
 def _check_sigma(sigma, centroids):
@@ -594,10 +649,12 @@ def imu_velocity_prior(imu, camera):
     """A velocity prior from gyro rates: the image velocity (px/s) of a fixed star at pixel
     (x, y) at camera time t when the camera turns at ω (camera frame; ḋ = −ω × d for a
     camera-frame direction d), through the camera model (distortion included)."""
-    from .motion.imu_integration import interpolate
+    from .motion.imu_integration import gyro_at
+
+    gyro = gyro_at(imu)
 
     def prior(t_us, x, y):
-        omega, _ = interpolate(imu, t_us)
+        omega = gyro(t_us)
         d = camera.unproject(np.column_stack([x, y]))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         h = 1e-4   # s: a step small against any slew, large against rounding

@@ -113,6 +113,29 @@ def test_turnaround_followed_better_with_the_velocity_prior():
     assert rms(guided) < 0.25 * rms(raw)
 
 
+def test_the_prior_is_asked_once_per_step_for_all_tracks_with_the_same_rows():
+    """smooth batches the velocity prior's queries of all tracks (its cost is per call):
+    two calls (the displacements, then the velocities of the rows), and the rows of each
+    track the same bits as smoothing it alone."""
+    rng = np.random.default_rng(5)
+    parts = [centroids(np.arange(5 * k, 60 + 9 * k), sinusoid, 0.3, rng, track=k) for k in range(4)]
+    cents = np.concatenate(parts)
+    calls = []
+
+    def prior(t, x, y):
+        calls.append(len(t))
+        return sinusoid_velocity(t, x, y)
+
+    smoother = TrackSmoother(DT, coast_ends=False)
+    together = smoother.smooth(cents, t0_us=0, velocity_prior=prior)
+    assert len(calls) == 2
+    for k, c in enumerate(parts):
+        alone = smoother.smooth(c, t0_us=0, velocity_prior=prior)
+        mine = together[together["track"] == k]
+        for f in ("t", "x", "y", "vx", "vy", "sigma_x", "sigma_y"):
+            np.testing.assert_array_equal(mine[f], alone[f])
+
+
 def test_process_noise_estimate_recovers_a_random_acceleration():
     rng = np.random.default_rng(5)
     q, h, n, sigma = 1e4, 0.01, 400, 0.05
