@@ -16,7 +16,9 @@ magnitudes 3.5 and 4.5, PSF σ 1.2, mismatched thresholds with twice the noise, 
 dark-sky photoreceptor, seed 11: run once, when the sixth session ended). The pixel-lag fit
 was written on two more development scenes (dark-sky sinusoid with IMU, magnitudes 3 and 5,
 seed 4). Dark-sky rows also show the crossings estimator with the lag `evstar calibrate`
-measured on a separate calibration recording of the same sensor (evstar.calibration).
+measured on a separate calibration recording of the same sensor (evstar.calibration); every
+row also shows it told the sensor's refractory period (estimate.refractory_us: the
+simulator's 100 µs, a bias setting a user knows; the seventh session's level counting).
 
     python perf/study_accuracy.py [--quick]
 
@@ -113,18 +115,22 @@ def run_scene(s):
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
     crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
                                            cfg.estimate.threshold_ratio)
+    refractory_us = SENSORS[s["sensor"]]().refractory_us      # the sensor's setting, known
+    crossings_r = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
+                                             cfg.estimate.threshold_ratio, refractory_us=refractory_us)
     signal = (run.truth.labels >= 0).sum() / n_frames
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
-    for name in ESTIMATORS + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
+    for name in ESTIMATORS + ("refractory",) + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
                                "estimate.pixel_lag_file": lag_file(s["sensor"], s["psf"])})
         else:
-            c = cfg.replace(**{"estimate.estimator": name})
-        rows = estimation.estimate(linked, c, t0, crossings, prior, (t0, int(ev.t[-1])),
-                                   (ev.width, ev.height))
+            c = cfg.replace(**{"estimate.estimator": "crossings" if name == "refractory" else name,
+                               "estimate.refractory_us": refractory_us if name == "refractory" else 0.0})
+        rows = estimation.estimate(linked, c, t0, crossings_r if name == "refractory" else crossings,
+                                   prior, (t0, int(ev.t[-1])), (ev.width, ev.height))
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 
@@ -147,12 +153,12 @@ def lag_file(sensor, psf, _done={}):
 def markdown(rows):
     head = ("| set | motion | mag | PSF σ | sensor | comp | ev/frame | bound px | "
             + " | ".join(f"{e} mean / max / frames / false" for e in ESTIMATORS) + " |")
-    head += " crossings + lag file (dark sky) |"
-    lines = [head, "|" + "---|" * (9 + len(ESTIMATORS))]
+    head += " crossings, refractory period known | crossings + lag file (dark sky) |"
+    lines = [head, "|" + "---|" * (10 + len(ESTIMATORS))]
     for r in rows:
         cells = [r["set"], str(r["motion"]), str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
                  f"{r['events_per_frame']:.0f}", f"{r['bound_px']:.3f}"]
-        for e in ESTIMATORS + ("calibrated",):
+        for e in ESTIMATORS + ("refractory", "calibrated"):
             m = r.get(e)
             cells.append("—" if m is None else
                          f"{m['mean']:.3f} / {m['max']:.2f} / {100 * m['frames']:.0f} % / "
