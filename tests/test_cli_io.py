@@ -11,6 +11,7 @@ def test_info_json_on_real_aedat4(real_dir, capsys):
     assert s["events"] == 319_512 and s["sensor_size"] == [346, 260]
     assert s["imu"] and s["imu_samples"] == 510 and 900 < s["imu_rate_hz"] < 1100
     assert 0.5 < s["duration_s"] < 0.52 and 0 < s["on_fraction"] < 1
+    assert 700 < s["gap_floor_us"] < 900          # this DAVIS346 fires no pixel twice within ~0.8 ms
 
 
 def test_convert_raw_to_hdf5_and_back_to_csv(real_dir, tmp_path, capsys):

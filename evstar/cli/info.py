@@ -23,6 +23,10 @@ def summary(rec):
            "t_last_us": int(ev.t[-1]) if len(ev) else None, "duration_s": dur_s,
            "event_rate_hz": len(ev) / dur_s if dur_s > 0 else None,
            "on_fraction": on / len(ev) if len(ev) else None, "imu": rec.imu is not None}
+    if len(ev):
+        from ..crossings import gap_floor_us, pixel_keys
+
+        out["gap_floor_us"] = gap_floor_us(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p)
     if rec.imu is not None:
         out.update(imu_samples=len(rec.imu), imu_rate_hz=rec.imu.rate_hz)
     if rec.camera is not None:
@@ -43,5 +47,8 @@ def run(args):
         print(f"event rate   {s['event_rate_hz'] / 1e6:.3f} M events/s")
     if s["on_fraction"] is not None:
         print(f"polarity     {100 * s['on_fraction']:.1f} % ON / {100 * (1 - s['on_fraction']):.1f} % OFF")
+    if s.get("gap_floor_us") is not None:
+        print(f"gap floor    {s['gap_floor_us']:.0f} µs (0.1 % of a pixel's same-polarity gaps are "
+              "shorter: near its refractory period, --refractory-us)")
     imu = f"{s['imu_samples']:,} samples at {s['imu_rate_hz']:.1f} Hz" if s["imu"] else "none"
     print(f"IMU          {imu}")
