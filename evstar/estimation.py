@@ -106,10 +106,14 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     out["source"] = np.where(out["source"] == "pooled", "pooled", "measured")
     if e.estimator == "mean" or not (centroids["track"] >= 0).any():
         return out
-    est = smoother.smooth(centroids, t0_us, velocity_prior, sigma)
-    if e.estimator == "crossings" and crossings is not None and len(crossings):
-        est, _ = smoother.refine(est, centroids, crossings, velocity_prior, sigma, e.along_weight,
-                                 t0_us, pixel_lag(e.pixel_lag_file))
+    ests = []
+    for cents, sig, prior in _by_prior(centroids, sigma, smoother, velocity_prior):
+        est = smoother.smooth(cents, t0_us, prior, sig)
+        if e.estimator == "crossings" and crossings is not None and len(crossings):
+            est, _ = smoother.refine(est, cents, crossings, prior, sig, e.along_weight,
+                                     t0_us, pixel_lag(e.pixel_lag_file))
+        ests.append(est)
+    est = np.concatenate(ests)
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain
     ok = rows["sigma"] <= e.coast_sigma_px
@@ -119,6 +123,22 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     return rows[(rows["source"] != "coasted") | ok]
+
+
+def _by_prior(centroids, sigma, smoother, prior):
+    """(centroids, σ, prior) of the tracks the velocity prior explains better
+    (TrackSmoother.prior_helps) and (…, None) of the others; est["centroid"] indexes
+    `centroids` in both."""
+    if prior is None:
+        return [(centroids, sigma, None)]
+    helps = np.isin(centroids["track"], sorted(smoother.prior_helps(centroids, prior, sigma)))
+    parts = []
+    for sel, p in ((helps, prior), (~helps & (centroids["track"] >= 0), None)):
+        if sel.any():
+            cents = centroids.copy()
+            cents["track"][~sel] = -1          # the other group's tracks: not smoothed here
+            parts.append((cents, sigma, p))
+    return parts or [(centroids, sigma, prior)]
 
 
 def _merge(unconfirmed, measured, est):

@@ -307,3 +307,23 @@ def test_one_level_crossings_are_left_out_only_when_enough_others_remain():
     assert len(kept) == 2 * MIN_CROSSINGS and np.all(pairs[kept] >= 2)
     few = mine[:MIN_CROSSINGS]                      # only half of them have two levels
     assert np.array_equal(_multi_level(few, pairs), few)
+
+
+def test_the_prior_is_used_where_it_explains_the_track_better():
+    """A sinusoid's track with its true velocity as prior: used. A constant pan whose prior
+    is a noisy gyro's (white noise integrating into a random walk of 0.1 px per 10 ms): not
+    used. Tracks of < 4 centroids keep it."""
+    rng = np.random.default_rng(9)
+    wave = centroids(np.arange(100), sinusoid, 0.05, rng, track=0)
+    pan = centroids(np.arange(100), line, 0.05, rng, track=1)
+    short = centroids(np.arange(3), line, 0.05, rng, track=2)
+    cents = np.concatenate([wave, pan, short])
+
+    from evstar.smoothing import _PRIOR_STEP_S
+
+    def prior(t_us, x, y):
+        true = np.where((np.asarray(y) < 100)[:, None], [40.0, -15.0], sinusoid_velocity(t_us, x, y))
+        # white velocity noise of 1 px²/s diffusion on the prior's integration grid
+        return true + rng.normal(0, 1 / np.sqrt(_PRIOR_STEP_S), (len(t_us), 2))
+
+    assert TrackSmoother(DT).prior_helps(cents, prior) == {0, 2}
