@@ -112,6 +112,19 @@ def test_mr_ndsef_screening_gives_the_full_evaluation_mask(seed, n, th):
         np.testing.assert_array_equal(evaluated[:, k], np.all(full[:, :k] >= np.array(th[:k]), axis=1))
 
 
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 200), th=st.lists(st.integers(1, 12), min_size=3, max_size=3))
+def test_mr_ndsef_select_tests_only_the_selected(seed, n, th):
+    rng = np.random.default_rng(seed)
+    t, x, y = stream(rng, n, 12, 10, max_step=15)
+    frame, radii, select = ref.frame_index(t, 200), (1.5, 3, 5), rng.random(n) < 0.4
+    keep, counts = ref.mr_ndsef(frame, x, y, 12, 10, radii, th)
+    keep_s, counts_s = ref.mr_ndsef(frame, x, y, 12, 10, radii, th, select)
+    np.testing.assert_array_equal(keep_s, keep & select)
+    np.testing.assert_array_equal(counts_s[select], counts[select])
+    assert np.all(counts_s[~select] == -1)
+
+
 @pytest.mark.parametrize("rate_hz", [0.5, 2.0, 100.0])
 @pytest.mark.parametrize("alpha", [1e-3, 0.05])
 def test_poisson_thresholds_are_the_smallest_with_tail_below_alpha(rate_hz, alpha):

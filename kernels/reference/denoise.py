@@ -146,16 +146,18 @@ def disk_counts(frame, x, y, width, height, radius, select=None):
     return out
 
 
-def mr_ndsef(frame, x, y, width, height, radii, thresholds):
+def mr_ndsef(frame, x, y, width, height, radii, thresholds, select=None):
     """MR-NDSEF with per-radius thresholds and hierarchical screening.
 
     Keep iff p_k(e) >= th_k for every radius k. Radius k is evaluated only for events that
     passed radii 1..k-1 (same mask as evaluating all, less work); counts[i, k] is -1 where
-    event i was rejected before radius k. Returns (keep mask, counts (n, K) int64).
+    event i was rejected before radius k. `select` (bool mask) limits the events tested:
+    the others count (every event of a frame does) but are not kept, their counts all -1.
+    Returns (keep mask, counts (n, K) int64).
     """
     n = len(np.asarray(x))
     counts = np.full((n, len(radii)), -1, np.int64)
-    alive = np.ones(n, bool)
+    alive = np.ones(n, bool) if select is None else np.array(select, bool)
     for k, (r, th) in enumerate(zip(radii, thresholds)):
         if not alive.any():
             break

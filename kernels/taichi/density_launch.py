@@ -21,12 +21,13 @@ def disks(radii):
 
 
 def count_density(ti, x, y, width, height, offsets, radii, thresholds, *, strategy, schedule,
-                  scratch, on_launch=None):
+                  scratch, on_launch=None, select=None):
     """(keep bool (n,), counts int32 (n, K)) of the events x, y in frames offsets.
 
     strategy: "auto" (cost model), "sparse" (direct reads) or "dense" (row prefix sums);
     schedule: "lanes" or "events"; scratch: the caller's Scratch; on_launch() is called
-    after every kernel launch.
+    after every kernel launch; select: bool (n,), the events to test (the reference's
+    `select`: the others are not kept, their counts -1), None for all.
     """
     n = len(x)
     counts = np.empty((n, len(radii)), np.int32)
@@ -34,13 +35,15 @@ def count_density(ti, x, y, width, height, offsets, radii, thresholds, *, strate
     if n:
         run = _counts_lanes if schedule == "lanes" else _counts_events
         with launch.RUNTIME_LOCK, scratch:
-            run(ti, (x, y, width, height), offsets, disks(radii), np.asarray(thresholds, np.int32),
-                strategy, scratch, on_launch, counts, keep)
+            run(ti, (x, y, width, height, select), offsets, disks(radii),
+                np.asarray(thresholds, np.int32), strategy, scratch, on_launch, counts, keep)
     return keep.view(bool), counts
 
 
 def _counts_lanes(ti, stream, offsets, disks, th, strategy, scratch, on_launch, counts, keep):
-    x, y, width, height = stream
+    x, y, width, height, select = stream
+    # the lane kernel skips the events not asked (no count: most of its work)
+    ask = np.zeros(1, np.uint8) if select is None else np.asarray(select).view(np.uint8)
     dense_min = {"auto": -1, "sparse": _NEVER, "dense": 0}[strategy]
     threads = launch.cpu_threads(ti)
     key = (disks, width, height, threads)
@@ -65,14 +68,15 @@ def _counts_lanes(ti, stream, offsets, disks, th, strategy, scratch, on_launch, 
         room = min(biggest, width * height)  # a frame's pixels, each listed at most once
         repeats, owned = (np.empty(threads * room, np.int32) for _ in range(2))
         lo, hi = launch.units(launch.balanced_cuts(local, 8 * threads), threads)
-        kernel = frame_counts.count_frames_kernel(disks, width, height, cell)
-        kernel(x[e0:e1], y[e0:e1], local, lo, hi, th, dense_min, grid, prefix, tiles, repeated,
-               masks, repeats, owners, owned, busy, counts[e0:e1], keep[e0:e1])
+        kernel = frame_counts.count_frames_kernel(disks, width, height, cell, select is not None)
+        asked = ask if select is None else ask[e0:e1]
+        kernel(x[e0:e1], y[e0:e1], asked, local, lo, hi, th, dense_min, grid, prefix, tiles,
+               repeated, masks, repeats, owners, owned, busy, counts[e0:e1], keep[e0:e1])
         launch.launched(on_launch)
 
 
 def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch, counts, keep):
-    x, y, width, height = stream
+    x, y, width, height, select = stream
     geo = frame_grids.Geometry(width, height, disk_padding(disks))
     direct = frame_costs.direct_costs(disks, geo, "i32")
     dense_min = {"auto": frame_costs.prefix_break_even(direct, disks, geo),
@@ -102,3 +106,6 @@ def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch,
             launch.launched(on_launch)
         arrays.get(c_d, counts[e0:e1])
         arrays.get(k_d, keep[e0:e1])
+    if select is not None:  # every event was tested: forget those not asked
+        counts[~select] = -1
+        keep[~select] = 0

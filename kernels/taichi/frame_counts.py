@@ -64,6 +64,7 @@ class _Plan:
     tp: bit_tiles.TilePlan
     costs: Costs
     cell: str
+    selective: bool  # only the events `ask` marks are tested
 
 
 @ti.func
@@ -224,16 +225,24 @@ def make_count_radius1(plan, disks):
     box_count = bit_tiles.make_box_count(plan.tp, 0)
 
     @ti.func
-    def count_radius1(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
-                      thresholds: ti.template(), grid: ti.template(), prefix: ti.template(),
-                      tiles: ti.template(), repeated: ti.template(), masks: ti.template(),
-                      owners: ti.template(), owned: ti.template(), g0: ti.i32, p0: ti.i32,
-                      t0: ti.i32, r0: ti.i32, counts: ti.template(), keep: ti.template()):
-        """Pixels of the frame get an owner (the first event to count them) where counting
-        is dear (beside repeats) or an event survives; n_alive: the survivors' owners."""
+    def count_radius1(x: ti.template(), y: ti.template(), ask: ti.template(), e0: ti.i32,
+                      e1: ti.i32, layout: ti.i32, thresholds: ti.template(), grid: ti.template(),
+                      prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
+                      masks: ti.template(), owners: ti.template(), owned: ti.template(),
+                      g0: ti.i32, p0: ti.i32, t0: ti.i32, r0: ti.i32, counts: ti.template(),
+                      keep: ti.template()):
+        """Pixels of the frame get an owner (the first asked event to count them) where
+        counting is dear (beside repeats) or an event survives; n_alive: the survivors'
+        owners. Events not asked (selective plans) get counts -1 and keep 0."""
         n_owned = 0
         n_alive = 0
         for e in range(e0, e1):
+            if ti.static(plan.selective):
+                if ask[e] == 0:
+                    for k in ti.static(range(n_radii)):
+                        counts[e, k] = -1
+                    keep[e] = ti.u8(0)
+                    continue
             xe = ti.cast(x[e], ti.i32)
             ye = ti.cast(y[e], ti.i32)
             at = g0 + fg.cell_index(geo, xe, ye)
@@ -356,13 +365,15 @@ def make_relayout(plan):
 
 
 @functools.lru_cache(maxsize=None)
-def count_frames_kernel(disks, width, height, cell="i32"):
+def count_frames_kernel(disks, width, height, cell="i32", selective=False):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Specification: `evstar_kernels.reference.denoise.mr_ndsef`.
 
-    Call as kernel(x, y, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); dense_min < 0 uses the
+    Call as kernel(x, y, ask, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
+    tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); `selective` kernels
+    test only the events with ask[e] != 0 (every event still counts), others read no `ask`
+    (any array); dense_min < 0 uses the
     built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
     then full counts for the survivors where cheaper). grid, prefix, tiles, repeated and owners
     hold busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
@@ -374,7 +385,8 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     pixel's owner — and the others copy its counts.
     """
     geo = fg.Geometry(width, height, disk_padding(disks))
-    plan = _Plan(len(disks), geo, bit_tiles.plan(geo, disks), disk_costs(disks, geo, cell), cell)
+    plan = _Plan(len(disks), geo, bit_tiles.plan(geo, disks), disk_costs(disks, geo, cell), cell,
+                 selective)
     n_radii = plan.n_radii
     grid_1d = ti.types.ndarray(dtype=fg.LAYOUTS[cell][0], ndim=1)
     read_cell = fg.LAYOUTS[cell][3]
@@ -383,8 +395,8 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     count_larger_radii = make_count_larger_radii(plan, disks)
 
     @ti.kernel
-    def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
-                     thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
+    def count_frames(x: u16_1d, y: u16_1d, ask: u8_1d, offsets: i32_1d, unit_lo: i32_1d,
+                     unit_hi: i32_1d, thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
                      tiles: u64_1d, repeated: u64_1d, masks: u64_1d, repeats: i32_1d,
                      owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
@@ -402,9 +414,9 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     n_rep = bin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, g0, t0, r0)
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned, n_alive = count_radius1(x, y, e0, e1, layout, thresholds, grid, prefix,
-                                                     tiles, repeated, masks, owners, owned, g0, p0,
-                                                     t0, r0, counts, keep)
+                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds, grid,
+                                                     prefix, tiles, repeated, masks, owners, owned,
+                                                     g0, p0, t0, r0, counts, keep)
                     if ti.static(n_radii > 1):
                         if n_alive > 0:
                             if layout != PREFIX:
