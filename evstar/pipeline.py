@@ -79,27 +79,40 @@ class Pipeline:
             params["max_gap"] = max(params["max_gap"], 2 * k - 1)
         return Tracker(**params)
 
+    def calibration(self, events, t0_us):
+        """(calibration_rate, calibration_hot_pixels) from one count image of the window."""
+        w = self._calibration_window(events, t0_us)
+        counts = accumulated(w)
+        return self._rate(w, counts), self._hot_pixels(counts)
+
     def calibration_rate(self, events, t0_us):
         """Background rate (events/pixel/s) of the first chunk_frames frames."""
-        from evstar_kernels.reference.denoise import background_rate
-
         w = self._calibration_window(events, t0_us)
-        return background_rate(w.t, w.x, w.y, w.width, w.height)
+        return self._rate(w, accumulated(w))
 
     def calibration_hot_pixels(self, events, t0_us):
         """Hot-pixel mask (height, width) from the counts of the first chunk_frames frames
         (the calibration window, as for the background rate), or None when switched off."""
+        return self._hot_pixels(accumulated(self._calibration_window(events, t0_us)))
+
+    def _calibration_window(self, events, t0_us):
+        """The events of the first chunk_frames frames."""
+        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+
+    @staticmethod
+    def _rate(window, counts):
+        from evstar_kernels.reference.denoise import background_rate
+
+        return background_rate(window.t, window.x, window.y, window.width, window.height,
+                               counts=counts)
+
+    def _hot_pixels(self, counts):
         h = self.config.hotpixels
         if not h.remove:
             return None
         from .hotpixels import hot_pixels
 
-        return hot_pixels(accumulated(self._calibration_window(events, t0_us)), h.alpha,
-                          h.neighbour_ratio)
-
-    def _calibration_window(self, events, t0_us):
-        """The events of the first chunk_frames frames."""
-        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        return hot_pixels(counts, h.alpha, h.neighbour_ratio)
 
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
@@ -176,13 +189,12 @@ class Pipeline:
                         events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
         span = (t0, int(events.t[-1])) if len(events) else None   # the recording's first, last µs
-        rate = self.calibration_rate(events, t0)
+        rate, hot = self.calibration(events, t0)
         timings = {}
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        state = _RunState(self.config, events.width, events.height, t0,
-                          self.calibration_hot_pixels(events, t0))
+        state = _RunState(self.config, events.width, events.height, t0, hot)
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
                                                  state=state)
         _add(timings, chunk_t)
@@ -277,7 +289,7 @@ class Pipeline:
         if truth is not None:  # the event count is known only at the end (checked there)
             accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
-        rate = self.calibration_rate(first[1], t0)
+        rate, hot = self.calibration(first[1], t0)
 
         def chunks(desc):
             return _with_context(io.windows(path, span, format=format, sensor_size=sensor_size,
@@ -287,8 +299,7 @@ class Pipeline:
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height, t0,
-                          self.calibration_hot_pixels(first[1], t0))
+        state = _RunState(self.config, first[1].width, first[1].height, t0, hot)
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
                                                      filter_result, context, state)

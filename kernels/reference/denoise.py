@@ -178,25 +178,27 @@ def poisson_thresholds(rate_hz, dt_us, radii, alpha):
     return out
 
 
-def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, duration_s=None):
+def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, duration_s=None,
+                    counts=None):
     """Robust background rate λ (events / pixel / s) of a stream.
 
     Pixels whose event count is improbably high for a Poisson process of the plain mean
     rate (upper tail < `outlier_p`: hot pixels, the target's track) are left out, and the
     rate is re-measured on the remaining pixels over the stream's duration (its time span
     unless `duration_s` is given, e.g. for a sample of time windows). Pixel counts are
-    accumulated in chunks so the temporary memory stays small for long streams.
+    accumulated in chunks so the temporary memory stays small for long streams, unless
+    the caller has them (`counts`: the events per pixel, width · height int64, row-major).
     """
     t = np.asarray(t)
     if len(t) == 0:
         return 0.0
     if duration_s is None:
         duration_s = max(int(t[-1]) - int(t[0]), 1) * 1e-6
-    counts = None
-    for i in range(0, len(t), chunk):
+    for i in range(0, len(t) if counts is None else 0, chunk):
         pix = np.asarray(y[i:i + chunk], np.int32) * np.int32(width) + np.asarray(x[i:i + chunk], np.int32)
         part = np.bincount(pix, minlength=width * height)
         counts = part if counts is None else counts + part
+    counts = np.asarray(counts).reshape(-1)
     cut = poisson.isf(outlier_p, counts.mean())
     outliers = np.flatnonzero(counts > cut)  # few: sum them rather than copy the inliers
     n_inliers = counts.size - len(outliers)
