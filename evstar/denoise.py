@@ -88,6 +88,10 @@ class _Filter:
         events = _check_events(events)
         return self._record(events, self._apply(events))
 
+    def mask(self, events):
+        """The keep mask alone (as apply; density filters count less for it)."""
+        return self.apply(events)
+
     def _record(self, events, keep):
         self.n_events_ = len(events)
         self.n_kept_ = int(np.count_nonzero(keep))
@@ -159,17 +163,25 @@ class _DensityFilter(_Filter):
         events = _check_events(events)
         return self._record(events, self._apply(events, _check_select(select, len(events))))
 
-    def _apply(self, ev, select=None):
+    def mask(self, events, select=None):
+        """apply's mask, counting only what it needs: an event whose count at a radius
+        already reaches every larger radius's threshold is kept without counting those
+        (the disks are nested); counts_ holds -1 there."""
+        events = _check_events(events)
+        return self._record(events, self._apply(events, _check_select(select, len(events)),
+                                                full=False))
+
+    def _apply(self, ev, select=None, full=True):
         offsets = ref.frame_offsets(ev.t, self.dt_us, self.t0_us)
         th = self._resolve_thresholds(ev, offsets)
         self.thresholds_ = tuple(int(v) for v in th)
         if self.backend == "reference":
             frame = ref.frame_index(ev.t, self.dt_us, self.t0_us)
             keep, counts = ref.mr_ndsef(frame, ev.x, ev.y, ev.width, ev.height, self.radii, th,
-                                        select)
+                                        select, full)
             counts = counts.astype(np.int32)
         else:
-            keep, counts = _taichi_counts(self, ev, offsets, th, select)
+            keep, counts = _taichi_counts(self, ev, offsets, th, select, full)
         self.counts_ = counts
         return keep
 
@@ -217,8 +229,8 @@ class NDSEF(_DensityFilter):
     thresholds = property(lambda self: self.threshold if isinstance(self.threshold, str)
                           else (self.threshold,))
 
-    def _apply(self, ev, select=None):
-        keep = super()._apply(ev, select)
+    def _apply(self, ev, select=None, full=True):
+        keep = super()._apply(ev, select, full)
         self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
         self.threshold_ = self.thresholds_[0]
         return keep
@@ -279,13 +291,13 @@ def _scratch_of(flt):
     return flt.__dict__.setdefault("_scratch", Scratch())
 
 
-def _taichi_counts(flt, ev, offsets, thresholds, select=None):
+def _taichi_counts(flt, ev, offsets, thresholds, select=None, full=True):
     from evstar_kernels.taichi import density_launch
 
     return density_launch.count_density(
         backends.taichi(flt.device), ev.x, ev.y, ev.width, ev.height, offsets, flt.radii, thresholds,
         strategy=flt.strategy, schedule=_resolve_schedule(flt.schedule, flt.device),
-        scratch=_scratch_of(flt), select=select)
+        scratch=_scratch_of(flt), select=select, full=full)
 
 
 def _taichi_classical(flt, ev):

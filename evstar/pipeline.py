@@ -143,7 +143,7 @@ class Pipeline:
             both = Events.concatenate([context, ev_f])
             keep_f = flt.apply(both)[len(context):]
         else:
-            keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
+            keep_f = flt.mask(ev_f) if len(ev_f) else np.zeros(0, bool)
         whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
         hot = None                          # per event: on a hot pixel (no star's)
         if state is not None and state.hot is not None:

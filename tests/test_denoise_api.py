@@ -75,6 +75,9 @@ def test_apply_returns_mask_and_filter_the_kept_events():
     assert np.all(f.counts_[~half] == -1)
     with pytest.raises(ValueError, match="select"):
         f.apply(ev, select=half[1:])
+    # mask: the same mask, counting only what it needs
+    np.testing.assert_array_equal(f.mask(ev), keep)
+    np.testing.assert_array_equal(f.mask(ev, select=half), keep & half)
 
 
 def test_ndsef_counts_and_threshold_semantics():

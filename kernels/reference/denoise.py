@@ -146,24 +146,32 @@ def disk_counts(frame, x, y, width, height, radius, select=None):
     return out
 
 
-def mr_ndsef(frame, x, y, width, height, radii, thresholds, select=None):
+def mr_ndsef(frame, x, y, width, height, radii, thresholds, select=None, full=True):
     """MR-NDSEF with per-radius thresholds and hierarchical screening.
 
     Keep iff p_k(e) >= th_k for every radius k. Radius k is evaluated only for events that
     passed radii 1..k-1 (same mask as evaluating all, less work); counts[i, k] is -1 where
     event i was rejected before radius k. `select` (bool mask) limits the events tested:
     the others count (every event of a frame does) but are not kept, their counts all -1.
+    full=False (the mask alone) also stops, kept, at radius k an event whose p_k already
+    reaches every larger radius's threshold: the disks are nested, so p_(k+1), ... >= p_k
+    (same mask; its larger counts are -1).
     Returns (keep mask, counts (n, K) int64).
     """
     n = len(np.asarray(x))
     counts = np.full((n, len(radii)), -1, np.int64)
     alive = np.ones(n, bool) if select is None else np.array(select, bool)
+    kept = np.zeros(n, bool)    # decided early (full=False)
     for k, (r, th) in enumerate(zip(radii, thresholds)):
         if not alive.any():
             break
         counts[:, k] = disk_counts(frame, x, y, width, height, r, select=alive)
         alive &= counts[:, k] >= th
-    return alive, counts
+        if not full and k + 1 < len(radii):
+            done = alive & (counts[:, k] >= max(thresholds[k + 1:]))
+            kept |= done
+            alive &= ~done
+    return alive | kept, counts
 
 
 # -- auto thresholds --------------------------------------------------------------------------

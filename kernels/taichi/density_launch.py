@@ -21,13 +21,14 @@ def disks(radii):
 
 
 def count_density(ti, x, y, width, height, offsets, radii, thresholds, *, strategy, schedule,
-                  scratch, on_launch=None, select=None):
+                  scratch, on_launch=None, select=None, full=True):
     """(keep bool (n,), counts int32 (n, K)) of the events x, y in frames offsets.
 
     strategy: "auto" (cost model), "sparse" (direct reads) or "dense" (row prefix sums);
     schedule: "lanes" or "events"; scratch: the caller's Scratch; on_launch() is called
     after every kernel launch; select: bool (n,), the events to test (the reference's
-    `select`: the others are not kept, their counts -1), None for all.
+    `select`: the others are not kept, their counts -1), None for all; full=False: the
+    counts the mask needs only (the reference's `full`).
     """
     n = len(x)
     counts = np.empty((n, len(radii)), np.int32)
@@ -35,13 +36,24 @@ def count_density(ti, x, y, width, height, offsets, radii, thresholds, *, strate
     if n:
         run = _counts_lanes if schedule == "lanes" else _counts_events
         with launch.RUNTIME_LOCK, scratch:
-            run(ti, (x, y, width, height, select), offsets, disks(radii),
-                np.asarray(thresholds, np.int32), strategy, scratch, on_launch, counts, keep)
+            th = np.asarray(thresholds, np.int32)
+            run(ti, (x, y, width, height, select), offsets, disks(radii), (th, _enough(th, full)),
+                strategy, scratch, on_launch, counts, keep)
     return keep.view(bool), counts
+
+
+def _enough(th, full):
+    """Per radius k, the count from which an event is kept uncounted at the larger radii:
+    their largest threshold (nested disks: their counts are no lower); never when full."""
+    out = np.full(len(th), _NEVER, np.int32)
+    if not full:
+        out[:-1] = np.maximum.accumulate(th[::-1])[::-1][1:]
+    return out
 
 
 def _counts_lanes(ti, stream, offsets, disks, th, strategy, scratch, on_launch, counts, keep):
     x, y, width, height, select = stream
+    th, enough = th
     # the lane kernel skips the events not asked (no count: most of its work)
     ask = np.zeros(1, np.uint8) if select is None else np.asarray(select).view(np.uint8)
     dense_min = {"auto": -1, "sparse": _NEVER, "dense": 0}[strategy]
@@ -70,13 +82,14 @@ def _counts_lanes(ti, stream, offsets, disks, th, strategy, scratch, on_launch, 
         lo, hi = launch.units(launch.balanced_cuts(local, 8 * threads), threads)
         kernel = frame_counts.count_frames_kernel(disks, width, height, cell, select is not None)
         asked = ask if select is None else ask[e0:e1]
-        kernel(x[e0:e1], y[e0:e1], asked, local, lo, hi, th, dense_min, grid, prefix, tiles,
+        kernel(x[e0:e1], y[e0:e1], asked, local, lo, hi, th, enough, dense_min, grid, prefix, tiles,
                repeated, masks, repeats, owners, owned, busy, counts[e0:e1], keep[e0:e1])
         launch.launched(on_launch)
 
 
 def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch, counts, keep):
     x, y, width, height, select = stream
+    th, enough = th
     geo = frame_grids.Geometry(width, height, disk_padding(disks))
     direct = frame_costs.direct_costs(disks, geo, "i32")
     dense_min = {"auto": frame_costs.prefix_break_even(direct, disks, geo),
@@ -88,7 +101,7 @@ def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch,
     key = (geo, planes, arrays.on_device)
     grid = scratch.array("ev-grid", key, lambda: arrays.put(np.zeros(planes * geo.plane, np.int32)))
     prefix = scratch.array("ev-prefix", key, lambda: arrays.put(np.zeros(planes * geo.prefix_plane, np.int32)))
-    th_d = arrays.put(th)
+    th_d, enough_d = arrays.put(th), arrays.put(enough)
     for f0, f1 in launch.frame_launches(offsets):
         e0, e1 = int(offsets[f0]), int(offsets[f1])
         local = (offsets[f0:f1 + 1] - e0).astype(np.int32)
@@ -101,7 +114,7 @@ def _counts_events(ti, stream, offsets, disks, th, strategy, scratch, on_launch,
             launch.launched(on_launch)
             if np.any(sizes[b0:b1] >= dense_min):
                 prefix_rows(off, b0, b1, dense_min, grid, prefix)
-            count(x_d, y_d, off, b0, b1, th_d, dense_min, grid, prefix, c_d, k_d)
+            count(x_d, y_d, off, b0, b1, th_d, enough_d, dense_min, grid, prefix, c_d, k_d)
             unbin_frames(x_d, y_d, off, b0, b1, grid)
             launch.launched(on_launch)
         arrays.get(c_d, counts[e0:e1])

@@ -25,7 +25,9 @@ radius appears there once, which keeps the compile time down. Cell layouts: fram
 ("u16x4" for launches whose frames hold <= frame_grids.MAX_EVENTS events, "i32" otherwise).
 
 Outputs: counts[e, k] = events of e's frame in disk k around e (e included), -1 where e
-was rejected at an earlier radius; keep[e] = 1 iff counts[e, k] >= thresholds[k] for all k.
+was rejected at an earlier radius (or, counting for the mask alone, kept at an earlier
+radius whose count reached every larger threshold); keep[e] = 1 iff counts[e, k] >=
+thresholds[k] for all k.
 """
 import functools
 from dataclasses import dataclass
@@ -42,6 +44,8 @@ from .arrays import i32_1d, i32_2d, u16_1d, u64_1d, u8_1d
 
 #: layouts of a frame (see the module doc)
 SPARSE, FULL, PREFIX = 0, 1, 2
+#: keep[e] of a radius-1 survivor the larger radii still have to decide (final keep is 0 or 1)
+UNDECIDED = 2
 
 
 def tile_masks(disks, width, height):
@@ -226,14 +230,16 @@ def make_count_radius1(plan, disks):
 
     @ti.func
     def count_radius1(x: ti.template(), y: ti.template(), ask: ti.template(), e0: ti.i32,
-                      e1: ti.i32, layout: ti.i32, thresholds: ti.template(), grid: ti.template(),
+                      e1: ti.i32, layout: ti.i32, thresholds: ti.template(), enough: ti.template(),
+                      grid: ti.template(),
                       prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
                       masks: ti.template(), owners: ti.template(), owned: ti.template(),
                       g0: ti.i32, p0: ti.i32, t0: ti.i32, r0: ti.i32, counts: ti.template(),
                       keep: ti.template()):
         """Pixels of the frame get an owner (the first asked event to count them) where
-        counting is dear (beside repeats) or an event survives; n_alive: the survivors'
-        owners. Events not asked (selective plans) get counts -1 and keep 0."""
+        counting is dear (beside repeats) or an event survives undecided (its count below
+        enough[0]); n_alive: those survivors' owners. Events not asked (selective plans)
+        get counts -1 and keep 0."""
         n_owned = 0
         n_alive = 0
         for e in range(e0, e1):
@@ -268,7 +274,8 @@ def make_count_radius1(plan, disks):
             alive = ti.cast(c >= thresholds[0], ti.i32)
             keep[e] = ti.cast(alive, ti.u8)
             if ti.static(n_radii > 1):
-                if alive == 1:
+                if alive == 1 and c < enough[0]:  # the larger radii decide
+                    keep[e] = ti.u8(UNDECIDED)
                     if owner < 0:
                         owner, n_owned = owner_of(owners, owned, at, e, r0, n_owned)
                     if owner == e:
@@ -308,18 +315,20 @@ def make_count_annulus(plan, disks):
 
 
 def make_count_larger_radii(plan, disks):
-    """ti.func counting radii 2..K for radius 1's survivors, once per pixel (its owner)."""
+    """ti.func counting radii 2..K for radius 1's undecided survivors, once per pixel (its
+    owner), each until its fate is decided: below a threshold, or at enough[k]."""
     geo, n_radii = plan.geo, plan.n_radii
     count_annulus = make_count_annulus(plan, disks)
 
     @ti.func
     def count_larger_radii(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32,
-                           layout: ti.i32, thresholds: ti.template(), grid: ti.template(),
-                           prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
-                           masks: ti.template(), owners: ti.template(), g0: ti.i32, p0: ti.i32,
-                           t0: ti.i32, counts: ti.template(), keep: ti.template()):
+                           layout: ti.i32, thresholds: ti.template(), enough: ti.template(),
+                           grid: ti.template(), prefix: ti.template(), tiles: ti.template(),
+                           repeated: ti.template(), masks: ti.template(), owners: ti.template(),
+                           g0: ti.i32, p0: ti.i32, t0: ti.i32, counts: ti.template(),
+                           keep: ti.template()):
         for e in range(e0, e1):
-            if keep[e] == 1:
+            if keep[e] == UNDECIDED:
                 xe = ti.cast(x[e], ti.i32)
                 ye = ti.cast(y[e], ti.i32)
                 owner = owners[g0 + fg.cell_index(geo, xe, ye)] - 1
@@ -329,15 +338,18 @@ def make_count_larger_radii(plan, disks):
                     keep[e] = keep[owner]
                 else:
                     c = counts[e, 0]
-                    alive = 1
+                    going = 1
+                    kept = 1
                     for k in ti.static(range(1, n_radii)):
-                        if alive == 1:
+                        if going == 1:
                             c = count_annulus(grid, prefix, tiles, repeated, masks, g0, p0, t0,
                                               xe, ye, k, layout, c)
                             counts[e, k] = c
                             if c < thresholds[k]:
-                                alive = 0
-                    keep[e] = ti.cast(alive, ti.u8)
+                                going, kept = 0, 0
+                            elif c >= enough[k]:
+                                going = 0
+                    keep[e] = ti.cast(kept, ti.u8)
 
     return count_larger_radii
 
@@ -370,8 +382,11 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False):
 
     Specification: `evstar_kernels.reference.denoise.mr_ndsef`.
 
-    Call as kernel(x, y, ask, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); `selective` kernels
+    Call as kernel(x, y, ask, offsets, unit_lo, unit_hi, thresholds, enough, dense_min, grid,
+    prefix, tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); an event
+    whose count at radius k reaches enough[k] is kept without counting the larger radii
+    (the mask-only form: enough[k] = the largest threshold after k; int32 max counts all
+    the radii the mask reaches); `selective` kernels
     test only the events with ask[e] != 0 (every event still counts), others read no `ask`
     (any array); dense_min < 0 uses the
     built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
@@ -396,7 +411,7 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False):
 
     @ti.kernel
     def count_frames(x: u16_1d, y: u16_1d, ask: u8_1d, offsets: i32_1d, unit_lo: i32_1d,
-                     unit_hi: i32_1d, thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
+                     unit_hi: i32_1d, thresholds: i32_1d, enough: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
                      tiles: u64_1d, repeated: u64_1d, masks: u64_1d, repeats: i32_1d,
                      owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
@@ -414,16 +429,17 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False):
                     n_rep = bin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, g0, t0, r0)
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds, grid,
-                                                     prefix, tiles, repeated, masks, owners, owned,
+                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds, enough,
+                                                     grid, prefix, tiles, repeated, masks, owners, owned,
                                                      g0, p0, t0, r0, counts, keep)
                     if ti.static(n_radii > 1):
                         if n_alive > 0:
                             if layout != PREFIX:
                                 layout = relayout(x, y, e0, e1, layout, n_alive, dense_min < 0, grid,
                                                   prefix, tiles, g0, p0, t0)
-                            count_larger_radii(x, y, e0, e1, layout, thresholds, grid, prefix, tiles,
-                                               repeated, masks, owners, g0, p0, t0, counts, keep)
+                            count_larger_radii(x, y, e0, e1, layout, thresholds, enough, grid, prefix,
+                                               tiles, repeated, masks, owners, g0, p0, t0, counts,
+                                               keep)
                     unbin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, n_rep, g0, t0, r0)
                     clear_owners(owners, owned, r0, n_owned)
                 slots.release(busy, slot)
