@@ -26,7 +26,7 @@ from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import accumulated, frame_offsets
+from .frames import accumulated, frame_offsets, images
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
@@ -400,8 +400,9 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        self.before += accumulated(events)
-        self.after += accumulated(events, keep)
+        before, after = images(events, keep)
+        self.before += before
+        self.after += after
         series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(np.count_nonzero(keep))}
         if truth is not None:
