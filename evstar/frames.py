@@ -66,3 +66,12 @@ def images(events, keep=None):
     from .backends import taichi_running
 
     return pixel_counts(taichi_running(), events.x, events.y, events.width, events.height, keep)
+
+
+def on_pixels(events, flags):
+    """flags[y, x] of every event (bool (n,)), flags a (height, width) bool image."""
+    from evstar_kernels.taichi.pixel_counts_launch import pixel_flags
+
+    from .backends import taichi_running
+
+    return pixel_flags(taichi_running(), events.x, events.y, flags)

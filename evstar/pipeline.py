@@ -26,7 +26,7 @@ from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import accumulated, frame_offsets, images
+from .frames import accumulated, frame_offsets, images, on_pixels
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
@@ -147,7 +147,7 @@ class Pipeline:
         whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
         hot = None                          # per event: on a hot pixel (no star's)
         if state is not None and state.hot is not None:
-            hot = state.hot[events.y, events.x]
+            hot = on_pixels(events, state.hot)
             keep_f &= ~(hot if whole else hot[idx])
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()

@@ -4,9 +4,9 @@ import pytest
 
 from evstar import backends, frames
 from evstar.events import Events
-from evstar_kernels.reference.pixels import pixel_counts as reference
+from evstar_kernels.reference.pixels import pixel_counts as reference, pixel_flags as flags_reference
 from evstar_kernels.taichi import launch
-from evstar_kernels.taichi.pixel_counts_launch import pixel_counts
+from evstar_kernels.taichi.pixel_counts_launch import pixel_counts, pixel_flags
 
 
 def events(seed, n, width, height):
@@ -46,3 +46,16 @@ def test_accumulated_and_images_agree():
     np.testing.assert_array_equal(before, frames.accumulated(ev))
     np.testing.assert_array_equal(after, frames.accumulated(ev, keep))
     assert frames.images(ev)[1] is None and before.sum() == len(ev) and after.sum() == keep.sum()
+
+
+@pytest.mark.parametrize("device_arrays", [False, True], ids=["numpy", "device-arrays"])
+def test_pixel_flags_are_the_mask_at_each_event(monkeypatch, device_arrays):
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", 1000)
+    ev, _ = events(5, 2500, 40, 30)
+    flags = np.random.default_rng(5).random((30, 40)) < 0.1
+    got = pixel_flags(backends.taichi_running(), ev.x, ev.y, flags)
+    assert got.dtype == bool
+    np.testing.assert_array_equal(got, flags_reference(ev.x, ev.y, flags))
+    np.testing.assert_array_equal(frames.on_pixels(ev, flags), got)
+    assert len(pixel_flags(backends.taichi_running(), ev.x[:0], ev.y[:0], flags)) == 0

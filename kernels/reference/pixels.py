@@ -11,3 +11,8 @@ def pixel_counts(x, y, width, height, keep=None):
     if keep is None:
         return every, None
     return every, np.bincount(pixel[np.asarray(keep, bool)], minlength=size).reshape(height, width)
+
+
+def pixel_flags(x, y, flags):
+    """flags[y, x] (a (height, width) bool image) of every event."""
+    return np.asarray(flags, bool)[np.asarray(y, np.intp), np.asarray(x, np.intp)]

@@ -1,4 +1,4 @@
-"""Events per pixel, all and kept, in one pass.
+"""Events per pixel, all and kept, in one pass; a per-pixel flag per event.
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
@@ -12,6 +12,13 @@ import functools
 import taichi as ti
 
 from .arrays import i64_1d, u16_1d, u8_1d
+
+
+@ti.kernel
+def pixel_flags(x: u16_1d, y: u16_1d, flags: u8_1d, width: ti.i32, out: u8_1d):
+    """out[e] = flags[y·width + x] of every event (reference: flags[y, x])."""
+    for e in range(x.shape[0]):
+        out[e] = flags[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)]
 
 
 @functools.lru_cache(maxsize=None)
