@@ -166,7 +166,7 @@ class _DensityFilter(_Filter):
     def mask(self, events, select=None):
         """apply's mask, counting only what it needs: an event whose count at a radius
         already reaches every larger radius's threshold is kept without counting those
-        (the disks are nested); counts_ holds -1 there."""
+        (the disks are nested). counts_ is None (not kept)."""
         events = _check_events(events)
         return self._record(events, self._apply(events, _check_select(select, len(events)),
                                                 full=False))
@@ -179,7 +179,7 @@ class _DensityFilter(_Filter):
             frame = ref.frame_index(ev.t, self.dt_us, self.t0_us)
             keep, counts = ref.mr_ndsef(frame, ev.x, ev.y, ev.width, ev.height, self.radii, th,
                                         select, full)
-            counts = counts.astype(np.int32)
+            counts = counts.astype(np.int32) if full else None
         else:
             keep, counts = _taichi_counts(self, ev, offsets, th, select, full)
         self.counts_ = counts
@@ -231,7 +231,8 @@ class NDSEF(_DensityFilter):
 
     def _apply(self, ev, select=None, full=True):
         keep = super()._apply(ev, select, full)
-        self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
+        if self.counts_ is not None:
+            self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
         self.threshold_ = self.thresholds_[0]
         return keep
 

@@ -420,8 +420,8 @@ class _Summary:
             lo, bounds = frame_offsets(events.t, self.dt_us, self.t0)
             n = len(bounds) - 1
             for name, m in series.items():
-                counts = np.diff(bounds) if m is None else \
-                    np.diff(np.r_[0, np.cumsum(m, dtype=np.int64)][bounds])
+                # selected events per frame: those of the selected indices below each bound
+                counts = np.diff(bounds if m is None else np.searchsorted(np.flatnonzero(m), bounds))
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):

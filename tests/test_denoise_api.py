@@ -78,6 +78,7 @@ def test_apply_returns_mask_and_filter_the_kept_events():
     # mask: the same mask, counting only what it needs
     np.testing.assert_array_equal(f.mask(ev), keep)
     np.testing.assert_array_equal(f.mask(ev, select=half), keep & half)
+    assert f.counts_ is None and f.n_kept_ == (keep & half).sum()
 
 
 def test_ndsef_counts_and_threshold_semantics():

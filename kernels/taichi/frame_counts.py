@@ -69,6 +69,7 @@ class _Plan:
     costs: Costs
     cell: str
     selective: bool  # only the events `ask` marks are tested
+    stored: int      # radii whose counts are stored (n_radii, or 1 for the mask alone)
 
 
 @ti.func
@@ -245,7 +246,7 @@ def make_count_radius1(plan, disks):
         for e in range(e0, e1):
             if ti.static(plan.selective):
                 if ask[e] == 0:
-                    for k in ti.static(range(n_radii)):
+                    for k in ti.static(range(plan.stored)):
                         counts[e, k] = -1
                     keep[e] = ti.u8(0)
                     continue
@@ -269,7 +270,7 @@ def make_count_radius1(plan, disks):
             if direct:
                 c = direct_count(grid, at, 0, c)
             counts[e, 0] = c
-            for k in ti.static(range(1, n_radii)):
+            for k in ti.static(range(1, plan.stored)):
                 counts[e, k] = -1
             alive = ti.cast(c >= thresholds[0], ti.i32)
             keep[e] = ti.cast(alive, ti.u8)
@@ -333,7 +334,7 @@ def make_count_larger_radii(plan, disks):
                 ye = ti.cast(y[e], ti.i32)
                 owner = owners[g0 + fg.cell_index(geo, xe, ye)] - 1
                 if owner != e:  # the owner came first: same counts
-                    for k in ti.static(range(1, n_radii)):
+                    for k in ti.static(range(1, plan.stored)):
                         counts[e, k] = counts[owner, k]
                     keep[e] = keep[owner]
                 else:
@@ -344,7 +345,8 @@ def make_count_larger_radii(plan, disks):
                         if going == 1:
                             c = count_annulus(grid, prefix, tiles, repeated, masks, g0, p0, t0,
                                               xe, ye, k, layout, c)
-                            counts[e, k] = c
+                            if ti.static(k < plan.stored):
+                                counts[e, k] = c
                             if c < thresholds[k]:
                                 going, kept = 0, 0
                             elif c >= enough[k]:
@@ -377,7 +379,7 @@ def make_relayout(plan):
 
 
 @functools.lru_cache(maxsize=None)
-def count_frames_kernel(disks, width, height, cell="i32", selective=False):
+def count_frames_kernel(disks, width, height, cell="i32", selective=False, stored=None):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Specification: `evstar_kernels.reference.denoise.mr_ndsef`.
@@ -386,7 +388,8 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False):
     prefix, tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); an event
     whose count at radius k reaches enough[k] is kept without counting the larger radii
     (the mask-only form: enough[k] = the largest threshold after k; int32 max counts all
-    the radii the mask reaches); `selective` kernels
+    the radii the mask reaches); counts holds `stored` columns (default every radius; 1:
+    radius 1's only, which the kernel needs, for the mask alone); `selective` kernels
     test only the events with ask[e] != 0 (every event still counts), others read no `ask`
     (any array); dense_min < 0 uses the
     built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
@@ -401,7 +404,7 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False):
     """
     geo = fg.Geometry(width, height, disk_padding(disks))
     plan = _Plan(len(disks), geo, bit_tiles.plan(geo, disks), disk_costs(disks, geo, cell), cell,
-                 selective)
+                 selective, len(disks) if stored is None else stored)
     n_radii = plan.n_radii
     grid_1d = ti.types.ndarray(dtype=fg.LAYOUTS[cell][0], ndim=1)
     read_cell = fg.LAYOUTS[cell][3]
