@@ -44,6 +44,9 @@ from .arrays import i32_1d, i32_2d, u16_1d, u64_1d, u8_1d
 
 #: layouts of a frame (see the module doc)
 SPARSE, FULL, PREFIX = 0, 1, 2
+#: a sparse frame's tile plane is cleared whole once its events number more than the
+#: plane's words / CLEAR_STORES (a sequential store costs a fraction of a scattered one)
+CLEAR_STORES = 4
 #: keep[e] of a radius-1 survivor the larger radii still have to decide (final keep is 0 or 1)
 UNDECIDED = 2
 
@@ -207,13 +210,17 @@ def make_unbin_frame(plan):
     def unbin_frame(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
                     grid: ti.template(), tiles: ti.template(), repeated: ti.template(),
                     repeats: ti.template(), n_rep: ti.i32, g0: ti.i32, t0: ti.i32, r0: ti.i32):
-        for e in range(e0, e1):
-            xe = ti.cast(x[e], ti.i32)
-            ye = ti.cast(y[e], ti.i32)
-            if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
-                tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
-            else:
-                unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+        if layout == SPARSE and (e1 - e0) * CLEAR_STORES > tp.plane:
+            for i in range(tp.plane):  # many events: sequential stores beat scattered ones
+                tiles[t0 + i] = ti.u64(0)
+        else:
+            for e in range(e0, e1):
+                xe = ti.cast(x[e], ti.i32)
+                ye = ti.cast(y[e], ti.i32)
+                if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
+                    tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
+                else:
+                    unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
         for i in range(n_rep):
             at = repeats[r0 + i]
             unbin_cell(grid, g0 + at)
