@@ -133,7 +133,8 @@ class Pipeline:
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
-        ev_f, idx = comp.events()
+        # mode none: the events themselves (idx None: no index array of the whole stream)
+        ev_f, idx = (events, None) if mode == "none" else comp.events()
         timings["compensate"] = time.perf_counter() - t
         t = time.perf_counter()
         flt = self.make_filter(t0_us, rate)
@@ -144,20 +145,23 @@ class Pipeline:
             keep_f = flt.apply(both)[len(context):]
         else:
             keep_f = flt.mask(ev_f) if len(ev_f) else np.zeros(0, bool)
-        whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
+        whole = idx is None or len(idx) == len(events)   # every event stayed: idx = 0 .. n-1
         hot = None                          # per event: on a hot pixel (no star's)
         if state is not None and state.hot is not None:
             hot = on_pixels(events, state.hot)
             keep_f &= ~(hot if whole else hot[idx])
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        kept = np.flatnonzero(keep_f) if whole else idx[keep_f]
+        kept = None if whole else idx[keep_f]     # whole: keep_f is the input's mask already
         # uncompensated coordinates are the kept events' own pixels
-        xy = None if mode == "none" else comp.coordinates(kept)
+        xy = None if mode == "none" else \
+            comp.coordinates(np.flatnonzero(keep_f) if whole else kept)
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
-        keep = np.zeros(len(events), bool)
-        keep[kept] = True
+        keep = keep_f
+        if not whole:
+            keep = np.zeros(len(events), bool)
+            keep[kept] = True
         if state is not None:
             t = time.perf_counter()
             cents = self._with_pooled(cents, events, keep if hot is None else keep | hot,
