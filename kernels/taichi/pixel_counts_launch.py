@@ -11,7 +11,7 @@ _LOW = (1 << 32) - 1
 def pixel_counts(ti, x, y, width, height, keep=None):
     """reference.pixels.pixel_counts: (all, kept or None) int64 (height, width) images."""
     size = width * height
-    every, kept = np.zeros(size, np.int64), None if keep is None else np.zeros(size, np.int64)
+    every, kept = np.zeros(size, np.int64), np.zeros(size, np.int64)   # no events: zeros
     arrays = launch.Arrays(ti)
     kernel = count_pixels_kernel(not arrays.on_device)
     with launch.RUNTIME_LOCK:
@@ -23,10 +23,11 @@ def pixel_counts(ti, x, y, width, height, keep=None):
                    arrays.put(np.asarray(flags, bool).view(np.uint8)), int(keep is not None),
                    width, cells)
             packed = cells.to_numpy() if arrays.on_device else cells
-            every += packed & _LOW
-            if kept is not None:
-                kept += packed >> 32
-    return every.reshape(height, width), None if kept is None else kept.reshape(height, width)
+            # the first launch's halves are the sums (no adds into zeros)
+            every = packed & _LOW if e0 == 0 else every + (packed & _LOW)
+            if keep is not None:
+                kept = packed >> 32 if e0 == 0 else kept + (packed >> 32)
+    return every.reshape(height, width), None if keep is None else kept.reshape(height, width)
 
 
 def pixel_flags(ti, x, y, flags):
