@@ -425,7 +425,8 @@ class _Summary:
             n = len(bounds) - 1
             for name, m in series.items():
                 # selected events per frame: those of the selected indices below each bound
-                counts = np.diff(bounds if m is None else np.searchsorted(np.flatnonzero(m), bounds))
+                at = bounds if m is None else np.searchsorted(np.flatnonzero(m), bounds)
+                counts = np.diff(at)
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):

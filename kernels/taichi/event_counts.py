@@ -59,7 +59,8 @@ def count_events_kernels(disks, width, height):
 
     @ti.kernel
     def count(x: u16_1d, y: u16_1d, offsets: i32_1d, f0: ti.i32, f1: ti.i32, thresholds: i32_1d,
-              enough: i32_1d, dense_min: ti.i32, grid: i32_1d, prefix: i32_1d, counts: i32_2d, keep: u8_1d):
+              enough: i32_1d, dense_min: ti.i32, grid: i32_1d, prefix: i32_1d, counts: i32_2d,
+              keep: u8_1d):
         for e in range(offsets[f0], offsets[f1]):
             f = frame_of(offsets, f0, f1, e)
             dense = ti.cast(offsets[f + 1] - offsets[f] >= dense_min, ti.i32)

@@ -239,11 +239,10 @@ def make_count_radius1(plan, disks):
     @ti.func
     def count_radius1(x: ti.template(), y: ti.template(), ask: ti.template(), e0: ti.i32,
                       e1: ti.i32, layout: ti.i32, thresholds: ti.template(), enough: ti.template(),
-                      grid: ti.template(),
-                      prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
-                      masks: ti.template(), owners: ti.template(), owned: ti.template(),
-                      g0: ti.i32, p0: ti.i32, t0: ti.i32, r0: ti.i32, counts: ti.template(),
-                      keep: ti.template()):
+                      grid: ti.template(), prefix: ti.template(), tiles: ti.template(),
+                      repeated: ti.template(), masks: ti.template(), owners: ti.template(),
+                      owned: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, r0: ti.i32,
+                      counts: ti.template(), keep: ti.template()):
         """Pixels of the frame get an owner (the first asked event to count them) where
         counting is dear (beside repeats) or an event survives undecided (its count below
         enough[0]); n_alive: those survivors' owners. Events not asked (selective plans)
@@ -421,9 +420,10 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False, store
 
     @ti.kernel
     def count_frames(x: u16_1d, y: u16_1d, ask: u8_1d, offsets: i32_1d, unit_lo: i32_1d,
-                     unit_hi: i32_1d, thresholds: i32_1d, enough: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
-                     tiles: u64_1d, repeated: u64_1d, masks: u64_1d, repeats: i32_1d,
-                     owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
+                     unit_hi: i32_1d, thresholds: i32_1d, enough: i32_1d, dense_min: ti.i32,
+                     grid: grid_1d, prefix: i32_1d, tiles: u64_1d, repeated: u64_1d,
+                     masks: u64_1d, repeats: i32_1d, owners: i32_1d, owned: i32_1d,
+                     busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
         if first_dense < 0:
             first_dense = plan.costs.dense_min
@@ -439,17 +439,17 @@ def count_frames_kernel(disks, width, height, cell="i32", selective=False, store
                     n_rep = bin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, g0, t0, r0)
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds, enough,
-                                                     grid, prefix, tiles, repeated, masks, owners, owned,
-                                                     g0, p0, t0, r0, counts, keep)
+                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds,
+                                                     enough, grid, prefix, tiles, repeated, masks,
+                                                     owners, owned, g0, p0, t0, r0, counts, keep)
                     if ti.static(n_radii > 1):
                         if n_alive > 0:
                             if layout != PREFIX:
                                 layout = relayout(x, y, e0, e1, layout, n_alive, dense_min < 0, grid,
                                                   prefix, tiles, g0, p0, t0)
-                            count_larger_radii(x, y, e0, e1, layout, thresholds, enough, grid, prefix,
-                                               tiles, repeated, masks, owners, g0, p0, t0, counts,
-                                               keep)
+                            count_larger_radii(x, y, e0, e1, layout, thresholds, enough, grid,
+                                               prefix, tiles, repeated, masks, owners, g0, p0, t0,
+                                               counts, keep)
                     unbin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, n_rep, g0, t0, r0)
                     clear_owners(owners, owned, r0, n_owned)
                 slots.release(busy, slot)
