@@ -53,6 +53,16 @@ def _check_events(events):
     return events
 
 
+def _check_select(select, n):
+    """select as a contiguous bool array of n entries, or None."""
+    if select is None:
+        return None
+    select = np.ascontiguousarray(select, bool)
+    if select.shape != (n,):
+        raise ParameterError(f"select must hold one bool per event ({n}), got shape {select.shape}")
+    return select
+
+
 def _check_schedule(schedule, device):
     schedule = K.check("schedule", schedule)
     if schedule == "lanes" and device != "cpu":
@@ -76,7 +86,13 @@ class _Filter:
     def apply(self, events):
         """Keep mask (bool, one entry per event, input order); sets counts_ and friends."""
         events = _check_events(events)
-        keep = self._apply(events)
+        return self._record(events, self._apply(events))
+
+    def mask(self, events):
+        """The keep mask alone (as apply; density filters count less for it)."""
+        return self.apply(events)
+
+    def _record(self, events, keep):
         self.n_events_ = len(events)
         self.n_kept_ = int(np.count_nonzero(keep))
         return keep
@@ -140,16 +156,32 @@ class _DensityFilter(_Filter):
         self.rate_hz_ = self.rate_hz
         return np.asarray(self.thresholds, np.int64)
 
-    def _apply(self, ev):
+    def apply(self, events, select=None):
+        """Keep mask (bool, one entry per event, input order); sets counts_ and friends.
+        select (bool per event): test only these events (every event still counts); the
+        others are not kept and their counts are -1 (less work when few are asked)."""
+        events = _check_events(events)
+        return self._record(events, self._apply(events, _check_select(select, len(events))))
+
+    def mask(self, events, select=None):
+        """apply's mask, counting only what it needs: an event whose count at a radius
+        already reaches every larger radius's threshold is kept without counting those
+        (the disks are nested). counts_ is None (not kept)."""
+        events = _check_events(events)
+        return self._record(events, self._apply(events, _check_select(select, len(events)),
+                                                full=False))
+
+    def _apply(self, ev, select=None, full=True):
         offsets = ref.frame_offsets(ev.t, self.dt_us, self.t0_us)
         th = self._resolve_thresholds(ev, offsets)
         self.thresholds_ = tuple(int(v) for v in th)
         if self.backend == "reference":
             frame = ref.frame_index(ev.t, self.dt_us, self.t0_us)
-            keep, counts = ref.mr_ndsef(frame, ev.x, ev.y, ev.width, ev.height, self.radii, th)
-            counts = counts.astype(np.int32)
+            keep, counts = ref.mr_ndsef(frame, ev.x, ev.y, ev.width, ev.height, self.radii, th,
+                                        select, full)
+            counts = counts.astype(np.int32) if full else None
         else:
-            keep, counts = _taichi_counts(self, ev, offsets, th)
+            keep, counts = _taichi_counts(self, ev, offsets, th, select, full)
         self.counts_ = counts
         return keep
 
@@ -197,9 +229,10 @@ class NDSEF(_DensityFilter):
     thresholds = property(lambda self: self.threshold if isinstance(self.threshold, str)
                           else (self.threshold,))
 
-    def _apply(self, ev):
-        keep = super()._apply(ev)
-        self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
+    def _apply(self, ev, select=None, full=True):
+        keep = super()._apply(ev, select, full)
+        if self.counts_ is not None:
+            self.counts_ = self.counts_.reshape(-1)  # (n, 1) -> (n,): a view, no copy
         self.threshold_ = self.thresholds_[0]
         return keep
 
@@ -259,13 +292,13 @@ def _scratch_of(flt):
     return flt.__dict__.setdefault("_scratch", Scratch())
 
 
-def _taichi_counts(flt, ev, offsets, thresholds):
+def _taichi_counts(flt, ev, offsets, thresholds, select=None, full=True):
     from evstar_kernels.taichi import density_launch
 
     return density_launch.count_density(
         backends.taichi(flt.device), ev.x, ev.y, ev.width, ev.height, offsets, flt.radii, thresholds,
         strategy=flt.strategy, schedule=_resolve_schedule(flt.schedule, flt.device),
-        scratch=_scratch_of(flt))
+        scratch=_scratch_of(flt), select=select, full=full)
 
 
 def _taichi_classical(flt, ev):

@@ -54,6 +54,24 @@ def nearest_in_frame(ref_xy, ref_frame, xy, frame, max_px):
 def accumulated(events, keep=None):
     """Event counts per pixel as a (height, width) int64 image (of the events `keep`
     selects, when given)."""
-    pixel = events.y.astype(np.int64) * events.width + events.x
-    img = np.bincount(pixel if keep is None else pixel[keep], minlength=events.width * events.height)
-    return img.reshape(events.height, events.width)
+    every, kept = images(events, keep)
+    return every if keep is None else kept
+
+
+def images(events, keep=None):
+    """(events per pixel, the kept ones' or None) as (height, width) int64 images, in one
+    pass over the events (a Taichi kernel wherever the run's kernels run)."""
+    from evstar_kernels.taichi.pixel_counts_launch import pixel_counts
+
+    from .backends import taichi_running
+
+    return pixel_counts(taichi_running(), events.x, events.y, events.width, events.height, keep)
+
+
+def on_pixels(events, flags):
+    """flags[y, x] of every event (bool (n,)), flags a (height, width) bool image."""
+    from evstar_kernels.taichi.pixel_counts_launch import pixel_flags
+
+    from .backends import taichi_running
+
+    return pixel_flags(taichi_running(), events.x, events.y, flags)

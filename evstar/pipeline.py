@@ -26,7 +26,7 @@ from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import accumulated, frame_offsets
+from .frames import accumulated, frame_offsets, images, on_pixels
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
@@ -79,27 +79,40 @@ class Pipeline:
             params["max_gap"] = max(params["max_gap"], 2 * k - 1)
         return Tracker(**params)
 
+    def calibration(self, events, t0_us):
+        """(calibration_rate, calibration_hot_pixels) from one count image of the window."""
+        w = self._calibration_window(events, t0_us)
+        counts = accumulated(w)
+        return self._rate(w, counts), self._hot_pixels(counts)
+
     def calibration_rate(self, events, t0_us):
         """Background rate (events/pixel/s) of the first chunk_frames frames."""
-        from evstar_kernels.reference.denoise import background_rate
-
         w = self._calibration_window(events, t0_us)
-        return background_rate(w.t, w.x, w.y, w.width, w.height)
+        return self._rate(w, accumulated(w))
 
     def calibration_hot_pixels(self, events, t0_us):
         """Hot-pixel mask (height, width) from the counts of the first chunk_frames frames
         (the calibration window, as for the background rate), or None when switched off."""
+        return self._hot_pixels(accumulated(self._calibration_window(events, t0_us)))
+
+    def _calibration_window(self, events, t0_us):
+        """The events of the first chunk_frames frames."""
+        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+
+    @staticmethod
+    def _rate(window, counts):
+        from evstar_kernels.reference.denoise import background_rate
+
+        return background_rate(window.t, window.x, window.y, window.width, window.height,
+                               counts=counts)
+
+    def _hot_pixels(self, counts):
         h = self.config.hotpixels
         if not h.remove:
             return None
         from .hotpixels import hot_pixels
 
-        return hot_pixels(accumulated(self._calibration_window(events, t0_us)), h.alpha,
-                          h.neighbour_ratio)
-
-    def _calibration_window(self, events, t0_us):
-        """The events of the first chunk_frames frames."""
-        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        return hot_pixels(counts, h.alpha, h.neighbour_ratio)
 
     # -- one chunk ----------------------------------------------------------------------
     def _compensate(self, events, imu, camera, t0_us, mode, filter_result=None):
@@ -120,7 +133,8 @@ class Pipeline:
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)
-        ev_f, idx = comp.events()
+        # mode none: the events themselves (idx None: no index array of the whole stream)
+        ev_f, idx = (events, None) if mode == "none" else comp.events()
         timings["compensate"] = time.perf_counter() - t
         t = time.perf_counter()
         flt = self.make_filter(t0_us, rate)
@@ -130,21 +144,24 @@ class Pipeline:
             both = Events.concatenate([context, ev_f])
             keep_f = flt.apply(both)[len(context):]
         else:
-            keep_f = flt.apply(ev_f) if len(ev_f) else np.zeros(0, bool)
-        whole = len(idx) == len(events)     # every event stayed on the sensor: idx = 0 .. n-1
+            keep_f = flt.mask(ev_f) if len(ev_f) else np.zeros(0, bool)
+        whole = idx is None or len(idx) == len(events)   # every event stayed: idx = 0 .. n-1
         hot = None                          # per event: on a hot pixel (no star's)
         if state is not None and state.hot is not None:
-            hot = state.hot[events.y, events.x]
+            hot = on_pixels(events, state.hot)
             keep_f &= ~(hot if whole else hot[idx])
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        kept = np.flatnonzero(keep_f) if whole else idx[keep_f]
+        kept = None if whole else idx[keep_f]     # whole: keep_f is the input's mask already
         # uncompensated coordinates are the kept events' own pixels
-        xy = None if mode == "none" else comp.coordinates(kept)
+        xy = None if mode == "none" else \
+            comp.coordinates(np.flatnonzero(keep_f) if whole else kept)
         cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
-        keep = np.zeros(len(events), bool)
-        keep[kept] = True
+        keep = keep_f
+        if not whole:
+            keep = np.zeros(len(events), bool)
+            keep[kept] = True
         if state is not None:
             t = time.perf_counter()
             cents = self._with_pooled(cents, events, keep if hot is None else keep | hot,
@@ -176,13 +193,12 @@ class Pipeline:
                         events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
         span = (t0, int(events.t[-1])) if len(events) else None   # the recording's first, last µs
-        rate = self.calibration_rate(events, t0)
+        rate, hot = self.calibration(events, t0)
         timings = {}
         filter_result = None
         if mode == "pf":
             filter_result, timings = self._particle_filter([(events, None)], imu, camera, t0, rate)
-        state = _RunState(self.config, events.width, events.height, t0,
-                          self.calibration_hot_pixels(events, t0))
+        state = _RunState(self.config, events.width, events.height, t0, hot)
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, mode, filter_result,
                                                  state=state)
         _add(timings, chunk_t)
@@ -277,7 +293,7 @@ class Pipeline:
         if truth is not None:  # the event count is known only at the end (checked there)
             accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
-        rate = self.calibration_rate(first[1], t0)
+        rate, hot = self.calibration(first[1], t0)
 
         def chunks(desc):
             return _with_context(io.windows(path, span, format=format, sensor_size=sensor_size,
@@ -287,8 +303,7 @@ class Pipeline:
             filter_result, timings = self._particle_filter(chunks("first pass"), imu, camera, t0, rate)
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height, t0,
-                          self.calibration_hot_pixels(first[1], t0))
+        state = _RunState(self.config, first[1].width, first[1].height, t0, hot)
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, mode,
                                                      filter_result, context, state)
@@ -390,8 +405,9 @@ class _Summary:
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        self.before += accumulated(events)
-        self.after += accumulated(events, keep)
+        before, after = images(events, keep)
+        self.before += before
+        self.after += after
         series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(np.count_nonzero(keep))}
         if truth is not None:
@@ -409,8 +425,9 @@ class _Summary:
             lo, bounds = frame_offsets(events.t, self.dt_us, self.t0)
             n = len(bounds) - 1
             for name, m in series.items():
-                counts = np.diff(bounds) if m is None else \
-                    np.diff(np.r_[0, np.cumsum(m, dtype=np.int64)][bounds])
+                # selected events per frame: those of the selected indices below each bound
+                at = bounds if m is None else np.searchsorted(np.flatnonzero(m), bounds)
+                counts = np.diff(at)
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):

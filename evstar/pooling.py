@@ -44,7 +44,7 @@ def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device)
-    rejected = rejected & flt.apply(events)
+    rejected = flt.mask(events, select=rejected)   # only the rejected ones are asked
     if not rejected.any():
         return np.zeros(0, CENTROID_DTYPE)
     cents = long.make_extractor(t0_us).centroids(events[rejected])

@@ -38,53 +38,77 @@ class Tracker:
         out = centroids.copy()
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])
-        tracks = []  # dicts: id, frames [..], xy [..]
-        live = []    # the tracks that can still take a centroid, in order of creation
-        next_id = 0
+        xs, ys, track = out["x"], out["y"], out["track"]
+        st = _Tracks(len(out))
+        live = np.zeros(0, np.int64)  # the tracks that can still take a centroid, in creation order
         for f, a, b in zip(frames, starts, stops):
             rows = order[a:b]
             # frames only grow: a track past its gap never comes back
-            live = [tr for tr in live if f - tr["frames"][-1] <= self.max_gap + 1]
-            pts = np.column_stack([out["x"][rows], out["y"][rows]])
-            pairs = self._assign(live, pts, f)
-            taken = set()
-            for ti, ri in pairs:
-                live[ti]["frames"].append(f)
-                live[ti]["xy"].append(pts[ri])
-                out["track"][rows[ri]] = live[ti]["id"]
-                taken.add(ri)
-            for ri in range(len(rows)):
-                if ri not in taken:
-                    tracks.append({"id": next_id, "frames": [f], "xy": [pts[ri]]})
-                    live.append(tracks[-1])
-                    out["track"][rows[ri]] = next_id
-                    next_id += 1
-        _join(out, tracks, self.gate_px, self.max_gap)
+            live = live[f - st.last_f[live] <= self.max_gap + 1]
+            pts = np.column_stack([xs[rows], ys[rows]])
+            t, r = self._assign(st, live, pts, f)
+            st.extend(live[t], f, pts[r])
+            track[rows[r]] = live[t]             # a track's id is its index
+            if len(r) < len(rows):  # the others start tracks
+                new = np.ones(len(rows), bool)
+                new[r] = False
+                born = st.start(f, pts[new])
+                track[rows[new]] = born
+                live = np.concatenate([live, born])
+        _join(out, st.as_dicts(), self.gate_px, self.max_gap)
         return _drop_short(out, self.min_length)
 
-    def _assign(self, live, pts, f):
-        if not live or not len(pts):
-            return []
-        pred = _predict(live, f)
-        gates = np.array([self.gate_px if len(tr["xy"]) > 1 else self.init_gate_px for tr in live])
+    def _assign(self, st, live, pts, f):
+        """(indices into live, rows of pts) of the frame's assignment within the gates."""
+        if not len(live) or not len(pts):
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        pred = st.predict(live, f)
+        gates = np.where(st.n[live] > 1, self.gate_px, self.init_gate_px)
         cost = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
         big = 1e9
         masked = np.where(cost <= gates[:, None], cost, big)
         ti, ri = linear_sum_assignment(masked)
-        return [(t, r) for t, r in zip(ti, ri) if masked[t, r] < big]
+        ok = masked[ti, ri] < big
+        return ti[ok], ri[ok]
 
 
-def _predict(tracks, f):
-    """(n, 2) positions at frame f: constant velocity from each track's last two centroids
-    (per frame), else where it is; all tracks at once."""
-    last = np.array([tr["xy"][-1] for tr in tracks])
-    two = np.array([len(tr["xy"]) > 1 for tr in tracks])
-    prev = np.array([tr["xy"][-2] if len(tr["xy"]) > 1 else tr["xy"][-1] for tr in tracks])
-    f_last = np.array([tr["frames"][-1] for tr in tracks])
-    f_prev = np.array([tr["frames"][-2] if len(tr["frames"]) > 1 else tr["frames"][-1] - 1
-                       for tr in tracks])
-    v = (last - prev) / (f_last - f_prev)[:, None]
-    return np.where(two[:, None], last + v * (f - f_last)[:, None], last)
+class _Tracks:
+    """Every track's first, last and second-to-last centroid (frame, x y) and length, as
+    arrays indexed by track id (at most one track per centroid)."""
+
+    def __init__(self, capacity):
+        self.m = 0
+        self.first_f, self.last_f, self.prev_f, self.n = (np.zeros(capacity, np.int64)
+                                                          for _ in range(4))
+        self.first_xy, self.last_xy, self.prev_xy = (np.zeros((capacity, 2)) for _ in range(3))
+
+    def start(self, f, pts):
+        """New tracks at pts in frame f; their ids."""
+        ids = np.arange(self.m, self.m + len(pts))
+        self.m += len(pts)
+        self.first_f[ids] = self.last_f[ids] = f
+        self.prev_f[ids] = f - 1      # a one-centroid track stands still (see predict)
+        self.first_xy[ids] = self.last_xy[ids] = self.prev_xy[ids] = pts
+        self.n[ids] = 1
+        return ids
+
+    def extend(self, ids, f, pts):
+        self.prev_f[ids], self.prev_xy[ids] = self.last_f[ids], self.last_xy[ids]
+        self.last_f[ids], self.last_xy[ids] = f, pts
+        self.n[ids] += 1
+
+    def predict(self, ids, f):
+        """(n, 2) positions at frame f: constant velocity from each track's last two
+        centroids (per frame), else where it is."""
+        last, prev = self.last_xy[ids], self.prev_xy[ids]
+        f_last = self.last_f[ids]
+        v = (last - prev) / (f_last - self.prev_f[ids])[:, None]
+        return np.where((self.n[ids] > 1)[:, None], last + v * (f - f_last)[:, None], last)
+
+    def as_dicts(self):
+        """_join's tracks: id, frames and xy (first and last) in creation order."""
+        return [{"id": i, "frames": [self.first_f[i], self.last_f[i]],
+                 "xy": [self.first_xy[i], self.last_xy[i]]} for i in range(self.m)]
 
 
 def _join(out, tracks, gate_px, max_gap):

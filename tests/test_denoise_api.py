@@ -69,6 +69,16 @@ def test_apply_returns_mask_and_filter_the_kept_events():
     assert np.all(keep == np.all(f.counts_ >= [2, 4], axis=1))
     with pytest.raises(TypeError, match="Events"):
         f.apply(np.zeros(3))
+    # select: only those events are tested (keep False, counts -1 for the others)
+    half = np.arange(len(ev)) % 2 == 0
+    np.testing.assert_array_equal(f.apply(ev, select=half), keep & half)
+    assert np.all(f.counts_[~half] == -1)
+    with pytest.raises(ValueError, match="select"):
+        f.apply(ev, select=half[1:])
+    # mask: the same mask, counting only what it needs
+    np.testing.assert_array_equal(f.mask(ev), keep)
+    np.testing.assert_array_equal(f.mask(ev, select=half), keep & half)
+    assert f.counts_ is None and f.n_kept_ == (keep & half).sum()
 
 
 def test_ndsef_counts_and_threshold_semantics():

@@ -112,6 +112,37 @@ def test_mr_ndsef_screening_gives_the_full_evaluation_mask(seed, n, th):
         np.testing.assert_array_equal(evaluated[:, k], np.all(full[:, :k] >= np.array(th[:k]), axis=1))
 
 
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 200), th=st.lists(st.integers(1, 12), min_size=3, max_size=3))
+def test_mr_ndsef_select_tests_only_the_selected(seed, n, th):
+    rng = np.random.default_rng(seed)
+    t, x, y = stream(rng, n, 12, 10, max_step=15)
+    frame, radii, select = ref.frame_index(t, 200), (1.5, 3, 5), rng.random(n) < 0.4
+    keep, counts = ref.mr_ndsef(frame, x, y, 12, 10, radii, th)
+    keep_s, counts_s = ref.mr_ndsef(frame, x, y, 12, 10, radii, th, select)
+    np.testing.assert_array_equal(keep_s, keep & select)
+    np.testing.assert_array_equal(counts_s[select], counts[select])
+    assert np.all(counts_s[~select] == -1)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 200), th=st.lists(st.integers(1, 12), min_size=3, max_size=3))
+def test_mr_ndsef_mask_only_stops_counting_once_decided(seed, n, th):
+    rng = np.random.default_rng(seed)
+    t, x, y = stream(rng, n, 12, 10, max_step=15)
+    frame, radii = ref.frame_index(t, 200), (1.5, 3, 5)
+    keep, counts = ref.mr_ndsef(frame, x, y, 12, 10, radii, th)
+    keep_m, counts_m = ref.mr_ndsef(frame, x, y, 12, 10, radii, th, full=False)
+    np.testing.assert_array_equal(keep_m, keep)
+    counted = counts_m >= 0
+    np.testing.assert_array_equal(counts_m[counted], counts[counted])
+    # radius k is left out exactly where an earlier radius rejected or decided the event
+    for k in range(1, len(radii)):
+        decided = np.any(counts_m[:, :k] >= np.maximum.accumulate(th[::-1])[::-1][1:k + 1], axis=1)
+        np.testing.assert_array_equal(counted[:, k], counted[:, k - 1] & (counts[:, k - 1] >= th[k - 1])
+                                      & ~decided)
+
+
 @pytest.mark.parametrize("rate_hz", [0.5, 2.0, 100.0])
 @pytest.mark.parametrize("alpha", [1e-3, 0.05])
 def test_poisson_thresholds_are_the_smallest_with_tail_below_alpha(rate_hz, alpha):

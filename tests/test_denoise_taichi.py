@@ -176,6 +176,27 @@ def test_tile_counts_match_reference(seed, n, geometry, strategy, th, hot):
     assert_same(*mr_pair(radii, th[:len(radii)], strategy=strategy), ev)
 
 
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 600),
+       geometry=st.sampled_from(GEOMETRIES[1:] + TILE_GEOMETRIES),
+       strategy=st.sampled_from(denoise.STRATEGIES), schedule=st.sampled_from(["lanes", "events"]),
+       th=st.lists(st.integers(1, 12), min_size=5, max_size=5), share=st.sampled_from([0.0, 0.3, 1.0]),
+       full=st.booleans())
+def test_selected_and_mask_only_counts_match_reference(seed, n, geometry, strategy, schedule, th,
+                                                       share, full):
+    size, radii = geometry
+    ev = make_events(seed, n, *size, hot=0.2)
+    select = np.random.default_rng(seed).random(n) < share
+    a, b = mr_pair(radii, th[:len(radii)], strategy=strategy, schedule=schedule)
+    method = "apply" if full else "mask"
+    np.testing.assert_array_equal(getattr(b, method)(ev, select=select),
+                                  getattr(a, method)(ev, select=select))
+    if full:
+        np.testing.assert_array_equal(b.counts_, a.counts_)
+    else:
+        assert a.counts_ is None and b.counts_ is None
+
+
 def test_every_survivor_layout_matches_reference():
     """Sparse frames whose survivors are counted in each layout the cost model can pick:
     tiles (survivors on few pixels), full counts folded from the tiles, and row prefix sums."""

@@ -146,22 +146,32 @@ def disk_counts(frame, x, y, width, height, radius, select=None):
     return out
 
 
-def mr_ndsef(frame, x, y, width, height, radii, thresholds):
+def mr_ndsef(frame, x, y, width, height, radii, thresholds, select=None, full=True):
     """MR-NDSEF with per-radius thresholds and hierarchical screening.
 
     Keep iff p_k(e) >= th_k for every radius k. Radius k is evaluated only for events that
     passed radii 1..k-1 (same mask as evaluating all, less work); counts[i, k] is -1 where
-    event i was rejected before radius k. Returns (keep mask, counts (n, K) int64).
+    event i was rejected before radius k. `select` (bool mask) limits the events tested:
+    the others count (every event of a frame does) but are not kept, their counts all -1.
+    full=False (the mask alone) also stops, kept, at radius k an event whose p_k already
+    reaches every larger radius's threshold: the disks are nested, so p_(k+1), ... >= p_k
+    (same mask; its larger counts are -1).
+    Returns (keep mask, counts (n, K) int64).
     """
     n = len(np.asarray(x))
     counts = np.full((n, len(radii)), -1, np.int64)
-    alive = np.ones(n, bool)
+    alive = np.ones(n, bool) if select is None else np.array(select, bool)
+    kept = np.zeros(n, bool)    # decided early (full=False)
     for k, (r, th) in enumerate(zip(radii, thresholds)):
         if not alive.any():
             break
         counts[:, k] = disk_counts(frame, x, y, width, height, r, select=alive)
         alive &= counts[:, k] >= th
-    return alive, counts
+        if not full and k + 1 < len(radii):
+            done = alive & (counts[:, k] >= max(thresholds[k + 1:]))
+            kept |= done
+            alive &= ~done
+    return alive | kept, counts
 
 
 # -- auto thresholds --------------------------------------------------------------------------
@@ -176,25 +186,27 @@ def poisson_thresholds(rate_hz, dt_us, radii, alpha):
     return out
 
 
-def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, duration_s=None):
+def background_rate(t, x, y, width, height, outlier_p=1e-6, chunk=1 << 20, duration_s=None,
+                    counts=None):
     """Robust background rate λ (events / pixel / s) of a stream.
 
     Pixels whose event count is improbably high for a Poisson process of the plain mean
     rate (upper tail < `outlier_p`: hot pixels, the target's track) are left out, and the
     rate is re-measured on the remaining pixels over the stream's duration (its time span
     unless `duration_s` is given, e.g. for a sample of time windows). Pixel counts are
-    accumulated in chunks so the temporary memory stays small for long streams.
+    accumulated in chunks so the temporary memory stays small for long streams, unless
+    the caller has them (`counts`: the events per pixel, width · height int64, row-major).
     """
     t = np.asarray(t)
     if len(t) == 0:
         return 0.0
     if duration_s is None:
         duration_s = max(int(t[-1]) - int(t[0]), 1) * 1e-6
-    counts = None
-    for i in range(0, len(t), chunk):
+    for i in range(0, len(t) if counts is None else 0, chunk):
         pix = np.asarray(y[i:i + chunk], np.int32) * np.int32(width) + np.asarray(x[i:i + chunk], np.int32)
         part = np.bincount(pix, minlength=width * height)
         counts = part if counts is None else counts + part
+    counts = np.asarray(counts).reshape(-1)
     cut = poisson.isf(outlier_p, counts.mean())
     outliers = np.flatnonzero(counts > cut)  # few: sum them rather than copy the inliers
     n_inliers = counts.size - len(outliers)

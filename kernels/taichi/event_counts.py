@@ -59,7 +59,8 @@ def count_events_kernels(disks, width, height):
 
     @ti.kernel
     def count(x: u16_1d, y: u16_1d, offsets: i32_1d, f0: ti.i32, f1: ti.i32, thresholds: i32_1d,
-              dense_min: ti.i32, grid: i32_1d, prefix: i32_1d, counts: i32_2d, keep: u8_1d):
+              enough: i32_1d, dense_min: ti.i32, grid: i32_1d, prefix: i32_1d, counts: i32_2d,
+              keep: u8_1d):
         for e in range(offsets[f0], offsets[f1]):
             f = frame_of(offsets, f0, f1, e)
             dense = ti.cast(offsets[f + 1] - offsets[f] >= dense_min, ti.i32)
@@ -67,17 +68,20 @@ def count_events_kernels(disks, width, height):
             ye = ti.cast(y[e], ti.i32)
             at = (f - f0) * geo.plane + fg.cell_index(geo, xe, ye)
             pat = (f - f0) * geo.prefix_plane + fg.prefix_index(geo, xe, ye)
-            alive = 1
+            going = 1  # until decided: below a threshold, or at enough[k] (kept)
+            kept = 1
             c = 0
             for k in ti.static(range(n_radii)):
-                if alive == 1:
+                if going == 1:
                     c = disk_count(grid, prefix, at, pat, k, dense, c)
                     counts[e, k] = c
                     if c < thresholds[k]:
-                        alive = 0
+                        going, kept = 0, 0
+                    elif c >= enough[k]:
+                        going = 0
                 else:
                     counts[e, k] = -1
-            keep[e] = ti.cast(alive, ti.u8)
+            keep[e] = ti.cast(kept, ti.u8)
 
     @ti.kernel
     def unbin_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, f0: ti.i32, f1: ti.i32, grid: i32_1d):

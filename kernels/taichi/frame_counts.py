@@ -25,7 +25,9 @@ radius appears there once, which keeps the compile time down. Cell layouts: fram
 ("u16x4" for launches whose frames hold <= frame_grids.MAX_EVENTS events, "i32" otherwise).
 
 Outputs: counts[e, k] = events of e's frame in disk k around e (e included), -1 where e
-was rejected at an earlier radius; keep[e] = 1 iff counts[e, k] >= thresholds[k] for all k.
+was rejected at an earlier radius (or, counting for the mask alone, kept at an earlier
+radius whose count reached every larger threshold); keep[e] = 1 iff counts[e, k] >=
+thresholds[k] for all k.
 """
 import functools
 from dataclasses import dataclass
@@ -42,6 +44,11 @@ from .arrays import i32_1d, i32_2d, u16_1d, u64_1d, u8_1d
 
 #: layouts of a frame (see the module doc)
 SPARSE, FULL, PREFIX = 0, 1, 2
+#: a sparse frame's tile plane is cleared whole once its events number more than the
+#: plane's words / CLEAR_STORES (a sequential store costs a fraction of a scattered one)
+CLEAR_STORES = 4
+#: keep[e] of a radius-1 survivor the larger radii still have to decide (final keep is 0 or 1)
+UNDECIDED = 2
 
 
 def tile_masks(disks, width, height):
@@ -64,6 +71,8 @@ class _Plan:
     tp: bit_tiles.TilePlan
     costs: Costs
     cell: str
+    selective: bool  # only the events `ask` marks are tested
+    stored: int      # radii whose counts are stored (n_radii, or 1 for the mask alone)
 
 
 @ti.func
@@ -201,13 +210,17 @@ def make_unbin_frame(plan):
     def unbin_frame(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
                     grid: ti.template(), tiles: ti.template(), repeated: ti.template(),
                     repeats: ti.template(), n_rep: ti.i32, g0: ti.i32, t0: ti.i32, r0: ti.i32):
-        for e in range(e0, e1):
-            xe = ti.cast(x[e], ti.i32)
-            ye = ti.cast(y[e], ti.i32)
-            if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
-                tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
-            else:
-                unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
+        if layout == SPARSE and (e1 - e0) * CLEAR_STORES > tp.plane:
+            for i in range(tp.plane):  # many events: sequential stores beat scattered ones
+                tiles[t0 + i] = ti.u64(0)
+        else:
+            for e in range(e0, e1):
+                xe = ti.cast(x[e], ti.i32)
+                ye = ti.cast(y[e], ti.i32)
+                if layout == SPARSE:  # every bit of a tile is this frame's: clear it whole
+                    tiles[t0 + bit_tiles.tile_of(tp, xe + geo.pad, ye + geo.pad)] = ti.u64(0)
+                else:
+                    unbin_cell(grid, g0 + fg.cell_index(geo, xe, ye))
         for i in range(n_rep):
             at = repeats[r0 + i]
             unbin_cell(grid, g0 + at)
@@ -224,16 +237,25 @@ def make_count_radius1(plan, disks):
     box_count = bit_tiles.make_box_count(plan.tp, 0)
 
     @ti.func
-    def count_radius1(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32, layout: ti.i32,
-                      thresholds: ti.template(), grid: ti.template(), prefix: ti.template(),
-                      tiles: ti.template(), repeated: ti.template(), masks: ti.template(),
-                      owners: ti.template(), owned: ti.template(), g0: ti.i32, p0: ti.i32,
-                      t0: ti.i32, r0: ti.i32, counts: ti.template(), keep: ti.template()):
-        """Pixels of the frame get an owner (the first event to count them) where counting
-        is dear (beside repeats) or an event survives; n_alive: the survivors' owners."""
+    def count_radius1(x: ti.template(), y: ti.template(), ask: ti.template(), e0: ti.i32,
+                      e1: ti.i32, layout: ti.i32, thresholds: ti.template(), enough: ti.template(),
+                      grid: ti.template(), prefix: ti.template(), tiles: ti.template(),
+                      repeated: ti.template(), masks: ti.template(), owners: ti.template(),
+                      owned: ti.template(), g0: ti.i32, p0: ti.i32, t0: ti.i32, r0: ti.i32,
+                      counts: ti.template(), keep: ti.template()):
+        """Pixels of the frame get an owner (the first asked event to count them) where
+        counting is dear (beside repeats) or an event survives undecided (its count below
+        enough[0]); n_alive: those survivors' owners. Events not asked (selective plans)
+        get counts -1 and keep 0."""
         n_owned = 0
         n_alive = 0
         for e in range(e0, e1):
+            if ti.static(plan.selective):
+                if ask[e] == 0:
+                    for k in ti.static(range(plan.stored)):
+                        counts[e, k] = -1
+                    keep[e] = ti.u8(0)
+                    continue
             xe = ti.cast(x[e], ti.i32)
             ye = ti.cast(y[e], ti.i32)
             at = g0 + fg.cell_index(geo, xe, ye)
@@ -254,12 +276,13 @@ def make_count_radius1(plan, disks):
             if direct:
                 c = direct_count(grid, at, 0, c)
             counts[e, 0] = c
-            for k in ti.static(range(1, n_radii)):
+            for k in ti.static(range(1, plan.stored)):
                 counts[e, k] = -1
             alive = ti.cast(c >= thresholds[0], ti.i32)
             keep[e] = ti.cast(alive, ti.u8)
             if ti.static(n_radii > 1):
-                if alive == 1:
+                if alive == 1 and c < enough[0]:  # the larger radii decide
+                    keep[e] = ti.u8(UNDECIDED)
                     if owner < 0:
                         owner, n_owned = owner_of(owners, owned, at, e, r0, n_owned)
                     if owner == e:
@@ -299,36 +322,42 @@ def make_count_annulus(plan, disks):
 
 
 def make_count_larger_radii(plan, disks):
-    """ti.func counting radii 2..K for radius 1's survivors, once per pixel (its owner)."""
+    """ti.func counting radii 2..K for radius 1's undecided survivors, once per pixel (its
+    owner), each until its fate is decided: below a threshold, or at enough[k]."""
     geo, n_radii = plan.geo, plan.n_radii
     count_annulus = make_count_annulus(plan, disks)
 
     @ti.func
     def count_larger_radii(x: ti.template(), y: ti.template(), e0: ti.i32, e1: ti.i32,
-                           layout: ti.i32, thresholds: ti.template(), grid: ti.template(),
-                           prefix: ti.template(), tiles: ti.template(), repeated: ti.template(),
-                           masks: ti.template(), owners: ti.template(), g0: ti.i32, p0: ti.i32,
-                           t0: ti.i32, counts: ti.template(), keep: ti.template()):
+                           layout: ti.i32, thresholds: ti.template(), enough: ti.template(),
+                           grid: ti.template(), prefix: ti.template(), tiles: ti.template(),
+                           repeated: ti.template(), masks: ti.template(), owners: ti.template(),
+                           g0: ti.i32, p0: ti.i32, t0: ti.i32, counts: ti.template(),
+                           keep: ti.template()):
         for e in range(e0, e1):
-            if keep[e] == 1:
+            if keep[e] == UNDECIDED:
                 xe = ti.cast(x[e], ti.i32)
                 ye = ti.cast(y[e], ti.i32)
                 owner = owners[g0 + fg.cell_index(geo, xe, ye)] - 1
                 if owner != e:  # the owner came first: same counts
-                    for k in ti.static(range(1, n_radii)):
+                    for k in ti.static(range(1, plan.stored)):
                         counts[e, k] = counts[owner, k]
                     keep[e] = keep[owner]
                 else:
                     c = counts[e, 0]
-                    alive = 1
+                    going = 1
+                    kept = 1
                     for k in ti.static(range(1, n_radii)):
-                        if alive == 1:
+                        if going == 1:
                             c = count_annulus(grid, prefix, tiles, repeated, masks, g0, p0, t0,
                                               xe, ye, k, layout, c)
-                            counts[e, k] = c
+                            if ti.static(k < plan.stored):
+                                counts[e, k] = c
                             if c < thresholds[k]:
-                                alive = 0
-                    keep[e] = ti.cast(alive, ti.u8)
+                                going, kept = 0, 0
+                            elif c >= enough[k]:
+                                going = 0
+                    keep[e] = ti.cast(kept, ti.u8)
 
     return count_larger_radii
 
@@ -356,13 +385,19 @@ def make_relayout(plan):
 
 
 @functools.lru_cache(maxsize=None)
-def count_frames_kernel(disks, width, height, cell="i32"):
+def count_frames_kernel(disks, width, height, cell="i32", selective=False, stored=None):
     """Kernel counting events in the nested `disks` (see module doc) for every frame.
 
     Specification: `evstar_kernels.reference.denoise.mr_ndsef`.
 
-    Call as kernel(x, y, offsets, unit_lo, unit_hi, thresholds, dense_min, grid, prefix,
-    tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); dense_min < 0 uses the
+    Call as kernel(x, y, ask, offsets, unit_lo, unit_hi, thresholds, enough, dense_min, grid,
+    prefix, tiles, repeated, masks, repeats, owners, owned, busy, counts, keep); an event
+    whose count at radius k reaches enough[k] is kept without counting the larger radii
+    (the mask-only form: enough[k] = the largest threshold after k; int32 max counts all
+    the radii the mask reaches); counts holds `stored` columns (default every radius; 1:
+    radius 1's only, which the kernel needs, for the mask alone); `selective` kernels
+    test only the events with ask[e] != 0 (every event still counts), others read no `ask`
+    (any array); dense_min < 0 uses the
     built-in cost model, 0 forces prefix sums, a huge value forces direct reads (sparse,
     then full counts for the survivors where cheaper). grid, prefix, tiles, repeated and owners
     hold busy.shape[0] slots (scratch_sizes; owners as many cells as grid), all zero between
@@ -374,7 +409,8 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     pixel's owner — and the others copy its counts.
     """
     geo = fg.Geometry(width, height, disk_padding(disks))
-    plan = _Plan(len(disks), geo, bit_tiles.plan(geo, disks), disk_costs(disks, geo, cell), cell)
+    plan = _Plan(len(disks), geo, bit_tiles.plan(geo, disks), disk_costs(disks, geo, cell), cell,
+                 selective, len(disks) if stored is None else stored)
     n_radii = plan.n_radii
     grid_1d = ti.types.ndarray(dtype=fg.LAYOUTS[cell][0], ndim=1)
     read_cell = fg.LAYOUTS[cell][3]
@@ -383,10 +419,11 @@ def count_frames_kernel(disks, width, height, cell="i32"):
     count_larger_radii = make_count_larger_radii(plan, disks)
 
     @ti.kernel
-    def count_frames(x: u16_1d, y: u16_1d, offsets: i32_1d, unit_lo: i32_1d, unit_hi: i32_1d,
-                     thresholds: i32_1d, dense_min: ti.i32, grid: grid_1d, prefix: i32_1d,
-                     tiles: u64_1d, repeated: u64_1d, masks: u64_1d, repeats: i32_1d,
-                     owners: i32_1d, owned: i32_1d, busy: i32_1d, counts: i32_2d, keep: u8_1d):
+    def count_frames(x: u16_1d, y: u16_1d, ask: u8_1d, offsets: i32_1d, unit_lo: i32_1d,
+                     unit_hi: i32_1d, thresholds: i32_1d, enough: i32_1d, dense_min: ti.i32,
+                     grid: grid_1d, prefix: i32_1d, tiles: u64_1d, repeated: u64_1d,
+                     masks: u64_1d, repeats: i32_1d, owners: i32_1d, owned: i32_1d,
+                     busy: i32_1d, counts: i32_2d, keep: u8_1d):
         first_dense = dense_min
         if first_dense < 0:
             first_dense = plan.costs.dense_min
@@ -402,16 +439,17 @@ def count_frames_kernel(disks, width, height, cell="i32"):
                     n_rep = bin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, g0, t0, r0)
                     if layout == PREFIX:
                         fg.row_prefix_sums(grid, g0, prefix, p0, geo, read_cell)
-                    n_owned, n_alive = count_radius1(x, y, e0, e1, layout, thresholds, grid, prefix,
-                                                     tiles, repeated, masks, owners, owned, g0, p0,
-                                                     t0, r0, counts, keep)
+                    n_owned, n_alive = count_radius1(x, y, ask, e0, e1, layout, thresholds,
+                                                     enough, grid, prefix, tiles, repeated, masks,
+                                                     owners, owned, g0, p0, t0, r0, counts, keep)
                     if ti.static(n_radii > 1):
                         if n_alive > 0:
                             if layout != PREFIX:
                                 layout = relayout(x, y, e0, e1, layout, n_alive, dense_min < 0, grid,
                                                   prefix, tiles, g0, p0, t0)
-                            count_larger_radii(x, y, e0, e1, layout, thresholds, grid, prefix, tiles,
-                                               repeated, masks, owners, g0, p0, t0, counts, keep)
+                            count_larger_radii(x, y, e0, e1, layout, thresholds, enough, grid,
+                                               prefix, tiles, repeated, masks, owners, g0, p0, t0,
+                                               counts, keep)
                     unbin_frame(x, y, e0, e1, layout, grid, tiles, repeated, repeats, n_rep, g0, t0, r0)
                     clear_owners(owners, owned, r0, n_owned)
                 slots.release(busy, slot)

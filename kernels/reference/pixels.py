@@ -1,0 +1,18 @@
+"""Events per pixel in plain numpy: the specification of evstar_kernels.taichi.pixel_counts."""
+import numpy as np
+
+
+def pixel_counts(x, y, width, height, keep=None):
+    """(events per pixel, those of them `keep` selects or None) as (height, width) int64
+    images of the events at integer pixels x, y."""
+    pixel = np.asarray(y, np.int64) * width + np.asarray(x, np.int64)
+    size = width * height
+    every = np.bincount(pixel, minlength=size).reshape(height, width)
+    if keep is None:
+        return every, None
+    return every, np.bincount(pixel[np.asarray(keep, bool)], minlength=size).reshape(height, width)
+
+
+def pixel_flags(x, y, flags):
+    """flags[y, x] (a (height, width) bool image) of every event."""
+    return np.asarray(flags, bool)[np.asarray(y, np.intp), np.asarray(x, np.intp)]

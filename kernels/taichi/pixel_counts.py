@@ -1,0 +1,39 @@
+"""Events per pixel, all and kept, in one pass; a per-pixel flag per event.
+
+Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
+both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
+so an event is one add to one cell; a launch of at most 2³¹ − 1 events cannot carry from
+the low half into the high one. On the CPU the loop runs serially (Taichi then demotes
+the atomic adds: ~5 ns an event, where numpy's two bincounts took ~14 and contended
+atomics over two threads ~7); on a GPU it runs in parallel.
+"""
+import functools
+
+import taichi as ti
+
+from .arrays import i64_1d, u16_1d, u8_1d
+
+
+@ti.kernel
+def pixel_flags(x: u16_1d, y: u16_1d, flags: u8_1d, width: ti.i32, out: u8_1d):
+    """out[e] = flags[y·width + x] of every event (reference: flags[y, x])."""
+    for e in range(x.shape[0]):
+        out[e] = flags[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)]
+
+
+@functools.lru_cache(maxsize=None)
+def count_pixels_kernel(serial):
+    """kernel(x, y, keep, kept, width, cells): cells[y·width + x] += 1 (+ 2³² where keep)
+    for every event; kept = 0: keep is not read (none kept)."""
+
+    @ti.kernel
+    def count_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, kept: ti.i32, width: ti.i32,
+                     cells: i64_1d):
+        ti.loop_config(serialize=serial)
+        for e in range(x.shape[0]):
+            add = ti.i64(1)
+            if kept:
+                add += ti.cast(keep[e], ti.i64) << 32
+            ti.atomic_add(cells[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)], add)
+
+    return count_pixels

@@ -1,0 +1,44 @@
+"""Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events, the packed
+halves split) and of the per-event pixel flags."""
+import numpy as np
+
+from . import launch
+from .pixel_counts import count_pixels_kernel, pixel_flags as _pixel_flags
+
+_LOW = (1 << 32) - 1
+
+
+def pixel_counts(ti, x, y, width, height, keep=None):
+    """reference.pixels.pixel_counts: (all, kept or None) int64 (height, width) images."""
+    size = width * height
+    every, kept = np.zeros(size, np.int64), np.zeros(size, np.int64)   # no events: zeros
+    arrays = launch.Arrays(ti)
+    kernel = count_pixels_kernel(not arrays.on_device)
+    with launch.RUNTIME_LOCK:
+        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
+            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+            flags = np.zeros(1, bool) if keep is None else keep[e0:e1]   # never read if None
+            cells = arrays.put(np.zeros(size, np.int64))
+            kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]),
+                   arrays.put(np.asarray(flags, bool).view(np.uint8)), int(keep is not None),
+                   width, cells)
+            packed = cells.to_numpy() if arrays.on_device else cells
+            # the first launch's halves are the sums (no adds into zeros)
+            every = packed & _LOW if e0 == 0 else every + (packed & _LOW)
+            if keep is not None:
+                kept = packed >> 32 if e0 == 0 else kept + (packed >> 32)
+    return every.reshape(height, width), None if keep is None else kept.reshape(height, width)
+
+
+def pixel_flags(ti, x, y, flags):
+    """flags[y, x] (bool (height, width)) of every event (bool (n,))."""
+    out = np.empty(len(x), np.uint8)
+    arrays = launch.Arrays(ti)
+    flat = arrays.put(np.ascontiguousarray(flags, bool).view(np.uint8).reshape(-1))
+    with launch.RUNTIME_LOCK:
+        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
+            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+            part = arrays.empty(e1 - e0, np.uint8)
+            _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), flat, flags.shape[1], part)
+            arrays.get(part, out[e0:e1])
+    return out.view(bool)

@@ -1,0 +1,141 @@
+"""A/B of the whole pipeline (issue 13): the package at a git revision (A, --before)
+against the working tree (B), in one process, runs alternating A-B / B-A.
+
+Both versions are imported side by side (A from `git archive` of the revision into a
+temporary folder; each version's modules are swapped into sys.modules while it runs, so
+its lazy imports resolve to its own files) and share one Taichi runtime. Each simulates
+the star-field scenes of bench_pipeline.py --fields itself, runs the pipeline twice
+(compilation, warm-up), then --repeats timed runs. Asserts identical outputs for every
+scene and compensation mode: keep mask, centroids (every field), before/after images,
+per-frame counts and metrics. Writes perf/results/ab_pipeline.json (+ .md) and prints
+the table: per-stage and total medians, s.
+
+    python perf/ab_pipeline.py --before main [--repeats 5] [--stars 50,100] [--modes none,imu]
+"""
+import argparse
+import io
+import os
+import pathlib
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+
+import numpy as np
+
+RESULTS = pathlib.Path(__file__).resolve().parent / "results"
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCENE = "--preset evk4 --stars {} --rate 10 --noise-hz 1 --duration 4"
+STAGES = ("compensate", "denoise", "extract", "estimate", "track")
+COLUMNS = ([("stars", "stars", ""), ("compensate_mode", "compensate", ""), ("stage", "stage", ""),
+            ("a_s", "A s", ".3f"), ("b_s", "B s", ".3f"), ("ratio", "B / A", ".2f")])
+
+
+def _names():
+    return [k for k in sys.modules if k.split(".")[0] in ("evstar", "evstar_kernels")]
+
+
+class Versions:
+    """Two versions of the package, one importable at a time (use)."""
+
+    def __init__(self, rev):
+        tmp = pathlib.Path(tempfile.mkdtemp(prefix="ab_pipeline_"))
+        archive = subprocess.run(["git", "archive", rev], cwd=ROOT, check=True,
+                                 capture_output=True).stdout
+        tarfile.open(fileobj=io.BytesIO(archive)).extractall(tmp / "src")
+        self.paths, self.roots = {}, {"A": os.path.realpath(tmp / "src"), "B": str(ROOT)}
+        for tag, src in (("A", tmp / "src"), ("B", ROOT)):
+            (tmp / tag).mkdir()
+            os.symlink(src / "evstar", tmp / tag / "evstar")
+            os.symlink(src / "kernels", tmp / tag / "evstar_kernels")
+            self.paths[tag] = str(tmp / tag)
+        self.modules, self.current = {}, None
+        for tag in ("A", "B"):
+            m = self.use(tag)
+            import evstar.backends  # noqa: F401 (this version's)
+            if tag == "A":
+                m.backends.taichi("cpu")
+            else:  # one Taichi runtime: B's backends take A's
+                m.backends._taichi_arch = self.modules["A"]["evstar.backends"]._taichi_arch
+
+    def use(self, tag):
+        """Make `tag`'s modules (and folder, for its lazy imports) current; its evstar."""
+        if self.current is not None:
+            self.modules[self.current] = {k: sys.modules[k] for k in _names()}
+        for k in _names():
+            del sys.modules[k]
+        sys.modules.update(self.modules.get(tag, {}))
+        sys.path[:] = [p for p in sys.path if p not in self.paths.values()]
+        sys.path.insert(0, self.paths[tag])
+        self.current = tag
+        import evstar
+        return evstar
+
+    def check(self):
+        """Each version's modules came from its own folder."""
+        self.use(self.current)
+        for tag, mods in self.modules.items():
+            stray = [k for k, m in mods.items() if getattr(m, "__file__", None)
+                     and not os.path.realpath(m.__file__).startswith(self.roots[tag])]
+            assert not stray, f"{tag} imported {stray} from elsewhere"
+
+
+def _outputs(r):
+    fc = r.frame_counts
+    return [r.keep, r.centroids, r.image_before, r.image_after,
+            *(np.asarray(fc[k]) for k in sorted(fc)), np.array(repr(sorted(r.metrics.items())))]
+
+
+def _same(a, b):
+    return len(a) == len(b) and all(x.dtype == y.dtype and x.shape == y.shape
+                                    and x.tobytes() == y.tobytes() for x, y in zip(a, b))
+
+
+def compare(v, stars, mode, repeats):
+    """Rows (one per stage and the total) of one scene and mode; asserts identical outputs."""
+    runs, times = {}, {"A": [], "B": []}
+    for tag in ("A", "B"):
+        m = v.use(tag)
+        from evstar import bench
+        s = bench.field_scene(SCENE.format(stars).split())
+        pipe = m.Pipeline(m.Config().replace(**{"motion.compensate": mode}))
+        pipe.run(s.events, s.imu, s.camera)
+        runs[tag] = (pipe, s, _outputs(pipe.run(s.events, s.imu, s.camera)))
+    assert _same(runs["A"][2], runs["B"][2]), f"{stars} stars, {mode}: outputs differ"
+    for i in range(repeats):
+        for tag in ("A", "B") if i % 2 == 0 else ("B", "A"):
+            v.use(tag)
+            pipe, s, _ = runs[tag]
+            t = time.perf_counter()
+            r = pipe.run(s.events, s.imu, s.camera)
+            times[tag].append({**r.timings_s, "total": time.perf_counter() - t})
+    rows = []
+    for stage in (*STAGES, "total"):
+        a, b = (float(np.median([d.get(stage, 0.0) for d in times[t]])) for t in ("A", "B"))
+        rows.append({"stars": stars, "compensate_mode": mode, "stage": stage, "a_s": a, "b_s": b,
+                     "ratio": b / a if a else float("nan")})
+    return rows
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--before", required=True, help="git revision of A")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--stars", default="50,100")
+    ap.add_argument("--modes", default="none,imu")
+    a = ap.parse_args()
+    v = Versions(a.before)
+    rows = [r for stars in map(int, a.stars.split(",")) for mode in a.modes.split(",")
+            for r in compare(v, stars, mode, a.repeats)]
+    v.check()
+    v.use("B")
+    from evstar import profiling
+    text = profiling.table(rows, COLUMNS)
+    profiling.write_results(RESULTS / "ab_pipeline.json", rows, vars(a))
+    (RESULTS / "ab_pipeline.md").write_text(text + "\n")
+    print(text)
+
+
+if __name__ == "__main__":
+    main()
