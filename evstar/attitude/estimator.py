@@ -14,7 +14,9 @@ then each frame is one prediction (gyro, or the constant-acceleration model) to 
 centroid time and one joint update with its identified stars, and each output time
 (``rate_hz``) a prediction and a row. The attitude is lost when its 1-σ exceeds
 ``lost_sigma_deg`` or every star is rejected ``max_misses`` frames in a row; rows stop
-until the next fix. docs/attitude.md ("Filter") has the model and the measurements.
+until the next fix. With ``smooth`` (default) an RTS pass over each filter run then
+replaces every row by the smoothed attitude (filter.smooth): each row uses the centroids
+after it too. docs/attitude.md ("Filter") has the model and the measurements.
 """
 from __future__ import annotations
 
