@@ -215,6 +215,15 @@ def gap_floor_us(t, key, p, quantile=1e-3, max_events=2_000_000):
     return float(np.quantile(gaps, quantile)) if len(gaps) else None
 
 
+def run_ratio(t, key, p, max_events=2_000_000):
+    """threshold_ratio_of the ON→OFF changes of the first `max_events` events (None when
+    there are too few changes to tell: the ratio would default to 1)."""
+    t, key, p = (np.asarray(a)[:max_events] for a in (t, key, p))
+    _, _, (_, on_before, off_after) = _change_runs(t, key, p, "numpy")
+    enough = np.count_nonzero((on_before >= 2) & (off_after >= 3)) >= _MIN_RATIO_CHANGES
+    return threshold_ratio_of(on_before, off_after) if enough else None
+
+
 def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):
     """Level pairs of a sensor with a refractory period (the kernel's specification): (pairs,
     sums of the midpoints, of their squares) per change c. Levels are counted down from the

@@ -12,6 +12,7 @@ def test_info_json_on_real_aedat4(real_dir, capsys):
     assert s["imu"] and s["imu_samples"] == 510 and 900 < s["imu_rate_hz"] < 1100
     assert 0.5 < s["duration_s"] < 0.52 and 0 < s["on_fraction"] < 1
     assert 700 < s["gap_floor_us"] < 900          # this DAVIS346 fires no pixel twice within ~0.8 ms
+    assert 0.9 < s["threshold_ratio"] < 1.1        # its runs: OFF and ON thresholds alike
 
 
 def test_convert_raw_to_hdf5_and_back_to_csv(real_dir, tmp_path, capsys):

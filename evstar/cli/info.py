@@ -24,9 +24,11 @@ def summary(rec):
            "event_rate_hz": len(ev) / dur_s if dur_s > 0 else None,
            "on_fraction": on / len(ev) if len(ev) else None, "imu": rec.imu is not None}
     if len(ev):
-        from ..crossings import gap_floor_us, pixel_keys
+        from ..crossings import gap_floor_us, pixel_keys, run_ratio
 
-        out["gap_floor_us"] = gap_floor_us(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p)
+        key = pixel_keys(ev.x, ev.y, ev.width)
+        out["gap_floor_us"] = gap_floor_us(ev.t, key, ev.p)
+        out["threshold_ratio"] = run_ratio(ev.t, key, ev.p)
     if rec.imu is not None:
         out.update(imu_samples=len(rec.imu), imu_rate_hz=rec.imu.rate_hz)
     if rec.camera is not None:
@@ -50,5 +52,8 @@ def run(args):
     if s.get("gap_floor_us") is not None:
         print(f"gap floor    {s['gap_floor_us']:.0f} µs (0.1 % of a pixel's same-polarity gaps are "
               "shorter: near its refractory period, --refractory-us)")
+    if s.get("threshold_ratio") is not None:
+        print(f"OFF/ON ratio {s['threshold_ratio']:.3f} (from the pixels' ON and OFF runs, as "
+              "--threshold-ratio auto measures it; meaningful for stars passing pixels)")
     imu = f"{s['imu_samples']:,} samples at {s['imu_rate_hz']:.1f} Hz" if s["imu"] else "none"
     print(f"IMU          {imu}")
