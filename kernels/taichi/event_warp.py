@@ -1,7 +1,9 @@
 """Taichi kernel that moves events to their reference times: u' = π(K·R(t_ref ← t)·K⁻¹ ũ).
 
 The same math as the Warp kernel `evstar_kernels.warp.event_warp` (term by term), as a
-parallel loop: Taichi runs it on every CPU core (a Warp CPU launch runs on one thread).
+parallel loop: Taichi runs it on every CPU core (a Warp CPU launch runs on one thread). The
+attitude node is found by a forward walk from a per-block start instead of a binary search
+(the same node: docs/kernels.md).
 Specification: `evstar.motion.warping.warp_to_reference` with backend="reference".
 """
 import taichi as ti
@@ -55,25 +57,26 @@ def distortion_scale(xn: ti.f64, yn: ti.f64, k1: ti.f64, k2: ti.f64) -> ti.f64:
 
 @ti.func
 def attitude_at(ti_: ti.f64, node_t: ti.template(), node_q: ti.template(),
-                node_phi: ti.template()) -> vec4d:
-    """Exp(s·φ_k) ⊗ q_k between attitude nodes k, k+1 (searchsorted side='right')."""
+                node_phi: ti.template(), start: ti.i32) -> vec4d:
+    """Exp(s·φ_k) ⊗ q_k between attitude nodes k, k+1 (searchsorted side='right'): the last
+    node at or before ti_, walked forward from `start` (a node at or before it, or −1)."""
     n = node_t.shape[0]
-    lo, hi = 0, n
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if node_t[mid] <= ti_:
-            lo = mid + 1
-        else:
-            hi = mid
+    lo = start + 1
+    while lo < n and node_t[lo] <= ti_:
+        lo += 1
     k = ti.min(ti.max(lo - 1, 0), n - 2)
     s = (ti_ - node_t[k]) / (node_t[k + 1] - node_t[k])
     q_k = vec4d(node_q[k, 0], node_q[k, 1], node_q[k, 2], node_q[k, 3])
     return quat_mul(quat_exp(s * node_phi[k, 0], s * node_phi[k, 1], s * node_phi[k, 2]), q_k)
 
 
+#: events per entry of warp_events' `start`: the last node at or before the block's first time
+BLOCK = 256
+
+
 @ti.kernel
 def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarray(),
-                ref_index: ti.types.ndarray(), ref_q: ti.types.ndarray(),
+                start: ti.types.ndarray(), ref_index: ti.types.ndarray(), ref_q: ti.types.ndarray(),
                 node_t: ti.types.ndarray(), node_q: ti.types.ndarray(),
                 node_phi: ti.types.ndarray(), fx: ti.f64, fy: ti.f64, cx: ti.f64, cy: ti.f64,
                 k1: ti.f64, k2: ti.f64, undistort_iterations: ti.i32,
@@ -81,7 +84,7 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
     """(out_x, out_y)[i] = event i moved to its reference attitude ref_q[ref_index[i]];
     NaN where the rotation turns its ray behind the camera."""
     for i in range(t.shape[0]):
-        q_t = attitude_at(ti.cast(t[i], ti.f64), node_t, node_q, node_phi)
+        q_t = attitude_at(ti.cast(t[i], ti.f64), node_t, node_q, node_phi, start[i // BLOCK])
         r_i = ref_index[i]
         q_ref = vec4d(ref_q[r_i, 0], ref_q[r_i, 1], ref_q[r_i, 2], ref_q[r_i, 3])
         q_rel = quat_mul(q_ref, vec4d(-q_t[0], -q_t[1], -q_t[2], q_t[3]))

@@ -2,7 +2,7 @@
 import numpy as np
 
 from . import launch
-from .event_warp import warp_events
+from .event_warp import BLOCK, warp_events
 
 
 def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, camera_params,
@@ -15,7 +15,8 @@ def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, c
     track = [arrays.put(np.asarray(a, np.float64)) for a in (ref_q, node_t, node_q, node_phi)]
     for a in range(0, n, launch.MAX_LAUNCH_EVENTS):
         b = min(n, a + launch.MAX_LAUNCH_EVENTS)
-        ev = [arrays.put(v[a:b]) for v in (t, x, y)] + [arrays.put(np.asarray(ref_index[a:b], np.int32))]
+        ev = ([arrays.put(v[a:b]) for v in (t, x, y)]
+              + [arrays.put(_starts(t[a:b], node_t)), arrays.put(np.asarray(ref_index[a:b], np.int32))])
         ox, oy = ((out_x[a:b], out_y[a:b]) if not arrays.on_device else
                   (arrays.empty(b - a, np.float64), arrays.empty(b - a, np.float64)))
         with launch.RUNTIME_LOCK:
@@ -24,3 +25,12 @@ def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, c
             arrays.get(ox, out_x[a:b])
             arrays.get(oy, out_y[a:b])
     return out_x, out_y
+
+
+def _starts(t, node_t):
+    """Per block of BLOCK events the last node at or before its earliest time (−1 if none):
+    where each event's search for its node begins (any order of times)."""
+    if not len(t):
+        return np.zeros(1, np.int32)
+    first = np.minimum.reduceat(np.asarray(t, np.float64), np.arange(0, len(t), BLOCK))
+    return (np.searchsorted(np.asarray(node_t, np.float64), first, side="right") - 1).astype(np.int32)
