@@ -153,6 +153,24 @@ def test_likelihood_weights_and_resampling_are_bit_identical():
     np.testing.assert_array_equal(wpart.host()[0], q[parents])
 
 
+def test_likelihood_over_particle_ranges_is_bit_identical():
+    """>= _SPLIT_STARS stars: the launch runs over particle ranges on two threads."""
+    from evstar_kernels.warp.particle_launch import _SPLIT_STARS, WarpParticles
+
+    backends.warp("cpu")
+    rng = np.random.default_rng(9)
+    q, b = random_particles(1000)
+    q[:500] = so3.quat_mul(so3.quat_exp(rng.normal(size=(500, 3)) * 1e-3), so3.quat_identity(500))
+    n = _SPLIT_STARS + 4
+    stars = so3.quat_rotate(so3.quat_identity(), CAMERA.unproject(rng.uniform(50, 400, (n, 2))))
+    uv = CAMERA.project(stars) + rng.normal(size=(n, 2)) * 0.3
+    cam = dict(fx=CAMERA.fx, fy=CAMERA.fy, cx=CAMERA.cx, cy=CAMERA.cy, pixel_sigma=0.3, gate=5.0)
+    wpart = WarpParticles(q, b, device="cpu", threads=2)
+    assert len(wpart._ranges) == 2
+    wpart.add_log_likelihood(stars, uv, **cam)
+    assert_same(wpart.host()[2], np.zeros(1000) + ref.log_likelihood(q, stars, uv, **cam))
+
+
 def test_parallel_weight_sums_agree_with_the_reference():
     # the GPU path (atomics + parallel scan), run on the CPU device
     from evstar_kernels.warp.particle_launch import WarpParticles

@@ -91,11 +91,12 @@ def counter_normals(seed: wp.uint32, step: wp.uint32, component0: wp.uint32,
 def add_log_likelihood(q: wp.array(dtype=wp.vec4d), stars: wp.array(dtype=wp.vec3d),
                        uv: wp.array(dtype=wp.vec2d), fx: wp.float64, fy: wp.float64,
                        cx: wp.float64, cy: wp.float64, inv_sigma: wp.float64, gate2: wp.float64,
-                       logw: wp.array(dtype=wp.float64)):
+                       logw: wp.array(dtype=wp.float64), first: wp.int32):
     """logw += Σ_j −½·min(|pinhole(R(q)·d_j) − uv_j|²/σ², gate²); a star behind costs gate²/2.
+    Thread t scores particle first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.log_likelihood`."""
-    i = wp.tid()
+    i = wp.tid() + first
     qi = q[i]
     acc = wp.float64(0.0)
     for j in range(stars.shape[0]):

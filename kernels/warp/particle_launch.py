@@ -6,8 +6,9 @@ index order on one thread (bit-identical to the numpy reference); on a GPU they 
 and a parallel scan (equal to rounding). A Warp CPU launch runs on one thread, so on the
 CPU the prediction (a block of IMU steps per particle: the filter's bulk) is launched over
 `threads` ranges of the particles at once from a thread pool (the launch releases the GIL);
-each particle's arithmetic is the same, so the bits are too. The likelihood launch is too
-short for that (a thread hand-off costs about as much as it).
+each particle's arithmetic is the same, so the bits are too. The likelihood launch is
+split the same way once a frame holds >= _SPLIT_STARS stars (with fewer it is too short:
+a thread hand-off costs about as much as it).
 """
 from concurrent.futures import ThreadPoolExecutor
 
@@ -17,6 +18,9 @@ import warp as wp
 from . import particle_kernels as K
 
 _POOLS = {}  # thread count -> ThreadPoolExecutor (shared by all filters of the process)
+#: stars of a likelihood launch from which it runs over particle ranges on the CPU threads
+#: (4096 particles x 16 stars ~ 0.2 ms: a thread hand-off costs ~0.05 ms)
+_SPLIT_STARS = 16
 
 
 def _pool(k):
@@ -96,9 +100,12 @@ class WarpParticles:
         stars = wp.array(np.ascontiguousarray(stars_world, np.float64), dtype=wp.vec3d,
                          device=self.device)
         uv_d = wp.array(np.ascontiguousarray(uv, np.float64), dtype=wp.vec2d, device=self.device)
-        wp.launch(K.add_log_likelihood, self.n, device=self.device,
-                  inputs=[self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
-                          1.0 / pixel_sigma, float(gate) * float(gate), self.logw])
+        inputs = [self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
+                  1.0 / pixel_sigma, float(gate) * float(gate), self.logw]
+        if len(stars_world) >= _SPLIT_STARS:     # long enough to share between threads
+            self._launch(K.add_log_likelihood, inputs)
+        else:
+            wp.launch(K.add_log_likelihood, self.n, device=self.device, inputs=inputs + [0])
 
     def weight_sums(self, q_ref):
         """Fill self.cdf and return the nine sums of reference.particle_filter.weight_sums."""
