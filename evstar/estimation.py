@@ -106,13 +106,13 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     out["source"] = np.where(out["source"] == "pooled", "pooled", "measured")
     if e.estimator == "mean" or not (centroids["track"] >= 0).any():
         return out
-    ests = []
-    for cents, sig, prior in _by_prior(centroids, sigma, smoother, velocity_prior):
-        est = smoother.smooth(cents, t0_us, prior, sig)
-        if e.estimator == "crossings" and crossings is not None and len(crossings):
-            est, _ = smoother.refine(est, cents, crossings, prior, sig, e.along_weight,
-                                     t0_us, pixel_lag(e.pixel_lag_file))
-        ests.append(est)
+    groups = _by_prior(centroids, sigma, smoother, velocity_prior)
+    ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
+    if e.estimator == "crossings" and crossings is not None and len(crossings):
+        mine = _crossings_by_group(crossings, ests)
+        ests = [smoother.refine(est, cents, crossings[m], prior, sig, e.along_weight, t0_us,
+                                pixel_lag(e.pixel_lag_file))[0]
+                for est, m, (cents, sig, prior) in zip(ests, mine, groups)]
     est = np.concatenate(ests)
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain
@@ -139,6 +139,18 @@ def _by_prior(centroids, sigma, smoother, prior):
             cents["track"][~sel] = -1          # the other group's tracks: not smoothed here
             parts.append((cents, sigma, p))
     return parts or [(centroids, sigma, prior)]
+
+
+def _crossings_by_group(crossings, ests):
+    """Per group's smoothed rows, the crossings whose nearest track (of all groups') is one of
+    its own: a crossing must not refine a star of one group when another's is nearer."""
+    if len(ests) == 1:
+        return [slice(None)]
+    from .crossings import along_track
+
+    every = np.concatenate(ests)
+    got, owner, _, _ = along_track(crossings, every[np.lexsort((every["t"], every["track"]))])
+    return [got[np.isin(owner, np.unique(est["track"]))] for est in ests]
 
 
 def _merge(unconfirmed, measured, est):

@@ -327,3 +327,22 @@ def test_the_prior_is_used_where_it_explains_the_track_better():
         return true + rng.normal(0, 1 / np.sqrt(_PRIOR_STEP_S), (len(t_us), 2))
 
     assert TrackSmoother(DT).prior_helps(cents, prior) == {0, 2}
+
+
+def test_crossings_go_to_the_group_of_their_nearest_track():
+    """Tracks smoothed in two groups (with and without the prior): a crossing 1 px from
+    track 0 and 2 px from track 1 refines track 0's group only."""
+    from evstar.crossings import CROSSING_DTYPE
+    from evstar.estimation import _crossings_by_group
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    def rows(track, y):
+        r = np.zeros(3, ESTIMATE_DTYPE)
+        r["t"], r["track"], r["x"], r["y"], r["vx"] = [0, 10_000, 20_000], track, [10, 20, 30], y, 1000.0
+        return r
+
+    groups = [rows(0, 50.0), rows(1, 53.0)]
+    c = np.zeros(3, CROSSING_DTYPE)
+    c["t"], c["x"], c["y"] = [5_000, 10_000, 15_000], [15, 20, 25], [51, 53, 52]
+    mine = _crossings_by_group(c, groups)
+    assert sorted(mine[0].tolist()) == [0] and sorted(mine[1].tolist()) == [1, 2]
