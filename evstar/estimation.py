@@ -127,8 +127,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
 def _by_prior(centroids, sigma, smoother, prior):
     """(centroids, σ, prior) of the tracks the velocity prior explains better
-    (TrackSmoother.prior_helps) and (…, None) of the others; est["centroid"] indexes
-    `centroids` in both."""
+    (TrackSmoother.prior_helps) and (…, None) of the others, each group that has tracks
+    (the caller has some); est["centroid"] indexes `centroids` in both."""
     if prior is None:
         return [(centroids, sigma, None)]
     helps = np.isin(centroids["track"], sorted(smoother.prior_helps(centroids, prior, sigma)))
@@ -138,7 +138,7 @@ def _by_prior(centroids, sigma, smoother, prior):
             cents = centroids.copy()
             cents["track"][~sel] = -1          # the other group's tracks: not smoothed here
             parts.append((cents, sigma, p))
-    return parts or [(centroids, sigma, prior)]
+    return parts
 
 
 def _crossings_by_group(crossings, ests):
