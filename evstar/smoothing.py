@@ -47,6 +47,7 @@ ESTIMATE_DTYPE = np.dtype([
     ("source", "<U8")])
 MEASURED, COASTED = "measured", "coasted"
 _Q_GRID = np.r_[0.0, np.logspace(-2, 9, 45)]   # px²/s³ candidates for the q estimate
+_MIN_Q_STEPS = 4                       # measured steps a track needs for a q (or prior) estimate
 #: log-likelihood by which a track with the velocity prior must beat it without: "strong"
 #: evidence (Kass & Raftery's 2Δ > 6), since the centroids alone hardly see a gyro's noise
 _PRIOR_EVIDENCE = 3.0
@@ -152,24 +153,20 @@ class TrackSmoother:
         pan the plain track is the better model, through a sinusoid's turnarounds the prior,
         which must win by _PRIOR_EVIDENCE. Tracks too short to tell keep the prior."""
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
-        rows = _track_rows(centroids)
-        shifts = _batched([_displacement(velocity_prior, centroids["t"][r].astype(float),
-                                         centroids["t"][r].astype(float),
-                                         np.column_stack([centroids["x"][r], centroids["y"][r]]))
-                           for r in rows], velocity_prior)
-        tracks, ids = [], []
-        for r, shift in zip(rows, shifts):
-            if len(r) < 4:
-                continue
-            ts = (centroids["t"][r] - centroids["t"][r[0]]) * 1e-6
-            z = np.column_stack([centroids["x"][r], centroids["y"][r]]).astype(float)
-            tracks += [(ts, z - shift, sig[r]), (ts, z, sig[r])]
-            ids.append(int(centroids["track"][r[0]]))
-        lls = _ENGINES[self.engine][1]([tuple(np.asarray(a, float) for a in t) for t in tracks], _Q_GRID)
-        best = [float(np.max(ll)) for ll in lls]
-        helps = {i for i, (w, wo) in zip(ids, zip(best[::2], best[1::2])) if w - wo > _PRIOR_EVIDENCE}
-        short = {int(centroids["track"][r[0]]) for r in rows if len(r) < 4}
-        return helps | short
+        every = _track_rows(centroids)
+        rows = [r for r in every if len(r) >= _MIN_Q_STEPS]
+        t = [centroids["t"][r].astype(float) for r in rows]
+        z = [np.column_stack([centroids["x"][r], centroids["y"][r]]).astype(float) for r in rows]
+        shifts = _batched([_displacement(velocity_prior, ti, ti, zi) for ti, zi in zip(t, z)],
+                          velocity_prior)
+        tracks = []
+        for ti, zi, shift, r in zip(t, z, shifts, rows):
+            ts = (ti - ti[0]) * 1e-6
+            tracks += [(ts, zi - shift, sig[r]), (ts, zi, sig[r])]
+        best = [float(np.max(ll)) for ll in _ENGINES[self.engine][1](tracks, _Q_GRID)]
+        ids = [int(centroids["track"][r[0]]) for r in rows]
+        helps = {i for i, w, wo in zip(ids, best[::2], best[1::2]) if w - wo > _PRIOR_EVIDENCE}
+        return helps | ({int(centroids["track"][r[0]]) for r in every} - set(ids))
 
     # -- one track ----------------------------------------------------------------------
     def smooth_track(self, cents, sigma, t0_us, velocity_prior=None, index=None):
@@ -373,7 +370,7 @@ def estimate_process_noise(ts, z, sigma, engine=SMOOTHER["engine"].default):
 def _estimate_q_many(tracks, engine):
     """estimate_process_noise of each (ts, z, σ), the likelihoods of all at once."""
     q = [0.0] * len(tracks)
-    long = [i for i, t in enumerate(tracks) if len(t[0]) >= 4]
+    long = [i for i, t in enumerate(tracks) if len(t[0]) >= _MIN_Q_STEPS]
     args = [tuple(np.asarray(a, float) for a in tracks[i]) for i in long]
     for i, ll in zip(long, _ENGINES[engine][1](args, _Q_GRID)):
         q[i] = float(_Q_GRID[int(np.argmax(ll))])
