@@ -118,10 +118,16 @@ def threshold_ratio_of(on_before, off_after, levels=None):
     4–10 % off at 0.6 and 1.7). levels: (a, b) counted in levels instead of events (a pixel
     with a refractory period skips levels: run_levels). Changes with >= 3 events on each
     flank; 1 when there are too few."""
+    r = _measured_ratio(on_before, off_after, levels)
+    return 1.0 if r is None else r
+
+
+def _measured_ratio(on_before, off_after, levels=None):
+    """threshold_ratio_of, or None when too few changes tell."""
     m = (np.asarray(on_before) >= 2) & (np.asarray(off_after) >= 3)
     a, b = (np.asarray(on_before) + 1, np.asarray(off_after)) if levels is None else levels
     if m.sum() < _MIN_RATIO_CHANGES:
-        return 1.0
+        return None
     return float(np.clip(np.sum(a[m] - 0.5) / np.sum(b[m]), 0.25, 4.0))
 
 
@@ -201,27 +207,22 @@ def run_levels(order, t, change, on_before, off_after, refractory_us):
     return a, b
 
 
-def gap_floor_us(t, key, p, quantile=1e-3, max_events=2_000_000):
-    """The `quantile` of the gaps between consecutive same-polarity events of a pixel (of the
-    first `max_events` events), µs: a pixel with a refractory period r fires no two events
-    closer than r, so this floor is near r where a sensor has one (timestamp jitter spreads
-    it both ways: 145 µs on the simulator's 100 µs with 20 µs jitter) — a hint for
-    estimate.refractory_us; None without such gaps."""
+def sensor_hints(t, key, p, quantile=1e-3, max_events=2_000_000):
+    """(gap floor µs, OFF/ON threshold ratio) of the first `max_events` events, from one
+    pixel-then-time order. The floor is the `quantile` of the gaps between consecutive
+    same-polarity events of a pixel: a pixel with a refractory period r fires no two events
+    closer than r, so it lies near r where a sensor has one (timestamp jitter spreads it both
+    ways: 145 µs on the simulator's 100 µs with 20 µs jitter) — a hint for
+    estimate.refractory_us; None without such gaps. The ratio is threshold_ratio_of the
+    ON→OFF changes; None when too few changes tell (it would default to 1)."""
     t, key, p = (np.asarray(a)[:max_events] for a in (t, key, p))
     order = _pixel_then_time(key, t, engine="numpy")
     k, ts, ps = key[order], t[order], p[order]
     same = (k[1:] == k[:-1]) & (ps[1:] == ps[:-1])
     gaps = np.diff(ts)[same]
-    return float(np.quantile(gaps, quantile)) if len(gaps) else None
-
-
-def run_ratio(t, key, p, max_events=2_000_000):
-    """threshold_ratio_of the ON→OFF changes of the first `max_events` events (None when
-    there are too few changes to tell: the ratio would default to 1)."""
-    t, key, p = (np.asarray(a)[:max_events] for a in (t, key, p))
-    _, _, (_, on_before, off_after) = _change_runs(t, key, p, "numpy")
-    enough = np.count_nonzero((on_before >= 2) & (off_after >= 3)) >= _MIN_RATIO_CHANGES
-    return threshold_ratio_of(on_before, off_after) if enough else None
+    floor = float(np.quantile(gaps, quantile)) if len(gaps) else None
+    _, on_before, off_after = _runs(order, key, p)
+    return floor, _measured_ratio(on_before, off_after)
 
 
 def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):

@@ -24,11 +24,10 @@ def summary(rec):
            "event_rate_hz": len(ev) / dur_s if dur_s > 0 else None,
            "on_fraction": on / len(ev) if len(ev) else None, "imu": rec.imu is not None}
     if len(ev):
-        from ..crossings import gap_floor_us, pixel_keys, run_ratio
+        from ..crossings import pixel_keys, sensor_hints
 
-        key = pixel_keys(ev.x, ev.y, ev.width)
-        out["gap_floor_us"] = gap_floor_us(ev.t, key, ev.p)
-        out["threshold_ratio"] = run_ratio(ev.t, key, ev.p)
+        out["gap_floor_us"], out["threshold_ratio"] = sensor_hints(
+            ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p)
     if rec.imu is not None:
         out.update(imu_samples=len(rec.imu), imu_rate_hz=rec.imu.rate_hz)
     if rec.camera is not None:
