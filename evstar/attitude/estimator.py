@@ -304,17 +304,18 @@ class _GyroIntegral:
     over an interval (from the exact integral) and the pieces between samples."""
 
     def __init__(self, imu):
+        from ..motion.imu_integration import gyro_at
+
         self.t = imu.t_cam.astype(float)
         self.g = imu.gyro_cam
+        self._at = gyro_at(imu)
         dt = np.diff(self.t) * 1e-6
         self.G = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (self.g[1:] + self.g[:-1]) * dt[:, None], 0)]
 
     def at(self, t):
         """Readings (n, 3) at times (n,), or (3,) at one time (held beyond the ends)."""
-        one = np.ndim(t) == 0
-        t = np.atleast_1d(np.asarray(t, float))
-        out = np.stack([np.interp(t, self.t, self.g[:, k]) for k in range(3)], 1)
-        return out[0] if one else out
+        out = self._at(np.atleast_1d(np.asarray(t, float)))
+        return out[0] if np.ndim(t) == 0 else out
 
     def integral(self, t):
         """∫ gyro dt (rad) from the first sample to each t (n,)."""
