@@ -58,19 +58,22 @@ _MIN_RATIO_CHANGES = 50
 
 
 def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
-                  with_ratio=False, refractory_us=0.0):
+                  with_ratio=False, refractory_us=0.0, profiles=None):
     """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
     by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
     same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
     runs: threshold_ratio_of). refractory_us: the pixels' refractory period; > 0 counts the
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the
-    ratio used)."""
+    ratio used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
+    of the crossings it still wants (pairs as without a refractory period)."""
     order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
     if threshold_ratio != AUTO:
         r = float(threshold_ratio)
     else:
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
         r = threshold_ratio_of(on_before, off_after, levels)
+    if profiles is not None:
+        _add_profiles(profiles, order, t, change, _pair_counts(on_before, off_after, r, max_pairs), r)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
         k, sums, sq = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
@@ -154,26 +157,41 @@ def _runs(order, key, p):
 def _pair_sums(order, t, change, k, ratio):
     """Sums of the pair midpoints and of their squares per change (the kernel's
     specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
-    ON steps before c, interpolated between the ON events around it where not whole."""
-    t = t[order]
-    # changes by pairs, most first: those still pairing at j are a prefix
-    by_k = np.argsort(-k, kind="stable")
-    c, n_at = change[by_k], np.bincount(k, minlength=int(k.max(initial=0)) + 1)[::-1].cumsum()[::-1]
-    sums, sq = np.zeros(len(c)), np.zeros(len(c))
-    for j in range(1, int(k.max(initial=0)) + 1):
-        m = n_at[j]
+    ON steps before c, interpolated between the ON events around it where not whole
+    (level_midpoints); summed in the order of j."""
+    mids = level_midpoints(order, t, change, k, ratio)
+    sums, sq = np.zeros(len(change)), np.zeros(len(change))
+    for j in range(mids.shape[1]):
+        mid = np.where(k > j, mids[:, j], 0.0)
+        sums += mid
+        sq += mid * mid
+    return sums, sq
+
+
+def level_midpoints(order, t, change, k, ratio):
+    """(n, max k) midpoint of each level pair j = 1..k of the changes (NaN beyond k), as
+    _pair_sums pairs them (their mean is its sum / k)."""
+    ts = t[order]
+    mids = np.full((len(change), int(k.max(initial=0))), np.nan)
+    for j in range(1, mids.shape[1] + 1):
+        m = np.flatnonzero(k >= j)
+        c = change[m]
         x = j * ratio
         j0 = int(np.floor(x + 1e-9))
         f = x - j0
         if f < 1e-9:
-            mid = 0.5 * (t[c[:m] - j0] + t[c[:m] + j])
+            rise = ts[c - j0].astype(np.float64)
         else:
-            rise = t[c[:m] - j0].astype(np.float64) * (1 - f) + t[c[:m] - j0 - 1].astype(np.float64) * f
-            mid = 0.5 * (rise + t[c[:m] + j].astype(np.float64))
-        sums[:m] += mid
-        sq[:m] += mid * mid
-    sums[by_k], sq[by_k] = sums.copy(), sq.copy()       # back to the changes' order
-    return sums, sq
+            rise = ts[c - j0].astype(np.float64) * (1 - f) + ts[c - j0 - 1].astype(np.float64) * f
+        mids[m, j - 1] = 0.5 * (rise + ts[c + j].astype(np.float64))
+    return mids
+
+
+def _add_profiles(profiles, order, t, change, k, ratio):
+    """Give `profiles` the level midpoints of the changes it wants."""
+    sel = profiles.wanted(k)
+    if len(sel):
+        profiles.add(k[sel], level_midpoints(order, t, change[sel], k[sel], ratio))
 
 
 #: most reference levels one event may stand for: a gap within r/3 of the refractory period

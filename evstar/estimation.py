@@ -50,18 +50,18 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0):
+                    refractory_us=0.0, profiles=None):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.key_crossings). with_ratio: return
-    (crossings, the ratio used)."""
+    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, 1.0 if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return key_crossings(*_near_kept(events, keep, radius_px), events.width,
                          threshold_ratio=threshold_ratio, with_ratio=with_ratio,
-                         refractory_us=refractory_us)
+                         refractory_us=refractory_us, profiles=profiles)
 
 
 def _near_kept(events, keep, radius_px):
@@ -90,10 +90,11 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None):
+             sensor=None, measured_lag=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
-    (width, height) are dropped: there is no star to report there."""
+    (width, height) are dropped: there is no star to report there. measured_lag: the
+    pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given."""
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster (evstar.pooling)
@@ -110,8 +111,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         mine = _crossings_by_group(crossings, ests)
-        ests = [smoother.refine(est, cents, crossings[m], prior, sig, e.along_weight, t0_us,
-                                pixel_lag(e.pixel_lag_file))[0]
+        lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
+        ests = [smoother.refine(est, cents, crossings[m], prior, sig, e.along_weight, t0_us, lag)[0]
                 for est, m, (cents, sig, prior) in zip(ests, mine, groups)]
     est = np.concatenate(ests)
     rows = _merge(out[centroids["track"] < 0], out, est)

@@ -313,6 +313,9 @@ ESTIMATE = Params(
     Param("pixel_lag_file", str, None, "pixel lag by brightness from `evstar calibrate` "
           "(JSON): each pixel crossing is moved back by its lag (none: no correction)",
           optional=True, checker=check_path, valid="a file path"),
+    Param("measure_lag", bool, True, "without a pixel_lag_file, measure the pixels' "
+          "low-pass lag from the crossings' level profiles (evstar.level_lag; used only where "
+          "its model explains them)"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),

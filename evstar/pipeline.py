@@ -240,7 +240,7 @@ class Pipeline:
 
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
         return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior,
-                                                 span, state.sensor)
+                                                 span, state.sensor, state.measured_lag())
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None,
                 span_us=None):
@@ -350,7 +350,8 @@ class _RunState:
     events are dropped before extraction) and the pixel crossings it gathers for its
     estimator, span by span of the calibration window's length (chunk_frames frames; a
     crossing whose flanks fall in two spans is lost), the sensor's OFF/ON threshold ratio
-    measured on the first span (the calibration window) unless configured. A streamed run's
+    measured on the first span (the calibration window) unless configured, and the
+    crossings' level profiles for the lag estimate (evstar.level_lag). A streamed run's
     chunks are those spans, so it gathers the same crossings as a run in memory."""
 
     def __init__(self, config, width, height, t0_us, hot=None):
@@ -358,6 +359,11 @@ class _RunState:
         self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
+        self.profiles = None
+        if e.estimator == "crossings" and e.measure_lag and e.pixel_lag_file is None:
+            from .level_lag import LevelProfiles
+
+            self.profiles = LevelProfiles()
 
     def add_crossings(self, events, keep):
         from .estimation import chunk_crossings
@@ -370,14 +376,20 @@ class _RunState:
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, self.threshold_ratio = chunk_crossings(
                     events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
-                    refractory_us=e.refractory_us)
+                    refractory_us=e.refractory_us, profiles=self.profiles)
             else:
                 crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
-                                            self.threshold_ratio, refractory_us=e.refractory_us)
+                                            self.threshold_ratio, refractory_us=e.refractory_us,
+                                            profiles=self.profiles)
             self._crossings.append(crossings)
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None
+
+    def measured_lag(self):
+        """The pixels' lag measured from the crossings' level profiles (None: not measured,
+        or no low-pass found)."""
+        return None if self.profiles is None else self.profiles.lag()
 
 
 def _with_context(windows, dt_us, desc, progress):

@@ -1,0 +1,116 @@
+"""The pixels' low-pass lag measured from the recording itself: crossings' level profiles.
+
+A pixel crossing (evstar.crossings) pairs the rising and the falling time of each reference
+level its intensity passed; level j (counted down from the top, j = 1..k) has the midpoint
+m_j. A photoreceptor whose cutoff grows with its photocurrent (f_c ∝ I^γ, v2e's model; what
+Reed et al.'s EBS-EKF measure on the night sky) delays level j by τ(I_j), and the levels are
+C apart in log intensity, so
+
+    m_j = t0 + a·ρ^j        (ρ = e^{γC}, one per sensor; a per crossing, by its peak)
+
+while a pixel without a low-pass has flat profiles. The lag of the crossing's mean time is
+m̄ − t0: the geometric trend's extrapolation to a level bright enough to have none. Per
+number of pairs k the median demeaned profile D_k(j) = a_k·ρ^j + c_k is fitted (a_k, c_k
+linear, ρ shared, on a grid), and the crossing lag is −c_k. The deepest level is left out
+of the shape where a profile has >= 5: near the background τ approaches the pulse's own
+length and the quasi-static model lags it less than it really is.
+
+Trusted only where the model explains the profiles (R² >= MIN_R2): a sensor without a
+low-pass has profiles of timestamp jitter, refractory and threshold-ratio effects (R²
+0.77–0.98 on the simulator's default and mismatched-threshold sensors, >= 0.998 with a
+30 or 60 Hz dark-sky low-pass), whose extrapolation would be noise.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: fewest crossings with k pairs for a profile of k
+MIN_PROFILES = 10
+#: crossings per k a run keeps for the fit (the median profile of more tells no more)
+MAX_PROFILES = 2000
+#: least fraction of the profiles' variance the geometric lag must explain to be used
+MIN_R2 = 0.99
+#: profiles with at least this many levels drop their deepest from the shape fit
+_DROP_BOTTOM_FROM = 5
+#: ρ's grid: C·γ from 0.1 to 0.9 (contrast thresholds of DVS pixels are ~0.1–0.5)
+_RHOS = np.exp(np.linspace(0.1, 0.9, 161))
+
+
+class LevelProfiles:
+    """Demeaned level-midpoint profiles of crossings, by number of pairs k (at most
+    MAX_PROFILES each), gathered chunk by chunk."""
+
+    def __init__(self):
+        self._by_k = {}
+
+    def wanted(self, k):
+        """Indices into `k` (pairs per crossing) of the crossings still wanted: per k >= 2,
+        the first up to MAX_PROFILES less those held."""
+        k = np.asarray(k)
+        parts = [np.flatnonzero(k == kk)[: MAX_PROFILES - self._count(kk)]
+                 for kk in np.unique(k[k >= 2]) if self._count(kk) < MAX_PROFILES]
+        return np.sort(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+    def add(self, k, mids):
+        """k (n,) pairs and mids (n, max k) level midpoints (µs; beyond k ignored) of
+        crossings the caller found wanted."""
+        for kk in np.unique(k[k >= 2]):
+            rows = mids[k == kk, :kk]
+            self._by_k.setdefault(int(kk), []).append(rows - rows.mean(axis=1, keepdims=True))
+
+    def _count(self, kk):
+        return sum(len(a) for a in self._by_k.get(int(kk), []))
+
+    def medians(self):
+        """{k: (median demeaned profile (k,), crossings)} for each k with MIN_PROFILES."""
+        out = {}
+        for kk, parts in sorted(self._by_k.items()):
+            rows = np.concatenate(parts)
+            if len(rows) >= MIN_PROFILES:
+                out[kk] = (np.median(rows, axis=0), len(rows))
+        return out
+
+    def lag(self):
+        """The measured PixelLag (one speed column: the lag of a level is a time), or None
+        when the profiles are too few or not a low-pass's (fit_lag)."""
+        fit = fit_lag(self.medians())
+        if fit is None:
+            return None
+        from .calibration import PixelLag
+
+        ks, lag_us, r2, rho = fit
+        return PixelLag(ks, [1.0], lag_us[:, None], np.zeros((len(ks), 1)),
+                        {"source": "level profiles", "r2": round(r2, 4), "rho": round(rho, 4)})
+
+
+def fit_lag(profiles):
+    """(k values, lag µs per k, R², ρ) of the geometric model fitted to `profiles` ({k:
+    (median demeaned profile, count)}), or None when fewer than two profiles have >= 3
+    levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays)."""
+    shaped = {k: v for k, v in profiles.items() if _levels(k) >= 3}
+    deep = {k: v for k, v in shaped.items() if k >= _DROP_BOTTOM_FROM}
+    shape = deep if len(deep) >= 2 else shaped
+    if len(shape) < 2:
+        return None
+    total = sum(n * np.sum((D[:_levels(k)] - D[:_levels(k)].mean()) ** 2) for k, (D, n) in shape.items())
+    costs = [sum(n * _fit_one(D, k, rho)[1] for k, (D, n) in shape.items()) for rho in _RHOS]
+    rho = float(_RHOS[int(np.argmin(costs))])
+    r2 = 1.0 - min(costs) / total if total > 0 else 0.0
+    if r2 < MIN_R2:
+        return None
+    ks = np.array(sorted(profiles))
+    lag = np.array([max(-_fit_one(profiles[k][0], k, rho)[0], 0.0) for k in ks])
+    return ks, lag, r2, rho
+
+
+def _levels(k):
+    """Levels of a k-pair profile that shape the fit (the deepest left out from 5)."""
+    return k - 1 if k >= _DROP_BOTTOM_FROM else k
+
+
+def _fit_one(D, k, rho):
+    """(c, residual sum of squares) of D[:levels] = a·ρ^j + c, least squares."""
+    n = _levels(k)
+    A = np.column_stack([rho ** np.arange(1, n + 1), np.ones(n)])
+    coef, *_ = np.linalg.lstsq(A, D[:n], rcond=None)
+    return float(coef[1]), float(np.sum((D[:n] - A @ coef) ** 2))

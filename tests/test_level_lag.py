@@ -1,0 +1,84 @@
+"""The pixel low-pass lag measured from crossings' level profiles (evstar.level_lag)."""
+import numpy as np
+import pytest
+
+import evstar
+from evstar import crossings, sim
+from evstar.level_lag import MAX_PROFILES, LevelProfiles, fit_lag
+
+
+def _profiles(rho, amp, ks=range(4, 13), noise_us=0.0, n=40, seed=0):
+    """{k: (median demeaned profile, n)} of m_j = t0 + a_k·ρ^j (+ noise), a_k = amp / k."""
+    rng = np.random.default_rng(seed)
+    out = {}
+    for k in ks:
+        j = np.arange(1, k + 1)
+        rows = (amp / k) * rho ** j + rng.normal(0, noise_us, (n, k)) + rng.uniform(0, 1e6, (n, 1))
+        rows -= rows.mean(axis=1, keepdims=True)
+        out[k] = (np.median(rows, axis=0), n)
+    return out
+
+
+@pytest.mark.parametrize("rho", [1.15, 1.3, 1.8])
+def test_fit_recovers_a_geometric_lag(rho):
+    amp = 4000.0
+    ks, lag, r2, got_rho = fit_lag(_profiles(rho, amp, noise_us=20.0))
+    want = np.array([(amp / k) * np.mean(rho ** np.arange(1, k + 1)) for k in ks])
+    assert abs(got_rho - rho) < 0.03 * rho and r2 > 0.99
+    np.testing.assert_allclose(lag, want, rtol=0.08)
+
+
+def test_profiles_without_a_lowpass_give_none():
+    rng = np.random.default_rng(1)
+    flat = {k: (rng.normal(0, 60.0, k), 50) for k in range(3, 12)}
+    assert fit_lag(flat) is None
+    assert fit_lag({3: (np.array([-1.0, 0.0, 1.0]), 50)}) is None      # one profile: no shape
+
+
+def test_profiles_keep_at_most_their_cap_per_k():
+    prof = LevelProfiles()
+    k = np.array([1, 2, 3] * (MAX_PROFILES + 10))
+    for _ in range(2):
+        sel = prof.wanted(k)
+        prof.add(k[sel], np.zeros((len(sel), 3)))
+    med = prof.medians()
+    assert sorted(med) == [2, 3] and all(n == MAX_PROFILES for _, n in med.values())
+    assert len(prof.wanted(k)) == 0
+
+
+def test_level_midpoints_average_to_the_pair_sums():
+    rng = np.random.default_rng(3)
+    n = 20000
+    t = np.sort(rng.integers(0, 10**6, n))
+    key = rng.integers(0, 50, n).astype(np.uint32)
+    p = (rng.random(n) < 0.5).astype(np.int8)
+    order = np.lexsort((t, key))
+    change, nb, na = crossings._runs(order, key, p)
+    for ratio in (1.0, 0.7, 1.6):
+        k = crossings._pair_counts(nb, na, ratio, 16)
+        m = k > 0
+        mids = crossings.level_midpoints(order, t, change[m], k[m], ratio)
+        sums, _ = crossings._pair_sums(order, t, change[m], k[m], ratio)
+        np.testing.assert_allclose(np.nanmean(mids, axis=1), sums / k[m], rtol=0, atol=1e-6)
+        assert np.all(np.isnan(mids) == (np.arange(mids.shape[1]) >= k[m][:, None]))
+
+
+def _error(run, **settings):
+    cfg = evstar.Config().replace(**{f"estimate.{k}": v for k, v in settings.items()})
+    r = evstar.Pipeline(cfg).run(run.events, None, run.camera, truth=run.truth)
+    return r.metrics["centroid_error_px"]["mean"], r.centroids
+
+
+def test_measured_lag_removes_the_dark_sky_trail():
+    """A dark-sky photoreceptor (15 Hz at the background: not the preset's 30) at 8 °/s."""
+    dark = sim.SensorSpec.dark_sky(cutoff_hz_background=15.0)
+    run = sim.simulate(sim.paper_preset(8.0, magnitude=3.0, sensor=dark, duration_s=0.4), seed=5)
+    raw, _ = _error(run, measure_lag=False)
+    measured, _ = _error(run)
+    assert raw > 0.25 and measured < raw / 4, (raw, measured)
+
+
+def test_a_sensor_without_lowpass_is_left_as_it_was():
+    run = sim.simulate(sim.paper_preset(8.0, magnitude=3.0, duration_s=0.4), seed=5)
+    (_, off), (_, on) = _error(run, measure_lag=False), _error(run)
+    np.testing.assert_array_equal(off, on)
