@@ -19,6 +19,11 @@ seed 4). Dark-sky rows also show the crossings estimator with the lag `evstar ca
 measured on a separate calibration recording of the same sensor (evstar.calibration); every
 row also shows it told the sensor's refractory period (estimate.refractory_us: the
 simulator's 100 µs, a bias setting a user knows; the seventh session's level counting).
+The crossings estimator measures the pixels' low-pass lag from the data by default
+(evstar.level_lag, the eighth session); a column shows it without (the seventh session's
+default). A fourth part, "fresh-8" (a 20 Hz dark-sky photoreceptor with a 1 kHz ceiling and
+0.3 thresholds, 5 and 14 °/s, magnitudes 3.5/4.5, PSF σ 1.3, its sinusoid with IMU, and the
+default sensor, seed 13), was run once when that was done.
 
     python perf/study_accuracy.py [--quick]
 
@@ -38,6 +43,7 @@ import tempfile
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, estimation, sim
+from evstar.level_lag import LevelProfiles
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 ESTIMATORS = ("mean", "track", "crossings")
@@ -48,7 +54,11 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "asym": lambda: sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15,
                                             noise_hz=3.0, jitter_us=50.0),
            # a dark sky with a photoreceptor twice as fast at the background level
-           "dark-sky-60": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=60.0)}
+           "dark-sky-60": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=60.0),
+           # a slower dark-sky photoreceptor, a lower ceiling and coarser thresholds
+           "dark-sky-20": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=20.0,
+                                                   cutoff_hz_max=1000.0, threshold_on=0.3,
+                                                   threshold_off=0.3)}
 
 
 def dev_grid():
@@ -86,6 +96,16 @@ def fresh_grid():
                seed=11)
 
 
+def fresh8_grid():
+    """Settings the eighth session's measured lag (evstar.level_lag) was not written on: run
+    once, when it was done (seed 13)."""
+    for rate, mag in itertools.product((5, 14), (3.5, 4.5)):
+        yield dict(set="fresh-8", motion=rate, mag=mag, psf=1.3, sensor="dark-sky-20", comp="none",
+                   seed=13)
+    yield dict(set="fresh-8", motion="sine", mag=4, psf=1.0, sensor="dark-sky-20", comp="imu", seed=13)
+    yield dict(set="fresh-8", motion=14, mag=4.5, psf=1.3, sensor="default", comp="none", seed=13)
+
+
 def scenario(s):
     sensor = SENSORS[s["sensor"]]()
     if s["motion"] == "sine":
@@ -113,8 +133,10 @@ def run_scene(s):
     t0 = int(ev.t[0])
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
+    profiles = LevelProfiles()   # the pixels' lag from the data (estimate.measure_lag)
     crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
-                                           cfg.estimate.threshold_ratio)
+                                           cfg.estimate.threshold_ratio, profiles=profiles)
+    lag = profiles.lag()
     refractory_us = SENSORS[s["sensor"]]().refractory_us      # the sensor's setting, known
     crossings_r = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
                                              cfg.estimate.threshold_ratio, refractory_us=refractory_us)
@@ -122,15 +144,16 @@ def run_scene(s):
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
-    for name in ESTIMATORS + ("refractory",) + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
+    for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
                                "estimate.pixel_lag_file": lag_file(s["sensor"], s["psf"])})
         else:
-            c = cfg.replace(**{"estimate.estimator": "crossings" if name == "refractory" else name,
+            c = cfg.replace(**{"estimate.estimator": name if name in ESTIMATORS else "crossings",
                                "estimate.refractory_us": refractory_us if name == "refractory" else 0.0})
         rows = estimation.estimate(linked, c, t0, crossings_r if name == "refractory" else crossings,
-                                   prior, (t0, int(ev.t[-1])), (ev.width, ev.height))
+                                   prior, (t0, int(ev.t[-1])), (ev.width, ev.height),
+                                   None if name == "no_lag" else lag)
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 
@@ -153,12 +176,13 @@ def lag_file(sensor, psf, _done={}):
 def markdown(rows):
     head = ("| set | motion | mag | PSF σ | sensor | comp | ev/frame | bound px | "
             + " | ".join(f"{e} mean / max / frames / false" for e in ESTIMATORS) + " |")
-    head += " crossings, refractory period known | crossings + lag file (dark sky) |"
-    lines = [head, "|" + "---|" * (10 + len(ESTIMATORS))]
+    head += (" crossings, refractory period known | crossings + lag file (dark sky) |"
+             " crossings, lag not measured |")
+    lines = [head, "|" + "---|" * (11 + len(ESTIMATORS))]
     for r in rows:
         cells = [r["set"], str(r["motion"]), str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
                  f"{r['events_per_frame']:.0f}", f"{r['bound_px']:.3f}"]
-        for e in ESTIMATORS + ("refractory", "calibrated"):
+        for e in ESTIMATORS + ("refractory", "calibrated", "no_lag"):
             m = r.get(e)
             cells.append("—" if m is None else
                          f"{m['mean']:.3f} / {m['max']:.2f} / {100 * m['frames']:.0f} % / "
@@ -179,12 +203,13 @@ def plot(rows, path):
     ax = fig.add_subplot()
     for name, colour in zip(ESTIMATORS + ("calibrated",),
                             ("tab:grey", "tab:blue", "tab:red", "tab:green")):
-        for part, fill in (("dev", colour), ("held-out", "none"), ("fresh", "none")):
+        for part, fill in (("dev", colour), ("held-out", "none"), ("fresh", "none"),
+                           ("fresh-8", "none")):
             sel = [r for r in rows if r["set"] == part and name in r
                    and np.isfinite(r[name]["mean"])]
             ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
-                       marker="^" if part == "fresh" else "o")
+                       marker={"fresh": "^", "fresh-8": "s"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
@@ -203,7 +228,7 @@ def main(argv=None):
         plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
         return
     rows = [run_scene(s) for s in itertools.chain(dev_grid(), held_out_grid(args.quick),
-                                                  fresh_grid())]
+                                                  fresh_grid(), fresh8_grid())]
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "study_accuracy.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / "study_accuracy.md").write_text("# Star-position accuracy by estimator\n\n"
