@@ -48,7 +48,8 @@ class Extractor:
     and a moving star's leading ON and trailing OFF lobes differ in polarity, so both stay
     whole. None disables the check.
     lobe_gap_px: an ON-only and an OFF-only cluster of one frame closer than this are a
-    slow star's two lobes and are joined (evstar.lobes); None never joins.
+    slow star's two lobes and are joined (evstar.lobes), and an OFF-only cluster behind a
+    moving star is dropped as its trail (evstar.lobes.trails); None never joins, keeps all.
     clustering: "grid" (Taichi kernels on `device`: grid DBSCAN, per-cluster moments and a
     screen that leaves the split test only the clusters that may hold two peaks) or
     "sklearn" (scikit-learn's DBSCAN on the same weighted cells: the reference). Both give
@@ -142,6 +143,8 @@ class Extractor:
         out = self._table(m, c.frame, frame_t0[c.frame - c.f0], c.t0, events)
         order = np.arange(k) * 2  # ties in (t, x) keep cluster order (halves after it)
         keep = out["n_events"] >= self.min_cluster_size
+        if self.lobe_gap_px is not None:
+            keep &= ~lobes.trails(c.frame, m["n"], m["sx"], m["sy"])
         if self.split_valley:
             maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
             by_polarity, peaks = maybe.copy(), None

@@ -232,7 +232,8 @@ EXTRACT = Params(
           "peak (none: never split)", low=0, high=1, open_low=True, open_high=True,
           optional=True),
     Param("lobe_gap_px", float, 8.0, "an ON-only and an OFF-only cluster of one frame closer "
-          "than this are one slow star's two lobes, joined (none: never join)", low=0,
+          "than this are one slow star's two lobes, joined; an OFF-only cluster behind a "
+          "moving star is dropped as its trail (none: never join, keep all)", low=0,
           open_low=True, optional=True, unit="px"),
     Param("pool_frames", int, 4, "the events the filter rejected are filtered and clustered "
           "again in frames this many times longer, for faint stars (1: no second look)",

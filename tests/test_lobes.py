@@ -42,6 +42,24 @@ def test_lobes_farther_than_the_gap_stay_apart():
     assert len(Extractor(lobe_gap_px=12.0).centroids(ev)) == 5
 
 
+def test_a_dark_sky_trail_of_off_events_is_no_star():
+    """A star's cluster (both polarities) and, 20 px behind it, OFF events alone (a slow
+    photoreceptor relaxing after the star passed): one centroid, the star's."""
+    rng = np.random.default_rng(4)
+    parts = []
+    for f in range(5):
+        for x, p, n in ((60.0 + 6 * f, 1, 40), (58.0 + 6 * f, 0, 40), (40.0 + 6 * f, 0, 8)):
+            t = f * 10_000 + rng.integers(0, 10_000, n)
+            parts.append(np.column_stack([t, np.round(x + rng.normal(0, 0.6, n)),
+                                          np.round(40 + rng.normal(0, 0.6, n)), np.full(n, p)]))
+    a = np.concatenate(parts).astype(np.int64)
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    ev = Events(a[:, 0], a[:, 1], a[:, 2], a[:, 3], 120, 80)
+    c = Extractor().centroids(ev)
+    assert len(c) == 5 and np.all(np.abs(c["x"] - (59.0 + 6 * c["frame"])) < 1.0)
+    assert len(Extractor(lobe_gap_px=None).centroids(ev)) == 10
+
+
 def test_a_lobe_pairs_only_with_its_mutual_nearest_opposite():
     # a second ON-only target beyond the star's ON lobe: the OFF lobe pairs with the nearer
     ev = lobes_scene(lone_on=(71.0, 40.0))

@@ -346,3 +346,40 @@ def test_crossings_go_to_the_group_of_their_nearest_track():
     c["t"], c["x"], c["y"] = [5_000, 10_000, 15_000], [15, 20, 25], [51, 53, 52]
     mine = _crossings_by_group(c, groups)
     assert sorted(mine[0].tolist()) == [0] and sorted(mine[1].tolist()) == [1, 2]
+
+
+def _reversing_track():
+    """Rows of a star moving along x as x = 50 + 40·sin(2π·t), t in s, 10 ms apart."""
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    t = np.arange(0, 1_000_000, 10_000)
+    rows = np.zeros(len(t), ESTIMATE_DTYPE)
+    rows["t"], rows["x"], rows["y"] = t, 50 + 40 * np.sin(2 * np.pi * t * 1e-6), 20.0
+    rows["vx"] = 80 * np.pi * np.cos(2 * np.pi * t * 1e-6)
+    return rows
+
+
+def test_crossings_at_a_turn_are_left_out_and_centroids_weigh_there():
+    from evstar.smoothing import _along_weights, _single_passes, _turns
+
+    track = _reversing_track()
+    turns = _turns(track, radius=3.0)
+    # the turns of the sinusoid: x 90 at 0.25 s, x 10 at 0.75 s
+    assert len(turns) == 2
+    (a0, a1, xa, _), (b0, b1, xb, _) = turns
+    assert abs(xa - 90) < 0.1 and a0 < 250_000 < a1 and abs(xb - 10) < 0.1 and b0 < 750_000 < b1
+    t_c = np.array([250_000.0, 250_000.0, 100_000.0, 240_000.0])
+    q_c = np.array([[89.0, 20.0], [80.0, 20.0], [89.0, 20.0], [88.0, 20.0]])
+    # near the turn point in its time: out; far from it, or at another time: kept
+    assert list(_single_passes(np.arange(4), t_c, q_c, turns, 3.0)) == [1, 2]
+    w = _along_weights(np.array([250_000, 100_000, 750_000]), turns, 0.1)
+    assert list(w) == [1.0, 0.1, 1.0]
+
+
+def test_a_track_that_never_turns_keeps_every_crossing():
+    from evstar.smoothing import _single_passes, _turns
+
+    track = _reversing_track()[:20]              # 0–0.19 s: before the first turn
+    assert _turns(track, 3.0) == []
+    m = np.arange(5)
+    assert list(_single_passes(m, np.zeros(5), np.zeros((5, 2)), [], 3.0)) == list(m)
