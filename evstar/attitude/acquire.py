@@ -37,12 +37,12 @@ def detect(x, y, width, height, alpha):
     counts = np.zeros((height, width), np.int64)
     np.add.at(counts, (np.asarray(y, np.int64), np.asarray(x, np.int64)), 1)
     active = (counts > 0).astype(np.int64)
-    p = active.mean()
     n = BOX * BOX
-    if p == 0 or p == 1:
+    chance = stats.binom.sf(np.arange(n + 1) - 1, n, active.mean())   # P(>= k of n active)
+    enough = np.flatnonzero(chance <= alpha)
+    if not len(enough) or not counts.any():
         return np.zeros((0, 2)), np.zeros(0)
-    k = np.arange(n + 1)
-    need = int(k[stats.binom.sf(k - 1, n, p) <= alpha][0]) if stats.binom.sf(n - 1, n, p) <= alpha else n + 1
+    need = int(enough[0])
     box = ndimage.convolve(active, np.ones((BOX, BOX), np.int64), mode="constant")
     peak = (box >= need) & (box == ndimage.maximum_filter(box, BOX + 2, mode="constant"))
     labels, n_peaks = ndimage.label(peak, np.ones((3, 3)))     # a plateau is one candidate
