@@ -391,6 +391,9 @@ IDENTIFY = Params(
           "search accepts (centroid error / star separation)", low=0, high=0.1, open_low=True),
     Param("timeout_ms", int, 500, "give up a lost-in-space search after this long", low=1,
           high=600_000, unit="ms"),
+    Param("pooled_alphas", float, [1e-6, 1e-4, 1e-3], "identify_events: false-alarm "
+          "probabilities per pixel of the pooled-window star detection, tried in turn (strictest "
+          "first) until one identifies", low=0, high=1, open_low=True, many=True),
 )
 
 # -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator); not part of Config ----

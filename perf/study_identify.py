@@ -5,21 +5,26 @@ pointings (uniform on the sphere, random roll, random rotation axis; seeded), th
 renders the Hipparcos stars to magnitude 7 for the first 50 ms only (so nothing later can
 leak into the answer), the real pipeline runs (MR-NDSEF, DBSCAN, tracking, crossing-time
 estimator; compensation none or imu), and the centroids of each 10 ms frame, in time order,
-go to evstar.attitude.identify until one gives a verified fix. A pointing succeeds when that
+go to evstar.attitude.identify until one gives a verified fix; when none does, all the
+window's events go to evstar.attitude.identify_events (pooled, with a window-adaptive
+detection threshold; warped by the gyro with compensation imu). A pointing succeeds when that
 fix names the stars right: at least 80 % of its matched catalogue stars project, with the
 true attitude at each centroid's time, within 3 px of their centroids (and the attitude is
 within 1°). A verified fix that fails this is a false fix. The attitude error of the
 successful fixes (rotation angle between fitted and true attitude, dominated by roll about
-the boresight) is reported separately.
+the boresight) is reported separately. As a check of its false fixes on every row,
+identify_events also runs alone on each pointing's whole window ("pooled alone"); --no-pooled
+leaves both out (frame centroids only, as before issue 14's fix).
 
     python perf/study_identify.py [--pointings 50] [--presets davis346 evk4] [--rates 0 5 10 20]
-                                  [--dt-ms 10] [--out perf/results/identify.json]
+                                  [--dt-ms 10] [--no-pooled] [--out perf/results/identify.json]
 
 Writes perf/results/identify.json (per setting: success fraction, false fixes, how much of
 the window the first fix needs (the end of its 10 ms frame) and the time its centroids refer
 to, solve time median / range over all frames tried, matched stars, RMS residual, attitude
-error) and prints a table. The pipeline and simulation of one pointing are shared
-by both compensation modes.
+error, how many fixes came from the pooled window, the pooled-alone success and false
+fixes, and per failure the rate across the boresight) and prints a table. The pipeline and
+simulation of one pointing are shared by both compensation modes.
 """
 from __future__ import annotations
 
@@ -32,7 +37,7 @@ import time
 import numpy as np
 
 from evstar import Config, Pipeline, sim
-from evstar.attitude import Solver, catalog, identify
+from evstar.attitude import Solver, catalog, identify, identify_events
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 # davis346 behind 16 mm: 346 x 260 px, f ≈ 865 px (22.6° x 17.1°); evk4 behind 12 mm:
@@ -58,32 +63,57 @@ def angle_deg(R_icrs_cam, R_cw):
     return math.degrees(math.acos(min(1.0, max(-1.0, c))))
 
 
-def first_fix(cents, cam, solver, truth, t0):
-    """The first verified fix from one frame's centroids, frames in time order."""
-    tried = []
-    for frame in np.unique(cents["frame"]):
+def judge(fix, xy, t_us, cam, truth):
+    """(named right, attitude error °, fraction named right) of a verified fix whose matched
+    centroids are at pixels xy (n, 2) and times t_us (n,)."""
+    err = angle_deg(fix.R_icrs_cam, truth.rotation_at([fix.t_us])[0])
+    true_cam = np.einsum("nij,nj->ni", truth.rotation_at(t_us), catalog.directions(fix.hip))
+    named = float(np.mean(np.hypot(*(cam.project(true_cam) - xy).T) <= NAMED_WITHIN_PX))
+    return named >= NAMED_RIGHT_FRACTION and err <= TRUE_WITHIN_DEG, err, named
+
+
+def first_fix(cents, cam, solver, truth, t0, events, imu, pooled=True):
+    """The first verified fix, frames in time order from the frames' centroids, else (pooled)
+    from all the window's events (evstar.attitude.identify_events) after its last frame."""
+    tried, fix, frames = [], None, int(math.ceil(WINDOW_US / DT_US))
+    for frame in range(frames):
+        data_ms = (frame + 1) * DT_US / 1e3     # the fix needs events up to its frame's end
         c = cents[cents["frame"] == frame]
-        t_us = int(np.median(c["t"]))
-        fix = identify(np.stack([c["x"], c["y"]], axis=1), cam, t_us, solver=solver,
-                       weight=c["n_events"])
-        tried.append(fix.solve_ms)
-        if fix.ok:
-            err = angle_deg(fix.R_icrs_cam, truth.rotation_at([t_us])[0])
-            data_ms = (int(frame) + 1) * DT_US / 1e3     # the fix needs events up to its frame's end
-            m = c[fix.centroid_index]
-            true_cam = np.einsum("nij,nj->ni", truth.rotation_at(m["t"]), catalog.directions(fix.hip))
-            off = np.hypot(*(cam.project(true_cam) - np.stack([m["x"], m["y"]], axis=1)).T)
-            right = (np.mean(off <= NAMED_WITHIN_PX) >= NAMED_RIGHT_FRACTION) and err <= TRUE_WITHIN_DEG
-            return dict(ok=bool(right), false=not right, err_arcsec=err * 3600,
-                        named_right=float(np.mean(off <= NAMED_WITHIN_PX)),
-                        data_ms=data_ms, t_fix_ms=(t_us - t0) / 1e3, solve_ms=fix.solve_ms,
-                        all_solve_ms=tried, frame=int(frame),
-                        matches=fix.n_matches, residual_arcsec=fix.residual_arcsec, centroids=len(c),
+        fix = None
+        if len(c):
+            fix = identify(np.stack([c["x"], c["y"]], axis=1), cam, int(np.median(c["t"])),
+                           solver=solver, weight=c["n_events"])
+            tried.append(fix.solve_ms)
+            if fix.ok:
+                m = c[fix.centroid_index]
+                xy, t_us, source, n = np.stack([m["x"], m["y"]], axis=1), m["t"], "frame", len(c)
+        if (fix is None or not fix.ok) and pooled and frame == frames - 1:
+            fix, found = identify_events(events, cam, t0, t0 + WINDOW_US, imu=imu, solver=solver)
+            tried.append(fix.solve_ms)
+            if fix.ok:
+                xy, source, n = found[fix.centroid_index], "pooled", len(found)
+                t_us = np.full(len(xy), fix.t_us)
+        if fix is not None and fix.ok:
+            right, err, named = judge(fix, xy, t_us, cam, truth)
+            return dict(ok=bool(right), false=not right, err_arcsec=err * 3600, named_right=named,
+                        data_ms=data_ms, t_fix_ms=(fix.t_us - t0) / 1e3, solve_ms=fix.solve_ms,
+                        all_solve_ms=tried, frame=frame, source=source,
+                        matches=fix.n_matches, residual_arcsec=fix.residual_arcsec, centroids=n,
                         status=fix.status)
-    return dict(ok=False, false=False, all_solve_ms=tried, status="none" if not tried else fix.status)
+    return dict(ok=False, false=False, all_solve_ms=tried, status="none" if fix is None else fix.status)
 
 
-def one_pointing(preset, rate, seed, solvers):
+def pooled_alone(events, imu, cam, solver, truth, t0):
+    """identify_events on the whole window alone (a check of its false fixes on every row)."""
+    fix, found = identify_events(events, cam, t0, t0 + WINDOW_US, imu=imu, solver=solver)
+    if not fix.ok:
+        return dict(ok=False, false=False, status=fix.status)
+    xy = found[fix.centroid_index]
+    right, err, _ = judge(fix, xy, np.full(len(xy), fix.t_us), cam, truth)
+    return dict(ok=bool(right), false=not right, status=fix.status, err_arcsec=err * 3600)
+
+
+def one_pointing(preset, rate, seed, solvers, pooled=True):
     cam = sim.camera_preset(preset, CAMERAS[preset])
     rng = np.random.default_rng([seed, int(rate * 10), len(preset)])
     ra, dec, roll, axis = random_pointing(rng)
@@ -100,9 +130,14 @@ def one_pointing(preset, rate, seed, solvers):
         res = Pipeline(cfg).run(run.events, run.imu, run.camera)
         pipe_s = time.perf_counter() - t
         t0 = int(run.events.t[0]) if len(run.events) else 0
-        r = first_fix(res.centroids, cam, solvers[preset], run.truth, t0)
+        imu = run.imu if comp == "imu" else None
+        r = first_fix(res.centroids, cam, solvers[preset], run.truth, t0, run.events, imu, pooled)
         r.update(ra=ra, dec=dec, roll=roll, stars_mag6=int((stars.magnitudes <= 6).sum()),
-                 sim_s=sim_s, pipeline_s=pipe_s)
+                 cross_rate=rate * math.sqrt(max(0.0, 1 - axis[2] ** 2)), sim_s=sim_s, pipeline_s=pipe_s)
+        if pooled:   # the same call as first_fix's last try when that one was pooled
+            r["pooled_alone"] = ({k: r[k] for k in ("ok", "false", "status")} if r.get("source") == "pooled"
+                                 or (not r["ok"] and not r["false"])
+                                 else pooled_alone(run.events, imu, cam, solvers[preset], run.truth, t0))
         out[comp] = r
     return out
 
@@ -114,6 +149,10 @@ def summarise(rows):
         return dict(median=float(np.median(v)), min=float(np.min(v)), max=float(np.max(v))) if v else None
     return dict(pointings=len(rows), success=len(ok) / len(rows) if rows else math.nan,
                 false_fixes=sum(r["false"] for r in rows),
+                pooled_fixes=sum(r.get("source") == "pooled" for r in ok),
+                pooled_alone=dict(success=float(np.mean([r["pooled_alone"]["ok"] for r in rows])),
+                                  false_fixes=sum(r["pooled_alone"]["false"] for r in rows))
+                if rows and "pooled_alone" in rows[0] else None,
                 t_fix_ms=stats([r["t_fix_ms"] for r in ok]), data_ms=stats([r["data_ms"] for r in ok]),
                 solve_ms=stats(solve),
                 first_fix_solve_ms=stats([r["solve_ms"] for r in ok]),
@@ -122,14 +161,15 @@ def summarise(rows):
                 err_arcsec=stats([r["err_arcsec"] for r in ok]),
                 err_arcsec_p95=float(np.percentile([r["err_arcsec"] for r in ok], 95)) if ok else None,
                 failures=[dict(status=r["status"], false=r["false"], ra=r["ra"], dec=r["dec"],
-                               stars_mag6=r["stars_mag6"], err_arcsec=r.get("err_arcsec"),
+                               stars_mag6=r["stars_mag6"], cross_rate=r["cross_rate"], err_arcsec=r.get("err_arcsec"),
                                named_right=r.get("named_right")) for r in rows if not r["ok"]])
 
 
 def table(summary):
     lines = ["| camera | rate °/s | comp | pointings | success | false | events needed ms (median, max) | "
-             "solve ms (median, range) | matches (median) | residual \" (median) | error \" (median, max) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "solve ms (median, range) | matches (median) | residual \" (median) | error \" (median, max) | "
+             "pooled fixes | pooled alone: success, false |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for key, s in summary.items():
         preset, rate, comp = key.split("/")
         f = lambda d, k="median": f"{d[k]:.1f}" if d else "—"
@@ -137,7 +177,9 @@ def table(summary):
                      f"{s['false_fixes']} | {f(s['data_ms'])}, {f(s['data_ms'], 'max')} | "
                      f"{f(s['solve_ms'])} ({f(s['solve_ms'], 'min')}–{f(s['solve_ms'], 'max')}) | "
                      f"{f(s['matches'])} | {f(s['residual_arcsec'])} | {f(s['err_arcsec'])}, "
-                     f"{f(s['err_arcsec'], 'max')} |")
+                     f"{f(s['err_arcsec'], 'max')} | {s.get('pooled_fixes', 0)} | "
+                     + (f"{100 * s['pooled_alone']['success']:.1f} %, {s['pooled_alone']['false_fixes']} |"
+                        if s.get("pooled_alone") else "— |"))
     return "\n".join(lines)
 
 
@@ -149,6 +191,8 @@ def main():
     ap.add_argument("--rates", nargs="+", type=float, default=list(RATES))
     ap.add_argument("--dt-ms", type=float, default=DT_US / 1e3,
                     help="pseudo-frame length (10; longer frames gather more events of slow stars)")
+    ap.add_argument("--no-pooled", dest="pooled", action="store_false",
+                    help="frame centroids only (no pooled-window identification, as before issue 14's fix)")
     ap.add_argument("--out", default=str(RESULTS / "identify.json"))
     args = ap.parse_args()
     DT_US = int(round(args.dt_ms * 1e3))
@@ -158,7 +202,7 @@ def main():
     for preset in args.presets:
         for rate in args.rates:
             for seed in range(args.pointings):
-                for comp, r in one_pointing(preset, rate, seed, solvers).items():
+                for comp, r in one_pointing(preset, rate, seed, solvers, args.pooled).items():
                     rows.setdefault(f"{preset}/{rate:g}/{comp}", []).append(r)
             summary = {k: summarise(v) for k, v in rows.items()}
             out = dict(window_ms=WINDOW_US / 1e3, frame_ms=DT_US / 1e3, sim_mag_limit=SIM_MAG_LIMIT,

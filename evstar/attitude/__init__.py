@@ -10,6 +10,7 @@ attitude filter that follows identified tracks (estimator, filter, output).
     evstar.attitude.write_attitude("attitude.csv", rows)   # t,qw,qx,qy,qz,... (camera -> ICRS)
 """
 from . import catalog
+from .acquire import identify_events
 from .estimator import AttitudeEstimator, estimate
 from .filter import Mekf
 from .identify import Fix, STATUSES, identify, matrix_to_quat, pixel_rays, quat_to_matrix, wahba
@@ -17,7 +18,7 @@ from .output import (ATTITUDE_DTYPE, COLUMNS, ROW_STATUSES, quaternion, ra_dec_r
                      rotation, write_attitude)
 from .solver import Solver
 
-__all__ = ["Fix", "STATUSES", "Solver", "catalog", "identify", "matrix_to_quat", "pixel_rays",
+__all__ = ["Fix", "STATUSES", "Solver", "catalog", "identify", "identify_events", "matrix_to_quat", "pixel_rays",
            "quat_to_matrix", "wahba",
            "AttitudeEstimator", "estimate", "Mekf", "ATTITUDE_DTYPE", "COLUMNS", "ROW_STATUSES",
            "quaternion", "ra_dec_roll", "read_attitude", "rotation", "write_attitude"]

@@ -78,7 +78,7 @@ class Solver:
         folder = os.fspath(cache_dir) if cache_dir is not None else default_cache_dir()
         path = os.path.join(folder, f"tetra3rs-{_tetra3rs().__version__}-hip-fov{fov[0]:.2f}-{fov[1]:.2f}"
                                     f"-mag{cfg['mag_limit']:.2f}.bin")
-        key = (path, camera, tuple(sorted(cfg.items())))
+        key = (path, camera, tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in cfg.items())))
         with _lock:
             if key not in _cache:
                 database, built = _load_or_build(path, fov, cfg["mag_limit"])

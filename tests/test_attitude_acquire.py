@@ -1,0 +1,90 @@
+"""Lost-in-space from a window's pooled events (evstar.attitude.identify_events): the
+window-adaptive detection finds faint stars and not noise or hot pixels, a slow rotation
+mostly about the boresight that no frame identifies is identified from 50 ms pooled, with
+and without the gyro, and a field without stars gives no fix."""
+import math
+
+import numpy as np
+import pytest
+
+from evstar import Events, ParameterError, sim
+from evstar.attitude import Solver, catalog, identify, identify_events
+from evstar.attitude.acquire import detect
+
+CAM = sim.camera_preset("davis346", 16.0)
+
+
+@pytest.fixture(scope="module")
+def solver(tmp_path_factory):
+    return Solver.for_camera(CAM, cache_dir=tmp_path_factory.mktemp("attitude-cache"), timeout_ms=20_000)
+
+
+def noise(rng, p=0.08):
+    """Pixels with one event each, a fraction p of the sensor (a davis346's background over
+    50 ms)."""
+    on = np.flatnonzero(rng.random(CAM.width * CAM.height) < p)
+    return on % CAM.width, on // CAM.width
+
+
+def test_detect_finds_faint_stars_in_noise_and_not_a_hot_pixel():
+    rng = np.random.default_rng(1)
+    x, y = noise(rng)
+    stars = rng.uniform([10, 10], [CAM.width - 10, CAM.height - 10], (12, 2))
+    xs, ys = [x], [y]
+    for sx, sy in stars:      # 12 events over the star's core (some pixels twice)
+        xs.append(np.rint(sx + rng.normal(0, 0.9, 12)).astype(int))
+        ys.append(np.rint(sy + rng.normal(0, 0.9, 12)).astype(int))
+    xs.append(np.full(200, 50)), ys.append(np.full(200, 60))          # a hot pixel
+    xy, weight = detect(np.concatenate(xs), np.concatenate(ys), CAM.width, CAM.height, 1e-4)
+    d = np.hypot(*(xy[:, None] - stars[None]).transpose(2, 0, 1))
+    assert (d.min(axis=0) < 1.0).mean() >= 0.8          # most stars found, close to the truth
+    assert (d.min(axis=1) >= 2.0).sum() <= 3             # few chance candidates (~9 expected)
+    assert not np.any(np.hypot(*(xy - [50, 60]).T) < 1.5)   # the hot pixel counts once
+    assert np.all(np.diff(weight) <= 0)                  # brightest first
+    # noise alone at the strictest alpha: ~0.1 chance candidates expected
+    assert len(detect(*noise(rng), CAM.width, CAM.height, 1e-6)[0]) <= 2
+    assert len(detect(np.zeros(0, int), np.zeros(0, int), CAM.width, CAM.height, 1e-3)[0]) == 0
+
+
+def slow_roll(seed=3):
+    """1 °/s about an axis 24° from the boresight: 0.4 °/s across it — the stars move
+    0.3 px in 50 ms, and the pipeline's per-frame detection sees too few of them."""
+    axis = np.array([math.sin(math.radians(24)), 0.0, math.cos(math.radians(24))])
+    motion = sim.ConstantRate(1.0, axis=axis, R0=sim.attitude_from_radec(83.8, -5.4, 30.0))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.05, mag_limit=7.0)
+    return sim.simulate(sim.Scenario(CAM, stars, motion, 0.05), seed=seed)
+
+
+@pytest.mark.parametrize("with_imu", [False, True])
+def test_a_slow_roll_is_identified_from_its_pooled_events(solver, with_imu):
+    run = slow_roll()
+    fix, xy = identify_events(run.events, CAM, imu=run.imu if with_imu else None, solver=solver)
+    assert fix.ok and fix.n_matches >= 6
+    t0 = int(run.events.t[0])
+    assert abs(fix.t_us - (t0 + int(run.events.t[-1]) + 1) // 2) <= 1      # the window's mid-time
+    R_cw = run.truth.rotation_at([fix.t_us])[0]
+    named = CAM.project(catalog.directions(fix.hip) @ R_cw.T)
+    assert np.mean(np.hypot(*(named - xy[fix.centroid_index]).T) <= 3) >= 0.8
+    assert math.degrees(math.acos(np.clip((np.trace(fix.R_icrs_cam @ R_cw) - 1) / 2, -1, 1))) < 0.5
+
+
+def test_the_slow_roll_needs_the_looser_alphas(solver, tmp_path):
+    run = slow_roll()
+    strict = Solver.for_camera(CAM, cache_dir=solver.path.rsplit("/", 1)[0], timeout_ms=20_000,
+                               pooled_alphas=[1e-12])
+    assert strict.path == solver.path
+    fix, xy = identify_events(run.events, CAM, solver=strict)
+    assert not fix.ok and len(xy) < 4
+    with pytest.raises(ParameterError, match="pooled_alphas"):
+        Solver.for_camera(CAM, cache_dir=tmp_path, pooled_alphas=[2.0])
+
+
+def test_noise_alone_and_an_empty_window_give_no_fix(solver):
+    rng = np.random.default_rng(5)
+    x, y = noise(rng)
+    t = np.sort(rng.integers(0, 50_000, len(x)))
+    events = Events(t, x, y, rng.integers(0, 2, len(x)), CAM.width, CAM.height)
+    fix, _ = identify_events(events, CAM, solver=solver)
+    assert not fix.ok and np.all(np.isnan(fix.q_icrs_cam))
+    fix, xy = identify_events(events, CAM, 60_000, 70_000, solver=solver)
+    assert (fix.ok, fix.status, len(xy), fix.t_us) == (False, "too_few_stars", 0, 65_000)
