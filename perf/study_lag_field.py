@@ -1,0 +1,78 @@
+"""The measured pixel lag (evstar.level_lag) on star fields, where stars of many magnitudes
+share one sensor — study_accuracy's scenes hold one star each.
+
+DAVIS346 fields of 25 Hipparcos stars (`evstar simulate --preset davis346 --stars 25`,
+1 s, seed 3: never used while writing the estimator) at 6 and 14 °/s under the dark-sky
+sensor, and the default sensor at 14 °/s as the control; the default pipeline with
+estimate.measure_lag off and on. Errors against the truth per star-brightness bin (events
+per 10 ms frame), false rows (matching no star within 3 px; stars leaving over the border
+count here) per 100 frames.
+
+    python perf/study_lag_field.py
+
+Writes perf/results/study_lag_field.json and .md.
+"""
+from __future__ import annotations
+
+import json
+import pathlib
+
+import numpy as np
+
+from evstar import Config, Pipeline, accuracy
+from evstar.bench import field_scene
+
+RESULTS = pathlib.Path(__file__).resolve().parent / "results"
+SCENES = ("--preset davis346 --stars 25 --rate 6 --sensor dark-sky --duration 1 --seed 3",
+          "--preset davis346 --stars 25 --rate 14 --sensor dark-sky --duration 1 --seed 3",
+          "--preset davis346 --stars 25 --rate 14 --duration 1 --seed 3")
+BINS = ((20, np.inf), (4, 20))
+
+
+def scores(run, measure_lag):
+    ev, lab = run.events, run.truth.labels
+    n_frames = (ev.t[-1] - ev.t[0]) / 10_000
+    n_stars = run.truth.star_position(ev.t[:1]).shape[1]
+    per_star = np.bincount(lab[lab >= 0], minlength=n_stars) / n_frames
+    rows = Pipeline(Config().replace(**{"estimate.measure_lag": measure_lag})).run(
+        ev, None, run.camera).centroids
+    star, err = accuracy.match(rows, run.truth.star_position)
+    ok = star >= 0
+    out = {"false_per_100": 100 * float((~ok).sum()) / n_frames}
+    for lo, hi in BINS:
+        rate = per_star[np.maximum(star, 0)]
+        m = ok & (rate >= lo) & (rate < hi)
+        out[f">={lo}"] = ({"mean": float(err[m].mean()), "max": float(err[m].max()),
+                           "stars": int(len(np.unique(star[m])))} if m.any() else None)
+    return out
+
+
+def markdown(rows):
+    lines = ["| scene | measure_lag | stars >= 20 ev/frame: mean / max px | 4–20: mean / max px "
+             "| false rows / 100 frames |", "|---|---|---|---|---|"]
+    for r in rows:
+        cells = [r["scene"], "on" if r["measure_lag"] else "off"]
+        for lo, _ in BINS:
+            b = r[f">={lo}"]
+            cells.append("—" if b is None else f"{b['mean']:.3f} / {b['max']:.2f} ({b['stars']} stars)")
+        cells.append(f"{r['false_per_100']:.1f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main():
+    rows = []
+    for argv in SCENES:
+        run = field_scene(argv.split())
+        for measure in (False, True):
+            rows.append({"scene": argv, "measure_lag": measure, **scores(run, measure)})
+            print(rows[-1], flush=True)
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "study_lag_field.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (RESULTS / "study_lag_field.md").write_text("# Measured pixel lag on star fields\n\n"
+                                                + markdown(rows) + "\n")
+    print(markdown(rows))
+
+
+if __name__ == "__main__":
+    main()
