@@ -171,7 +171,7 @@ def _pair_sums(order, t, change, k, ratio):
 def level_midpoints(order, t, change, k, ratio):
     """(n, max k) midpoint of each level pair j = 1..k of the changes (NaN beyond k), as
     _pair_sums pairs them (their mean is its sum / k)."""
-    ts = t[order]
+    ts = lambda i: t[order[i]].astype(np.float64)   # gathered per level: few changes may ask
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
     for j in range(1, mids.shape[1] + 1):
         m = np.flatnonzero(k >= j)
@@ -179,11 +179,8 @@ def level_midpoints(order, t, change, k, ratio):
         x = j * ratio
         j0 = int(np.floor(x + 1e-9))
         f = x - j0
-        if f < 1e-9:
-            rise = ts[c - j0].astype(np.float64)
-        else:
-            rise = ts[c - j0].astype(np.float64) * (1 - f) + ts[c - j0 - 1].astype(np.float64) * f
-        mids[m, j - 1] = 0.5 * (rise + ts[c + j].astype(np.float64))
+        rise = ts(c - j0) if f < 1e-9 else ts(c - j0) * (1 - f) + ts(c - j0 - 1) * f
+        mids[m, j - 1] = 0.5 * (rise + ts(c + j))
     return mids
 
 

@@ -27,7 +27,7 @@ import numpy as np
 #: fewest crossings with k pairs for a profile of k
 MIN_PROFILES = 10
 #: crossings per k a run keeps for the fit (the median profile of more tells no more)
-MAX_PROFILES = 2000
+MAX_PROFILES = 500
 #: least fraction of the profiles' variance the geometric lag must explain to be used
 MIN_R2 = 0.99
 #: profiles with at least this many levels drop their deepest from the shape fit
@@ -93,13 +93,14 @@ def fit_lag(profiles):
     if len(shape) < 2:
         return None
     total = sum(n * np.sum((D[:_levels(k)] - D[:_levels(k)].mean()) ** 2) for k, (D, n) in shape.items())
-    costs = [sum(n * _fit_one(D, k, rho)[1] for k, (D, n) in shape.items()) for rho in _RHOS]
-    rho = float(_RHOS[int(np.argmin(costs))])
-    r2 = 1.0 - min(costs) / total if total > 0 else 0.0
+    costs = sum(n * _fit_grid(D, k)[1] for k, (D, n) in shape.items())
+    best = int(np.argmin(costs))
+    rho = float(_RHOS[best])
+    r2 = 1.0 - costs[best] / total if total > 0 else 0.0
     if r2 < MIN_R2:
         return None
     ks = np.array(sorted(profiles))
-    lag = np.array([max(-_fit_one(profiles[k][0], k, rho)[0], 0.0) for k in ks])
+    lag = np.array([max(-_fit_grid(profiles[k][0], k)[0][best], 0.0) for k in ks])
     return ks, lag, r2, rho
 
 
@@ -108,9 +109,13 @@ def _levels(k):
     return k - 1 if k >= _DROP_BOTTOM_FROM else k
 
 
-def _fit_one(D, k, rho):
-    """(c, residual sum of squares) of D[:levels] = a·ρ^j + c, least squares."""
+def _fit_grid(D, k):
+    """(c, residual sum of squares) per ρ of _RHOS for D[:levels] = a·ρ^j + c, least
+    squares (closed form: a = cov(ρ^j, D) / var(ρ^j))."""
     n = _levels(k)
-    A = np.column_stack([rho ** np.arange(1, n + 1), np.ones(n)])
-    coef, *_ = np.linalg.lstsq(A, D[:n], rcond=None)
-    return float(coef[1]), float(np.sum((D[:n] - A @ coef) ** 2))
+    d = D[:n] - D[:n].mean()
+    b = _RHOS[:, None] ** np.arange(1, n + 1)
+    bc = b - b.mean(axis=1, keepdims=True)
+    a = bc @ d / np.sum(bc * bc, axis=1)
+    c = D[:n].mean() - a * b.mean(axis=1)
+    return c, np.sum(d * d) - a * a * np.sum(bc * bc, axis=1)
