@@ -383,3 +383,22 @@ def test_a_track_that_never_turns_keeps_every_crossing():
     assert _turns(track, 3.0) == []
     m = np.arange(5)
     assert list(_single_passes(m, np.zeros(5), np.zeros((5, 2)), [], 3.0)) == list(m)
+
+
+def test_centroids_along_bias_is_measured_away_from_the_turns_and_removed():
+    """Centroids trailing the star by a + b·speed along its motion: fitted where the star is
+    fast (outside its turns), removed everywhere; in the turns' time they weigh fully."""
+    from evstar.smoothing import _debiased, _turns
+
+    fitted = _reversing_track()
+    speed = np.abs(fitted["vx"])
+    u = np.column_stack([np.sign(fitted["vx"]), np.zeros(len(fitted))])
+    true = np.column_stack([fitted["x"], fitted["y"]])
+    z = true - (0.08 + 2e-4 * speed)[:, None] * u          # trailing: behind the motion
+    turns = _turns(fitted, 3.0)
+    track = (fitted, z, np.full(len(z), 0.05), None, turns)
+    (_, z_fixed, _, _, _), w = _debiased(track, fitted, 0.1)
+    moving = speed > 1e-6                                   # no direction at a standstill
+    np.testing.assert_allclose(z_fixed[moving], true[moving], atol=1e-6)
+    assert set(np.unique(w)) == {0.1, 1.0}
+    assert np.all(w[np.abs(fitted["t"] - 250_000) <= 10_000] == 1.0)
