@@ -92,8 +92,8 @@ def test_prediction_with_given_normals_is_bit_identical():
     omega = rng.normal(size=(40, 3)) * 0.5
     omega[7] = [30.0, -20.0, 5.0]  # one step above 0.01 rad: the sin/cos branch
     dt = rng.uniform(5e-4, 1.5e-3, 40)
-    sn, wn = rng.normal(size=(40, 300, 3)), rng.normal(size=(300, 3))
-    kw = dict(gyro_noise=2e-3, bias_walk=1e-3, step_normals=sn, walk_normals=wn)
+    gn, wn = rng.normal(size=(300, 3)), rng.normal(size=(300, 3))
+    kw = dict(gyro_noise=2e-3, bias_walk=1e-3, gyro_normals=gn, walk_normals=wn)
     wpart = warp_particles(q, b)
     wpart.predict(omega, dt, seed=0, step0=0, **kw)
     q_ref, b_ref = ref.predict(q, b, omega, dt, **kw)

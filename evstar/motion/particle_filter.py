@@ -2,9 +2,9 @@
 
 Model (docs/design.md). Each particle holds the attitude q (R_cw) and the gyro bias b (camera
 frame; the gyro reads ω + b + noise). Prediction runs every IMU step with the rate
-(ω_meas − b)·dt plus gyro noise of density `gyro_noise` through the exponential map; the
-bias takes a random walk of density `bias_walk` once per prediction block (between two
-observation times). Each tracked star is a fixed direction in the world frame, set from
+(ω_meas − b)·dt through the exponential map; the gyro noise (density `gyro_noise`) and
+the bias's random walk (density `bias_walk`) are drawn once per prediction block (between
+two observation times), at its end: the attitude is only looked at there. Each tracked star is a fixed direction in the world frame, set from
 its first centroid and the attitude estimate at that moment (so the attitude is relative to
 `q0`, the attitude at the first observation time); a particle's weight is the Gaussian
 likelihood of the observed centroids (σ = `pixel_sigma`, residuals capped at `gate`·σ).

@@ -28,11 +28,11 @@ class ReferenceParticles:
         self.parent = np.arange(self.n)
 
     def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
-                step_normals=None, walk_normals=None):
+                gyro_normals=None, walk_normals=None):
         if len(dt):
             self.q, self.b = ref.predict(self.q, self.b, omega, dt, gyro_noise=gyro_noise,
                                          bias_walk=bias_walk, seed=seed, step0=step0,
-                                         step_normals=step_normals, walk_normals=walk_normals)
+                                         gyro_normals=gyro_normals, walk_normals=walk_normals)
 
     def normals(self, seed, step, component0, count=3):
         return ref.counter_normals(seed, self.n, step, component0, count)

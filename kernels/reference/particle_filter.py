@@ -8,8 +8,8 @@ values: the normal for (seed, particle, step, component) is Φ⁻¹ of a uniform
 PCG hash of those four integers (Φ⁻¹ by Wichura's AS241, accurate to 1e-16 and free of
 transcendental calls in its central region). Components:
 
-  0–2  gyro noise of IMU step `step`          3–5  bias random walk of a prediction block
-                                              (keyed by the block's last step)
+  0–2  gyro noise of a prediction block       3–5  bias random walk of a prediction block
+       (both keyed by the block's last step)
   6–8  initial bias spread (step 0)           9–11 initial attitude spread (step 0)
 
 The systematic-resampling offset of update k uses particle 0xFFFFFFFF, step k, component 0.
@@ -94,13 +94,19 @@ def counter_normals(seed, n_particles, step, component0, count=3):
 
 # -- particle operations --------------------------------------------------------------------
 def predict(q, b, omega, dt, *, gyro_noise, bias_walk, seed=0, step0=0,
-            step_normals=None, walk_normals=None):
+            gyro_normals=None, walk_normals=None):
     """Propagate particles through IMU steps step0 .. step0 + K − 1 (one prediction block).
 
-    Per step k: θ = (ω[k] − b)·dt[k] + gyro_noise·√dt[k]·n, q <- Exp(−θ) ⊗ q; at the block's
-    end q is normalised and b <- b + bias_walk·√(Σ dt)·n_walk (the bias is held constant
-    within a block). gyro_noise is a density (rad/s/√Hz), bias_walk rad/s/√s.
-    Normals come from the counter generator unless given: step_normals (K, N, 3),
+    Per step k: q <- Exp(−(ω[k] − b)·dt[k]) ⊗ q; at the block's end the gyro noise of the
+    whole block, q <- Exp(−gyro_noise·√(Σ dt)·n_gyro) ⊗ q, then q is normalised and
+    b <- b + bias_walk·√(Σ dt)·n_walk (the bias is held constant within a block).
+    gyro_noise is a density (rad/s/√Hz), bias_walk rad/s/√s.
+    Why one draw a block: the filter looks at the attitude only at the block's end (an
+    observation time), where the steps' independent noise rotations add up, to first order
+    (their products with the step's rotation, ~1e-3 of them, are dropped), to one isotropic
+    Gaussian of variance gyro_noise²·Σ dt per axis: the same spread, for 3 normals a block
+    instead of 3 an IMU step (those were ~2/3 of the filter's time).
+    Normals come from the counter generator unless given: gyro_normals (N, 3),
     walk_normals (N, 3).
     """
     q = np.array(q, dtype=np.float64)
@@ -108,17 +114,17 @@ def predict(q, b, omega, dt, *, gyro_noise, bias_walk, seed=0, step0=0,
     omega, dt = np.asarray(omega, dtype=np.float64), np.asarray(dt, dtype=np.float64)
     n = len(q)
     for k in range(len(dt)):
-        nk = (counter_normals(seed, n, step0 + k, GYRO) if step_normals is None
-              else step_normals[k])
-        s = gyro_noise * np.sqrt(dt[k])
-        theta = (omega[k] - b) * dt[k] + s * nk
-        q = quat_mul(quat_exp(-theta), q)
-    q = quat_normalize(q)
+        q = quat_mul(quat_exp(-((omega[k] - b) * dt[k])), q)
     if len(dt):
+        last = step0 + len(dt) - 1
+        if gyro_normals is None:
+            gyro_normals = counter_normals(seed, n, last, GYRO)
         if walk_normals is None:
-            walk_normals = counter_normals(seed, n, step0 + len(dt) - 1, WALK)
-        b = b + (bias_walk * np.sqrt(np.sum(dt))) * walk_normals
-    return q, b
+            walk_normals = counter_normals(seed, n, last, WALK)
+        span = np.sqrt(np.sum(dt))
+        q = quat_mul(quat_exp(-((gyro_noise * span) * gyro_normals)), q)
+        b = b + (bias_walk * span) * walk_normals
+    return quat_normalize(q), b
 
 
 def log_likelihood(q, stars_world, uv, *, fx, fy, cx, cy, pixel_sigma, gate):

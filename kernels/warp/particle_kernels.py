@@ -6,7 +6,7 @@ FMA contraction is switched off for this module so that CPU results are bit-iden
 """
 import warp as wp
 
-from .counter_rng import counter_key, counter_normal, particle_key, pcg_hash
+from .counter_rng import counter_key, counter_normal
 from .so3 import quat_exp, quat_mul, quat_normalize, quat_rotate
 
 wp.set_module_options({"cpu_compiler_flags": (wp.config.cpu_compiler_flags or "-march=native")
@@ -17,64 +17,66 @@ _WALK = wp.constant(wp.uint32(3))
 
 
 @wp.func
-def predict_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64, gyro_noise: wp.float64,
-                 n0: wp.float64, n1: wp.float64, n2: wp.float64):
-    """q <- Exp(−θ) ⊗ q with θ = (ω − b)·dt + gyro_noise·√dt·n."""
-    s = gyro_noise * wp.sqrt(dt)
-    tx = (omega[0] - b[0]) * dt + s * n0
-    ty = (omega[1] - b[1]) * dt + s * n1
-    tz = (omega[2] - b[2]) * dt + s * n2
-    return quat_mul(quat_exp(-tx, -ty, -tz), q)
+def rotate_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64):
+    """q <- Exp(−(ω − b)·dt) ⊗ q."""
+    return quat_mul(quat_exp(-((omega[0] - b[0]) * dt), -((omega[1] - b[1]) * dt),
+                             -((omega[2] - b[2]) * dt)), q)
+
+
+@wp.func
+def block_end(q: wp.vec4d, gyro_sigma: wp.float64, g: wp.vec3d):
+    """Exp(−gyro_sigma·g) ⊗ q, normalised: the block's gyro noise."""
+    return quat_normalize(quat_mul(quat_exp(-(gyro_sigma * g[0]), -(gyro_sigma * g[1]),
+                                            -(gyro_sigma * g[2])), q))
+
+
+@wp.func
+def walk(b: wp.vec3d, walk_sigma: wp.float64, w: wp.vec3d):
+    """b + walk_sigma·w: the block's bias walk."""
+    return b + wp.vec3d(walk_sigma * w[0], walk_sigma * w[1], walk_sigma * w[2])
 
 
 @wp.kernel
 def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                     omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
-                    seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
+                    seed: wp.uint32, step0: wp.uint32, gyro_sigma: wp.float64,
                     walk_sigma: wp.float64, first: wp.int32):
-    """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
-    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step). Thread t moves
-    particle first + t (a launch may cover a range of the particles).
+    """A block of steps step0 .. step0 + K − 1 (K >= 1), then the block's gyro noise
+    (gyro_sigma = gyro_noise·√(Σ dt)) and bias walk (walk_sigma = bias_walk·√(Σ dt)), with
+    counter-based normals keyed by the block's last step. Thread t moves particle
+    first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.predict`."""
     i = wp.tid() + first
-    p = wp.uint32(i)
     qi = q[i]
     bi = b[i]
     n_steps = dt.shape[0]
-    pkey = particle_key(seed, p)
     for k in range(n_steps):
-        key = pcg_hash(pkey + step0 + wp.uint32(k))
-        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise,
-                          counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
-                          counter_normal(key, _GYRO + wp.uint32(2)))
-    q[i] = quat_normalize(qi)
-    if n_steps > 0:
-        key = counter_key(seed, p, step0 + wp.uint32(n_steps - 1))
-        b[i] = bi + wp.vec3d(walk_sigma * counter_normal(key, _WALK),
-                             walk_sigma * counter_normal(key, _WALK + wp.uint32(1)),
-                             walk_sigma * counter_normal(key, _WALK + wp.uint32(2)))
+        qi = rotate_step(qi, bi, omega[k], dt[k])
+    key = counter_key(seed, wp.uint32(i), step0 + wp.uint32(n_steps - 1))
+    g = wp.vec3d(counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
+                 counter_normal(key, _GYRO + wp.uint32(2)))
+    w = wp.vec3d(counter_normal(key, _WALK), counter_normal(key, _WALK + wp.uint32(1)),
+                 counter_normal(key, _WALK + wp.uint32(2)))
+    q[i] = block_end(qi, gyro_sigma, g)
+    b[i] = walk(bi, walk_sigma, w)
 
 
 @wp.kernel
 def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
                   omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
-                  step_normals: wp.array2d(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
-                  gyro_noise: wp.float64, walk_sigma: wp.float64):
-    """predict_counter with the normals supplied: step_normals (K, N), walk_normals (N).
+                  gyro_normals: wp.array(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
+                  gyro_sigma: wp.float64, walk_sigma: wp.float64):
+    """predict_counter with the normals supplied: gyro_normals (N), walk_normals (N).
 
-    Specification: `evstar_kernels.reference.particle_filter.predict` (step_normals=, walk_normals=)."""
+    Specification: `evstar_kernels.reference.particle_filter.predict` (gyro_normals=, walk_normals=)."""
     i = wp.tid()
     qi = q[i]
     bi = b[i]
-    n_steps = dt.shape[0]
-    for k in range(n_steps):
-        n = step_normals[k, i]
-        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise, n[0], n[1], n[2])
-    q[i] = quat_normalize(qi)
-    if n_steps > 0:
-        n = walk_normals[i]
-        b[i] = bi + wp.vec3d(walk_sigma * n[0], walk_sigma * n[1], walk_sigma * n[2])
+    for k in range(dt.shape[0]):
+        qi = rotate_step(qi, bi, omega[k], dt[k])
+    q[i] = block_end(qi, gyro_sigma, gyro_normals[i])
+    b[i] = walk(bi, walk_sigma, walk_normals[i])
 
 
 @wp.kernel

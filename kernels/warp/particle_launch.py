@@ -74,24 +74,22 @@ class WarpParticles:
 
     # -- prediction --------------------------------------------------------------------------
     def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
-                step_normals=None, walk_normals=None):
+                gyro_normals=None, walk_normals=None):
         """One block of IMU steps (see reference.particle_filter.predict), one launch."""
         dt = np.ascontiguousarray(dt, dtype=np.float64)
         if len(dt) == 0:
             return
         omega_d, dt_d = self._view(omega, wp.vec3d), self._view(dt, wp.float64)
-        walk_sigma = float(bias_walk * np.sqrt(np.sum(dt)))
-        if step_normals is None:
+        span = np.sqrt(np.sum(dt))
+        sigmas = [float(gyro_noise * span), float(bias_walk * span)]
+        if gyro_normals is None:
             self._launch(K.predict_counter,
                          [self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
-                          wp.uint32(step0 & 0xFFFFFFFF), float(gyro_noise), walk_sigma])
+                          wp.uint32(step0 & 0xFFFFFFFF), *sigmas])
         else:
-            sn = wp.array(np.ascontiguousarray(step_normals, np.float64), dtype=wp.vec3d,
-                          device=self.device)
-            wn = wp.array(np.ascontiguousarray(walk_normals, np.float64), dtype=wp.vec3d,
-                          device=self.device)
             wp.launch(K.predict_given, self.n, device=self.device,
-                      inputs=[self.q, self.b, omega_d, dt_d, sn, wn, float(gyro_noise), walk_sigma])
+                      inputs=[self.q, self.b, omega_d, dt_d, self._view(gyro_normals, wp.vec3d),
+                              self._view(walk_normals, wp.vec3d), *sigmas])
 
     def normals(self, seed, step, component0, count=3):
         """The counter-based normals the kernels draw, (N, count) on the host (for checks)."""
