@@ -186,6 +186,28 @@ def test_parallel_weight_sums_agree_with_the_reference():
     np.testing.assert_allclose(wpart.cdf.numpy(), cdf, rtol=1e-12)
 
 
+@pytest.mark.parametrize("count", [1, 7, 1000])  # 1: the GPU's one child a thread; 1000: the CPU's
+def test_resampling_by_chunks_of_children_is_bit_identical(count):
+    import warp as wp
+
+    from evstar_kernels.warp import particle_kernels as K
+
+    backends.warp("cpu")
+    rng = np.random.default_rng(10)
+    q, b = random_particles(1000)
+    w = rng.exponential(size=1000) * (rng.uniform(size=1000) < 0.3)  # many weightless
+    cdf = np.cumsum(w)
+    wpart = warp_particles(q, b)
+    q2, b2 = wp.empty_like(wpart.q), wp.empty_like(wpart.b)
+    for u0 in (1e-9, 0.37, 0.999):
+        wp.launch(K.systematic_resample, -(-1000 // count), device="cpu",
+                  inputs=[wp.array(cdf, dtype=wp.float64), u0, wpart.q, wpart.b, q2, b2,
+                          wpart.parent, count])
+        parents = ref.systematic_resample(cdf, u0)
+        np.testing.assert_array_equal(wpart.parent.numpy(), parents)
+        np.testing.assert_array_equal(q2.numpy(), q[parents])
+
+
 def test_systematic_resampling_counts():
     w = np.array([0.5, 0.0, 0.25, 0.125, 0.125])
     for u0 in (1e-9, 0.3, 0.999):

@@ -125,8 +125,10 @@ class WarpParticles:
 
     def resample(self, u0):
         """Systematic resampling from self.cdf (call weight_sums first); resets the weights."""
-        wp.launch(K.systematic_resample, self.n, device=self.device,
-                  inputs=[self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent])
+        count = self.n if self._is_cpu else 1   # CPU: one thread walks the cdf once
+        wp.launch(K.systematic_resample, (self.n + count - 1) // count, device=self.device,
+                  inputs=[self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent,
+                          count])
         self.q, self._q2 = self._q2, self.q
         self.b, self._b2 = self._b2, self.b
         self.logw.zero_()
