@@ -29,6 +29,29 @@ def _pool(k):
     return _POOLS[k]
 
 
+class _Replay:
+    """One kernel's launch recorded once and replayed with only the changed arguments reset:
+    wp.launch packs every argument anew (~30 us of Python, holding the GIL, ~5 launches a
+    frame); a replay costs ~4 us plus ~1.5 us an argument that changed (per-frame arrays and
+    numbers; the particle arrays and constants stay)."""
+
+    def __init__(self, kernel, device):
+        self.kernel, self.device, self.cmd, self.args, self.dim = kernel, device, None, [], None
+
+    def __call__(self, dim, inputs):
+        if self.cmd is None:
+            self.cmd = wp.launch(self.kernel, dim, device=self.device, inputs=inputs,
+                                 record_cmd=True)
+        else:
+            if dim != self.dim:
+                self.cmd.set_dim(dim)
+            for i, (new, old) in enumerate(zip(inputs, self.args)):
+                if new is not old and not (type(new) in (int, float) and new == old):
+                    self.cmd.set_param_at_index(i, new)
+        self.dim, self.args = dim, list(inputs)
+        self.cmd.launch()
+
+
 class WarpParticles:
     """Particles q (N, 4) and b (N, 3) with their log-weights on a Warp device."""
 
@@ -55,12 +78,20 @@ class WarpParticles:
         self._ranges = [(self.n * j // k, self.n * (j + 1) // k) for j in range(k)]
         if k > 1:  # compiled and loaded here, not by two launches at once
             wp.load_module(K, device=device)
+        self._replays = {}   # (kernel, first particle) -> _Replay
+
+    def _run(self, kernel, dim, inputs, first=None):
+        """Launch kernel (dim threads) by its replay for this particle range (`first`)."""
+        key = (kernel.key, first)
+        if key not in self._replays:
+            self._replays[key] = _Replay(kernel, self.device)
+        self._replays[key](dim, inputs if first is None else inputs + [first])
 
     def _launch(self, kernel, inputs):
         """kernel over every particle: inputs + [first particle], one launch per range (the
         last on this thread, which so works while the pool's threads wake up)."""
         def one(r):
-            wp.launch(kernel, r[1] - r[0], device=self.device, inputs=inputs + [r[0]])
+            self._run(kernel, r[1] - r[0], inputs, r[0])
         others = [_pool(len(self._ranges) - 1).submit(one, r) for r in self._ranges[:-1]]
         one(self._ranges[-1])
         for f in others:
@@ -106,14 +137,14 @@ class WarpParticles:
         if len(stars_world) >= _SPLIT_STARS:     # long enough to share between threads
             self._launch(K.add_log_likelihood, inputs)
         else:
-            wp.launch(K.add_log_likelihood, self.n, device=self.device, inputs=inputs + [0])
+            self._run(K.add_log_likelihood, self.n, inputs, 0)
 
     def weight_sums(self, q_ref):
         """Fill self.cdf and return the nine sums of reference.particle_filter.weight_sums."""
         q_ref = wp.vec4d(*np.asarray(q_ref, np.float64))
         if self._sequential:
-            wp.launch(K.weight_sums_sequential, 1, device=self.device,
-                      inputs=[self.logw, self.q, self.b, q_ref, self.cdf, self._sums])
+            self._run(K.weight_sums_sequential, 1,
+                      [self.logw, self.q, self.b, q_ref, self.cdf, self._sums])
         else:
             self._max.fill_(-np.inf)
             self._sums.zero_()
@@ -126,9 +157,8 @@ class WarpParticles:
     def resample(self, u0):
         """Systematic resampling from self.cdf (call weight_sums first); resets the weights."""
         count = self.n if self._is_cpu else 1   # CPU: one thread walks the cdf once
-        wp.launch(K.systematic_resample, (self.n + count - 1) // count, device=self.device,
-                  inputs=[self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent,
-                          count])
+        self._run(K.systematic_resample, (self.n + count - 1) // count,
+                  [self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent, count])
         self.q, self._q2 = self._q2, self.q
         self.b, self._b2 = self._b2, self.b
         self.logw.zero_()
