@@ -1,6 +1,7 @@
 """Warp kernels of the SO(3) particle filter (math only; launches live in particle_launch.py).
 
-One thread per particle; a prediction kernel runs a whole block of IMU steps per launch.
+One thread per particle; a prediction kernel moves the particles through a whole block of
+IMU steps (preintegrated on the host) per launch.
 Each kernel mirrors a function of `evstar_kernels.reference.particle_filter` term by term;
 FMA contraction is switched off for this module so that CPU results are bit-identical.
 """
@@ -17,10 +18,12 @@ _WALK = wp.constant(wp.uint32(3))
 
 
 @wp.func
-def rotate_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64):
-    """q <- Exp(−(ω − b)·dt) ⊗ q."""
-    return quat_mul(quat_exp(-((omega[0] - b[0]) * dt), -((omega[1] - b[1]) * dt),
-                             -((omega[2] - b[2]) * dt)), q)
+def block_rotation(q: wp.vec4d, b: wp.vec3d, rotation: wp.vec4d, m: wp.mat33d):
+    """P ⊗ Exp(M·b) ⊗ q: the gyro's rotation over the block, with the particle's bias."""
+    v0 = m[0, 0] * b[0] + m[0, 1] * b[1] + m[0, 2] * b[2]
+    v1 = m[1, 0] * b[0] + m[1, 1] * b[1] + m[1, 2] * b[2]
+    v2 = m[2, 0] * b[0] + m[2, 1] * b[1] + m[2, 2] * b[2]
+    return quat_mul(rotation, quat_mul(quat_exp(v0, v1, v2), q))
 
 
 @wp.func
@@ -38,22 +41,19 @@ def walk(b: wp.vec3d, walk_sigma: wp.float64, w: wp.vec3d):
 
 @wp.kernel
 def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
-                    omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
-                    seed: wp.uint32, step0: wp.uint32, gyro_sigma: wp.float64,
-                    walk_sigma: wp.float64, first: wp.int32):
-    """A block of steps step0 .. step0 + K − 1 (K >= 1), then the block's gyro noise
-    (gyro_sigma = gyro_noise·√(Σ dt)) and bias walk (walk_sigma = bias_walk·√(Σ dt)), with
-    counter-based normals keyed by the block's last step. Thread t moves particle
-    first + t (a launch may cover a range of the particles).
+                    rotation: wp.vec4d, bias_jacobian: wp.mat33d, seed: wp.uint32,
+                    step: wp.uint32, gyro_sigma: wp.float64, walk_sigma: wp.float64,
+                    first: wp.int32):
+    """One prediction block (rotation P, bias Jacobian M: reference.block_motions), then
+    its gyro noise (gyro_sigma = gyro_noise·√T) and bias walk (walk_sigma = bias_walk·√T)
+    with counter-based normals keyed by `step` (the block's last IMU step). Thread t moves
+    particle first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.predict`."""
     i = wp.tid() + first
-    qi = q[i]
     bi = b[i]
-    n_steps = dt.shape[0]
-    for k in range(n_steps):
-        qi = rotate_step(qi, bi, omega[k], dt[k])
-    key = counter_key(seed, wp.uint32(i), step0 + wp.uint32(n_steps - 1))
+    qi = block_rotation(q[i], bi, rotation, bias_jacobian)
+    key = counter_key(seed, wp.uint32(i), step)
     g = wp.vec3d(counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
                  counter_normal(key, _GYRO + wp.uint32(2)))
     w = wp.vec3d(counter_normal(key, _WALK), counter_normal(key, _WALK + wp.uint32(1)),
@@ -64,17 +64,15 @@ def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
 
 @wp.kernel
 def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
-                  omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
+                  rotation: wp.vec4d, bias_jacobian: wp.mat33d,
                   gyro_normals: wp.array(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
                   gyro_sigma: wp.float64, walk_sigma: wp.float64):
     """predict_counter with the normals supplied: gyro_normals (N), walk_normals (N).
 
     Specification: `evstar_kernels.reference.particle_filter.predict` (gyro_normals=, walk_normals=)."""
     i = wp.tid()
-    qi = q[i]
     bi = b[i]
-    for k in range(dt.shape[0]):
-        qi = rotate_step(qi, bi, omega[k], dt[k])
+    qi = block_rotation(q[i], bi, rotation, bias_jacobian)
     q[i] = block_end(qi, gyro_sigma, gyro_normals[i])
     b[i] = walk(bi, walk_sigma, walk_normals[i])
 

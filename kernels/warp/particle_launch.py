@@ -104,22 +104,20 @@ class WarpParticles:
         return wp.array(a, dtype=dtype, device=self.device, copy=not self._is_cpu)
 
     # -- prediction --------------------------------------------------------------------------
-    def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
+    def predict(self, rotation, bias_jacobian, duration, *, gyro_noise, bias_walk, seed, step,
                 gyro_normals=None, walk_normals=None):
-        """One block of IMU steps (see reference.particle_filter.predict), one launch."""
-        dt = np.ascontiguousarray(dt, dtype=np.float64)
-        if len(dt) == 0:
-            return
-        omega_d, dt_d = self._view(omega, wp.vec3d), self._view(dt, wp.float64)
-        span = np.sqrt(np.sum(dt))
+        """One prediction block (see reference.particle_filter.predict), one launch."""
+        motion = [wp.vec4d(*np.asarray(rotation, np.float64)),
+                  wp.mat33d(*np.asarray(bias_jacobian, np.float64).ravel())]
+        span = np.sqrt(duration)
         sigmas = [float(gyro_noise * span), float(bias_walk * span)]
         if gyro_normals is None:
             self._launch(K.predict_counter,
-                         [self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
-                          wp.uint32(step0 & 0xFFFFFFFF), *sigmas])
+                         [self.q, self.b, *motion, wp.uint32(seed & 0xFFFFFFFF),
+                          wp.uint32(step & 0xFFFFFFFF), *sigmas])
         else:
             wp.launch(K.predict_given, self.n, device=self.device,
-                      inputs=[self.q, self.b, omega_d, dt_d, self._view(gyro_normals, wp.vec3d),
+                      inputs=[self.q, self.b, *motion, self._view(gyro_normals, wp.vec3d),
                               self._view(walk_normals, wp.vec3d), *sigmas])
 
     def normals(self, seed, step, component0, count=3):
