@@ -22,6 +22,7 @@ from evstar import Camera, Events, Imu, backends
 from evstar.motion import ParticleFilter, StarObservations, compensate
 from evstar.motion.pf_engines import make_engine
 from evstar.profiling import table, time_call, write_results
+from evstar_kernels.reference import particle_filter as ref
 from evstar_kernels.reference import so3
 
 DEG = math.pi / 180
@@ -54,7 +55,9 @@ def bench_filter(n, device, backend, duration_s, repeats):
 
 
 def bench_predict(n, device, steps, repeats, threads=None):
-    """threads: CPU threads of the launches (None: the engine's default, every core)."""
+    """threads: CPU threads of the launches (None: the engine's default, every core).
+    The filter's prediction: `steps` IMU steps in blocks of 10 (observations at 100 Hz),
+    preintegrated (block_motions) and applied block by block."""
     engine = make_engine("warp", device, so3.quat_identity(n), np.zeros((n, 3)))
     if threads is not None:
         from evstar_kernels.warp.particle_launch import WarpParticles
@@ -62,9 +65,12 @@ def bench_predict(n, device, steps, repeats, threads=None):
         engine = WarpParticles(so3.quat_identity(n), np.zeros((n, 3)), device=engine.device,
                                threads=threads)
     omega, dt = np.full((steps, 3), 0.1), np.full(steps, 1e-3)
+    ends = np.arange(10, steps + 1, 10)
 
     def run():
-        engine.predict(omega, dt, gyro_noise=1e-4, bias_walk=1e-4, seed=0, step0=0)
+        motions = zip(*ref.block_motions(omega, dt, ends - 10, ends))
+        for end, motion in zip(ends, motions):
+            engine.predict(*motion, gyro_noise=1e-4, bias_walk=1e-4, seed=0, step=int(end) - 1)
         engine.host()  # waits for the device
 
     r = time_call(run, repeats=repeats)

@@ -86,34 +86,63 @@ def test_counter_normals_match_the_reference_and_are_standard_normal():
                                [0.0, 1.959963984540054, -6.361340902404056], rtol=1e-14, atol=1e-300)
 
 
+def one_block(omega, dt):
+    """(P, M, T) of one block of all the steps."""
+    p, m, t = ref.block_motions(omega, dt, [0], [len(dt)])
+    return p[0], m[0], t[0]
+
+
+def step_by_step(q, b, omega, dt):
+    """Π_k Exp(−(ω_k − b)·dt_k) ⊗ q, each step through the exponential map."""
+    for k in range(len(dt)):
+        q = so3.quat_mul(so3.quat_exp(-((omega[k] - b) * dt[k])), q)
+    return q
+
+
+def test_block_motions_turn_as_the_steps_do():
+    rng = np.random.default_rng(4)
+    omega = rng.normal(size=(60, 3)) * 0.5
+    omega[7] = [30.0, -20.0, 5.0]  # one step above 0.01 rad: J_r's closed form
+    dt = rng.uniform(5e-4, 1.5e-3, 60)
+    starts, ends = np.array([0, 0, 11, 30]), np.array([0, 11, 30, 60])  # one block empty
+    p, m, t = ref.block_motions(omega, dt, starts, ends)
+    np.testing.assert_array_equal(p[0], [0, 0, 0, 1])
+    assert m[0].max() == 0 and t[0] == 0
+    q, b = random_particles(200)
+    b = b * 3  # ~1.7 °/s
+    for j in (1, 2, 3):
+        s = slice(starts[j], ends[j])
+        np.testing.assert_allclose(t[j], dt[s].sum(), rtol=1e-14)
+        want = step_by_step(q, b, omega[s], dt[s])
+        got = so3.quat_mul(p[j], so3.quat_mul(so3.quat_exp(b @ m[j].T), q))
+        err = np.linalg.norm(so3.quat_log(so3.quat_mul(got, so3.quat_conj(want))), axis=1)
+        assert err.max() < 1e-8, err.max()  # O(|b|²T²); the bias itself turns by ~5e-4 rad
+
+
 def test_prediction_with_given_normals_is_bit_identical():
     rng = np.random.default_rng(5)
     q, b = random_particles(300)
-    omega = rng.normal(size=(40, 3)) * 0.5
-    omega[7] = [30.0, -20.0, 5.0]  # one step above 0.01 rad: the sin/cos branch
-    dt = rng.uniform(5e-4, 1.5e-3, 40)
-    sn, wn = rng.normal(size=(40, 300, 3)), rng.normal(size=(300, 3))
-    kw = dict(gyro_noise=2e-3, bias_walk=1e-3, step_normals=sn, walk_normals=wn)
+    motion = one_block(rng.normal(size=(40, 3)) * 0.5, rng.uniform(5e-4, 1.5e-3, 40))
+    gn, wn = rng.normal(size=(300, 3)), rng.normal(size=(300, 3))
+    kw = dict(gyro_noise=2e-3, bias_walk=1e-3, gyro_normals=gn, walk_normals=wn)
     wpart = warp_particles(q, b)
-    wpart.predict(omega, dt, seed=0, step0=0, **kw)
-    q_ref, b_ref = ref.predict(q, b, omega, dt, **kw)
+    wpart.predict(*motion, seed=0, step=0, **kw)
+    q_ref, b_ref = ref.predict(q, b, *motion, **kw)
     qw, bw, _ = wpart.host()
     np.testing.assert_array_equal(bw, b_ref)
-    if EXACT_LIBM:
-        np.testing.assert_array_equal(qw, q_ref)
-    else:  # only the sin/cos step may differ
-        np.testing.assert_allclose(qw, q_ref, atol=1e-15)
+    np.testing.assert_array_equal(qw, q_ref)
 
 
 @pytest.mark.parametrize("threads", [1, 3])  # 3: launches over 3 particle ranges at once
 def test_prediction_with_counter_noise_matches_the_reference(threads):
     rng = np.random.default_rng(6)
     q, b = random_particles(1000)
-    omega, dt = rng.normal(size=(25, 3)) * 0.3, np.full(25, 1e-3)
+    motion = one_block(rng.normal(size=(25, 3)) * 0.3, np.full(25, 1e-3))
     wpart = warp_particles(q, b, threads=threads)
     assert len(wpart._ranges) == threads
-    wpart.predict(omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
-    q_ref, b_ref = ref.predict(q, b, omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=1000)
+    kw = dict(gyro_noise=1e-3, bias_walk=1e-3, seed=9, step=1024)
+    wpart.predict(*motion, **kw)
+    q_ref, b_ref = ref.predict(q, b, *motion, **kw)
     qw, bw, _ = wpart.host()
     assert_same(qw, q_ref)
     assert_same(bw, b_ref)
@@ -124,10 +153,31 @@ def test_prediction_noise_has_the_stated_spread():
     # from identity with zero rate, the attitude after T seconds spreads as gyro_noise·√T per axis
     n, steps = 4000, 100
     q, b = so3.quat_identity(n), np.zeros((n, 3))
-    q1, b1 = ref.predict(q, b, np.zeros((steps, 3)), np.full(steps, 1e-3), gyro_noise=0.02,
-                         bias_walk=0.5, seed=3)
+    motion = one_block(np.zeros((steps, 3)), np.full(steps, 1e-3))
+    q1, b1 = ref.predict(q, b, *motion, gyro_noise=0.02, bias_walk=0.5, seed=3)
     np.testing.assert_allclose(so3.quat_log(q1).std(0), 0.02 * math.sqrt(0.1), rtol=0.06)
     np.testing.assert_allclose(b1.std(0), 0.5 * math.sqrt(0.1), rtol=0.06)
+
+
+def test_block_noise_spreads_as_noise_drawn_every_step_while_rotating():
+    # the block's one draw stands for its steps' draws: blocks of one step each are the
+    # per-step model; under a fast, varying rotation both spread the attitude alike
+    n, k = 4000, 11
+    rng = np.random.default_rng(4)
+    omega = np.array([0.15, -0.5, 0.1]) + rng.normal(size=(k, 3)) * 0.05  # ~30 °/s
+    dt, q0, b = np.full(k, 1e-3), so3.quat_identity(n), np.full((n, 3), 0.01)
+    q_free = step_by_step(q0, b, omega, dt)
+    steps = ref.block_motions(omega, dt, np.arange(k), np.arange(1, k + 1))
+    q_steps = q0
+    for i, motion in enumerate(zip(*steps)):
+        q_steps, _ = ref.predict(q_steps, b, *motion, gyro_noise=0.02, bias_walk=0.0, seed=3,
+                                 step=i)
+    q_block, _ = ref.predict(q0, b, *one_block(omega, dt), gyro_noise=0.02, bias_walk=0.0,
+                             seed=5)
+    for q in (q_steps, q_block):
+        err = so3.quat_log(so3.quat_mul(q, so3.quat_conj(q_free)))
+        np.testing.assert_allclose(err.std(0), 0.02 * math.sqrt(k * 1e-3), rtol=0.06)
+        assert np.abs(err.mean(0)).max() < 2e-4
 
 
 def test_likelihood_weights_and_resampling_are_bit_identical():
@@ -184,6 +234,28 @@ def test_parallel_weight_sums_agree_with_the_reference():
     cdf, sums = ref.weight_sums(logw, q, b, q[0])
     np.testing.assert_allclose(wpart.weight_sums(q[0]), sums, rtol=1e-12)
     np.testing.assert_allclose(wpart.cdf.numpy(), cdf, rtol=1e-12)
+
+
+@pytest.mark.parametrize("count", [1, 7, 1000])  # 1: the GPU's one child a thread; 1000: the CPU's
+def test_resampling_by_chunks_of_children_is_bit_identical(count):
+    import warp as wp
+
+    from evstar_kernels.warp import particle_kernels as K
+
+    backends.warp("cpu")
+    rng = np.random.default_rng(10)
+    q, b = random_particles(1000)
+    w = rng.exponential(size=1000) * (rng.uniform(size=1000) < 0.3)  # many weightless
+    cdf = np.cumsum(w)
+    wpart = warp_particles(q, b)
+    q2, b2 = wp.empty_like(wpart.q), wp.empty_like(wpart.b)
+    for u0 in (1e-9, 0.37, 0.999):
+        wp.launch(K.systematic_resample, -(-1000 // count), device="cpu",
+                  inputs=[wp.array(cdf, dtype=wp.float64), u0, wpart.q, wpart.b, q2, b2,
+                          wpart.parent, count])
+        parents = ref.systematic_resample(cdf, u0)
+        np.testing.assert_array_equal(wpart.parent.numpy(), parents)
+        np.testing.assert_array_equal(q2.numpy(), q[parents])
 
 
 def test_systematic_resampling_counts():
@@ -323,10 +395,10 @@ def test_cuda_without_gpu_is_a_clear_error():
 def test_cuda_kernels_agree_with_the_reference(scene):
     q, b = random_particles(4096)
     rng = np.random.default_rng(2)
-    omega, dt = rng.normal(size=(50, 3)) * 0.3, np.full(50, 1e-3)
+    motion = one_block(rng.normal(size=(50, 3)) * 0.3, np.full(50, 1e-3))
     gpu = warp_particles(q, b, "cuda")
-    gpu.predict(omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=0)
-    q_ref, b_ref = ref.predict(q, b, omega, dt, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step0=0)
+    gpu.predict(*motion, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step=49)
+    q_ref, b_ref = ref.predict(q, b, *motion, gyro_noise=1e-3, bias_walk=1e-3, seed=9, step=49)
     qg, bg, _ = gpu.host()
     np.testing.assert_allclose(qg, q_ref, atol=1e-12)  # CUDA contracts to FMA: rounding differs
     np.testing.assert_allclose(bg, b_ref, atol=1e-12)

@@ -1,10 +1,12 @@
 """ParticleFilter: attitude and gyro bias on SO(3) from the gyro and tracked star centroids.
 
 Model (docs/design.md). Each particle holds the attitude q (R_cw) and the gyro bias b (camera
-frame; the gyro reads ω + b + noise). Prediction runs every IMU step with the rate
-(ω_meas − b)·dt plus gyro noise of density `gyro_noise` through the exponential map; the
-bias takes a random walk of density `bias_walk` once per prediction block (between two
-observation times). Each tracked star is a fixed direction in the world frame, set from
+frame; the gyro reads ω + b + noise). Prediction turns each particle by the rate
+(ω_meas − b) through the exponential map, block by block between two observation times
+(the IMU steps preintegrated once, first order in the bias:
+evstar_kernels.reference.particle_filter.block_motions); the gyro noise (density
+`gyro_noise`) and the bias's random walk (density `bias_walk`) are drawn once per block,
+at its end: the attitude is only looked at there. Each tracked star is a fixed direction in the world frame, set from
 its first centroid and the attitude estimate at that moment (so the attitude is relative to
 `q0`, the attitude at the first observation time); a particle's weight is the Gaussian
 likelihood of the observed centroids (σ = `pixel_sigma`, residuals capped at `gate`·σ).
@@ -157,14 +159,16 @@ class ParticleFilter:
     def _filter(self, engine, obs, uv, grid, omega, dt, q_est, camera):
         stars, seen = {}, {}  # track -> world direction, centroids averaged into it
         rows = []
-        step = 0
+        groups = list(obs.groups())
+        ends = np.searchsorted(grid, [t for t, _ in groups])   # block g: IMU steps
+        starts = np.r_[0, ends[:-1]]                             # starts[g] .. ends[g] - 1
+        motions = zip(*ref.block_motions(omega, dt, starts, ends))
         pinhole = dict(fx=camera.fx, fy=camera.fy, cx=camera.cx, cy=camera.cy,
                        pixel_sigma=self.pixel_sigma, gate=self.gate)
-        for g, (t, sl) in enumerate(obs.groups()):
-            node = int(np.searchsorted(grid, t))
-            engine.predict(omega[step:node], dt[step:node], gyro_noise=self.gyro_noise,
-                           bias_walk=self.bias_walk, seed=self.seed, step0=step)
-            step = node
+        for g, ((t, sl), motion) in enumerate(zip(groups, motions)):
+            if ends[g] > starts[g]:
+                engine.predict(*motion, gyro_noise=self.gyro_noise, bias_walk=self.bias_walk,
+                               seed=self.seed, step=int(ends[g]) - 1)
             tracks, uv_g = obs.track[sl], uv[sl]
             known = np.array([k in stars for k in tracks.tolist()], dtype=bool)
             if known.any():

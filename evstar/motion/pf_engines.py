@@ -27,12 +27,12 @@ class ReferenceParticles:
         self.cdf = None
         self.parent = np.arange(self.n)
 
-    def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
-                step_normals=None, walk_normals=None):
-        if len(dt):
-            self.q, self.b = ref.predict(self.q, self.b, omega, dt, gyro_noise=gyro_noise,
-                                         bias_walk=bias_walk, seed=seed, step0=step0,
-                                         step_normals=step_normals, walk_normals=walk_normals)
+    def predict(self, rotation, bias_jacobian, duration, *, gyro_noise, bias_walk, seed, step,
+                gyro_normals=None, walk_normals=None):
+        self.q, self.b = ref.predict(self.q, self.b, rotation, bias_jacobian, duration,
+                                     gyro_noise=gyro_noise, bias_walk=bias_walk, seed=seed,
+                                     step=step, gyro_normals=gyro_normals,
+                                     walk_normals=walk_normals)
 
     def normals(self, seed, step, component0, count=3):
         return ref.counter_normals(seed, self.n, step, component0, count)

@@ -8,8 +8,8 @@ values: the normal for (seed, particle, step, component) is Φ⁻¹ of a uniform
 PCG hash of those four integers (Φ⁻¹ by Wichura's AS241, accurate to 1e-16 and free of
 transcendental calls in its central region). Components:
 
-  0–2  gyro noise of IMU step `step`          3–5  bias random walk of a prediction block
-                                              (keyed by the block's last step)
+  0–2  gyro noise of a prediction block       3–5  bias random walk of a prediction block
+       (both keyed by the block's last step)
   6–8  initial bias spread (step 0)           9–11 initial attitude spread (step 0)
 
 The systematic-resampling offset of update k uses particle 0xFFFFFFFF, step k, component 0.
@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .so3 import quat_exp, quat_mul, quat_normalize, quat_rotate
+from .so3 import (quat_exp, quat_identity, quat_mul, quat_normalize, quat_rotate, quat_to_matrix,
+                  right_jacobian)
 
 _M32 = np.uint64(0xFFFFFFFF)
 RESAMPLE_PARTICLE = 0xFFFFFFFF
@@ -93,32 +94,59 @@ def counter_normals(seed, n_particles, step, component0, count=3):
 
 
 # -- particle operations --------------------------------------------------------------------
-def predict(q, b, omega, dt, *, gyro_noise, bias_walk, seed=0, step0=0,
-            step_normals=None, walk_normals=None):
-    """Propagate particles through IMU steps step0 .. step0 + K − 1 (one prediction block).
+def block_motions(omega, dt, starts, ends):
+    """Gyro preintegration of prediction blocks (Forster et al. 2017, first order in the bias):
+    block j covers IMU steps starts[j] .. ends[j] − 1 of the rates omega (K, 3) and lengths
+    dt (K,). Returns P (B, 4) = Exp(−ω_{K−1}·dt_{K−1}) ⊗ … ⊗ Exp(−ω_0·dt_0), the gyro's
+    rotation over the block; M (B, 3, 3) = Σ_k dt_k·R(S_k)ᵀ·J_r(−ω_k·dt_k), S_k the block's
+    steps before k, so that a particle of bias b turns by
+    Π_k Exp(−(ω_k − b)·dt_k) = P ⊗ Exp(M·b) to O(|b|²T²) (~1e-11 rad for 0.5 °/s over 10 ms
+    at 10 °/s: far below the block's gyro noise, ~3e-5 rad); and T (B,) = Σ dt, s.
+    Why: the particles then turn once a block, not once an IMU step (that loop was ~2/3
+    of the filter's time), and the steps are integrated once, not once per particle.
+    All blocks at once: one pass per step index, finished blocks turning by Exp(0) = 1."""
+    omega, dt = np.asarray(omega, np.float64), np.asarray(dt, np.float64)
+    starts, ends = np.asarray(starts, np.int64), np.asarray(ends, np.int64)
+    lengths = ends - starts
+    s, m = quat_identity(len(starts)), np.zeros((len(starts), 3, 3))
+    for i in range(int(lengths.max(initial=0))):
+        k = np.minimum(starts + i, len(dt) - 1)
+        h = np.where(lengths > i, dt[k], 0.0)
+        u = -omega[k] * h[:, None]
+        m = m + h[:, None, None] * (np.swapaxes(quat_to_matrix(s), -1, -2) @ right_jacobian(u))
+        s = quat_mul(quat_exp(u), s)
+    total = np.r_[0.0, np.cumsum(dt)]
+    return s, m, total[ends] - total[starts]
 
-    Per step k: θ = (ω[k] − b)·dt[k] + gyro_noise·√dt[k]·n, q <- Exp(−θ) ⊗ q; at the block's
-    end q is normalised and b <- b + bias_walk·√(Σ dt)·n_walk (the bias is held constant
-    within a block). gyro_noise is a density (rad/s/√Hz), bias_walk rad/s/√s.
-    Normals come from the counter generator unless given: step_normals (K, N, 3),
-    walk_normals (N, 3).
+
+def predict(q, b, rotation, bias_jacobian, duration, *, gyro_noise, bias_walk, seed=0, step=0,
+            gyro_normals=None, walk_normals=None):
+    """Propagate particles through one prediction block (see block_motions: rotation P,
+    bias_jacobian M, duration T seconds):
+
+        q <- Exp(−gyro_noise·√T·n_gyro) ⊗ P ⊗ Exp(M·b) ⊗ q, normalised;
+        b <- b + bias_walk·√T·n_walk   (the bias is held constant within a block).
+
+    The gyro noise of the whole block is drawn once, at its end: the filter looks at the
+    attitude only there (an observation time), where the steps' independent noise
+    rotations add up, to first order, to one isotropic Gaussian of variance
+    gyro_noise²·T per axis. gyro_noise is a density (rad/s/√Hz), bias_walk rad/s/√s.
+    Normals come from the counter generator, keyed by `step` (the block's last IMU step),
+    unless given: gyro_normals (N, 3), walk_normals (N, 3).
     """
-    q = np.array(q, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    omega, dt = np.asarray(omega, dtype=np.float64), np.asarray(dt, dtype=np.float64)
+    m = np.asarray(bias_jacobian, dtype=np.float64)
     n = len(q)
-    for k in range(len(dt)):
-        nk = (counter_normals(seed, n, step0 + k, GYRO) if step_normals is None
-              else step_normals[k])
-        s = gyro_noise * np.sqrt(dt[k])
-        theta = (omega[k] - b) * dt[k] + s * nk
-        q = quat_mul(quat_exp(-theta), q)
-    q = quat_normalize(q)
-    if len(dt):
-        if walk_normals is None:
-            walk_normals = counter_normals(seed, n, step0 + len(dt) - 1, WALK)
-        b = b + (bias_walk * np.sqrt(np.sum(dt))) * walk_normals
-    return q, b
+    v = np.stack([m[r, 0] * b[:, 0] + m[r, 1] * b[:, 1] + m[r, 2] * b[:, 2] for r in range(3)], 1)
+    q = quat_mul(np.asarray(rotation, np.float64), quat_mul(quat_exp(v), q))
+    if gyro_normals is None:
+        gyro_normals = counter_normals(seed, n, step, GYRO)
+    if walk_normals is None:
+        walk_normals = counter_normals(seed, n, step, WALK)
+    span = np.sqrt(duration)
+    q = quat_mul(quat_exp(-((gyro_noise * span) * gyro_normals)), q)
+    return quat_normalize(q), b + (bias_walk * span) * walk_normals
 
 
 def log_likelihood(q, stars_world, uv, *, fx, fy, cx, cy, pixel_sigma, gate):

@@ -16,14 +16,9 @@ def pcg_hash(v: wp.uint32):
 
 
 @wp.func
-def particle_key(seed: wp.uint32, particle: wp.uint32):
-    return pcg_hash(pcg_hash(seed) + particle)
-
-
-@wp.func
 def counter_key(seed: wp.uint32, particle: wp.uint32, step: wp.uint32):
-    """pcg(pcg(pcg(seed) + particle) + step); loops over steps hoist particle_key instead."""
-    return pcg_hash(particle_key(seed, particle) + step)
+    """pcg(pcg(pcg(seed) + particle) + step)."""
+    return pcg_hash(pcg_hash(pcg_hash(seed) + particle) + step)
 
 
 @wp.func

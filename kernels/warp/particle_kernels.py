@@ -1,12 +1,13 @@
 """Warp kernels of the SO(3) particle filter (math only; launches live in particle_launch.py).
 
-One thread per particle; a prediction kernel runs a whole block of IMU steps per launch.
+One thread per particle; a prediction kernel moves the particles through a whole block of
+IMU steps (preintegrated on the host) per launch.
 Each kernel mirrors a function of `evstar_kernels.reference.particle_filter` term by term;
 FMA contraction is switched off for this module so that CPU results are bit-identical.
 """
 import warp as wp
 
-from .counter_rng import counter_key, counter_normal, particle_key, pcg_hash
+from .counter_rng import counter_key, counter_normal
 from .so3 import quat_exp, quat_mul, quat_normalize, quat_rotate
 
 wp.set_module_options({"cpu_compiler_flags": (wp.config.cpu_compiler_flags or "-march=native")
@@ -17,64 +18,63 @@ _WALK = wp.constant(wp.uint32(3))
 
 
 @wp.func
-def predict_step(q: wp.vec4d, b: wp.vec3d, omega: wp.vec3d, dt: wp.float64, gyro_noise: wp.float64,
-                 n0: wp.float64, n1: wp.float64, n2: wp.float64):
-    """q <- Exp(−θ) ⊗ q with θ = (ω − b)·dt + gyro_noise·√dt·n."""
-    s = gyro_noise * wp.sqrt(dt)
-    tx = (omega[0] - b[0]) * dt + s * n0
-    ty = (omega[1] - b[1]) * dt + s * n1
-    tz = (omega[2] - b[2]) * dt + s * n2
-    return quat_mul(quat_exp(-tx, -ty, -tz), q)
+def block_rotation(q: wp.vec4d, b: wp.vec3d, rotation: wp.vec4d, m: wp.mat33d):
+    """P ⊗ Exp(M·b) ⊗ q: the gyro's rotation over the block, with the particle's bias."""
+    v0 = m[0, 0] * b[0] + m[0, 1] * b[1] + m[0, 2] * b[2]
+    v1 = m[1, 0] * b[0] + m[1, 1] * b[1] + m[1, 2] * b[2]
+    v2 = m[2, 0] * b[0] + m[2, 1] * b[1] + m[2, 2] * b[2]
+    return quat_mul(rotation, quat_mul(quat_exp(v0, v1, v2), q))
+
+
+@wp.func
+def block_end(q: wp.vec4d, gyro_sigma: wp.float64, g: wp.vec3d):
+    """Exp(−gyro_sigma·g) ⊗ q, normalised: the block's gyro noise."""
+    return quat_normalize(quat_mul(quat_exp(-(gyro_sigma * g[0]), -(gyro_sigma * g[1]),
+                                            -(gyro_sigma * g[2])), q))
+
+
+@wp.func
+def walk(b: wp.vec3d, walk_sigma: wp.float64, w: wp.vec3d):
+    """b + walk_sigma·w: the block's bias walk."""
+    return b + wp.vec3d(walk_sigma * w[0], walk_sigma * w[1], walk_sigma * w[2])
 
 
 @wp.kernel
 def predict_counter(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
-                    omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
-                    seed: wp.uint32, step0: wp.uint32, gyro_noise: wp.float64,
-                    walk_sigma: wp.float64, first: wp.int32):
-    """A block of steps step0 .. step0 + K − 1 with counter-based noise; then the bias walk
-    (walk_sigma = bias_walk·√(Σ dt), keyed by the block's last step). Thread t moves
+                    rotation: wp.vec4d, bias_jacobian: wp.mat33d, seed: wp.uint32,
+                    step: wp.uint32, gyro_sigma: wp.float64, walk_sigma: wp.float64,
+                    first: wp.int32):
+    """One prediction block (rotation P, bias Jacobian M: reference.block_motions), then
+    its gyro noise (gyro_sigma = gyro_noise·√T) and bias walk (walk_sigma = bias_walk·√T)
+    with counter-based normals keyed by `step` (the block's last IMU step). Thread t moves
     particle first + t (a launch may cover a range of the particles).
 
     Specification: `evstar_kernels.reference.particle_filter.predict`."""
     i = wp.tid() + first
-    p = wp.uint32(i)
-    qi = q[i]
     bi = b[i]
-    n_steps = dt.shape[0]
-    pkey = particle_key(seed, p)
-    for k in range(n_steps):
-        key = pcg_hash(pkey + step0 + wp.uint32(k))
-        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise,
-                          counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
-                          counter_normal(key, _GYRO + wp.uint32(2)))
-    q[i] = quat_normalize(qi)
-    if n_steps > 0:
-        key = counter_key(seed, p, step0 + wp.uint32(n_steps - 1))
-        b[i] = bi + wp.vec3d(walk_sigma * counter_normal(key, _WALK),
-                             walk_sigma * counter_normal(key, _WALK + wp.uint32(1)),
-                             walk_sigma * counter_normal(key, _WALK + wp.uint32(2)))
+    qi = block_rotation(q[i], bi, rotation, bias_jacobian)
+    key = counter_key(seed, wp.uint32(i), step)
+    g = wp.vec3d(counter_normal(key, _GYRO), counter_normal(key, _GYRO + wp.uint32(1)),
+                 counter_normal(key, _GYRO + wp.uint32(2)))
+    w = wp.vec3d(counter_normal(key, _WALK), counter_normal(key, _WALK + wp.uint32(1)),
+                 counter_normal(key, _WALK + wp.uint32(2)))
+    q[i] = block_end(qi, gyro_sigma, g)
+    b[i] = walk(bi, walk_sigma, w)
 
 
 @wp.kernel
 def predict_given(q: wp.array(dtype=wp.vec4d), b: wp.array(dtype=wp.vec3d),
-                  omega: wp.array(dtype=wp.vec3d), dt: wp.array(dtype=wp.float64),
-                  step_normals: wp.array2d(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
-                  gyro_noise: wp.float64, walk_sigma: wp.float64):
-    """predict_counter with the normals supplied: step_normals (K, N), walk_normals (N).
+                  rotation: wp.vec4d, bias_jacobian: wp.mat33d,
+                  gyro_normals: wp.array(dtype=wp.vec3d), walk_normals: wp.array(dtype=wp.vec3d),
+                  gyro_sigma: wp.float64, walk_sigma: wp.float64):
+    """predict_counter with the normals supplied: gyro_normals (N), walk_normals (N).
 
-    Specification: `evstar_kernels.reference.particle_filter.predict` (step_normals=, walk_normals=)."""
+    Specification: `evstar_kernels.reference.particle_filter.predict` (gyro_normals=, walk_normals=)."""
     i = wp.tid()
-    qi = q[i]
     bi = b[i]
-    n_steps = dt.shape[0]
-    for k in range(n_steps):
-        n = step_normals[k, i]
-        qi = predict_step(qi, bi, omega[k], dt[k], gyro_noise, n[0], n[1], n[2])
-    q[i] = quat_normalize(qi)
-    if n_steps > 0:
-        n = walk_normals[i]
-        b[i] = bi + wp.vec3d(walk_sigma * n[0], walk_sigma * n[1], walk_sigma * n[2])
+    qi = block_rotation(q[i], bi, rotation, bias_jacobian)
+    q[i] = block_end(qi, gyro_sigma, gyro_normals[i])
+    b[i] = walk(bi, walk_sigma, walk_normals[i])
 
 
 @wp.kernel
@@ -179,17 +179,27 @@ def weight_terms(logw: wp.array(dtype=wp.float64), q: wp.array(dtype=wp.vec4d),
         wp.atomic_add(sums, 6 + c, w * bi[c])
 
 
+@wp.func
+def resample_position(u0: wp.float64, j: int, n: int, total: wp.float64):
+    return (u0 + wp.float64(j)) / wp.float64(n) * total
+
+
 @wp.kernel
 def systematic_resample(cdf: wp.array(dtype=wp.float64), u0: wp.float64,
                         q_in: wp.array(dtype=wp.vec4d), b_in: wp.array(dtype=wp.vec3d),
                         q_out: wp.array(dtype=wp.vec4d), b_out: wp.array(dtype=wp.vec3d),
-                        parent: wp.array(dtype=wp.int32)):
-    """Child j copies the first particle i with cdf[i] > (u0 + j)/N · cdf[N−1] (binary search).
+                        parent: wp.array(dtype=wp.int32), count: wp.int32):
+    """Child j copies the first particle i with cdf[i] > (u0 + j)/N · cdf[N−1]. Thread t
+    places children t·count .. (t+1)·count − 1: a binary search for the first, then a walk
+    up the cdf (the positions rise with j), so one thread places all N children in O(N)
+    (the CPU launch; N binary searches of mispredicted branches cost ~10x more) and a GPU
+    runs count = 1.
 
     Specification: `evstar_kernels.reference.particle_filter.systematic_resample`."""
-    j = wp.tid()
     n = cdf.shape[0]
-    pos = (u0 + wp.float64(j)) / wp.float64(n) * cdf[n - 1]
+    j0 = wp.tid() * count
+    total = cdf[n - 1]
+    pos = resample_position(u0, j0, n, total)
     lo = int(0)
     hi = n
     while lo < hi:  # numpy.searchsorted(cdf, pos, side="right")
@@ -198,7 +208,13 @@ def systematic_resample(cdf: wp.array(dtype=wp.float64), u0: wp.float64,
             lo = mid + 1
         else:
             hi = mid
-    i = wp.min(lo, n - 1)
-    parent[j] = i
-    q_out[j] = q_in[i]
-    b_out[j] = b_in[i]
+    for j in range(j0, wp.min(j0 + count, n)):
+        pos = resample_position(u0, j, n, total)
+        while lo < n:  # the same search, from the previous child's particle
+            if cdf[lo] > pos:
+                break
+            lo = lo + 1
+        i = wp.min(lo, n - 1)
+        parent[j] = i
+        q_out[j] = q_in[i]
+        b_out[j] = b_in[i]

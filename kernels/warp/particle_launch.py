@@ -29,6 +29,29 @@ def _pool(k):
     return _POOLS[k]
 
 
+class _Replay:
+    """One kernel's launch recorded once and replayed with only the changed arguments reset:
+    wp.launch packs every argument anew (~30 us of Python, holding the GIL, ~5 launches a
+    frame); a replay costs ~4 us plus ~1.5 us an argument that changed (per-frame arrays and
+    numbers; the particle arrays and constants stay)."""
+
+    def __init__(self, kernel, device):
+        self.kernel, self.device, self.cmd, self.args, self.dim = kernel, device, None, [], None
+
+    def __call__(self, dim, inputs):
+        if self.cmd is None:
+            self.cmd = wp.launch(self.kernel, dim, device=self.device, inputs=inputs,
+                                 record_cmd=True)
+        else:
+            if dim != self.dim:
+                self.cmd.set_dim(dim)
+            for i, (new, old) in enumerate(zip(inputs, self.args)):
+                if new is not old and not (type(new) in (int, float) and new == old):
+                    self.cmd.set_param_at_index(i, new)
+        self.dim, self.args = dim, list(inputs)
+        self.cmd.launch()
+
+
 class WarpParticles:
     """Particles q (N, 4) and b (N, 3) with their log-weights on a Warp device."""
 
@@ -48,45 +71,54 @@ class WarpParticles:
         self._sums = wp.zeros(9, dtype=wp.float64, device=device)
         self._w = wp.zeros(self.n, dtype=wp.float64, device=device)
         self._max = wp.zeros(1, dtype=wp.float64, device=device)
-        is_cpu = wp.get_device(device).is_cpu
+        is_cpu = self._is_cpu = wp.get_device(device).is_cpu
         self._sequential = is_cpu if sequential is None else bool(sequential)
         # particle ranges of one launch each: >= 256 particles a range
         k = max(1, min(int(threads), self.n // 256)) if is_cpu else 1
         self._ranges = [(self.n * j // k, self.n * (j + 1) // k) for j in range(k)]
         if k > 1:  # compiled and loaded here, not by two launches at once
             wp.load_module(K, device=device)
+        self._replays = {}   # (kernel, first particle) -> _Replay
+
+    def _run(self, kernel, dim, inputs, first=None):
+        """Launch kernel (dim threads) by its replay for this particle range (`first`)."""
+        key = (kernel.key, first)
+        if key not in self._replays:
+            self._replays[key] = _Replay(kernel, self.device)
+        self._replays[key](dim, inputs if first is None else inputs + [first])
 
     def _launch(self, kernel, inputs):
         """kernel over every particle: inputs + [first particle], one launch per range (the
         last on this thread, which so works while the pool's threads wake up)."""
         def one(r):
-            wp.launch(kernel, r[1] - r[0], device=self.device, inputs=inputs + [r[0]])
+            self._run(kernel, r[1] - r[0], inputs, r[0])
         others = [_pool(len(self._ranges) - 1).submit(one, r) for r in self._ranges[:-1]]
         one(self._ranges[-1])
         for f in others:
             f.result()
 
+    def _view(self, a, dtype):
+        """Host data as a Warp array: on the CPU a view of the numpy memory (a CPU launch
+        returns when done, so no copy is needed: ~25 us each, 4 a frame), else a copy."""
+        a = np.ascontiguousarray(a, np.float64)
+        return wp.array(a, dtype=dtype, device=self.device, copy=not self._is_cpu)
+
     # -- prediction --------------------------------------------------------------------------
-    def predict(self, omega, dt, *, gyro_noise, bias_walk, seed, step0,
-                step_normals=None, walk_normals=None):
-        """One block of IMU steps (see reference.particle_filter.predict), one launch."""
-        dt = np.ascontiguousarray(dt, dtype=np.float64)
-        if len(dt) == 0:
-            return
-        omega_d = wp.array(np.ascontiguousarray(omega, np.float64), dtype=wp.vec3d, device=self.device)
-        dt_d = wp.array(dt, dtype=wp.float64, device=self.device)
-        walk_sigma = float(bias_walk * np.sqrt(np.sum(dt)))
-        if step_normals is None:
+    def predict(self, rotation, bias_jacobian, duration, *, gyro_noise, bias_walk, seed, step,
+                gyro_normals=None, walk_normals=None):
+        """One prediction block (see reference.particle_filter.predict), one launch."""
+        motion = [wp.vec4d(*np.asarray(rotation, np.float64)),
+                  wp.mat33d(*np.asarray(bias_jacobian, np.float64).ravel())]
+        span = np.sqrt(duration)
+        sigmas = [float(gyro_noise * span), float(bias_walk * span)]
+        if gyro_normals is None:
             self._launch(K.predict_counter,
-                         [self.q, self.b, omega_d, dt_d, wp.uint32(seed & 0xFFFFFFFF),
-                          wp.uint32(step0 & 0xFFFFFFFF), float(gyro_noise), walk_sigma])
+                         [self.q, self.b, *motion, wp.uint32(seed & 0xFFFFFFFF),
+                          wp.uint32(step & 0xFFFFFFFF), *sigmas])
         else:
-            sn = wp.array(np.ascontiguousarray(step_normals, np.float64), dtype=wp.vec3d,
-                          device=self.device)
-            wn = wp.array(np.ascontiguousarray(walk_normals, np.float64), dtype=wp.vec3d,
-                          device=self.device)
             wp.launch(K.predict_given, self.n, device=self.device,
-                      inputs=[self.q, self.b, omega_d, dt_d, sn, wn, float(gyro_noise), walk_sigma])
+                      inputs=[self.q, self.b, *motion, self._view(gyro_normals, wp.vec3d),
+                              self._view(walk_normals, wp.vec3d), *sigmas])
 
     def normals(self, seed, step, component0, count=3):
         """The counter-based normals the kernels draw, (N, count) on the host (for checks)."""
@@ -97,22 +129,20 @@ class WarpParticles:
 
     # -- update ------------------------------------------------------------------------------
     def add_log_likelihood(self, stars_world, uv, *, fx, fy, cx, cy, pixel_sigma, gate):
-        stars = wp.array(np.ascontiguousarray(stars_world, np.float64), dtype=wp.vec3d,
-                         device=self.device)
-        uv_d = wp.array(np.ascontiguousarray(uv, np.float64), dtype=wp.vec2d, device=self.device)
+        stars, uv_d = self._view(stars_world, wp.vec3d), self._view(uv, wp.vec2d)
         inputs = [self.q, stars, uv_d, float(fx), float(fy), float(cx), float(cy),
                   1.0 / pixel_sigma, float(gate) * float(gate), self.logw]
         if len(stars_world) >= _SPLIT_STARS:     # long enough to share between threads
             self._launch(K.add_log_likelihood, inputs)
         else:
-            wp.launch(K.add_log_likelihood, self.n, device=self.device, inputs=inputs + [0])
+            self._run(K.add_log_likelihood, self.n, inputs, 0)
 
     def weight_sums(self, q_ref):
         """Fill self.cdf and return the nine sums of reference.particle_filter.weight_sums."""
         q_ref = wp.vec4d(*np.asarray(q_ref, np.float64))
         if self._sequential:
-            wp.launch(K.weight_sums_sequential, 1, device=self.device,
-                      inputs=[self.logw, self.q, self.b, q_ref, self.cdf, self._sums])
+            self._run(K.weight_sums_sequential, 1,
+                      [self.logw, self.q, self.b, q_ref, self.cdf, self._sums])
         else:
             self._max.fill_(-np.inf)
             self._sums.zero_()
@@ -124,8 +154,9 @@ class WarpParticles:
 
     def resample(self, u0):
         """Systematic resampling from self.cdf (call weight_sums first); resets the weights."""
-        wp.launch(K.systematic_resample, self.n, device=self.device,
-                  inputs=[self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent])
+        count = self.n if self._is_cpu else 1   # CPU: one thread walks the cdf once
+        self._run(K.systematic_resample, (self.n + count - 1) // count,
+                  [self.cdf, float(u0), self.q, self.b, self._q2, self._b2, self.parent, count])
         self.q, self._q2 = self._q2, self.q
         self.b, self._b2 = self._b2, self.b
         self.logw.zero_()
