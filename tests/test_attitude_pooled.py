@@ -59,7 +59,7 @@ def test_a_slow_roll_no_frame_identifies_starts_from_its_pooled_events(slow_roll
     t0 = int(run.events.t[0])
     # tried once the first 50 ms had passed (the frame ending at 50 ms), on those 50 ms
     assert t0 + WINDOW_US - Config().dt_us < t_fix <= t0 + WINDOW_US
-    (fix, xy, t_xy, source), = est.identified
+    (fix, xy, t_xy, source), = [f for f in est.searches if f[0].ok]
     assert source == "pooled" and fix.t_us == t0 + WINDOW_US // 2 and np.all(t_xy == fix.t_us)
     assert len(xy) == fix.n_matches >= 6
     # rows only after the fix, starting with it; the tracks it named then update the filter
@@ -75,10 +75,23 @@ def test_the_pooled_window_sets_when_and_zero_turns_it_off(slow_roll, centroids,
     est = AttitudeEstimator(CAM, solver=solver, pooled_window_ms=30)
     rows = est.run(c, run.events)
     t_fix = next(t for t, s, _ in est.fixes if s == "pooled ok")
-    assert t0 + 20_000 < t_fix <= t0 + 30_000 and est.identified[0][0].t_us == t0 + 15_000
+    assert t0 + 20_000 < t_fix <= t0 + 30_000 and est.searches[-1][0].t_us == t0 + 15_000
     assert len(rows) and rows["t"][0] >= t_fix
     off = AttitudeEstimator(CAM, solver=solver, pooled_window_ms=0)
     assert len(off.run(c, run.events)) == 0 and not any(s.startswith("pooled") for _, s, _ in off.fixes)
+
+
+def test_frames_without_centroids_count_for_the_pooled_window(slow_roll, centroids, solver):
+    run, c = slow_roll, centroids["none"]
+    t0 = int(run.events.t[0])
+    gap = c[(c["frame"] < 3) | (c["frame"] > 5)]         # frames 3-5 without a centroid
+    est = AttitudeEstimator(CAM, solver=solver)
+    rows = est.run(gap, run.events)
+    assert [(t, s) for t, s, _ in est.fixes if s.startswith("pooled")] == [(t0 + WINDOW_US, "pooled ok")]
+    assert len(rows) and t0 + WINDOW_US <= rows["t"][0] < t0 + 60_000 and rows["status"][0] == "fix"
+    none = AttitudeEstimator(CAM, solver=solver)          # no centroid at all: a fix, no rows
+    assert len(none.run(c[:0], run.events)) == 0 and len(none.searches) == 1
+    assert none.searches[0][0].ok and none.fixes[0][:2] == (t0 + WINDOW_US, "pooled ok")
 
 
 def test_noise_events_give_no_pooled_fix(slow_roll, centroids, solver):

@@ -57,8 +57,8 @@ class AttitudeEstimator:
     and identify_events (default: Solver.for_camera(camera), cached per process).
     After run(): .fixes, a list of (t_us, status, stars matched) — status "pooled ..." for
     an identification of the pooled events (evstar.attitude.identify_events) — and
-    .identified, (Fix, matched pixel positions (n, 2), their times (n,), "frame" or
-    "pooled") of each verified fix."""
+    .searches, (Fix, pixel positions (n, 2) of its matched stars, their times (n,), "frame"
+    or "pooled") of each identification searched, verified (Fix.ok) or not."""
 
     def __init__(self, camera, imu=None, *, identifier=None, epoch=None, solver=None,
                  frame_us=P.GLOBAL["dt_us"].default, **options):
@@ -78,7 +78,7 @@ class AttitudeEstimator:
         self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
         self.epoch, self._solver = epoch, solver
         self.identifier = identifier or self._default_identifier
-        self.fixes, self.identified = [], []
+        self.fixes, self.searches = [], []
 
     @property
     def solver(self):
@@ -101,13 +101,16 @@ class AttitudeEstimator:
         if events is not None and not isinstance(events, Events):
             raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         c = _delayed(_measured(centroids), self.o["centroid_delay_us"])
-        self.fixes, self.identified, self._out = [], [], []
-        if not len(c):
-            return np.zeros(0, ATTITUDE_DTYPE)
+        self.fixes, self.searches, self._out = [], [], []
         pooled = events is not None and len(events) and self.o["pooled_window_ms"] > 0
+        if not len(c) and not pooled:
+            return np.zeros(0, ATTITUDE_DTYPE)
         self._events = events if pooled else None
         self._ev_t0 = int(events.t[0]) if pooled else 0
         self._pool_from, self._pooled_at = self._ev_t0, -math.inf
+        # frames without centroids count too (the pipeline's frames start at the first event)
+        empty = pooled and "frame" in c.dtype.names and np.all(c["frame"] >= 0)
+        self._next_frame = 0
         self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
         self._c, self._xy_dt = c, _track_velocity(c)
         self._z, self._sig = self._normalised(c)
@@ -115,17 +118,21 @@ class AttitudeEstimator:
         self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
         self._last_used, self._n_used, self._bad = -math.inf, 0, 0
         step = 1e6 / self.o["rate_hz"]
-        t0, t_end = int(c["t"][0]), int(c["t"][-1])
+        t0, t_end = (int(c["t"][0]), int(c["t"][-1])) if len(c) else (0, -1)
         self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
         self._next_out = 0
         self._chains = []      # per filter run: its nodes (updates and rows) for the smoother
-        for idx in _frames(c, self.frame_us):
+        for idx in _frames(c, self.frame_us) if len(c) else []:
             t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
+            if empty:
+                self._empty_frames_until(int(c["frame"][idx[-1]]))
             self._emit_until(t_ref)
             self._maybe_identify(idx, t_ref)
             if self.filt is not None:      # after a (re)start too: the fix's prior is loose
                 self._predict_to(t_ref)
                 self._update(idx, t_ref)
+        if empty:      # acquisition only: rows need centroids to follow (none after the last)
+            self._empty_frames_until(-(-(int(events.t[-1]) + 1 - self._ev_t0) // self.frame_us))
         self._emit_until(t_end + 1)
         if not self._out:
             return np.zeros(0, ATTITUDE_DTYPE)
@@ -151,10 +158,25 @@ class AttitudeEstimator:
         if (due or lost and t_ref >= self._retry_at) and self._identify_frame(idx, c, t_ref, lost):
             self._pool_from = t_end
             return
+        if lost or not known.all():
+            self._maybe_pool(t_end, t_ref, lost)
+
+    def _empty_frames_until(self, frame):
+        """The frames before `frame` that had no centroid: while the attitude is lost, their
+        ends may still be due for the pooled window."""
+        for k in range(self._next_frame, frame):
+            t_end = self._ev_t0 + (k + 1) * self.frame_us
+            self._emit_until(t_end)
+            if self.filt is None:
+                self._maybe_pool(t_end, t_end, True)
+        self._next_frame = max(self._next_frame, frame + 1)
+
+    def _maybe_pool(self, t_end, t_ref, lost):
+        """The pooled window ending at t_end, when no frame has identified for that long."""
         window_us = int(round(self.o["pooled_window_ms"] * 1000))
         every_us = max(window_us, self.o["reidentify_ms"] * 1000)
-        if (self._events is not None and (lost or not known.all())
-                and t_end - self._pool_from >= window_us and t_end - self._pooled_at >= every_us):
+        if (self._events is not None and t_end - self._pool_from >= window_us
+                and t_end - self._pooled_at >= every_us):
             self._pooled_at = t_end
             if self._identify_pooled(t_end - window_us, t_end, t_ref, lost):
                 self._pool_from = t_end
@@ -170,12 +192,12 @@ class AttitudeEstimator:
         xy = np.stack([c["x"], c["y"]], 1) + shift
         fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
         self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
+        ci = np.asarray(fix.centroid_index, int)
+        self.searches.append((fix, xy[ci], np.full(len(ci), t_ref), "frame"))
         if not fix.ok:
             if fix.status != "too_few_stars":        # a full search failed: not every frame
                 self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
             return False
-        ci = np.asarray(fix.centroid_index, int)
-        self.identified.append((fix, xy[ci], np.full(len(ci), t_ref), "frame"))
         self._name(fix, tracks)
         if lost:
             self._start(fix, t_ref, idx, xy)
@@ -190,10 +212,10 @@ class AttitudeEstimator:
         fix, found = identify_events(self._events, self.camera, t_start, t_stop, imu=self.imu,
                                      solver=self.solver, epoch=self.epoch)
         self.fixes.append((t_ref, "pooled " + fix.status, len(fix.hip) if fix.ok else 0))
+        ci = np.asarray(fix.centroid_index, int)
+        self.searches.append((fix, found[ci], np.full(len(ci), fix.t_us), "pooled"))
         if not fix.ok:
             return False
-        ci = np.asarray(fix.centroid_index, int)
-        self.identified.append((fix, found[ci], np.full(len(ci), fix.t_us), "pooled"))
         idx, xy = self._tracks_at(t_start, t_ref, fix.t_us)
         star, track = _pairs(found[ci], xy, self.solver.settings["match_radius_px"])
         named = dataclasses.replace(fix, centroid_index=track, hip=np.asarray(fix.hip)[star],
