@@ -37,7 +37,7 @@ import time
 import numpy as np
 
 from evstar import Config, Pipeline, sim
-from evstar.attitude import Solver, catalog, identify, identify_events
+from evstar.attitude import AttitudeEstimator, Solver, catalog, identify_events
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 # davis346 behind 16 mm: 346 x 260 px, f ≈ 865 px (22.6° x 17.1°); evk4 behind 12 mm:
@@ -73,34 +73,25 @@ def judge(fix, xy, t_us, cam, truth):
 
 
 def first_fix(cents, cam, solver, truth, t0, events, imu, pooled=True):
-    """The first verified fix, frames in time order from the frames' centroids, else (pooled)
-    from all the window's events (evstar.attitude.identify_events) after its last frame."""
-    tried, fix, frames = [], None, int(math.ceil(WINDOW_US / DT_US))
-    for frame in range(frames):
-        data_ms = (frame + 1) * DT_US / 1e3     # the fix needs events up to its frame's end
-        c = cents[cents["frame"] == frame]
-        fix = None
-        if len(c):
-            fix = identify(np.stack([c["x"], c["y"]], axis=1), cam, int(np.median(c["t"])),
-                           solver=solver, weight=c["n_events"])
-            tried.append(fix.solve_ms)
-            if fix.ok:
-                m = c[fix.centroid_index]
-                xy, t_us, source, n = np.stack([m["x"], m["y"]], axis=1), m["t"], "frame", len(c)
-        if (fix is None or not fix.ok) and pooled and frame == frames - 1:
-            fix, found = identify_events(events, cam, t0, t0 + WINDOW_US, imu=imu, solver=solver)
-            tried.append(fix.solve_ms)
-            if fix.ok:
-                xy, source, n = found[fix.centroid_index], "pooled", len(found)
-                t_us = np.full(len(xy), fix.t_us)
-        if fix is not None and fix.ok:
-            right, err, named = judge(fix, xy, t_us, cam, truth)
-            return dict(ok=bool(right), false=not right, err_arcsec=err * 3600, named_right=named,
-                        data_ms=data_ms, t_fix_ms=(fix.t_us - t0) / 1e3, solve_ms=fix.solve_ms,
-                        all_solve_ms=tried, frame=frame, source=source,
-                        matches=fix.n_matches, residual_arcsec=fix.residual_arcsec, centroids=n,
-                        status=fix.status)
-    return dict(ok=False, false=False, all_solve_ms=tried, status="none" if fix is None else fix.status)
+    """The product's first verified fix: evstar.attitude.AttitudeEstimator over the window's
+    centroids (their frames as it identifies them) and, pooled, its events (identify_events
+    once no frame has identified for the 50 ms); no rows are needed, only its searches."""
+    est = AttitudeEstimator(cam, imu, solver=solver, frame_us=DT_US,
+                            pooled_window_ms=WINDOW_US / 1e3 if pooled else 0)
+    est.run(cents, events if pooled else None)
+    tried = [fix.solve_ms for fix, *_ in est.searches]
+    for fix, xy, t_us, source in est.searches:
+        if not fix.ok:
+            continue
+        # the fix needs events up to its frame's end (pooled: its window's end)
+        end = fix.t_us + WINDOW_US // 2 if source == "pooled" else t0 + ((int(t_us[0]) - t0) // DT_US + 1) * DT_US
+        right, err, named = judge(fix, xy, t_us, cam, truth)
+        return dict(ok=bool(right), false=not right, err_arcsec=err * 3600, named_right=named,
+                    data_ms=(end - t0) / 1e3, t_fix_ms=(fix.t_us - t0) / 1e3, solve_ms=fix.solve_ms,
+                    all_solve_ms=tried, source=source, matches=fix.n_matches,
+                    residual_arcsec=fix.residual_arcsec, status=fix.status)
+    last = est.fixes[-1][1].removeprefix("pooled ") if est.fixes else "none"
+    return dict(ok=False, false=False, all_solve_ms=tried, status=last)
 
 
 def pooled_alone(events, imu, cam, solver, truth, t0):
