@@ -4,24 +4,25 @@ For each setting (camera preset x slew rate x motion compensation) and each of N
 pointings (uniform on the sphere, random roll, random rotation axis; seeded), the simulator
 renders the Hipparcos stars to magnitude 7 for the first 50 ms only (so nothing later can
 leak into the answer), the real pipeline runs (MR-NDSEF, DBSCAN, tracking, crossing-time
-estimator; compensation none or imu), and the centroids of each 10 ms frame, in time order,
-go to evstar.attitude.identify until one gives a verified fix; when none does, all the
-window's events go to evstar.attitude.identify_events (pooled, with a window-adaptive
-detection threshold; warped by the gyro with compensation imu). A pointing succeeds when that
+estimator; compensation none or imu), and the product's first fix is taken: the attitude
+estimator (evstar.attitude.AttitudeEstimator) over the window's centroids, which searches
+its frames as it does for any recording and, when none has identified within the 50 ms,
+the window's raw events pooled (evstar.attitude.identify_events, a window-adaptive detection
+threshold; warped by the gyro with compensation imu). A pointing succeeds when that
 fix names the stars right: at least 80 % of its matched catalogue stars project, with the
 true attitude at each centroid's time, within 3 px of their centroids (and the attitude is
 within 1°). A verified fix that fails this is a false fix. The attitude error of the
 successful fixes (rotation angle between fitted and true attitude, dominated by roll about
 the boresight) is reported separately. As a check of its false fixes on every row,
 identify_events also runs alone on each pointing's whole window ("pooled alone"); --no-pooled
-leaves both out (frame centroids only, as before issue 14's fix).
+leaves both out (frame centroids only: pooled_window_ms 0).
 
     python perf/study_identify.py [--pointings 50] [--presets davis346 evk4] [--rates 0 5 10 20]
                                   [--dt-ms 10] [--no-pooled] [--out perf/results/identify.json]
 
 Writes perf/results/identify.json (per setting: success fraction, false fixes, how much of
-the window the first fix needs (the end of its 10 ms frame) and the time its centroids refer
-to, solve time median / range over all frames tried, matched stars, RMS residual, attitude
+the window the first fix needs (the end of its 10 ms frame, or of the pooled window) and the
+time its centroids refer to, solve time median / range over all searches, matched stars, RMS residual, attitude
 error, how many fixes came from the pooled window, the pooled-alone success and false
 fixes, and per failure the rate across the boresight) and prints a table. The pipeline and
 simulation of one pointing are shared by both compensation modes.
