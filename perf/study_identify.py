@@ -22,8 +22,8 @@ leaves both out (frame centroids only: pooled_window_ms 0).
 
 Writes perf/results/identify.json (per setting: success fraction, false fixes, how much of
 the window the first fix needs (the end of its 10 ms frame, or of the pooled window) and the
-time its centroids refer to, solve time median / range over all searches, matched stars, RMS residual, attitude
-error, how many fixes came from the pooled window, the pooled-alone success and false
+time its centroids refer to, solve time median / range over all searches, matched stars, RMS
+residual, attitude error, how many fixes came from the pooled window, the pooled-alone success and false
 fixes, and per failure the rate across the boresight) and prints a table. The pipeline and
 simulation of one pointing are shared by both compensation modes.
 """

@@ -124,3 +124,17 @@ def test_run_and_attitude_on_a_recording_use_the_pooled_events(slow_roll, tmp_pa
     assert main(["attitude", str(tmp_path / "out" / "centroids.csv"), "-o", str(tmp_path / "b.csv"),
                  "--camera", str(tmp_path / "camera.json")]) == 3
     assert "no attitude" in capsys.readouterr().err and not (tmp_path / "b.csv").exists()
+
+
+def test_tracking_enough_stars_never_pools(solver):
+    """A 10 °/s pan identified from its first frames: new stars entering unnamed are named by
+    the frames; the events change nothing (no pooled search, the same rows)."""
+    traj = sim.ConstantRate(10.0, R0=sim.attitude_from_radec(83.8, -5.4))
+    stars = sim.hipparcos_field_along(CAM, traj, 0.2, mag_limit=6.0)
+    run = sim.simulate(sim.Scenario(CAM, stars, traj, 0.2), seed=2)
+    c = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    without = AttitudeEstimator(CAM, solver=solver).run(c)
+    est = AttitudeEstimator(CAM, solver=solver)
+    rows = est.run(c, run.events)
+    assert est.fixes[0][1] == "ok" and not any(s.startswith("pooled") for _, s, _ in est.fixes)
+    assert len(rows) >= 15 and all(np.array_equal(rows[k], without[k]) for k in rows.dtype.names)

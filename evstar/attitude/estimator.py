@@ -9,7 +9,8 @@ confirmed tracks, moved to the frame's last centroid time with their tracks' ima
 velocities (a fast pan would distort the pattern), are identified; a full search that
 fails is retried ``reidentify_ms`` later, not every frame (a noisy recording would spend
 the solver's timeout on each). When no frame has identified for ``pooled_window_ms`` while
-the attitude is lost (or confirmed tracks are unnamed) and the events are given, the
+the attitude is lost (or fewer than ``min_stars`` identified tracks are seen and some
+confirmed ones are unnamed) and the events are given, the
 window's events pooled into one image are identified (:func:`.identify_events`, warped by
 the gyro when there is an IMU; at most every max(``pooled_window_ms``, ``reidentify_ms``)):
 its stars name the tracks whose position at the fix's time is within the solver's
@@ -152,13 +153,14 @@ class AttitudeEstimator:
         lost = self.filt is None
         few = known.sum() < self.o["min_stars"]
         due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
+        if not (lost or few):
+            self._pool_from = t_end       # the pooled window waits only while lost or few
         if not (lost or few or not known.all()):
-            self._pool_from = t_end                 # nothing to identify: no wait either
             return
         if (due or lost and t_ref >= self._retry_at) and self._identify_frame(idx, c, t_ref, lost):
             self._pool_from = t_end
             return
-        if lost or not known.all():
+        if lost or few and not known.all():    # tracking: only unnamed tracks can be named
             self._maybe_pool(t_end, t_ref, lost)
 
     def _empty_frames_until(self, frame):
