@@ -23,7 +23,7 @@ from .io.atomic import check_output_dir
 from .metrics import snr_db
 
 #: every file a run writes (errors.png only with truth; attitude.csv only when the camera is
-#: known and a frame was identified)
+#: known and a frame, or the pooled events of a window, identified)
 RUN_FILES = ("centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml",
              "denoise.png", "tracks.png", "per_frame.png", "errors.png", "attitude.csv")
 _TMP_TAG = ".evstar-tmp-"  # temporary folders: .{outdir name}.evstar-tmp-{pid}-{random}

@@ -439,6 +439,10 @@ ATTITUDE_FILTER = Params(
           "centroids before it"),
     Param("lost_sigma_deg", float, 0.5, "the attitude is lost (rows stop) when its 1-sigma "
           "exceeds this", low=0, open_low=True, unit="deg"),
+    Param("pooled_window_ms", float, 50.0, "when no frame's centroids have identified for this "
+          "long while the attitude is lost (or fewer than min_stars identified tracks are seen "
+          "and some are unnamed), this window's events pooled into one image are identified "
+          "(identify_events; needs the events); 0: frames only", low=0, high=10_000, unit="ms"),
 )
 
 #: how the track smoother computes (never what): not part of Config

@@ -37,18 +37,21 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
                              imu=imu, sort=sort)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
         cam, imu_data = rec.camera, rec.imu
-    outputs.write_run(outdir, result, config, truth, attitude=attitude_rows(result, cam, imu_data))
+    events = None if big else rec.events       # streamed: no pooled-window fallback
+    outputs.write_run(outdir, result, config, truth,
+                      attitude=attitude_rows(result, cam, imu_data, events))
     return result
 
 
-def attitude_rows(result, camera, imu=None):
-    """The attitude of a run's centroids (evstar.attitude.estimate) when the camera is
-    known, else None; empty when no frame could be identified."""
+def attitude_rows(result, camera, imu=None, events=None):
+    """The attitude of a run's centroids (evstar.attitude.estimate; with the run's events,
+    its pooled-window fallback too) when the camera is known, else None; empty when nothing
+    could be identified."""
     if camera is None:
         return None
     from .attitude import estimate
 
-    return estimate(result.centroids, camera, imu)
+    return estimate(result.centroids, camera, imu, events=events)
 
 
 def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False):

@@ -4,25 +4,26 @@ For each setting (camera preset x slew rate x motion compensation) and each of N
 pointings (uniform on the sphere, random roll, random rotation axis; seeded), the simulator
 renders the Hipparcos stars to magnitude 7 for the first 50 ms only (so nothing later can
 leak into the answer), the real pipeline runs (MR-NDSEF, DBSCAN, tracking, crossing-time
-estimator; compensation none or imu), and the centroids of each 10 ms frame, in time order,
-go to evstar.attitude.identify until one gives a verified fix; when none does, all the
-window's events go to evstar.attitude.identify_events (pooled, with a window-adaptive
-detection threshold; warped by the gyro with compensation imu). A pointing succeeds when that
+estimator; compensation none or imu), and the product's first fix is taken: the attitude
+estimator (evstar.attitude.AttitudeEstimator) over the window's centroids, which searches
+its frames as it does for any recording and, when none has identified within the 50 ms,
+the window's raw events pooled (evstar.attitude.identify_events, a window-adaptive detection
+threshold; warped by the gyro with compensation imu). A pointing succeeds when that
 fix names the stars right: at least 80 % of its matched catalogue stars project, with the
 true attitude at each centroid's time, within 3 px of their centroids (and the attitude is
 within 1°). A verified fix that fails this is a false fix. The attitude error of the
 successful fixes (rotation angle between fitted and true attitude, dominated by roll about
 the boresight) is reported separately. As a check of its false fixes on every row,
 identify_events also runs alone on each pointing's whole window ("pooled alone"); --no-pooled
-leaves both out (frame centroids only, as before issue 14's fix).
+leaves both out (frame centroids only: pooled_window_ms 0).
 
     python perf/study_identify.py [--pointings 50] [--presets davis346 evk4] [--rates 0 5 10 20]
                                   [--dt-ms 10] [--no-pooled] [--out perf/results/identify.json]
 
 Writes perf/results/identify.json (per setting: success fraction, false fixes, how much of
-the window the first fix needs (the end of its 10 ms frame) and the time its centroids refer
-to, solve time median / range over all frames tried, matched stars, RMS residual, attitude
-error, how many fixes came from the pooled window, the pooled-alone success and false
+the window the first fix needs (the end of its 10 ms frame, or of the pooled window) and the
+time its centroids refer to, solve time median / range over all searches, matched stars, RMS
+residual, attitude error, how many fixes came from the pooled window, the pooled-alone success and false
 fixes, and per failure the rate across the boresight) and prints a table. The pipeline and
 simulation of one pointing are shared by both compensation modes.
 """
@@ -37,7 +38,7 @@ import time
 import numpy as np
 
 from evstar import Config, Pipeline, sim
-from evstar.attitude import Solver, catalog, identify, identify_events
+from evstar.attitude import AttitudeEstimator, Solver, catalog, identify_events
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 # davis346 behind 16 mm: 346 x 260 px, f ≈ 865 px (22.6° x 17.1°); evk4 behind 12 mm:
@@ -73,34 +74,25 @@ def judge(fix, xy, t_us, cam, truth):
 
 
 def first_fix(cents, cam, solver, truth, t0, events, imu, pooled=True):
-    """The first verified fix, frames in time order from the frames' centroids, else (pooled)
-    from all the window's events (evstar.attitude.identify_events) after its last frame."""
-    tried, fix, frames = [], None, int(math.ceil(WINDOW_US / DT_US))
-    for frame in range(frames):
-        data_ms = (frame + 1) * DT_US / 1e3     # the fix needs events up to its frame's end
-        c = cents[cents["frame"] == frame]
-        fix = None
-        if len(c):
-            fix = identify(np.stack([c["x"], c["y"]], axis=1), cam, int(np.median(c["t"])),
-                           solver=solver, weight=c["n_events"])
-            tried.append(fix.solve_ms)
-            if fix.ok:
-                m = c[fix.centroid_index]
-                xy, t_us, source, n = np.stack([m["x"], m["y"]], axis=1), m["t"], "frame", len(c)
-        if (fix is None or not fix.ok) and pooled and frame == frames - 1:
-            fix, found = identify_events(events, cam, t0, t0 + WINDOW_US, imu=imu, solver=solver)
-            tried.append(fix.solve_ms)
-            if fix.ok:
-                xy, source, n = found[fix.centroid_index], "pooled", len(found)
-                t_us = np.full(len(xy), fix.t_us)
-        if fix is not None and fix.ok:
-            right, err, named = judge(fix, xy, t_us, cam, truth)
-            return dict(ok=bool(right), false=not right, err_arcsec=err * 3600, named_right=named,
-                        data_ms=data_ms, t_fix_ms=(fix.t_us - t0) / 1e3, solve_ms=fix.solve_ms,
-                        all_solve_ms=tried, frame=frame, source=source,
-                        matches=fix.n_matches, residual_arcsec=fix.residual_arcsec, centroids=n,
-                        status=fix.status)
-    return dict(ok=False, false=False, all_solve_ms=tried, status="none" if fix is None else fix.status)
+    """The product's first verified fix: evstar.attitude.AttitudeEstimator over the window's
+    centroids (their frames as it identifies them) and, pooled, its events (identify_events
+    once no frame has identified for the 50 ms); no rows are needed, only its searches."""
+    est = AttitudeEstimator(cam, imu, solver=solver, frame_us=DT_US,
+                            pooled_window_ms=WINDOW_US / 1e3 if pooled else 0)
+    est.run(cents, events if pooled else None)
+    tried = [fix.solve_ms for fix, *_ in est.searches]
+    for fix, xy, t_us, source in est.searches:
+        if not fix.ok:
+            continue
+        # the fix needs events up to its frame's end (pooled: its window's end)
+        end = fix.t_us + WINDOW_US // 2 if source == "pooled" else t0 + ((int(t_us[0]) - t0) // DT_US + 1) * DT_US
+        right, err, named = judge(fix, xy, t_us, cam, truth)
+        return dict(ok=bool(right), false=not right, err_arcsec=err * 3600, named_right=named,
+                    data_ms=(end - t0) / 1e3, t_fix_ms=(fix.t_us - t0) / 1e3, solve_ms=fix.solve_ms,
+                    all_solve_ms=tried, source=source, matches=fix.n_matches,
+                    residual_arcsec=fix.residual_arcsec, status=fix.status)
+    last = est.fixes[-1][1].removeprefix("pooled ") if est.fixes else "none"
+    return dict(ok=False, false=False, all_solve_ms=tried, status=last)
 
 
 def pooled_alone(events, imu, cam, solver, truth, t0):

@@ -6,7 +6,8 @@ attitude filter that follows identified tracks (estimator, filter, output).
     fix = identify(xy, camera, t_us, epoch=2026.9)
     fix.ok, fix.q_icrs_cam, fix.hip, fix.residual_arcsec
 
-    rows = evstar.attitude.estimate(result.centroids, camera, imu=None, rate_hz=100)
+    rows = evstar.attitude.estimate(result.centroids, camera, imu=None, rate_hz=100,
+                                    events=events)   # events: the pooled fallback
     evstar.attitude.write_attitude("attitude.csv", rows)   # t,qw,qx,qy,qz,... (camera -> ICRS)
 """
 from . import catalog

@@ -8,7 +8,13 @@ identified tracks are seen or confirmed tracks are unnamed — the centroids of 
 confirmed tracks, moved to the frame's last centroid time with their tracks' image
 velocities (a fast pan would distort the pattern), are identified; a full search that
 fails is retried ``reidentify_ms`` later, not every frame (a noisy recording would spend
-the solver's timeout on each). A fix names the stars of its tracks: every later
+the solver's timeout on each). When no frame has identified for ``pooled_window_ms`` while
+the attitude is lost (or fewer than ``min_stars`` identified tracks are seen and some
+confirmed ones are unnamed) and the events are given, the
+window's events pooled into one image are identified (:func:`.identify_events`, warped by
+the gyro when there is an IMU; at most every max(``pooled_window_ms``, ``reidentify_ms``)):
+its stars name the tracks whose position at the fix's time is within the solver's
+``match_radius_px`` of them. A fix names the stars of its tracks: every later
 centroid of such a track measures that star. A fix starts a filter that has no attitude;
 then each frame is one prediction (gyro, or the constant-acceleration model) to its last
 centroid time and one joint update with its identified stars, and each output time
@@ -20,6 +26,7 @@ after it too. docs/attitude.md ("Filter") has the model and the measurements.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -27,6 +34,7 @@ import numpy as np
 from .. import parameters as P
 from ..camera import Camera
 from ..errors import DataError, ParameterError, ParameterTypeError
+from ..events import Events
 from ..imu import Imu
 from .filter import Mekf, hat, smooth
 from .output import ATTITUDE_DTYPE, rotation, rows
@@ -35,20 +43,25 @@ A = P.ATTITUDE_FILTER
 ARCSEC = math.pi / 180 / 3600
 
 
-def estimate(centroids, camera, imu=None, rate_hz=A["rate_hz"].default, **options):
+def estimate(centroids, camera, imu=None, rate_hz=A["rate_hz"].default, events=None, **options):
     """ATTITUDE_DTYPE rows (evstar.attitude.output) from CENTROID_DTYPE `centroids` (fields
-    t, x, y, track, sigma and, optionally, source); see :class:`AttitudeEstimator`."""
-    return AttitudeEstimator(camera, imu, rate_hz=rate_hz, **options).run(centroids)
+    t, x, y, track, sigma and, optionally, source, frame) and, optionally, the events they
+    came from (for the pooled-window fallback); see :class:`AttitudeEstimator`."""
+    return AttitudeEstimator(camera, imu, rate_hz=rate_hz, **options).run(centroids, events)
 
 
 class AttitudeEstimator:
     """Options are the [attitude_filter] parameters (evstar.parameters) plus
     identifier: a callable (xy (n, 2) px, t_us, weight (n,) or None) -> evstar.attitude.Fix;
-    default: evstar.attitude.identify with its cached Solver for the camera and `epoch`
-    (weight: the centroids' event counts, brightest patterns first).
-    After run(): .fixes, a list of (t_us, status, stars matched)."""
+    default: evstar.attitude.identify with `solver` and `epoch` (weight: the centroids'
+    event counts, brightest patterns first); solver: the evstar.attitude.Solver of identify
+    and identify_events (default: Solver.for_camera(camera), cached per process).
+    After run(): .fixes, a list of (t_us, status, stars matched) — status "pooled ..." for
+    an identification of the pooled events (evstar.attitude.identify_events) — and
+    .searches, (Fix, pixel positions (n, 2) of its matched stars, their times (n,), "frame"
+    or "pooled") of each identification searched, verified (Fix.ok) or not."""
 
-    def __init__(self, camera, imu=None, *, identifier=None, epoch=None,
+    def __init__(self, camera, imu=None, *, identifier=None, epoch=None, solver=None,
                  frame_us=P.GLOBAL["dt_us"].default, **options):
         if camera is None:
             raise ParameterError("the attitude needs the camera's intrinsics (--camera camera.json)")
@@ -64,15 +77,41 @@ class AttitudeEstimator:
         self.o = {k: A.check(k, options.get(k, p.default)) for k, p in A.items()}
         self.camera, self.imu = camera, imu
         self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
-        self.identifier = identifier or _default_identifier(camera, epoch)
-        self.fixes = []
+        self.epoch, self._solver = epoch, solver
+        self.identifier = identifier or self._default_identifier
+        self.fixes, self.searches = [], []
+
+    @property
+    def solver(self):
+        """The camera's cached Solver (created on first use)."""
+        if self._solver is None:
+            from .solver import Solver
+
+            self._solver = Solver.for_camera(self.camera)
+        return self._solver
+
+    def _default_identifier(self, xy, t_us, weight=None):
+        from .identify import identify
+
+        return identify(xy, self.camera, t_us, epoch=self.epoch, solver=self.solver, weight=weight)
 
     # -- the run ----------------------------------------------------------------------------
-    def run(self, centroids):
+    def run(self, centroids, events=None):
+        """Attitude rows from `centroids`; `events` (evstar.Events, the recording the
+        centroids came from) enable the pooled-window fallback."""
+        if events is not None and not isinstance(events, Events):
+            raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
         c = _delayed(_measured(centroids), self.o["centroid_delay_us"])
-        self.fixes, self._out = [], []
-        if not len(c):
+        self.fixes, self.searches, self._out = [], [], []
+        pooled = events is not None and len(events) and self.o["pooled_window_ms"] > 0
+        if not len(c) and not pooled:
             return np.zeros(0, ATTITUDE_DTYPE)
+        self._events = events if pooled else None
+        self._ev_t0 = int(events.t[0]) if pooled else 0
+        self._pool_from, self._pooled_at = self._ev_t0, -math.inf
+        # frames without centroids count too (the pipeline's frames start at the first event)
+        empty = pooled and "frame" in c.dtype.names and np.all(c["frame"] >= 0)
+        self._next_frame = 0
         self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
         self._c, self._xy_dt = c, _track_velocity(c)
         self._z, self._sig = self._normalised(c)
@@ -80,17 +119,21 @@ class AttitudeEstimator:
         self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
         self._last_used, self._n_used, self._bad = -math.inf, 0, 0
         step = 1e6 / self.o["rate_hz"]
-        t0, t_end = int(c["t"][0]), int(c["t"][-1])
+        t0, t_end = (int(c["t"][0]), int(c["t"][-1])) if len(c) else (0, -1)
         self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
         self._next_out = 0
         self._chains = []      # per filter run: its nodes (updates and rows) for the smoother
-        for idx in _frames(c, self.frame_us):
+        for idx in _frames(c, self.frame_us) if len(c) else []:
             t_ref = int(c["t"][idx[-1]])               # every centroid of the frame is <= t_ref
+            if empty:
+                self._empty_frames_until(int(c["frame"][idx[-1]]))
             self._emit_until(t_ref)
             self._maybe_identify(idx, t_ref)
             if self.filt is not None:      # after a (re)start too: the fix's prior is loose
                 self._predict_to(t_ref)
                 self._update(idx, t_ref)
+        if empty:      # acquisition only: rows need centroids to follow (none after the last)
+            self._empty_frames_until(-(-(int(events.t[-1]) + 1 - self._ev_t0) // self.frame_us))
         self._emit_until(t_end + 1)
         if not self._out:
             return np.zeros(0, ATTITUDE_DTYPE)
@@ -102,6 +145,7 @@ class AttitudeEstimator:
     def _maybe_identify(self, idx, t_ref):
         """Identify the frame when needed; a fix names its tracks' stars and (re)starts a
         filter that has no attitude."""
+        t_end = self._frame_end(idx, t_ref)
         idx = idx[self._c["track"][idx] >= 0]      # confirmed tracks: noise clusters are not
         c = self._c[idx]
         tracks = c["track"]
@@ -109,25 +153,107 @@ class AttitudeEstimator:
         lost = self.filt is None
         few = known.sum() < self.o["min_stars"]
         due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
-        if not ((lost or few or not known.all()) and (due or lost and t_ref >= self._retry_at)):
+        if not (lost or few):
+            self._pool_from = t_end       # the pooled window waits only while lost or few
+        if not (lost or few or not known.all()):
             return
+        if (due or lost and t_ref >= self._retry_at) and self._identify_frame(idx, c, t_ref, lost):
+            self._pool_from = t_end
+            return
+        if lost or few and not known.all():    # tracking: only unnamed tracks can be named
+            self._maybe_pool(t_end, t_ref, lost)
+
+    def _empty_frames_until(self, frame):
+        """The frames before `frame` that had no centroid: while the attitude is lost, their
+        ends may still be due for the pooled window."""
+        for k in range(self._next_frame, frame):
+            t_end = self._ev_t0 + (k + 1) * self.frame_us
+            self._emit_until(t_end)
+            if self.filt is None:
+                self._maybe_pool(t_end, t_end, True)
+        self._next_frame = max(self._next_frame, frame + 1)
+
+    def _maybe_pool(self, t_end, t_ref, lost):
+        """The pooled window ending at t_end, when no frame has identified for that long."""
+        window_us = int(round(self.o["pooled_window_ms"] * 1000))
+        every_us = max(window_us, self.o["reidentify_ms"] * 1000)
+        if (self._events is not None and t_end - self._pool_from >= window_us
+                and t_end - self._pooled_at >= every_us):
+            self._pooled_at = t_end
+            if self._identify_pooled(t_end - window_us, t_end, t_ref, lost):
+                self._pool_from = t_end
+
+    def _identify_frame(self, idx, c, t_ref, lost):
+        """Identify the frame's confirmed tracks (idx, their centroids c); True for a fix."""
+        tracks = c["track"]
         if len(c) < 4:                              # no pattern to search: say so, cheaply
             self.fixes.append((t_ref, "too_few_stars", 0))
-            return
+            return False
         self._last_id = t_ref
         shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
         xy = np.stack([c["x"], c["y"]], 1) + shift
         fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
         self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
+        ci = np.asarray(fix.centroid_index, int)
+        self.searches.append((fix, xy[ci], np.full(len(ci), t_ref), "frame"))
         if not fix.ok:
             if fix.status != "too_few_stars":        # a full search failed: not every frame
                 self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
-            return
+            return False
+        self._name(fix, tracks)
+        if lost:
+            self._start(fix, t_ref, idx, xy)
+        return True
+
+    def _identify_pooled(self, t_start, t_stop, t_ref, lost):
+        """Identify the events of [t_start, t_stop) pooled (identify_events); its stars name
+        the confirmed tracks seen in the window (by their position at the fix's time), and
+        it (re)starts a filter that has no attitude. True for a fix."""
+        from .acquire import identify_events
+
+        fix, found = identify_events(self._events, self.camera, t_start, t_stop, imu=self.imu,
+                                     solver=self.solver, epoch=self.epoch)
+        self.fixes.append((t_ref, "pooled " + fix.status, len(fix.hip) if fix.ok else 0))
+        ci = np.asarray(fix.centroid_index, int)
+        self.searches.append((fix, found[ci], np.full(len(ci), fix.t_us), "pooled"))
+        if not fix.ok:
+            return False
+        idx, xy = self._tracks_at(t_start, t_ref, fix.t_us)
+        star, track = _pairs(found[ci], xy, self.solver.settings["match_radius_px"])
+        named = dataclasses.replace(fix, centroid_index=track, hip=np.asarray(fix.hip)[star],
+                                    dir_icrs=np.asarray(fix.dir_icrs)[star])
+        self._name(named, self._c["track"][idx])
+        if lost:
+            self._start(named, fix.t_us, idx, xy)
+            self._t_start = t_ref       # rows say "fix" from the frame that found it
+        return True
+
+    def _tracks_at(self, t_start, t_stop, t_us):
+        """Confirmed tracks with centroids in [t_start, t_stop]: for each, the index of its
+        centroid nearest t_us (n,) and its position then, moved to t_us along the track (n, 2)."""
+        c = self._c
+        i = np.arange(np.searchsorted(c["t"], t_start, "left"), np.searchsorted(c["t"], t_stop, "right"))
+        i = i[c["track"][i] >= 0]
+        i = i[np.lexsort((np.abs(c["t"][i] - t_us), c["track"][i]))]
+        i = i[np.r_[True, np.diff(c["track"][i]) != 0]] if len(i) else i
+        xy = np.stack([c["x"][i], c["y"][i]], 1) + np.nan_to_num(self._xy_dt[i]) * (
+            (t_us - c["t"][i]) * 1e-6)[:, None]
+        return i, xy
+
+    def _name(self, fix, tracks):
+        """A verified fix names the stars of its centroids' tracks."""
         for i, d in zip(np.asarray(fix.centroid_index, int), np.asarray(fix.dir_icrs, float)):
             self._stars[int(tracks[i])] = d / np.linalg.norm(d)
             self._misses[int(tracks[i])] = 0
-        if lost:
-            self._start(fix, t_ref, idx, xy)
+
+    def _frame_end(self, idx, t_ref):
+        """The end of the frame of centroids idx: from the pipeline's frame field and the
+        first event's time (the pipeline's frames start there), else its last centroid."""
+        c = self._c
+        if self._events is None or "frame" not in c.dtype.names or c["frame"][idx[-1]] < 0:
+            return t_ref
+        end = self._ev_t0 + (int(c["frame"][idx[-1]]) + 1) * self.frame_us
+        return int(min(max(end, t_ref), t_ref + self.frame_us))
 
     def _start(self, fix, t_ref, idx, xy):
         o = self.o
@@ -346,10 +472,16 @@ class _GyroIntegral:
         return list(zip((np.diff(pts) * 1e-6).tolist(), 0.5 * (gp[1:] + gp[:-1])))
 
 
-def _default_identifier(camera, epoch):
-    from .identify import identify
-    from .solver import Solver
-
-    solver = Solver.for_camera(camera)
-    return lambda xy, t_us, weight=None: identify(xy, camera, t_us, epoch=epoch, solver=solver,
-                                                  weight=weight)
+def _pairs(a, b, radius):
+    """One-to-one pairs (ia, ib) of points a (n, 2) and b (m, 2) within `radius`, nearest
+    first."""
+    if not len(a) or not len(b):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    d = np.hypot(*(a[:, None] - b[None]).transpose(2, 0, 1))
+    ia, ib = np.nonzero(d <= radius)
+    used_a, used_b, pa, pb = set(), set(), [], []
+    for k in np.argsort(d[ia, ib], kind="stable"):
+        if ia[k] not in used_a and ib[k] not in used_b:
+            used_a.add(ia[k]), used_b.add(ib[k])
+            pa.append(ia[k]), pb.append(ib[k])
+    return np.array(pa, np.int64), np.array(pb, np.int64)

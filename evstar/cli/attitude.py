@@ -4,7 +4,9 @@ IN is a recording (the pipeline runs first, with --config's settings) or a centr
 written by `evstar extract` / `evstar run` (.csv, .h5, .npz). Stars are identified against
 the Hipparcos catalogue (epoch --epoch, a decimal year), then a multiplicative EKF follows
 the attitude with the identified tracks, driven by the gyro when there is an IMU (--imu,
-or the recording's own), else by a constant-rate model.
+or the recording's own), else by a constant-rate model. From a recording, when no frame's
+centroids identify within --pooled-window-ms, the window's events pooled into one image are
+identified (evstar.attitude.identify_events); a centroid file has frames only.
 
 CSV header `t,qw,qx,qy,qz` (t µs; unit quaternion, scalar first, camera -> ICRS) followed
 by `ra_deg,dec_deg,roll_deg,wx,wy,wz,n_stars,status`; one row every 1/--rate-hz after the
@@ -46,12 +48,13 @@ def run(args):
 
         centroids = io.read_centroids(args.input)
         camera, imu = read_aux(args.camera, args.imu, bool(args.sort))
+        events = None            # a centroid file: frames only, no pooled-window fallback
     else:
-        centroids, camera, imu = _pipeline(args)
+        centroids, camera, imu, events = _pipeline(args)
     if camera is None:
         raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
     est = AttitudeEstimator(camera, imu, epoch=args.epoch, **options)
-    rows = est.run(centroids)
+    rows = est.run(centroids, events)
     if not len(rows):
         raise DataError(f"no attitude: {fix_summary(est.fixes)}")
     write_attitude(args.output, rows)
@@ -66,7 +69,7 @@ def _pipeline(args):
 
     rec = load(args)
     result = Pipeline(config_from_args(args)).run(rec.events, rec.imu, rec.camera)
-    return result.centroids, rec.camera, rec.imu
+    return result.centroids, rec.camera, rec.imu, rec.events
 
 
 def is_centroid_file(path):

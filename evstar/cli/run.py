@@ -4,7 +4,9 @@ Writes centroids.csv, tracks.csv, metrics.json (deterministic for the same input
 seed), profile.json (seconds per stage), config.toml (the configuration used) and PNG
 figures: denoise.png (accumulated events before/after), tracks.png, per_frame.png and,
 with --truth, errors.png; with a camera (--camera or the recording's) also attitude.csv,
-the inertial attitude as `evstar attitude` writes it, when a frame could be identified. Files appear only when the run completes; a rerun into the same
+the inertial attitude as `evstar attitude` writes it, when a frame, or the pooled events of
+a window (not when streamed), could be identified. Files appear only when the run
+completes; a rerun into the same
 folder replaces these files and no others. Inputs larger than --stream-above-mb are
 processed in chunks with bounded memory.
 """
