@@ -78,3 +78,18 @@ def test_centroids_are_insensitive_to_the_bias_within_a_frame(strong_bias):
     # the bound fx·b·dt/2 = 0.06 px; symmetric about the mid-time, the means agree far better
     assert abs(e_imu.mean() - e_pf.mean()) < 0.01
     assert np.abs(np.sort(e_imu) - np.sort(e_pf)).max() < 0.06
+
+
+def test_pf_warps_as_imu_and_reports_the_filters_attitude(strong_bias):
+    """One pass: the events are warped by the gyro (the within-frame warp a bias cannot move
+    by more than f·b·dt/2), the filter corrects the attitude the run reports."""
+    run, imu, pf = strong_bias
+    np.testing.assert_array_equal(pf.compensation.x, imu.compensation.x)
+    np.testing.assert_array_equal(pf.keep, imu.keep)
+    assert "pf_first_pass" not in pf.timings_s and pf.timings_s["particle_filter"] > 0
+    held = motion.hold_ends(run.imu, run.events.t[0], run.events.t[-1],
+                            Config().motion.extrapolate_us)
+    want = pf.compensation.filter_result.attitude_track(held, causal=Config().motion.causal)
+    t = run.events.t[:: len(run.events) // 50]
+    np.testing.assert_allclose(pf.compensation.attitude.relative(t, np.full(len(t), t[0])),
+                               want.relative(t, np.full(len(t), t[0])), atol=1e-12)

@@ -11,6 +11,7 @@ the rounded coordinates (pixel i covers [i − ½, i + ½)) are what the filters
 """
 from __future__ import annotations
 
+import copy
 import functools
 
 import numpy as np
@@ -74,6 +75,15 @@ class Compensation:
             return getattr(self._events, axis).astype(np.int64)
         r = self._rx if axis == "x" else self._ry
         return np.where(np.isnan(r), -1.0, r).astype(np.int64)
+
+    def with_filter(self, filter_result, imu, causal=True):
+        """This gyro-warped compensation as mode 'pf': the attitude the particle filter
+        corrected (FilterResult.attitude_track of `imu`) and its result, the events where the
+        gyro put them (a bias moves them by at most f·b·dt/2 within a frame)."""
+        out = copy.copy(self)
+        out.mode, out.filter_result = "pf", filter_result
+        out.attitude = filter_result.attitude_track(imu, causal=causal)
+        return out
 
     def coordinates(self, index):
         """(len(index), 2) float64 (x, y) of the events `index` (as x[index], y[index])."""
