@@ -332,7 +332,7 @@ def write_markdown(meta, summary, sine_summary, segments):
             f"{MATCH_PX:g} px (tracked centroids; untracked noise clusters counted apart), centroids of stars "
             f"within {EDGE_PX:g} px of the edge left out (near edge). paper = no "
             "compensation, centroid at the frame mid-time; none = no compensation, centroid at its events' "
-            "mean time; imu = raw-gyro warp; pf = particle-filter-corrected warp. Attitude drift = largest "
+            "mean time; imu = raw-gyro warp; pf = raw-gyro warp, the attitude the particle filter corrected. Attitude drift = largest "
             "error (px, over the sensor) of positions carried from the first event by the warp's attitude. "
             f"rate+gaps: {meta['gaps']}. "
             f"Runtime {meta['runtime_s']:.0f} s.\n")
