@@ -21,7 +21,7 @@ from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
 from .imu_integration import AttitudeTrack, check_coverage, hold_ends
 from .particle_filter import ParticleFilter
-from .warping import frame_reference_times, warp_to_reference
+from .warping import frame_reference_times, frame_references, warp_indexed
 
 MODES = P.COMPENSATIONS
 EXTRAPOLATE_US = P.MOTION["extrapolate_us"].default
@@ -34,9 +34,21 @@ class Compensation:
     when read."""
 
     def __init__(self, events, mode, x, y, frame, t_ref_us, attitude=None, filter_result=None):
+        self.frame, self.t_ref_us = frame, t_ref_us
+        self._warped(events, mode, x, y, attitude, filter_result)
+
+    @classmethod
+    def warped(cls, events, mode, x, y, frames, attitude, filter_result=None):
+        """Modes 'imu', 'pf': frame and t_ref_us are made when read, from frames = (dt_us,
+        t0_us, reference) (a run reads neither)."""
+        self = cls.__new__(cls)
+        self._frames = frames
+        self._warped(events, mode, x, y, attitude, filter_result)
+        return self
+
+    def _warped(self, events, mode, x, y, attitude, filter_result):
         self.mode = mode
         self.x, self.y = np.asarray(x, np.float64), np.asarray(y, np.float64)
-        self.frame, self.t_ref_us = frame, t_ref_us
         self.attitude, self.filter_result = attitude, filter_result
         # rounded as floats: NaN (behind the camera) fails every comparison, so it is outside
         self._rx, self._ry = np.floor(self.x + 0.5), np.floor(self.y + 0.5)
@@ -54,8 +66,8 @@ class Compensation:
         frame_reference_times(events.t[:1], dt_us, t0_us, reference)   # arguments checked now
         return self
 
-    # made on first access: x, y, inside, frame, t_ref_us for identity() only (__init__ sets
-    # them: they shadow these); xi, yi in both modes
+    # made on first access: x, y, inside for identity() only (__init__ sets them: they shadow
+    # these), frame and t_ref_us unless __init__ set them; xi, yi in every mode
     x = functools.cached_property(lambda self: np.asarray(self._events.x, np.float64))
     y = functools.cached_property(lambda self: np.asarray(self._events.y, np.float64))
     xi = functools.cached_property(lambda self: self._pixels("x"))
@@ -127,7 +139,7 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
     extrapolate_us = P.MOTION.check("extrapolate_us", extrapolate_us)
     if mode == "none":
         return Compensation.identity(events, dt_us, t0_us, reference)
-    frame, t_ref = frame_reference_times(events.t, dt_us, t0_us, reference)
+    refs, ref_index = frame_references(events.t, dt_us, t0_us, reference)
     if imu is None or camera is None:
         raise ParameterError(f"mode={mode!r} needs an imu and a camera")
     if len(events):
@@ -139,9 +151,9 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
         attitude = result.attitude_track(imu, causal=causal)
     else:
         attitude = AttitudeTrack.from_imu(imu)
-    x, y = warp_to_reference(events.t, events.x, events.y, t_ref, attitude, camera,
-                             extrapolate_us=float(dt_us), backend=backend, device=device)
-    return Compensation(events, mode, x, y, frame, t_ref, attitude, result)
+    x, y = warp_indexed(events.t, events.x, events.y, refs, ref_index, attitude, camera,
+                        extrapolate_us=float(dt_us), backend=backend, device=device)
+    return Compensation.warped(events, mode, x, y, (dt_us, t0_us, reference), attitude, result)
 
 
 def _run_filter(particle_filter, imu, observations, camera):

@@ -138,11 +138,15 @@ class AttitudeTrack:
     def check_times(self, t_us, extrapolate_us=0.0):
         """t_us as float64 (1-D); DataError if any lies beyond the track by more than extrapolate_us."""
         t = np.atleast_1d(np.asarray(t_us, dtype=np.float64))
-        T = self.t_us
+        self.check_span(t, extrapolate_us)
+        return t
+
+    def check_span(self, t_us, extrapolate_us=0.0):
+        """check_times on times of any numeric dtype, without converting them."""
+        t, T = np.atleast_1d(np.asarray(t_us)), self.t_us
         if len(t) and (t.min() < T[0] - extrapolate_us or t.max() > T[-1] + extrapolate_us):
             raise DataError(f"attitude requested at {t.min():.0f}..{t.max():.0f} µs but the IMU "
                             f"track covers {T[0]:.0f}..{T[-1]:.0f} µs")
-        return t
 
     def relative(self, t_ref_us, t_us, extrapolate_us=0.0):
         """q(t_ref ← t) = q_cw(t_ref) ⊗ q_cw(t)⁻¹: rotates camera rays at t into the camera at t_ref."""

@@ -16,6 +16,7 @@ from evstar_kernels.reference import so3
 
 from ..errors import ParameterError
 from .. import backends, parameters as P
+from ..frames import frame_offsets
 
 REFERENCES = ("mid", "start")
 WARP_BACKENDS = P.WARP_BACKENDS
@@ -23,15 +24,17 @@ _CHUNK = 1 << 20  # events per vectorised numpy pass: bounds the temporaries to 
 _UNDISTORT_ITERATIONS = 5  # as Camera.unproject
 
 
-def frame_reference_times(t_us, dt_us, t0_us=None, reference="mid"):
-    """(frame index int64, reference time float64 µs) of each timestamp."""
+def frame_reference_times(t_us, dt_us, t0_us=None, reference="mid", *, frame=None):
+    """(frame index int64, reference time float64 µs) of each timestamp (of each `frame`
+    when given: frame indices from t0_us)."""
     if int(dt_us) != dt_us or dt_us <= 0:
         raise ParameterError(f"dt_us must be a positive integer number of µs, got {dt_us!r}")
     if reference not in REFERENCES:
         raise ParameterError(f"reference must be one of {REFERENCES}, got {reference!r}")
     t = np.asarray(t_us, dtype=np.int64)
     t0 = (int(t[0]) if len(t) else 0) if t0_us is None else int(t0_us)
-    frame = (t - t0) // int(dt_us)
+    if frame is None:
+        frame = (t - t0) // int(dt_us)
     t_ref = t0 + frame.astype(np.float64) * dt_us + (0.5 * dt_us if reference == "mid" else 0.0)
     return frame, t_ref
 
@@ -53,20 +56,42 @@ def rotate_pixels(x, y, q_rel, camera):
     return camera.fx * r[:, 0] / r[:, 2] + camera.cx, camera.fy * r[:, 1] / r[:, 2] + camera.cy
 
 
+def frame_references(t_us, dt_us, t0_us=None, reference="mid"):
+    """(reference times float64 of the frames holding events, index int32 of each event's
+    one) of time-sorted t_us: frame_reference_times' distinct times, found from the frames'
+    bounds (no per-event float times)."""
+    frame_reference_times(t_us[:1], dt_us, t0_us, reference)   # arguments checked
+    t0 = (int(t_us[0]) if len(t_us) else 0) if t0_us is None else int(t0_us)
+    f0, bounds = frame_offsets(t_us, int(dt_us), t0)
+    counts = np.diff(bounds)
+    held = np.flatnonzero(counts)
+    _, refs = frame_reference_times([], dt_us, t0, reference, frame=f0 + held)
+    return refs, np.repeat(np.arange(len(held), dtype=np.int32), counts[held])
+
+
 def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0, *,
                       backend="reference", device="cpu"):
     """Warp events (t_us, x, y) to their reference times with an AttitudeTrack: (xw, yw) float64.
 
     backend 'reference' | 'taichi' | 'warp' (device 'cpu' | 'cuda'); they agree to ~1e-9 px.
     """
+    refs, ref_index = _distinct_times(np.asarray(t_ref_us, dtype=np.float64))
+    return warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us,
+                        backend=backend, device=device)
+
+
+def warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us=0.0, *,
+                 backend="reference", device="cpu"):
+    """warp_to_reference with event i's reference time given as refs[ref_index[i]]."""
     if backend not in WARP_BACKENDS:
         raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
-    t = attitude.check_times(t_us, extrapolate_us)
-    t_ref = np.asarray(t_ref_us, dtype=np.float64)
-    refs, ref_index = _distinct_times(t_ref)
-    q_ref = attitude.at(refs, extrapolate_us)
     if backend in ("warp", "taichi"):
+        t = np.asarray(t_us)   # the kernels read any dtype: no float copy
+        attitude.check_span(t, extrapolate_us)
+        q_ref = attitude.at(refs, extrapolate_us)
         return _kernel(backend, t, x, y, ref_index, q_ref, attitude, camera, device)
+    t = attitude.check_times(t_us, extrapolate_us)
+    q_ref = attitude.at(refs, extrapolate_us)
     if backends.check_device(device) != "cpu":
         raise ParameterError(f"backend='reference' runs on the CPU only, got device={device!r}")
     xw, yw = np.empty(len(t)), np.empty(len(t))
