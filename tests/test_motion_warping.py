@@ -138,6 +138,28 @@ def test_warp_kernel_marks_rays_behind_the_camera(backend):
     assert np.isnan(x[0]) and np.isfinite(x[1])
 
 
+@pytest.mark.parametrize("backend", ["reference", "warp", "taichi"])
+def test_warped_pixels_are_the_rounded_coordinates(backend):
+    """With a sensor, every backend also gives the warped events' pixels: exactly
+    reference.pixels.rounded_pixels of its own coordinates (off the sensor, behind the
+    camera: outside, pixel 0)."""
+    from evstar.motion.warping import frame_references, warp_indexed
+    from evstar_kernels.reference.pixels import rounded_pixels
+
+    rng = np.random.default_rng(11)
+    t = np.sort(rng.integers(0, 120_000, 20_000))
+    x, y = rng.uniform(-2, 641, len(t)), rng.uniform(-2, 481, len(t))
+    turn = AttitudeTrack(np.array([0.0, 120_000.0]),
+                         np.stack([so3.quat_identity(), so3.quat_exp([0.0, 3.0, 0.0])]))
+    for track, dt in ((imu_track(), 10_000), (turn, 240_000)):  # turn: rays go behind
+        xw, yw, px, py, inside = warp_indexed(t, x, y, *frame_references(t, dt), track, PINHOLE,
+                                              dt, sensor=(640, 480), backend=backend)
+        for got, want in zip((px, py, inside), rounded_pixels(xw, yw, 640, 480)):
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+        assert 0 < inside.sum() < len(t)
+    assert np.isnan(xw).any()
+
+
 def test_warping_input_errors():
     track = imu_track()
     with pytest.raises(ValueError, match="backend"):
@@ -165,3 +187,10 @@ def test_taichi_warp_device_data_path(monkeypatch):
     xt, yt = warp_to_reference(t, x, y, t_ref, track, DISTORTED, backend="taichi")
     np.testing.assert_allclose(xt, xn, atol=1e-9)
     np.testing.assert_allclose(yt, yn, atol=1e-9)
+    from evstar.motion.warping import frame_references, warp_indexed
+    from evstar_kernels.reference.pixels import rounded_pixels
+
+    out = warp_indexed(t, x, y, *frame_references(t, 10_000), track, DISTORTED, sensor=(600, 400),
+                       backend="taichi")
+    for got, want in zip(out[2:], rounded_pixels(xt, yt, 600, 400)):
+        np.testing.assert_array_equal(got, want)

@@ -16,6 +16,8 @@ import functools
 
 import numpy as np
 
+from evstar_kernels.reference.pixels import rounded_pixels
+
 from .. import parameters as P
 from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
@@ -38,22 +40,23 @@ class Compensation:
         self._warped(events, mode, x, y, attitude, filter_result)
 
     @classmethod
-    def warped(cls, events, mode, x, y, frames, attitude, filter_result=None):
+    def warped(cls, events, mode, x, y, frames, attitude, filter_result=None, pixels=None):
         """Modes 'imu', 'pf': frame and t_ref_us are made when read, from frames = (dt_us,
-        t0_us, reference) (a run reads neither)."""
+        t0_us, reference) (a run reads neither); pixels: (px, py, inside) of x, y when the
+        warp gave them (reference.pixels.rounded_pixels)."""
         self = cls.__new__(cls)
         self._frames = frames
-        self._warped(events, mode, x, y, attitude, filter_result)
+        self._warped(events, mode, x, y, attitude, filter_result, pixels)
         return self
 
-    def _warped(self, events, mode, x, y, attitude, filter_result):
+    def _warped(self, events, mode, x, y, attitude, filter_result, pixels=None):
         self.mode = mode
         self.x, self.y = np.asarray(x, np.float64), np.asarray(y, np.float64)
         self.attitude, self.filter_result = attitude, filter_result
-        # rounded as floats: NaN (behind the camera) fails every comparison, so it is outside
-        self._rx, self._ry = np.floor(self.x + 0.5), np.floor(self.y + 0.5)
-        self.inside = ((self._rx >= 0) & (self._rx < events.width)
-                       & (self._ry >= 0) & (self._ry < events.height))
+        # uint16 pixels of the events on the sensor (NaN, behind the camera, is outside)
+        self._px, self._py, self.inside = (
+            rounded_pixels(self.x, self.y, events.width, events.height) if pixels is None
+            else pixels)
         self._events = events
 
     @classmethod
@@ -85,7 +88,7 @@ class Compensation:
         """Rounded coordinates, int64; -1 where the ray turned behind the camera."""
         if self.mode == "none":
             return getattr(self._events, axis).astype(np.int64)
-        r = self._rx if axis == "x" else self._ry
+        r = np.floor(getattr(self, axis) + 0.5)
         return np.where(np.isnan(r), -1.0, r).astype(np.int64)
 
     def with_filter(self, filter_result, imu, causal=True):
@@ -111,9 +114,11 @@ class Compensation:
         if self.mode == "none":
             return ev, np.arange(len(ev))
         idx = np.flatnonzero(self.inside)
-        return Events._trusted(ev.t[idx], self._rx[idx].astype(np.uint16),
-                               self._ry[idx].astype(np.uint16), ev.p[idx],
-                               ev.width, ev.height), idx
+        if len(idx) == len(ev):
+            return Events._trusted(ev.t, self._px, self._py, ev.p, ev.width, ev.height), idx
+        m = self.inside   # a mask selects ~2x faster than the indices gather
+        return Events._trusted(ev.t[m], self._px[m], self._py[m], ev.p[m], ev.width,
+                               ev.height), idx
 
     def __repr__(self):
         return f"Compensation(mode={self.mode!r}, n={len(self)}, inside={int(self.inside.sum())})"
@@ -151,9 +156,11 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
         attitude = result.attitude_track(imu, causal=causal)
     else:
         attitude = AttitudeTrack.from_imu(imu)
-    x, y = warp_indexed(events.t, events.x, events.y, refs, ref_index, attitude, camera,
-                        extrapolate_us=float(dt_us), backend=backend, device=device)
-    return Compensation.warped(events, mode, x, y, (dt_us, t0_us, reference), attitude, result)
+    x, y, *pixels = warp_indexed(events.t, events.x, events.y, refs, ref_index, attitude, camera,
+                                 extrapolate_us=float(dt_us), sensor=(events.width, events.height),
+                                 backend=backend, device=device)
+    return Compensation.warped(events, mode, x, y, (dt_us, t0_us, reference), attitude, result,
+                               pixels)
 
 
 def _run_filter(particle_filter, imu, observations, camera):

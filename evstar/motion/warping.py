@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from evstar_kernels.reference import so3
+from evstar_kernels.reference.pixels import rounded_pixels
 
 from ..errors import ParameterError
 from .. import backends, parameters as P
@@ -81,15 +82,26 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
 
 
 def warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us=0.0, *,
-                 backend="reference", device="cpu"):
-    """warp_to_reference with event i's reference time given as refs[ref_index[i]]."""
+                 sensor=None, backend="reference", device="cpu"):
+    """warp_to_reference with event i's reference time given as refs[ref_index[i]]; with a
+    sensor (width, height), also the warped events' pixels (px, py, inside) as
+    evstar_kernels.reference.pixels.rounded_pixels gives them."""
     if backend not in WARP_BACKENDS:
         raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
-    if backend in ("warp", "taichi"):
-        t = np.asarray(t_us)   # the kernels read any dtype: no float copy
-        attitude.check_span(t, extrapolate_us)
-        q_ref = attitude.at(refs, extrapolate_us)
-        return _kernel(backend, t, x, y, ref_index, q_ref, attitude, camera, device)
+    if backend == "taichi":  # its kernel rounds too
+        out = _kernel(backend, np.asarray(t_us), x, y, refs, ref_index, attitude, camera,
+                      extrapolate_us, device, sensor or (0, 0))
+        return out if sensor else out[:2]
+    if backend == "warp":
+        xw, yw = _kernel(backend, np.asarray(t_us), x, y, refs, ref_index, attitude, camera,
+                         extrapolate_us, device)
+    else:
+        xw, yw = _reference(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us,
+                            device)
+    return (xw, yw) if sensor is None else (xw, yw, *rounded_pixels(xw, yw, *sensor))
+
+
+def _reference(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us, device):
     t = attitude.check_times(t_us, extrapolate_us)
     q_ref = attitude.at(refs, extrapolate_us)
     if backends.check_device(device) != "cpu":
@@ -114,14 +126,18 @@ def _distinct_times(t_ref):
     return np.unique(t_ref, return_inverse=True)
 
 
-def _kernel(backend, t, x, y, ref_index, q_ref, attitude, camera, device):
+def _kernel(backend, t, x, y, refs, ref_index, attitude, camera, extrapolate_us, device,
+            sensor=None):
+    """The kernels read t of any dtype (int64 µs: no float copy)."""
+    attitude.check_span(t, extrapolate_us)
+    q_ref = attitude.at(refs, extrapolate_us)
     iterations = _UNDISTORT_ITERATIONS if camera.has_distortion else 0
     params = (camera.fx, camera.fy, camera.cx, camera.cy, camera.k1, camera.k2)
     track = (ref_index, q_ref, attitude.t_us, attitude.q_cw, attitude.steps, params, iterations)
     if backend == "taichi":
         from evstar_kernels.taichi.event_warp_launch import warp_to_reference as launch
 
-        return launch(backends.taichi(device), t, x, y, *track)
+        return launch(backends.taichi(device), t, x, y, *track, sensor=sensor)
     _, dev = backends.warp(device)
     from evstar_kernels.warp.event_warp_launch import warp_to_reference as launch
 

@@ -1,4 +1,5 @@
-"""Events per pixel in plain numpy: the specification of evstar_kernels.taichi.pixel_counts."""
+"""Events per pixel in plain numpy: the specification of evstar_kernels.taichi.pixel_counts
+(and of the pixels evstar_kernels.taichi.event_warp rounds warped events to)."""
 import numpy as np
 
 
@@ -16,3 +17,11 @@ def pixel_counts(x, y, width, height, keep=None):
 def pixel_flags(x, y, flags):
     """flags[y, x] (a (height, width) bool image) of every event."""
     return np.asarray(flags, bool)[np.asarray(y, np.intp), np.asarray(x, np.intp)]
+
+
+def rounded_pixels(x, y, width, height):
+    """(px, py uint16, inside bool) of float coordinates: the pixel i covering [i − ½, i + ½)
+    and whether it lies on the width x height sensor (NaN never does); px = py = 0 where not."""
+    rx, ry = (np.floor(np.asarray(a, np.float64) + 0.5) for a in (x, y))
+    inside = (rx >= 0) & (rx < width) & (ry >= 0) & (ry < height)
+    return (*(np.where(inside, r, 0).astype(np.uint16) for r in (rx, ry)), inside)

@@ -8,6 +8,8 @@ Specification: `evstar.motion.warping.warp_to_reference` with backend="reference
 """
 import taichi as ti
 
+from .arrays import u8_1d, u16_1d
+
 vec3d = ti.types.vector(3, ti.f64)
 vec4d = ti.types.vector(4, ti.f64)
 
@@ -79,10 +81,13 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
                 start: ti.types.ndarray(), ref_index: ti.types.ndarray(), ref_q: ti.types.ndarray(),
                 node_t: ti.types.ndarray(), node_q: ti.types.ndarray(),
                 node_phi: ti.types.ndarray(), fx: ti.f64, fy: ti.f64, cx: ti.f64, cy: ti.f64,
-                k1: ti.f64, k2: ti.f64, undistort_iterations: ti.i32,
-                out_x: ti.types.ndarray(), out_y: ti.types.ndarray()):
+                k1: ti.f64, k2: ti.f64, undistort_iterations: ti.i32, width: ti.i32,
+                height: ti.i32, out_x: ti.types.ndarray(), out_y: ti.types.ndarray(),
+                out_px: u16_1d, out_py: u16_1d, out_inside: u8_1d):
     """(out_x, out_y)[i] = event i moved to its reference attitude ref_q[ref_index[i]];
-    NaN where the rotation turns its ray behind the camera."""
+    NaN where the rotation turns its ray behind the camera. (out_px, out_py, out_inside)[i]:
+    its rounded pixel and whether that lies on the width x height sensor (0, 0, 0 where not:
+    reference.pixels.rounded_pixels)."""
     for i in range(t.shape[0]):
         q_t = attitude_at(ti.cast(t[i], ti.f64), node_t, node_q, node_phi, start[i // BLOCK])
         r_i = ref_index[i]
@@ -95,6 +100,7 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
             sc = distortion_scale(xn, yn, k1, k2)
             xn, yn = xd / sc, yd / sc
         r = quat_rotate(q_rel, vec3d(xn, yn, 1.0))
+        px, py, inside = ti.u16(0), ti.u16(0), ti.u8(0)
         if r[2] <= 0.0:
             out_x[i] = ti.math.nan
             out_y[i] = ti.math.nan
@@ -103,5 +109,14 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
             if undistort_iterations > 0:
                 sc = distortion_scale(xo, yo, k1, k2)
                 xo, yo = xo * sc, yo * sc
-            out_x[i] = fx * xo + cx
-            out_y[i] = fy * yo + cy
+            u = fx * xo + cx
+            v = fy * yo + cy
+            out_x[i] = u
+            out_y[i] = v
+            # pixel i covers [i - 1/2, i + 1/2)
+            rx, ry = ti.floor(u + 0.5), ti.floor(v + 0.5)
+            if rx >= 0.0 and rx < width and ry >= 0.0 and ry < height:
+                px, py, inside = ti.cast(rx, ti.u16), ti.cast(ry, ti.u16), ti.u8(1)
+        out_px[i] = px
+        out_py[i] = py
+        out_inside[i] = inside
