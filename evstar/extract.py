@@ -236,12 +236,13 @@ class Extractor:
         first = self._first_halves(c, pts, events.p[members_all], starts, stops,
                                    None if peaks is None else peaks[ids, 0])
         rows, keys = [], []
-        for n, (j, a, b) in enumerate(zip(ids, starts, stops)):
-            if first is not None and first[n][2] and not by_polarity[j]:
-                continue  # _split would return None: the first test fails, no second one
+        # where the first test fails and there is no second one, _split would return None
+        todo = range(len(ids)) if first is None else np.flatnonzero(~first.fails | by_polarity[ids])
+        for n in todo:
+            j, a, b = ids[n], starts[n], stops[n]
             members = members_all[a:b]
             parts = self._split(pts[a:b], events.p[members], by_polarity[j],
-                                None if first is None else first[n],
+                                None if first is None else first.at(n),
                                 (None, None) if peaks is None else
                                 (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
             if parts is None:
@@ -257,8 +258,8 @@ class Extractor:
                 np.r_[keep, np.ones(len(rows), bool)])
 
     def _first_halves(self, c, pts, p, starts, stops, peaks=None):
-        """The first test's (seeds or None, 2-means labels, whether it fails whatever the
-        rest of _halves says) of every candidate at once (grid clustering; exact for integer
+        """The first test (_FirstTest: seeds or None, 2-means labels, whether it fails whatever
+        the rest of _halves says) of every candidate at once (grid clustering; exact for integer
         coordinates, to the last bits of the 2-means centres for floats); else None. The
         first test fails where a half has fewer than min_cluster_size events or the halves'
         polarities differ by more than 0.5 (a moving star's lobes: the common case).
@@ -288,10 +289,7 @@ class Extractor:
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
         fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
-        out = [(None, None, True)] * len(starts)  # no two peaks: _split stops there
-        for j in np.flatnonzero(has):
-            out[j] = ((a[j], b[j]), lab[starts[j]:stops[j]], bool(fails[j]))
-        return out
+        return _FirstTest(has, a, b, lab, starts, stops, fails)
 
     # -- one cluster, event by event (split candidates) ---------------------------------
     def _split(self, pts, p, by_polarity=True, first=None, polarity_seeds=(None, None)):
@@ -380,6 +378,23 @@ class Extractor:
         elif self.weighting == "polarity" and 0 < p.sum() < len(p):
             return tuple((pts[p > 0].mean(0) + pts[p == 0].mean(0)) / 2)
         return tuple(pts.mean(0))
+
+
+class _FirstTest:
+    """_first_halves' result for every candidate n: fails[n] (the first test fails whatever
+    the rest of _halves says; no two peaks: _split stops there) and at(n), the (seeds or None,
+    2-means labels, fails[n]) _split takes (made only for the few it is asked for)."""
+
+    def __init__(self, has, a, b, lab, starts, stops, fails):
+        self.fails = ~has | fails
+        self._has, self._a, self._b, self._lab = has, a, b, lab
+        self._starts, self._stops = starts, stops
+
+    def at(self, n):
+        if not self._has[n]:
+            return None, None, True
+        return ((self._a[n], self._b[n]), self._lab[self._starts[n]:self._stops[n]],
+                bool(self.fails[n]))
 
 
 def _seeds(peak):

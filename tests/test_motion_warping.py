@@ -152,9 +152,12 @@ def test_warped_pixels_are_the_rounded_coordinates(backend):
     turn = AttitudeTrack(np.array([0.0, 120_000.0]),
                          np.stack([so3.quat_identity(), so3.quat_exp([0.0, 3.0, 0.0])]))
     for track, dt in ((imu_track(), 10_000), (turn, 240_000)):  # turn: rays go behind
-        xw, yw, px, py, inside = warp_indexed(t, x, y, *frame_references(t, dt), track, PINHOLE,
-                                              dt, sensor=(640, 480), backend=backend)
-        for got, want in zip((px, py, inside), rounded_pixels(xw, yw, 640, 480)):
+        xy, px, py, inside = warp_indexed(t, x, y, *frame_references(t, dt), track, PINHOLE, dt,
+                                          sensor=(640, 480), backend=backend)
+        np.testing.assert_array_equal(xy, np.column_stack(warp_to_reference(
+            t, x, y, frame_reference_times(t, dt)[1], track, PINHOLE, dt, backend=backend)))
+        xw = xy[:, 0]
+        for got, want in zip((px, py, inside), rounded_pixels(xw, xy[:, 1], 640, 480)):
             assert got.dtype == want.dtype and np.array_equal(got, want)
         assert 0 < inside.sum() < len(t)
     assert np.isnan(xw).any()
@@ -192,5 +195,6 @@ def test_taichi_warp_device_data_path(monkeypatch):
 
     out = warp_indexed(t, x, y, *frame_references(t, 10_000), track, DISTORTED, sensor=(600, 400),
                        backend="taichi")
-    for got, want in zip(out[2:], rounded_pixels(xt, yt, 600, 400)):
+    np.testing.assert_array_equal(out[0], np.column_stack([xt, yt]))
+    for got, want in zip(out[1:], rounded_pixels(xt, yt, 600, 400)):
         np.testing.assert_array_equal(got, want)

@@ -37,21 +37,23 @@ class Compensation:
 
     def __init__(self, events, mode, x, y, frame, t_ref_us, attitude=None, filter_result=None):
         self.frame, self.t_ref_us = frame, t_ref_us
-        self._warped(events, mode, x, y, attitude, filter_result)
+        xy = np.column_stack([np.asarray(x, np.float64), np.asarray(y, np.float64)])
+        self._warped(events, mode, xy, attitude, filter_result)
 
     @classmethod
-    def warped(cls, events, mode, x, y, frames, attitude, filter_result=None, pixels=None):
-        """Modes 'imu', 'pf': frame and t_ref_us are made when read, from frames = (dt_us,
-        t0_us, reference) (a run reads neither); pixels: (px, py, inside) of x, y when the
-        warp gave them (reference.pixels.rounded_pixels)."""
+    def warped(cls, events, mode, xy, frames, attitude, filter_result=None, pixels=None):
+        """Modes 'imu', 'pf' from the warped (n, 2) xy: frame and t_ref_us are made when read,
+        from frames = (dt_us, t0_us, reference) (a run reads neither); pixels: (px, py,
+        inside) of xy when the warp gave them (reference.pixels.rounded_pixels)."""
         self = cls.__new__(cls)
         self._frames = frames
-        self._warped(events, mode, x, y, attitude, filter_result, pixels)
+        self._warped(events, mode, xy, attitude, filter_result, pixels)
         return self
 
-    def _warped(self, events, mode, x, y, attitude, filter_result, pixels=None):
+    def _warped(self, events, mode, xy, attitude, filter_result, pixels=None):
         self.mode = mode
-        self.x, self.y = np.asarray(x, np.float64), np.asarray(y, np.float64)
+        self._xy = xy   # rows: coordinates() gathers both axes at once
+        self.x, self.y = xy[:, 0], xy[:, 1]
         self.attitude, self.filter_result = attitude, filter_result
         # uint16 pixels of the events on the sensor (NaN, behind the camera, is outside)
         self._px, self._py, self.inside = (
@@ -102,8 +104,8 @@ class Compensation:
 
     def coordinates(self, index):
         """(len(index), 2) float64 (x, y) of the events `index` (as x[index], y[index])."""
-        if "x" in self.__dict__:
-            return np.column_stack([self.x[index], self.y[index]])
+        if "_xy" in self.__dict__:
+            return np.take(self._xy, index, axis=0)   # ~7x the speed of _xy[index]
         ev = self._events
         return np.column_stack([ev.x[index], ev.y[index]]).astype(np.float64)
 
@@ -156,10 +158,10 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
         attitude = result.attitude_track(imu, causal=causal)
     else:
         attitude = AttitudeTrack.from_imu(imu)
-    x, y, *pixels = warp_indexed(events.t, events.x, events.y, refs, ref_index, attitude, camera,
-                                 extrapolate_us=float(dt_us), sensor=(events.width, events.height),
-                                 backend=backend, device=device)
-    return Compensation.warped(events, mode, x, y, (dt_us, t0_us, reference), attitude, result,
+    xy, *pixels = warp_indexed(events.t, events.x, events.y, refs, ref_index, attitude, camera,
+                               extrapolate_us=float(dt_us), sensor=(events.width, events.height),
+                               backend=backend, device=device)
+    return Compensation.warped(events, mode, xy, (dt_us, t0_us, reference), attitude, result,
                                pixels)
 
 

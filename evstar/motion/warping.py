@@ -77,28 +77,31 @@ def warp_to_reference(t_us, x, y, t_ref_us, attitude, camera, extrapolate_us=0.0
     backend 'reference' | 'taichi' | 'warp' (device 'cpu' | 'cuda'); they agree to ~1e-9 px.
     """
     refs, ref_index = _distinct_times(np.asarray(t_ref_us, dtype=np.float64))
-    return warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us,
-                        backend=backend, device=device)
+    xy = warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us,
+                      backend=backend, device=device)
+    return xy[:, 0], xy[:, 1]
 
 
 def warp_indexed(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us=0.0, *,
                  sensor=None, backend="reference", device="cpu"):
-    """warp_to_reference with event i's reference time given as refs[ref_index[i]]; with a
-    sensor (width, height), also the warped events' pixels (px, py, inside) as
+    """warp_to_reference with event i's reference time given as refs[ref_index[i]]: the
+    warped coordinates as one (n, 2) float64 array xy; with a sensor (width, height),
+    (xy, px, py, inside): also the warped events' pixels as
     evstar_kernels.reference.pixels.rounded_pixels gives them."""
     if backend not in WARP_BACKENDS:
         raise ParameterError(f"backend must be one of {WARP_BACKENDS}, got {backend!r}")
     if backend == "taichi":  # its kernel rounds too
         out = _kernel(backend, np.asarray(t_us), x, y, refs, ref_index, attitude, camera,
                       extrapolate_us, device, sensor or (0, 0))
-        return out if sensor else out[:2]
+        return out if sensor else out[0]
     if backend == "warp":
         xw, yw = _kernel(backend, np.asarray(t_us), x, y, refs, ref_index, attitude, camera,
                          extrapolate_us, device)
     else:
         xw, yw = _reference(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us,
                             device)
-    return (xw, yw) if sensor is None else (xw, yw, *rounded_pixels(xw, yw, *sensor))
+    xy = np.column_stack([xw, yw])
+    return xy if sensor is None else (xy, *rounded_pixels(xw, yw, *sensor))
 
 
 def _reference(t_us, x, y, refs, ref_index, attitude, camera, extrapolate_us, device):

@@ -8,7 +8,7 @@ Specification: `evstar.motion.warping.warp_to_reference` with backend="reference
 """
 import taichi as ti
 
-from .arrays import u8_1d, u16_1d
+from .arrays import f64_2d, u8_1d, u16_1d
 
 vec3d = ti.types.vector(3, ti.f64)
 vec4d = ti.types.vector(4, ti.f64)
@@ -82,9 +82,9 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
                 node_t: ti.types.ndarray(), node_q: ti.types.ndarray(),
                 node_phi: ti.types.ndarray(), fx: ti.f64, fy: ti.f64, cx: ti.f64, cy: ti.f64,
                 k1: ti.f64, k2: ti.f64, undistort_iterations: ti.i32, width: ti.i32,
-                height: ti.i32, out_x: ti.types.ndarray(), out_y: ti.types.ndarray(),
-                out_px: u16_1d, out_py: u16_1d, out_inside: u8_1d):
-    """(out_x, out_y)[i] = event i moved to its reference attitude ref_q[ref_index[i]];
+                height: ti.i32, out_xy: f64_2d, out_px: u16_1d, out_py: u16_1d,
+                out_inside: u8_1d):
+    """out_xy[i] = event i moved to its reference attitude ref_q[ref_index[i]];
     NaN where the rotation turns its ray behind the camera. (out_px, out_py, out_inside)[i]:
     its rounded pixel and whether that lies on the width x height sensor (0, 0, 0 where not:
     reference.pixels.rounded_pixels)."""
@@ -102,8 +102,8 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
         r = quat_rotate(q_rel, vec3d(xn, yn, 1.0))
         px, py, inside = ti.u16(0), ti.u16(0), ti.u8(0)
         if r[2] <= 0.0:
-            out_x[i] = ti.math.nan
-            out_y[i] = ti.math.nan
+            out_xy[i, 0] = ti.math.nan
+            out_xy[i, 1] = ti.math.nan
         else:
             xo, yo = r[0] / r[2], r[1] / r[2]
             if undistort_iterations > 0:
@@ -111,8 +111,8 @@ def warp_events(t: ti.types.ndarray(), x: ti.types.ndarray(), y: ti.types.ndarra
                 xo, yo = xo * sc, yo * sc
             u = fx * xo + cx
             v = fy * yo + cy
-            out_x[i] = u
-            out_y[i] = v
+            out_xy[i, 0] = u
+            out_xy[i, 1] = v
             # pixel i covers [i - 1/2, i + 1/2)
             rx, ry = ti.floor(u + 0.5), ti.floor(v + 0.5)
             if rx >= 0.0 and rx < width and ry >= 0.0 and ry < height:

@@ -7,26 +7,26 @@ from .event_warp import BLOCK, warp_events
 
 def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, camera_params,
                       undistort_iterations, sensor=(0, 0)):
-    """Warped (x, y) float64 arrays and their rounded pixels (px, py uint16, inside bool) on
-    the sensor (width, height); camera_params = (fx, fy, cx, cy, k1, k2). Event arrays are
-    read as they are (int64 t, uint16 or float x, y: no conversion copies)."""
+    """Warped coordinates xy float64 (n, 2) and their rounded pixels (px, py uint16, inside
+    bool) on the sensor (width, height); camera_params = (fx, fy, cx, cy, k1, k2). Event
+    arrays are read as they are (int64 t, uint16 or float x, y: no conversion copies)."""
     arrays = launch.Arrays(ti)
     n = len(t)
-    out = [np.empty(n), np.empty(n), np.empty(n, np.uint16), np.empty(n, np.uint16),
-           np.empty(n, np.uint8)]
+    out = [np.empty((n, 2)), np.empty(n, np.uint16), np.empty(n, np.uint16), np.empty(n, np.uint8)]
     track = [arrays.put(np.asarray(a, np.float64)) for a in (ref_q, node_t, node_q, node_phi)]
     for a in range(0, n, launch.MAX_LAUNCH_EVENTS):
         b = min(n, a + launch.MAX_LAUNCH_EVENTS)
         ev = ([arrays.put(v[a:b]) for v in (t, x, y)]
               + [arrays.put(_starts(t[a:b], node_t)), arrays.put(np.asarray(ref_index[a:b], np.int32))])
-        dev = [o[a:b] if not arrays.on_device else arrays.empty(b - a, o.dtype) for o in out]
+        dev = [o[a:b] if not arrays.on_device else arrays.empty(o[a:b].shape, o.dtype)
+               for o in out]
         with launch.RUNTIME_LOCK:
             warp_events(*ev, *track, *map(float, camera_params), int(undistort_iterations),
                         *map(int, sensor), *dev)
         if arrays.on_device:
             for d, o in zip(dev, out):
                 arrays.get(d, o[a:b])
-    return (*out[:4], out[4].view(bool))
+    return (*out[:3], out[3].view(bool))
 
 
 def _starts(t, node_t):
