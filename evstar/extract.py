@@ -313,13 +313,13 @@ class Extractor:
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
             return None
         on, off = p == 1, p == 0
+        pts_on, pts_off = pts[on], pts[off]
         seeds_off, seeds_on = polarity_seeds
-        lab_on = self._halves(pts[on], seeds_on)
-        lab_off = None if lab_on is None else self._halves(pts[off], seeds_off)
+        lab_on = self._halves(pts_on, seeds_on)
+        lab_off = None if lab_on is None else self._halves(pts_off, seeds_off)
         if lab_off is None:
             return None
-        c_on = np.array([pts[on][lab_on == k].mean(0) for k in (0, 1)])
-        c_off = np.array([pts[off][lab_off == k].mean(0) for k in (0, 1)])
+        c_on, c_off = np.array(_half_means(pts_on, lab_on)), np.array(_half_means(pts_off, lab_off))
         axis = c_on[1] - c_on[0]
         if (c_off[1] - c_off[0]) @ axis < 0:  # OFF halves in the opposite order
             lab_off = 1 - lab_off
@@ -337,9 +337,10 @@ class Extractor:
         if seeds is None:
             return None
         lab = _two_means(pts, *seeds) if lab is None else lab
-        if np.bincount(lab, minlength=2).min() < self.min_cluster_size:
+        n_min = np.bincount(lab, minlength=2).min()
+        if n_min < self.min_cluster_size:
             return None
-        c0, c1 = pts[lab == 0].mean(0), pts[lab == 1].mean(0)
+        c0, c1 = _half_means(pts, lab)
         sep = np.linalg.norm(c1 - c0)
         if sep < 2:  # closer than two pixels: not resolvable on the pixel grid
             return None
@@ -347,8 +348,8 @@ class Extractor:
         # a uniform streak cut in two has sep / axial std = 2·sqrt(3) ≈ 3.5 (more by chance
         # with few events: + 8 / sqrt(n) bounds 99.9 % of simulated streaks); two compact
         # targets have far more
-        axial = np.mean([proj[lab == 0].std(), (proj[lab == 1] - sep).std()])
-        n_min = np.bincount(lab).min()
+        one = lab.astype(bool)
+        axial = (proj[~one].std() + (proj[one] - sep).std()) / 2   # np.mean of the two
         if sep < (2 * np.sqrt(3) + 8 / np.sqrt(n_min)) * max(axial, 0.25):
             return None
         # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep): it must
@@ -413,8 +414,17 @@ def _two_means(pts, a, b, iterations=10):
         if (lab is not None and np.array_equal(new, lab)) or new.min() == new.max():
             return new
         lab = new
-        c = np.array([pts[lab == 0].mean(0), pts[lab == 1].mean(0)])
+        c = np.array(_half_means(pts, lab))
     return lab
+
+
+def _half_means(pts, lab):
+    """(pts[lab == 0].mean(0), pts[lab == 1].mean(0)) of 0/1 labels, both halves non-empty:
+    the same bits (mean is the sum over the count) without mean's per-call overhead (the
+    split tests call it for every candidate)."""
+    one = lab.astype(bool)
+    n1 = int(np.count_nonzero(one))
+    return pts[~one].sum(0) / (len(pts) - n1), pts[one].sum(0) / n1
 
 
 class _Clusters:
