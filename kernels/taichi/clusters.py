@@ -267,35 +267,39 @@ def two_near_maxima(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32
                     h: ti.i32, rtol: ti.f64) -> ti.u8:
     """Whether image k at [b:] (w x h), smoothed by SMOOTH along y then x (in place), has
     two near-maxima of their 3 x 3 neighbourhood 2 px apart (bounding box of them all)."""
-    for r, q in ti.ndrange(h, w):  # along y into tmp
-        s = ti.f64(0.0)
-        for d in ti.static(range(-2, 3)):
-            if r + d >= 0 and r + d < h:
-                s += _SMOOTH[d + 2] * img[k, b + (r + d) * w + q]
-        tmp[b + r * w + q] = s
-    for r, q in ti.ndrange(h, w):  # along x back into the image
-        s = ti.f64(0.0)
-        for d in ti.static(range(-2, 3)):
-            if q + d >= 0 and q + d < w:
-                s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
-        img[k, b + r * w + q] = s
+    # rows, then pixels (a 2-d ndrange divides its flat index per pixel)
+    for r in range(h):  # along y into tmp
+        for q in range(w):
+            s = ti.f64(0.0)
+            for d in ti.static(range(-2, 3)):
+                if r + d >= 0 and r + d < h:
+                    s += _SMOOTH[d + 2] * img[k, b + (r + d) * w + q]
+            tmp[b + r * w + q] = s
+    for r in range(h):  # along x back into the image
+        for q in range(w):
+            s = ti.f64(0.0)
+            for d in ti.static(range(-2, 3)):
+                if q + d >= 0 and q + d < w:
+                    s += _SMOOTH[d + 2] * tmp[b + r * w + q + d]
+            img[k, b + r * w + q] = s
     x0 = w  # the near-maxima's bounding box
     x1 = -1
     y0 = h
     y1 = -1
-    for r, q in ti.ndrange(h, w):
-        v = img[k, b + r * w + q]
-        if v > 0:
-            m = v
-            for dr in ti.static(range(-1, 2)):
-                for dq in ti.static(range(-1, 2)):
-                    if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
-                        m = ti.max(m, img[k, b + (r + dr) * w + q + dq])
-            if v >= m * (1 - rtol):
-                x0 = ti.min(x0, q)
-                x1 = ti.max(x1, q)
-                y0 = ti.min(y0, r)
-                y1 = ti.max(y1, r)
+    for r in range(h):
+        for q in range(w):
+            v = img[k, b + r * w + q]
+            if v > 0:
+                m = v
+                for dr in ti.static(range(-1, 2)):
+                    for dq in ti.static(range(-1, 2)):
+                        if r + dr >= 0 and r + dr < h and q + dq >= 0 and q + dq < w:
+                            m = ti.max(m, img[k, b + (r + dr) * w + q + dq])
+                if v >= m * (1 - rtol):
+                    x0 = ti.min(x0, q)
+                    x1 = ti.max(x1, q)
+                    y0 = ti.min(y0, r)
+                    y1 = ti.max(y1, r)
     return ti.cast((x1 - x0) ** 2 + (y1 - y0) ** 2 >= 4, ti.u8)
 
 
@@ -324,10 +328,9 @@ def max_class(img: ti.template(), k: ti.i32, b: ti.i32, w: ti.i32, h: ti.i32, r:
 
 
 @ti.func
-def far_apart(i: ti.i32, j: ti.i32, w: ti.i32) -> ti.i32:
-    dr = i // w - j // w
-    dq = i % w - j % w
-    return ti.cast(dr * dr + dq * dq >= 4, ti.i32)
+def far_apart(ri: ti.i32, qi: ti.i32, rj: ti.i32, qj: ti.i32) -> ti.i32:
+    """Whether pixels (ri, qi) and (rj, qj) lie 2 px apart or more."""
+    return ti.cast((ri - rj) ** 2 + (qi - qj) ** 2 >= 4, ti.i32)
 
 
 @ti.func
@@ -336,38 +339,49 @@ def certain_peaks(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, 
     """two_peaks of smoothed image k at [b:] from certain comparisons only (reference:
     certain_peaks_of_image): peaks[c, col] = status, peaks[c, col + 1], peaks[c, col + 2] =
     the flat pixel indices of the two peaks where status is FOUND (1). tmp[b:] holds the
-    pixels' max_class meanwhile."""
-    n = w * h
+    pixels' max_class meanwhile. Pixels are walked row by row (r, q): no integer division
+    per pixel pair."""
     top = -1
     vmax = ti.f64(0.0)
-    for j in range(n):  # classes; C's highest (the first in row-major order)
-        cls = max_class(img, k, b, w, h, j // w, j % w, rtol)
-        tmp[b + j] = ti.cast(cls, ti.f64)
-        if cls > 0 and img[k, b + j] > vmax:
-            vmax = img[k, b + j]
-            top = j
+    for r in range(h):  # classes; C's highest (the first in row-major order)
+        for q in range(w):
+            j = r * w + q
+            cls = max_class(img, k, b, w, h, r, q, rtol)
+            tmp[b + j] = ti.cast(cls, ti.f64)
+            if cls > 0 and img[k, b + j] > vmax:
+                vmax = img[k, b + j]
+                top = j
     n_top = 0
     far = 0
-    for j in range(n):  # T: C within rtol of the highest; is any of C 2 px from one?
-        if tmp[b + j] > 0 and img[k, b + j] >= vmax * (1 - rtol):
-            n_top += 1
-            for i in range(n):
-                if tmp[b + i] > 0:
-                    far = ti.max(far, far_apart(i, j, w))
+    for rj in range(h):  # T: C within rtol of the highest; is any of C 2 px from one?
+        for qj in range(w):
+            j = rj * w + qj
+            if tmp[b + j] > 0 and img[k, b + j] >= vmax * (1 - rtol):
+                n_top += 1
+                for ri in range(h):
+                    for qi in range(w):
+                        if tmp[b + ri * w + qi] > 0:
+                            far = ti.max(far, far_apart(ri, qi, rj, qj))
     status = UNSURE
     second = -1
     if far == 0:
         status = 0
     elif n_top == 1 and tmp[b + top] == 2:
+        rt, qt = top // w, top % w
         vs = ti.f64(0.0)
-        for i in range(n):  # the highest of C 2 px from the top
-            if tmp[b + i] > 0 and far_apart(i, top, w) != 0 and img[k, b + i] > vs:
-                vs = img[k, b + i]
-                second = i
+        for ri in range(h):  # the highest of C 2 px from the top
+            for qi in range(w):
+                i = ri * w + qi
+                if tmp[b + i] > 0 and far_apart(ri, qi, rt, qt) != 0 and img[k, b + i] > vs:
+                    vs = img[k, b + i]
+                    second = i
         n_second = 0
-        for i in range(n):
-            if tmp[b + i] > 0 and far_apart(i, top, w) != 0 and img[k, b + i] >= vs * (1 - rtol):
-                n_second += 1
+        for ri in range(h):
+            for qi in range(w):
+                i = ri * w + qi
+                if (tmp[b + i] > 0 and far_apart(ri, qi, rt, qt) != 0
+                        and img[k, b + i] >= vs * (1 - rtol)):
+                    n_second += 1
         if n_second == 1 and tmp[b + second] == 2:
             status = 1
     peaks[c, col] = status
