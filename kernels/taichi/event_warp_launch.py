@@ -34,5 +34,6 @@ def _starts(t, node_t):
     where each event's search for its node begins (any order of times)."""
     if not len(t):
         return np.zeros(1, np.int32)
-    first = np.minimum.reduceat(np.asarray(t, np.float64), np.arange(0, len(t), BLOCK))
+    # the minima of the times as they are (int64 µs: exact as floats), then floats
+    first = np.minimum.reduceat(np.asarray(t), np.arange(0, len(t), BLOCK)).astype(np.float64)
     return (np.searchsorted(np.asarray(node_t, np.float64), first, side="right") - 1).astype(np.int32)
