@@ -17,8 +17,8 @@ length and the quasi-static model lags it less than it really is.
 
 Trusted only where the model explains the profiles (R² >= MIN_R2): a sensor without a
 low-pass has profiles of timestamp jitter, refractory and threshold-ratio effects (R²
-0.77–0.98 on the simulator's default and mismatched-threshold sensors, >= 0.998 with a
-30 or 60 Hz dark-sky low-pass), whose extrapolation would be noise.
+0.77–0.98 on the simulator's default and mismatched-threshold sensors, >= 0.997 with a
+20, 30 or 60 Hz dark-sky low-pass, single stars and fields), whose extrapolation would be noise.
 """
 from __future__ import annotations
 
