@@ -72,8 +72,11 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     else:
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
         r = threshold_ratio_of(on_before, off_after, levels)
+    # pairs as without a refractory period: the profiles' always, the crossings' when it is 0
+    plain = _pair_counts(on_before, off_after, r, max_pairs) \
+        if profiles is not None or refractory_us <= 0 else None
     if profiles is not None:
-        _add_profiles(profiles, order, t, change, _pair_counts(on_before, off_after, r, max_pairs), r)
+        _add_profiles(profiles, order, t, change, plain, r)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
         k, sums, sq = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
@@ -81,9 +84,8 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         keep = k > 0
         change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
     else:
-        k = _pair_counts(on_before, off_after, r, max_pairs)
-        keep = k > 0
-        change, k = change[keep], k[keep]
+        keep = plain > 0
+        change, k = change[keep], plain[keep]
         sums, sq = kern.sums(change, k, r) if kern is not None else _pair_sums(order, t, change, k, r)
     pixel = key[order.take(change)]
     mean = sums / k

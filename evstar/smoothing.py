@@ -630,7 +630,7 @@ def _single_passes(m, t_c, q_c, turns, radius):
 def _along_weights(t, turns, along_weight):
     """Per centroid (times t) its weight along the motion: along_weight, but 1 in a turn's
     time, where the crossings cannot tell the passages (_single_passes) and the star is slow
-    (the caller passes no turns where a pixel lag is corrected: the centroids carry that lag,
+    (refine uses these only where no pixel lag is corrected: the centroids carry that lag,
     and trusting them at the turns took dark-sky sinusoids from 0.03–0.05 to 0.14–0.15 px)."""
     w = np.full(len(t), float(along_weight))
     for t_lo, t_hi, _, _ in turns:
