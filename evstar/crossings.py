@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frames import ranks
 from .parameters import AUTO
 
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
@@ -379,7 +380,7 @@ def _candidates(crossings, tracks, max_offset_px):
     b1 = np.floor((t_row[j + 1] - t0) / bin_us).astype(np.int64)
     nb = b1 - b0 + 1
     qseg = np.repeat(j, nb)
-    qbin = _ranks(nb, b0)
+    qbin = ranks(nb, b0)
     r = max_offset_px + 1e-6                  # a hair wider: rounding of the interpolation
     x_lo = np.minimum(tracks["x"][qseg], tracks["x"][qseg + 1]) - r - x0
     x_hi = np.maximum(tracks["x"][qseg], tracks["x"][qseg + 1]) + r - x0
@@ -389,7 +390,7 @@ def _candidates(crossings, tracks, max_offset_px):
     n = np.maximum(hi - lo, 0)
     # per candidate its place in the sorted crossings and its query's segment bounds:
     # repeated per query (sequential copies), not gathered per candidate
-    at = _ranks(n, lo)
+    at = ranks(n, lo)
     t, y = crossings["t"][srt][at], crossings["y"][srt][at]
     end = _is_last_row(tr)[qseg + 1]
     y_lo = np.minimum(tracks["y"][qseg], tracks["y"][qseg + 1]) - r
@@ -404,12 +405,6 @@ def _candidates(crossings, tracks, max_offset_px):
 def _is_last_row(track):
     """Per row: is it its track's last?"""
     return np.r_[track[1:] != track[:-1], True]
-
-
-def _ranks(counts, starts=0):
-    """s, s + 1, ..., s + c − 1 for each count c and start s, concatenated (one repeat)."""
-    counts = np.asarray(counts, np.int64)
-    return np.arange(counts.sum()) + np.repeat(starts - (np.cumsum(counts) - counts), counts)
 
 
 def _interp(t, t_row, f_row, seg):

@@ -160,16 +160,17 @@ class _DensityFilter(_Filter):
         """Keep mask (bool, one entry per event, input order); sets counts_ and friends.
         select (bool per event): test only these events (every event still counts); the
         others are not kept and their counts are -1 (less work when few are asked)."""
-        events = _check_events(events)
-        return self._record(events, self._apply(events, _check_select(select, len(events))))
+        return self._run(events, select, full=True)
 
     def mask(self, events, select=None):
         """apply's mask, counting only what it needs: an event whose count at a radius
         already reaches every larger radius's threshold is kept without counting those
         (the disks are nested). counts_ is None (not kept)."""
+        return self._run(events, select, full=False)
+
+    def _run(self, events, select, full):
         events = _check_events(events)
-        return self._record(events, self._apply(events, _check_select(select, len(events)),
-                                                full=False))
+        return self._record(events, self._apply(events, _check_select(select, len(events)), full))
 
     def _apply(self, ev, select=None, full=True):
         offsets = ref.frame_offsets(ev.t, self.dt_us, self.t0_us)

@@ -14,7 +14,7 @@ from sklearn.cluster import DBSCAN
 from . import backends, lobes, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
-from .frames import FRAME_GAP, check_dt, frame_bounds, frame_offsets
+from .frames import FRAME_GAP, check_dt, frame_bounds, frame_offsets, ranks
 from evstar_kernels.reference.clusters import cluster_moments, two_peaks
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -257,7 +257,7 @@ class Extractor:
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
 
-    def _first_halves(self, c, pts, p, starts, stops, peaks=None):
+    def _first_halves(self, c, pts, p, starts, stops, peaks):
         """The first test (_FirstTest: seeds or None, 2-means labels, whether it fails whatever
         the rest of _halves says) of every candidate at once (grid clustering; exact for integer
         coordinates, to the last bits of the 2-means centres for floats); else None. The
@@ -267,14 +267,12 @@ class Extractor:
         the seeds are computed here (splitting.two_peaks_many) only where it is undecided."""
         if self.clustering != "grid" or not len(starts):
             return None
-        k = len(starts)
-        has, a, b = np.zeros(k, bool), np.zeros((k, 2)), np.zeros((k, 2))
-        todo = np.arange(k) if peaks is None else np.flatnonzero(peaks[:, 0] > 1)
-        if peaks is not None:
-            has, a[:], b[:] = peaks[:, 0] == 1, peaks[:, 1:3], peaks[:, 3:5]
+        has = peaks[:, 0] == 1
+        a, b = peaks[:, 1:3].astype(np.float64), peaks[:, 3:5].astype(np.float64)
+        todo = np.flatnonzero(peaks[:, 0] > 1)
         if len(todo):
             sizes = (stops - starts)[todo]
-            sub = np.repeat(starts[todo] - (np.cumsum(sizes) - sizes), sizes) + np.arange(sizes.sum())
+            sub = ranks(sizes, starts[todo])
             sub_stops = np.cumsum(sizes)
             has[todo], a[todo], b[todo] = splitting.two_peaks_many(np.take(pts, sub, axis=0),
                                                                    sub_stops - sizes,

@@ -31,6 +31,13 @@ def frame_bounds(frames):
     return frames[starts], starts, stops
 
 
+def ranks(counts, starts=0):
+    """s, s + 1, ..., s + c − 1 for each count c and start s, concatenated (one repeat):
+    e.g. each member's place in its group, or (starts) its index in the sorted whole."""
+    counts = np.asarray(counts, np.int64)
+    return np.arange(counts.sum()) + np.repeat(starts - (np.cumsum(counts) - counts), counts)
+
+
 def frame_offsets(t, dt_us, t0):
     """(first frame id, index where each frame from it to the last starts, then len(t)) of
     time-sorted t in frames of dt_us from t0."""

@@ -42,7 +42,7 @@ def _correlate(img, idx, r, q, h, w, axis):
 
 def images(pts, starts, stops):
     """Each cluster's count image (its pixel box and a 2-px border), all in one flat array
-    (for two_peaks_many and two_means_many of the same points)."""
+    (two_peaks_many's and two_means_many's)."""
     seg, _ = _segments(starts, stops)
     k = len(starts)
     ij = np.floor(pts + 0.5).astype(np.int64)
@@ -58,13 +58,13 @@ def images(pts, starts, stops):
                 r=local // w[pix], q=local % w[pix])
 
 
-def two_peaks_many(pts, starts, stops, im=None):
+def two_peaks_many(pts, starts, stops):
     """(has (k,) bool, a (k, 2), b (k, 2)): two_peaks of each cluster's points, has False
-    where it is None. im: _images of the same points, when made already."""
+    where it is None."""
     k = len(starts)
     if not k:
         return np.zeros(0, bool), np.zeros((0, 2)), np.zeros((0, 2))
-    im = images(pts, starts, stops) if im is None else im
+    im = images(pts, starts, stops)
     lo, pix, r, q, pw, ph = im["lo"], im["pix"], im["r"], im["q"], im["w"], im["h"]
     img = im["counts"].astype(np.float64)
     idx = np.arange(len(img))
@@ -92,7 +92,7 @@ def two_peaks_many(pts, starts, stops, im=None):
     return has, a, b
 
 
-def two_means_many(pts, starts, stops, a, b, iterations=10, im=None, integral=True):
+def two_means_many(pts, starts, stops, a, b, iterations=10, integral=True):
     """_two_means of each cluster's points started from a[j] and b[j] (labels 0/1 per
     point). integral: exact for integer coordinates, run on the distinct pixels weighted by
     their counts (the same distances, and the same centres: sums of integers are exact);
@@ -102,7 +102,7 @@ def two_means_many(pts, starts, stops, a, b, iterations=10, im=None, integral=Tr
     if not k:
         return np.zeros(0, np.int64)
     if integral:
-        im = images(pts, starts, stops) if im is None else im
+        im = images(pts, starts, stops)
         px = np.flatnonzero(im["counts"])
         weight = im["counts"][px].astype(np.float64)
         seg = im["pix"][px]

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..frames import ranks
+
 
 def _poisson_times(rng, rate_hz, duration_s, dead_s=0.0):
     """Sorted event times (s) of a renewal process on [0, duration): gaps dead + Exp."""
@@ -70,7 +72,7 @@ def leak_events(ref, c_on, c_off, leak_hz, theta_on, duration_s):
     first = (c_on + ref) / (c_on + c_off) * period    # ref's place in (−θ_on, θ_off): uniform
     n = np.maximum(np.ceil((duration_s - first) / period), 0).astype(np.int64)
     pix = np.repeat(np.arange(len(ref)), n)
-    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    k = ranks(n)
     t = first[pix] + k * period[pix]
     order = np.argsort(t, kind="stable")
     return t[order], pix[order], np.ones(len(t), np.int8)
