@@ -1,6 +1,7 @@
-"""What pf mode's second pass buys (issue 13): Pipeline.run with motion.compensate = "pf"
-runs a first pass with IMU compensation (its tracked centroids feed the particle filter),
-then compensates, denoises and extracts again with the filter's bias-corrected gyro.
+"""What a second pass in pf mode would buy (issue 13): until the eighth session Pipeline.run
+with motion.compensate = "pf" ran a first pass with IMU compensation (its tracked centroids
+feed the particle filter), then compensated, denoised and extracted again with the filter's
+bias-corrected gyro; this study (run before pf became one pass) is why it is one pass now.
 
 Per star-field scene (bench_pipeline.py --fields): how far the second pass moves each event
 (px) and how many change rounded pixel; how far its centroids lie from the first pass's
@@ -15,11 +16,15 @@ Writes perf/results/study_pf_passes.json and .md.
 """
 import argparse
 import pathlib
+import sys
 
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, bench, profiling
 from evstar.motion import ParticleFilter
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from paper_fig8_motion import true_bias_cam  # noqa: E402
 
 RESULTS = pathlib.Path(__file__).parent / "results"
 SCENE = "--preset evk4 --stars {} --rate 10 --noise-hz 1 --duration 4"
@@ -49,8 +54,7 @@ def _bias_rms(obs, imu, camera, truth, seeds, every):
     rms = []
     for seed in range(seeds):
         r = ParticleFilter(seed=seed).run(imu, sub, camera)
-        b_true = np.stack([np.interp(r.t_us, truth.imu_t_us, truth.gyro_bias[:, c])
-                           for c in range(3)], 1) @ np.asarray(truth.R_cam_imu).T
+        b_true = true_bias_cam(truth, r.t_us)
         late = r.t_us >= r.t_us[0] + 1_000_000
         rms.append(np.sqrt(np.mean(np.degrees(r.bias - b_true)[late] ** 2, 0)))
     return np.round(np.mean(rms, 0), 4).tolist()
@@ -63,7 +67,7 @@ def study(stars, seeds):
     t0 = int(ev.t[0])
     rate, _ = pipe.calibration(ev, t0)
     _, c1, _, comp1 = pipe._chunk(ev, imu, cam, t0, rate, "imu", None)
-    fr, _ = pipe._particle_filter([(ev, None)], imu, cam, t0, rate)
+    fr, _ = pipe._particle_filter(c1, imu, cam)
     _, c2, _, comp2 = pipe._chunk(ev, imu, cam, t0, rate, "pf", fr)
     moved = np.hypot(comp2.x - comp1.x, comp2.y - comp1.y)
     changed = (comp1.xi != comp2.xi) | (comp1.yi != comp2.yi)
