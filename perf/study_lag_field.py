@@ -15,12 +15,11 @@ Writes perf/results/study_lag_field.json and .md.
 """
 from __future__ import annotations
 
-import json
 import pathlib
 
 import numpy as np
 
-from evstar import Config, Pipeline, accuracy
+from evstar import Config, Pipeline, accuracy, profiling
 from evstar.bench import field_scene
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
@@ -49,17 +48,18 @@ def scores(run, measure_lag):
     return out
 
 
-def markdown(rows):
-    lines = ["| scene | measure_lag | stars >= 20 ev/frame: mean / max px | 4–20: mean / max px "
-             "| false rows / 100 frames |", "|---|---|---|---|---|"]
-    for r in rows:
-        cells = [r["scene"], "on" if r["measure_lag"] else "off"]
-        for lo, _ in BINS:
-            b = r[f">={lo}"]
-            cells.append("—" if b is None else f"{b['mean']:.3f} / {b['max']:.2f} ({b['stars']} stars)")
-        cells.append(f"{r['false_per_100']:.1f}")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+COLUMNS = [("scene", "scene", ""), ("measure_lag", "measure_lag", ""),
+           (">=20", "stars >= 20 ev/frame: mean / max px", ""), (">=4", "4–20: mean / max px", ""),
+           ("false_per_100", "false rows / 100 frames", ".1f")]
+
+
+def _cells(row):
+    """A row with its bins as 'mean / max (n stars)' text, for profiling.table."""
+    out = {**row, "measure_lag": "on" if row["measure_lag"] else "off"}
+    for lo, _ in BINS:
+        b = row[f">={lo}"]
+        out[f">={lo}"] = None if b is None else f"{b['mean']:.3f} / {b['max']:.2f} ({b['stars']} stars)"
+    return out
 
 
 def main():
@@ -69,11 +69,10 @@ def main():
         for measure in (False, True):
             rows.append({"scene": argv, "measure_lag": measure, **scores(run, measure)})
             print(rows[-1], flush=True)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_lag_field.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (RESULTS / "study_lag_field.md").write_text("# Measured pixel lag on star fields\n\n"
-                                                + markdown(rows) + "\n")
-    print(markdown(rows))
+    text = profiling.table([_cells(r) for r in rows], COLUMNS)
+    profiling.write_results(RESULTS / "study_lag_field.json", rows)
+    (RESULTS / "study_lag_field.md").write_text("# Measured pixel lag on star fields\n\n" + text + "\n")
+    print(text)
 
 
 if __name__ == "__main__":
