@@ -225,15 +225,16 @@ def run_levels(order, t, change, on_before, off_after, refractory_us):
     return a, b
 
 
-def sensor_hints(t, key, p, quantile=1e-3, max_events=2_000_000):
-    """(gap floor µs, OFF/ON threshold ratio) of the first `max_events` events, from one
-    pixel-then-time order. The floor is the `quantile` of the gaps between consecutive
+def sensor_hints(events, quantile=1e-3, max_events=2_000_000):
+    """(gap floor µs, OFF/ON threshold ratio) of the first `max_events` of `events`
+    (evstar.Events), from one pixel-then-time order. The floor is the `quantile` of the gaps between consecutive
     same-polarity events of a pixel: a pixel with a refractory period r fires no two events
     closer than r, so it lies near r where a sensor has one (timestamp jitter spreads it both
     ways: 145 µs on the simulator's 100 µs with 20 µs jitter) — a hint for
     estimate.refractory_us; None without such gaps. The ratio is threshold_ratio_of the
     ON→OFF changes; None when too few changes tell (it would default to 1)."""
-    t, key, p = (np.asarray(a)[:max_events] for a in (t, key, p))
+    t, x, y, p = (np.asarray(a)[:max_events] for a in (events.t, events.x, events.y, events.p))
+    key = pixel_keys(x, y, events.width)
     order = _pixel_then_time(key, t, engine="numpy")
     k, ts, ps = key[order], t[order], p[order]
     same = (k[1:] == k[:-1]) & (ps[1:] == ps[:-1])

@@ -32,12 +32,12 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
         cam, imu_data = read_aux(camera, imu)
         result = pipe.run_file(input, imu_data, cam, truth=truth, format=format,
                                sensor_size=sensor_size, progress=progress)
+        events = None                          # streamed: no pooled-window fallback
     else:
         rec = read_recording(input, format=format, sensor_size=sensor_size, camera=camera,
                              imu=imu, sort=sort)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
-        cam, imu_data = rec.camera, rec.imu
-    events = None if big else rec.events       # streamed: no pooled-window fallback
+        cam, imu_data, events = rec.camera, rec.imu, rec.events
     outputs.write_run(outdir, result, config, truth,
                       attitude=attitude_rows(result, cam, imu_data, events))
     return result

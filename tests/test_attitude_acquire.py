@@ -10,6 +10,7 @@ import pytest
 from evstar import Events, ParameterError, sim
 from evstar.attitude import Solver, catalog, identify, identify_events
 from evstar.attitude.acquire import detect
+from evstar.errors import EvstarError
 
 CAM = sim.camera_preset("davis346", 16.0)
 
@@ -88,3 +89,15 @@ def test_noise_alone_and_an_empty_window_give_no_fix(solver):
     assert not fix.ok and np.all(np.isnan(fix.q_icrs_cam))
     fix, xy = identify_events(events, CAM, 60_000, 70_000, solver=solver)
     assert (fix.ok, fix.status, len(xy), fix.t_us) == (False, "too_few_stars", 0, 65_000)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(solver="x"), "solver must be an evstar.attitude.Solver, got str"),
+    (dict(t_start_us="abc"), "t_start_us must be a time in µs (an integer), got 'abc'"),
+    (dict(t_start_us=50_000, t_stop_us=10_000), "t_stop_us (10000) must not be before t_start_us (50000)"),
+])
+def test_bad_arguments_are_named(kwargs, message):
+    ev = Events(np.arange(10), np.full(10, 5), np.full(10, 5), np.ones(10, np.int8), CAM.width, CAM.height)
+    with pytest.raises(EvstarError) as e:          # one line, naming the argument
+        identify_events(ev, CAM, **kwargs)
+    assert message in str(e.value)

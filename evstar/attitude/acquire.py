@@ -21,10 +21,11 @@ from scipy import ndimage, stats
 
 from .. import parameters as P
 from ..camera import Camera
-from ..errors import ParameterTypeError
+from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
 from .identify import identify
 from .solver import Solver
+from evstar_kernels.reference.pixels import pixel_counts
 
 BOX = 3   # candidate test over BOX x BOX pixels: the core of a star of PSF sigma ~1 px
 
@@ -34,8 +35,7 @@ def detect(x, y, width, height, alpha):
     event-count centroid of the 5 x 5 pixels around each candidate — and their event counts
     (n,), brightest first. A candidate is a local maximum of the number of active pixels in
     a 3 x 3 box whose chance under the image's own active-pixel fraction is at most alpha."""
-    counts = np.zeros((height, width), np.int64)
-    np.add.at(counts, (np.asarray(y, np.int64), np.asarray(x, np.int64)), 1)
+    counts, _ = pixel_counts(x, y, width, height)
     active = (counts > 0).astype(np.int64)
     n = BOX * BOX
     chance = stats.binom.sf(np.arange(n + 1) - 1, n, active.mean())   # P(>= k of n active)
@@ -73,10 +73,12 @@ def identify_events(events, camera, t_start_us=None, t_stop_us=None, *, imu=None
         raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
     if not isinstance(camera, Camera):
         raise ParameterTypeError(f"camera must be an evstar.Camera, got {type(camera).__name__}")
-    solver = Solver.for_camera(camera) if solver is None else solver
+    solver = Solver.of(solver, camera)
     t = events.t
-    t_start = int(t_start_us) if t_start_us is not None else int(t[0]) if len(t) else 0
-    t_stop = int(t_stop_us) if t_stop_us is not None else int(t[-1]) + 1 if len(t) else 0
+    t_start = _time_us("t_start_us", t_start_us, int(t[0]) if len(t) else 0)
+    t_stop = _time_us("t_stop_us", t_stop_us, int(t[-1]) + 1 if len(t) else 0)
+    if t_stop < t_start:
+        raise ParameterError(f"t_stop_us ({t_stop}) must not be before t_start_us ({t_start})")
     window = events.time_window(t_start, t_stop)
     t_mid = (t_start + t_stop) // 2
     x, y = window.x, window.y
@@ -93,3 +95,13 @@ def identify_events(events, camera, t_start_us=None, t_stop_us=None, *, imu=None
         if fix.ok:
             break
     return fix, xy
+
+
+def _time_us(name, value, default):
+    """`value` as integer µs (`default` when None); ParameterError naming it otherwise."""
+    if value is None:
+        return default
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a time in µs (an integer), got {value!r}") from None

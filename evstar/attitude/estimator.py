@@ -83,11 +83,10 @@ class AttitudeEstimator:
 
     @property
     def solver(self):
-        """The camera's cached Solver (created on first use)."""
-        if self._solver is None:
-            from .solver import Solver
+        """The given Solver, or the camera's cached one (created on first use)."""
+        from .solver import Solver
 
-            self._solver = Solver.for_camera(self.camera)
+        self._solver = Solver.of(self._solver, self.camera)
         return self._solver
 
     def _default_identifier(self, xy, t_us, weight=None):

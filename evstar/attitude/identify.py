@@ -81,9 +81,7 @@ def identify(xy, camera, t_us=0, *, epoch=None, solver=None, weight=None):
     start = time.perf_counter()
     xy = _xy(xy)
     epoch = catalog.check_epoch(epoch)
-    solver = Solver.for_camera(camera) if solver is None else solver
-    if not isinstance(solver, Solver):
-        raise ParameterTypeError(f"solver must be an evstar.attitude.Solver, got {type(solver).__name__}")
+    solver = Solver.of(solver, camera)
     if weight is not None:
         weight = np.asarray(weight, np.float64).reshape(-1)
         if len(weight) != len(xy):

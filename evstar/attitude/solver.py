@@ -64,6 +64,15 @@ class Solver:
         self.built = built
 
     @classmethod
+    def of(cls, solver, camera):
+        """`solver` checked to be a Solver, or for_camera(camera) when it is None."""
+        if solver is None:
+            return cls.for_camera(camera)
+        if not isinstance(solver, Solver):
+            raise ParameterTypeError(f"solver must be an evstar.attitude.Solver, got {type(solver).__name__}")
+        return solver
+
+    @classmethod
     def for_camera(cls, camera, *, cache_dir=None, **settings):
         """The solver for `camera`'s field of view: from this process's cache, else from the
         database file in `cache_dir` (default :func:`default_cache_dir`), else built and

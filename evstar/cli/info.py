@@ -24,10 +24,9 @@ def summary(rec):
            "event_rate_hz": len(ev) / dur_s if dur_s > 0 else None,
            "on_fraction": on / len(ev) if len(ev) else None, "imu": rec.imu is not None}
     if len(ev):
-        from ..crossings import pixel_keys, sensor_hints
+        from ..crossings import sensor_hints
 
-        out["gap_floor_us"], out["threshold_ratio"] = sensor_hints(
-            ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p)
+        out["gap_floor_us"], out["threshold_ratio"] = sensor_hints(ev)
     if rec.imu is not None:
         out.update(imu_samples=len(rec.imu), imu_rate_hz=rec.imu.rate_hz)
     if rec.camera is not None:
