@@ -192,9 +192,7 @@ class AttitudeEstimator:
         shift = np.nan_to_num(self._xy_dt[idx]) * (t_ref - c["t"])[:, None] * 1e-6
         xy = np.stack([c["x"], c["y"]], 1) + shift
         fix = self.identifier(xy, t_ref, c["n_events"] if "n_events" in c.dtype.names else None)
-        self.fixes.append((t_ref, fix.status, len(fix.hip) if fix.ok else 0))
-        ci = np.asarray(fix.centroid_index, int)
-        self.searches.append((fix, xy[ci], np.full(len(ci), t_ref), "frame"))
+        self._record(fix, t_ref, "frame", xy, t_ref)
         if not fix.ok:
             if fix.status != "too_few_stars":        # a full search failed: not every frame
                 self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
@@ -212,9 +210,7 @@ class AttitudeEstimator:
 
         fix, found = identify_events(self._events, self.camera, t_start, t_stop, imu=self.imu,
                                      solver=self.solver, epoch=self.epoch)
-        self.fixes.append((t_ref, "pooled " + fix.status, len(fix.hip) if fix.ok else 0))
-        ci = np.asarray(fix.centroid_index, int)
-        self.searches.append((fix, found[ci], np.full(len(ci), fix.t_us), "pooled"))
+        ci = self._record(fix, t_ref, "pooled", found, fix.t_us)
         if not fix.ok:
             return False
         idx, xy = self._tracks_at(t_start, t_ref, fix.t_us)
@@ -226,6 +222,15 @@ class AttitudeEstimator:
             self._start(named, fix.t_us, idx, xy)
             self._t_start = t_ref       # rows say "fix" from the frame that found it
         return True
+
+    def _record(self, fix, t_ref, kind, xy, t_us):
+        """A search ("frame" or "pooled", of positions xy at t_us) in .fixes as (t_ref, its
+        status, its stars) and in .searches with its matched positions; their indices."""
+        self.fixes.append((t_ref, fix.status if kind == "frame" else f"{kind} {fix.status}",
+                           len(fix.hip) if fix.ok else 0))
+        ci = np.asarray(fix.centroid_index, int)
+        self.searches.append((fix, xy[ci], np.full(len(ci), t_us), kind))
+        return ci
 
     def _tracks_at(self, t_start, t_stop, t_us):
         """Confirmed tracks with centroids in [t_start, t_stop]: for each, the index of its
