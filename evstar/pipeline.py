@@ -40,8 +40,24 @@ class Result:
     keep: np.ndarray | None = None            # keep mask per input event (None when streamed)
     compensation: object = None               # evstar.motion.Compensation (whole runs)
     frame_counts: dict = field(default_factory=dict)   # per-frame event counts, for plots
-    image_before: np.ndarray | None = None    # accumulated events per pixel (height, width)
-    image_after: np.ndarray | None = None     # the same, kept events only
+    # (events per pixel, kept events per pixel), or a call counting them when first asked
+    images: object = field(default=None, repr=False)
+
+    @property
+    def image_before(self):
+        """Accumulated events per pixel (height, width) int64."""
+        return self._images()[0]
+
+    @property
+    def image_after(self):
+        """The same, kept events only."""
+        return self._images()[1]
+
+    def _images(self):
+        # whole runs count them only for whoever looks (plots): one pass over every event
+        if callable(self.images):
+            self.images = self.images()
+        return (None, None) if self.images is None else self.images
 
 
 class Pipeline:
@@ -204,12 +220,13 @@ class Pipeline:
         if mode == "pf":
             filter_result, timings["particle_filter"] = self._particle_filter(cents, imu, camera)
             comp = comp.with_filter(filter_result, self._held(imu, span), self.config.motion.causal)
-        acc = _Summary(events.width, events.height, self.config.dt_us, t0)
+        acc = _Summary(events.width, events.height, self.config.dt_us, t0, images=False)
         acc.add(events, keep, truth, 0)
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
                               self._estimator(state, t0, imu, camera, filter_result, span),
                               span_us=span)
         result.keep, result.compensation = keep, comp
+        result.images = lambda: images(events, keep)
         return result
 
     def _particle_filter(self, centroids, imu, camera):
@@ -267,7 +284,7 @@ class Pipeline:
         if truth is not None:
             metrics.update(self._truth_metrics(cents, stats, truth))
         return Result(cents, metrics, dict(timings), frame_counts=acc.frame_counts(),
-                      image_before=acc.before, image_after=acc.after)
+                      images=acc.images)
 
     def _truth_metrics(self, cents, stats, truth):
         from .metrics import snr_db
@@ -418,19 +435,20 @@ def _with_context(windows, dt_us, desc, progress):
 
 
 class _Summary:
-    """Counts accumulated chunk by chunk: kept/signal/noise totals, per-frame counts and
-    per-pixel images (bounded memory: one image per sensor, one row per frame)."""
+    """Counts accumulated chunk by chunk: kept/signal/noise totals, per-frame counts and,
+    with `images`, per-pixel images (bounded memory: one image per sensor, one row per
+    frame); `.images` is (before, after) or None."""
 
-    def __init__(self, width, height, dt_us, t0):
+    def __init__(self, width, height, dt_us, t0, images=True):
         self.dt_us, self.t0 = dt_us, t0
-        self.before = np.zeros((height, width), np.int64)
-        self.after = np.zeros((height, width), np.int64)
+        self.images = (np.zeros((height, width), np.int64),
+                       np.zeros((height, width), np.int64)) if images else None
         self.stats, self.frames = {}, {}
 
     def add(self, events, keep, truth, offset):
-        before, after = images(events, keep)
-        self.before += before
-        self.after += after
+        if self.images is not None:
+            for total, part in zip(self.images, images(events, keep)):
+                total += part
         series = {"before": None, "after": keep}                 # None: every event
         new = {"kept": int(np.count_nonzero(keep))}
         if truth is not None:

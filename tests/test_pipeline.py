@@ -48,6 +48,9 @@ def test_streaming_equals_whole_run(scene, scene_file, method, mode, estimator):
     if not inexact:
         assert whole.metrics == streamed.metrics
     np.testing.assert_array_equal(whole.image_after, streamed.image_after)
+    np.testing.assert_array_equal(whole.image_before, streamed.image_before)
+    assert whole.image_before.sum() == len(scene.events)        # counted on first look
+    assert whole.image_after.sum() == whole.keep.sum()
     for k, v in whole.frame_counts.items():
         np.testing.assert_array_equal(v, streamed.frame_counts[k])
 
