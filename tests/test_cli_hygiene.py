@@ -48,3 +48,12 @@ def test_debug_shows_the_traceback(tmp_path):
     res = subprocess.run([sys.executable, "-m", "evstar", "--debug", "info", "missing.h5"],
                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert res.returncode != 0 and "Traceback" in res.stderr
+
+
+def test_warnings_are_one_line_each(tmp_path):
+    (tmp_path / "ev.csv").write_text("t,x,y,p\n5,1,1,1\n9,2,2,0\n")
+    res = subprocess.run([sys.executable, "-m", "evstar", "info", "ev.csv"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr == ("evstar info: warning: ev.csv: no sensor size given; inferred 3x3 from "
+                          "the largest coordinates (pass sensor_size=(W, H) or a camera)\n")

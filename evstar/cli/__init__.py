@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from importlib import import_module
 
 from ..errors import EvstarError
@@ -68,6 +69,19 @@ def main(argv=None):
         args = build_parser(argv).parse_args(argv)
     except SystemExit as exc:  # --help, --version, or a usage error already printed
         return exc.code
+    with warnings.catch_warnings():
+        if not args.debug:   # one line per warning, like the errors (no source line)
+            warnings.showwarning = _one_line_warning(args.command)
+        return _run(args)
+
+
+def _one_line_warning(command):
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"evstar {command}: warning: {message}", file=sys.stderr if file is None else file)
+    return show
+
+
+def _run(args):
     try:
         return args._run(args) or 0
     except EvstarError as exc:
