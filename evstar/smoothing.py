@@ -309,7 +309,7 @@ class TrackSmoother:
         outlier_sigma (either axis) is dropped and the track fitted again (a star cut in two
         by the extractor, a noise cluster taken by the track), at most _OUTLIER_PASSES times.
         Each pass fits the tracks still refitting all at once."""
-        outlier = [np.zeros(len(tr.resid), bool) for tr in tracks]
+        outlier = self._stiff_outliers(tracks)
         fits = [None] * len(tracks)
         todo = list(range(len(tracks)))
         for _ in range(_OUTLIER_PASSES):
@@ -331,6 +331,20 @@ class TrackSmoother:
             if not todo:
                 break
         return [(x, P, o) for (x, P), o in zip(fits, outlier)]
+
+    def _stiff_outliers(self, tracks):
+        """Per track, the centroids beyond outlier_sigma from its stiffest fit (q =
+        process_noise_min): an estimated q follows a stray centroid of a faint track (a noise
+        clump merged into the star's cluster) instead of flagging it."""
+        none = [np.zeros(len(tr.resid), bool) for tr in tracks]
+        if self.process_noise != AUTO or self.outlier_sigma is None:
+            return none
+        problems = [kalman.CVProblem(tr.ts, tr.measured, tr.resid,
+                                     kalman.diagonal_covariances(tr.sigma), self.process_noise_min)
+                    for tr in tracks]
+        fits = _ENGINES[self.engine][0](problems) if problems else []
+        return [o if new is None else new for o, new in
+                zip(none, (self._new_outliers(tr, *fit, o) for tr, fit, o in zip(tracks, fits, none)))]
 
     def _new_outliers(self, tr, x, P, outlier):
         """Centroids newly beyond outlier_sigma, or None when there are none or the track

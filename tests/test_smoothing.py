@@ -193,6 +193,21 @@ def test_an_outlier_is_flagged_and_does_not_pull_the_track():
     assert np.hypot(*(np.column_stack([kept["x"], kept["y"]]) - line(kept["t"] * 1e-6)).T).max() > 0.1
 
 
+def test_a_faint_tracks_stray_centroid_is_flagged_not_followed():
+    # a faint cluster's spread understates its centroid's error (σ 0.3 said, 0.6 real) and a
+    # noise clump shifts one centroid by 3 px: q estimated with it bends the track to it (and
+    # then finds no outlier, 5 of these 10 tracks); the stiffest fit's residuals find it
+    for seed in range(10):
+        rng = np.random.default_rng(seed)
+        cents = centroids(np.arange(0, 40, 2), lambda t: np.column_stack([50 + 10.0 * t, 80 + 0 * t]),
+                          0.6, rng, n_events=6)
+        cents["spread"] = 0.3 * np.sqrt(12)
+        cents["x"][8] += 3.0
+        est = TrackSmoother(DT, coast_ends=False).smooth(cents, t0_us=0)
+        assert est["outlier"][est["centroid"] == 8].all()
+        assert np.abs(est["x"] - (50 + 10.0 * est["t"] * 1e-6)).max() < 1.5
+
+
 def test_simulated_faint_star_smoothed_error_well_below_the_per_frame_error():
     run = sim.simulate(sim.paper_preset(4.0, magnitude=5.0, duration_s=0.3), seed=3)
     cfg = evstar.Config().replace(**{"estimate.estimator": "mean"})   # the per-frame centroids
