@@ -18,7 +18,7 @@ passes, and the mask is re-derived from the window's total after each update.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage, stats
+from scipy import stats
 
 from .parameters import HOTPIXEL_MAP, HOTPIXELS
 from .errors import ParameterError
@@ -101,17 +101,35 @@ class HotPixelMap:
 
 def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
     """Bool mask of the hot pixels of a count image (see the module docstring)."""
-    counts = np.asarray(counts, np.float64)
-    brightest = ndimage.maximum_filter(counts, footprint=_RING, mode="constant")
+    counts = np.asarray(counts)
     # the neighbour test first: it leaves a handful of pixels for the costly Poisson tail
-    iy, ix = np.nonzero((counts >= neighbour_ratio * brightest) & (counts > 0))
-    box = ndimage.uniform_filter(counts, _BOX, mode="constant") * _BOX**2
-    c = counts[iy, ix]
-    lam = np.maximum((box[iy, ix] - c) / (_BOX**2 - 1), _MIN_LAMBDA)
+    iy, ix = np.nonzero((counts >= neighbour_ratio * _ring_max(counts)) & (counts > 0))
+    c = counts[iy, ix].astype(np.float64)
+    lam = np.maximum((_box_sums(counts, iy, ix) - c) / (_BOX**2 - 1), _MIN_LAMBDA)
     hot = stats.poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
     out = np.zeros(counts.shape, bool)
     out[iy[hot], ix[hot]] = True
     return out
+
+
+def _ring_max(counts):
+    """Per pixel, its brightest 8-neighbour's count (0 beyond the image): the row's two
+    neighbours and the 3-wide maxima of the rows above and below (5 maxima of shifted
+    views, ~3x faster than a footprint filter on a megapixel image)."""
+    p = np.pad(counts, 1)
+    left, mid, right = p[:, :-2], p[:, 1:-1], p[:, 2:]
+    sides = np.maximum(left, right)
+    three = np.maximum(sides, mid)
+    return np.maximum(np.maximum(sides[1:-1], three[:-2]), three[2:])
+
+
+def _box_sums(counts, iy, ix):
+    """Counts of the _BOX × _BOX pixels centred on each (iy, ix), 0 beyond the image (the
+    few candidates only)."""
+    r = _BOX // 2
+    p = np.pad(counts, r)
+    dy, dx = np.mgrid[0:_BOX, 0:_BOX]
+    return p[iy[:, None] + dy.ravel(), ix[:, None] + dx.ravel()].sum(axis=1).astype(np.float64)
 
 
 def remove_hot_centroids(centroids, hot, max_spread_px=0.5):

@@ -73,3 +73,20 @@ def test_bad_parameters_rejected_by_name(name, value):
 def test_bad_spread_rejected_by_name():
     with pytest.raises(evstar.ParameterError, match="max_spread_px"):
         remove_hot_centroids(np.zeros(0, CENTROID_DTYPE), np.zeros((2, 2), bool), max_spread_px=-1)
+
+
+def test_neighbour_and_box_sums_equal_scipys_filters():
+    from scipy import ndimage
+
+    from evstar.hotpixels import _BOX, _box_sums, _ring_max
+
+    rng = np.random.default_rng(3)
+    counts = rng.poisson(2.0, (37, 53))
+    counts[rng.integers(0, 37, 20), rng.integers(0, 53, 20)] += rng.integers(5, 500, 20)
+    ring = np.ones((3, 3), bool)
+    ring[1, 1] = False
+    assert np.array_equal(_ring_max(counts),
+                          ndimage.maximum_filter(counts, footprint=ring, mode="constant"))
+    iy, ix = np.nonzero(counts >= 0)                    # every pixel, edges included
+    box = ndimage.correlate(counts, np.ones((_BOX, _BOX), int), mode="constant")
+    assert np.array_equal(_box_sums(counts, iy, ix), box[iy, ix])
