@@ -11,7 +11,7 @@ import functools
 
 import taichi as ti
 
-from .arrays import i64_1d, u16_1d, u8_1d
+from .arrays import i32_1d, i64_1d, u16_1d, u8_1d
 
 
 @ti.kernel
@@ -37,3 +37,18 @@ def count_pixels_kernel(serial):
             ti.atomic_add(cells[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)], add)
 
     return count_pixels
+
+
+@functools.lru_cache(maxsize=None)
+def count_all_kernel(serial):
+    """kernel(x, y, width, cells): cells[y·width + x] += 1 for every event, int32 cells (half
+    the packed cells' memory: ~2x faster scattered adds on a megapixel sensor; a launch of at
+    most 2³¹ − 1 events cannot overflow them)."""
+
+    @ti.kernel
+    def count_all(x: u16_1d, y: u16_1d, width: ti.i32, cells: i32_1d):
+        ti.loop_config(serialize=serial)
+        for e in range(x.shape[0]):
+            ti.atomic_add(cells[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)], 1)
+
+    return count_all

@@ -3,13 +3,15 @@ halves split) and of the per-event pixel flags."""
 import numpy as np
 
 from . import launch
-from .pixel_counts import count_pixels_kernel, pixel_flags as _pixel_flags
+from .pixel_counts import count_all_kernel, count_pixels_kernel, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
 
 
 def pixel_counts(ti, x, y, width, height, keep=None):
     """reference.pixels.pixel_counts: (all, kept or None) int64 (height, width) images."""
+    if keep is None:
+        return _all_counts(ti, x, y, width, height), None
     size = width * height
     every, kept = np.zeros(size, np.int64), np.zeros(size, np.int64)   # no events: zeros
     arrays = launch.Arrays(ti)
@@ -28,6 +30,20 @@ def pixel_counts(ti, x, y, width, height, keep=None):
             if keep is not None:
                 kept = packed >> 32 if e0 == 0 else kept + (packed >> 32)
     return every.reshape(height, width), None if keep is None else kept.reshape(height, width)
+
+
+def _all_counts(ti, x, y, width, height):
+    """The events per pixel alone: int32 cells per launch, summed into int64."""
+    every = np.zeros(width * height, np.int64)
+    arrays = launch.Arrays(ti)
+    kernel = count_all_kernel(not arrays.on_device)
+    with launch.RUNTIME_LOCK:
+        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
+            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+            cells = arrays.put(np.zeros(width * height, np.int32))
+            kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), width, cells)
+            every += cells.to_numpy() if arrays.on_device else cells
+    return every.reshape(height, width)
 
 
 def pixel_flags(ti, x, y, flags):
