@@ -126,6 +126,19 @@ def test_run_and_attitude_on_a_recording_use_the_pooled_events(slow_roll, tmp_pa
     assert "no attitude" in capsys.readouterr().err and not (tmp_path / "b.csv").exists()
 
 
+def test_the_demo_star_field_uses_the_pooled_events(tmp_path, capsys):
+    """`evstar demo`'s star field at 0.2 °/s: its frames hold too few tracks to identify, its
+    events pooled do."""
+    import argparse
+
+    from evstar.cli import demo
+
+    demo._field(tmp_path, argparse.Namespace(rate=0.2, seed=1, device="cpu"))
+    assert "first fix at 50 ms" in capsys.readouterr().out
+    rows = read_attitude(tmp_path / "attitude.csv")
+    assert len(rows) >= 40 and rows["status"][0] == "fix"
+
+
 def test_tracking_enough_stars_never_pools(solver):
     """A 10 °/s pan identified from its first frames: new stars entering unnamed are named by
     the frames; the events change nothing (no pooled search, the same rows)."""
