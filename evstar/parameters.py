@@ -405,6 +405,9 @@ ATTITUDE_FILTER = Params(
           low=1, high=1000),
     Param("reidentify_ms", float, 100.0, "least time between identifications while tracking",
           low=0, unit="ms"),
+    Param("lost_retry_ms", float, 0.0, "while the attitude is lost, a failed full search of a "
+          "frame is retried after this (0: the next frame), and a failed pooled window after "
+          "max(this, pooled_window_ms)", low=0, unit="ms"),
     Param("gyro_noise", float, 2e-4, "filter's gyro white noise (with an IMU)", low=0,
           unit="rad/s/√Hz"),
     Param("bias_walk", float, 1e-4, "filter's gyro bias random walk (with an IMU)", low=0,

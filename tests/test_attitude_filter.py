@@ -252,7 +252,10 @@ def test_no_solution_gives_no_rows(pan):
 
     est = AttitudeEstimator(CAM, identifier=never)
     assert len(est.run(pan[0])) == 0 and est.fixes[0][1] == "no_solution"
-    assert len(est.fixes) == 3          # 300 ms: a failed search is retried every 100 ms
+    assert len(est.fixes) == 30         # 300 ms: while lost, every 10 ms frame is searched
+    est = AttitudeEstimator(CAM, identifier=never, lost_retry_ms=100)
+    assert len(est.run(pan[0])) == 0
+    assert len(est.fixes) == 3          # a failed search retried every 100 ms
 
 
 def test_bad_options_and_inputs_are_evstar_errors(pan):
@@ -294,3 +297,4 @@ def test_centroid_delay_moves_the_centroid_times(pan):
     fixed = estimate(early, CAM, identifier=truth_identifier(truth), centroid_delay_us=2000)
     lag = np.sqrt(np.mean(errors_px(late, truth)[0][5:] ** 2))
     assert lag > 0.3 and np.sqrt(np.mean(errors_px(fixed, truth)[0][5:] ** 2)) < 0.05
+
