@@ -298,3 +298,16 @@ def test_centroid_delay_moves_the_centroid_times(pan):
     lag = np.sqrt(np.mean(errors_px(late, truth)[0][5:] ** 2))
     assert lag > 0.3 and np.sqrt(np.mean(errors_px(fixed, truth)[0][5:] ** 2)) < 0.05
 
+
+def test_pooled_centroids_identify_but_update_only_when_asked(pan):
+    """The pipeline's pooled centroids (a mean over several frames, biased under an
+    acceleration) are left out of the updates by default: shifted by 1 px they move the
+    attitude only with pooled_centroids on."""
+    c, truth, _ = pan
+    c = c.copy()
+    pooled = c["track"] % 2 == 1
+    c["source"][pooled] = "pooled"
+    c["x"][pooled] += 1.0
+    err = {on: errors_px(estimate(c, CAM, identifier=truth_identifier(truth), pooled_centroids=on),
+                         truth)[0] for on in (False, True)}
+    assert np.sqrt(np.mean(err[False] ** 2)) < 0.05 < 0.3 < np.sqrt(np.mean(err[True] ** 2))

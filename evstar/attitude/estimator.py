@@ -115,6 +115,9 @@ class AttitudeEstimator:
         self._next_frame = 0
         self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
         self._c, self._xy_dt = c, _track_velocity(c)
+        # a pooled centroid averages pool_frames frames: biased along an acceleration
+        self._updates = np.ones(len(c), bool) if self.o["pooled_centroids"] or \
+            "source" not in c.dtype.names else c["source"] != "pooled"
         self._z, self._sig = self._normalised(c)
         self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
         self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
@@ -285,7 +288,7 @@ class AttitudeEstimator:
     def _update(self, idx, t_ref):
         """One joint update with the frame's centroids of identified tracks."""
         tracks = self._c["track"][idx]
-        keep = np.array([k in self._stars for k in tracks.tolist()], bool)
+        keep = np.array([k in self._stars for k in tracks.tolist()], bool) & self._updates[idx]
         if not keep.any():
             return
         idx, tracks = idx[keep], tracks[keep]
