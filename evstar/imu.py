@@ -94,6 +94,15 @@ class Imu:
         return Imu(self.t[i0:i1], self.gyro[i0:i1], self.accel[i0:i1],
                    R_cam_imu=self.R_cam_imu, time_offset_us=self.time_offset_us)
 
+    def around(self, t_start_us, t_stop_us):
+        """Samples with camera time in [t_start_us, t_stop_us] and the nearest one beyond
+        each end (at least two): all that interpolating the gyro over the interval reads."""
+        tc, n = self.t_cam, len(self)
+        i0 = min(max(int(np.searchsorted(tc, t_start_us, side="right")) - 1, 0), max(n - 2, 0))
+        i1 = min(max(int(np.searchsorted(tc, t_stop_us, side="left")) + 1, i0 + 2), n)
+        return Imu(self.t[i0:i1], self.gyro[i0:i1], self.accel[i0:i1],
+                   R_cam_imu=self.R_cam_imu, time_offset_us=self.time_offset_us)
+
     def covers(self, t_start_us, t_stop_us):
         return len(self) > 0 and self.t_cam[0] <= t_start_us and self.t_cam[-1] >= t_stop_us
 

@@ -405,6 +405,9 @@ ATTITUDE_FILTER = Params(
           low=1, high=1000),
     Param("reidentify_ms", float, 100.0, "least time between identifications while tracking",
           low=0, unit="ms"),
+    Param("lost_retry_ms", float, 0.0, "while the attitude is lost, a failed full search of a "
+          "frame is retried after this (0: the next frame), and a failed pooled window after "
+          "max(this, pooled_window_ms)", low=0, unit="ms"),
     Param("gyro_noise", float, 2e-4, "filter's gyro white noise (with an IMU)", low=0,
           unit="rad/s/√Hz"),
     Param("bias_walk", float, 1e-4, "filter's gyro bias random walk (with an IMU)", low=0,
@@ -434,6 +437,10 @@ ATTITUDE_FILTER = Params(
           "is left out", low=0, open_low=True),
     Param("max_misses", int, 5, "gated-out centroids in a row after which a track's "
           "identity is forgotten", low=1, high=10**6),
+    Param("pooled_centroids", bool, False, "the pipeline's pooled centroids (source "
+          "\"pooled\": a faint star's mean over extract.pool_frames frames) update the filter "
+          "too; such a mean is off by α·var(t)/2 under an angular acceleration α (0.4 px at the "
+          "10°/1 Hz sinusoid's turns on a DAVIS346), so by default they only identify"),
     Param("smooth", bool, True, "smooth over the whole recording (an RTS pass): each row "
           "uses the centroids after it too; false: the causal filter, each row from the "
           "centroids before it"),

@@ -69,6 +69,32 @@ def test_a_slow_roll_is_identified_from_its_pooled_events(solver, with_imu):
     assert math.degrees(math.acos(np.clip((np.trace(fix.R_icrs_cam @ R_cw) - 1) / 2, -1, 1))) < 0.5
 
 
+def test_the_pooled_warp_reads_only_the_imu_around_its_window(solver):
+    """identify_events integrates the samples around its window, not the whole record: the
+    same warped pixels, so the same candidates, as compensating with every sample."""
+    from evstar.motion import compensate
+
+    motion = sim.Sinusoid(10.0, 1.0, R0=sim.attitude_from_radec(83.8, -5.4))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.3, mag_limit=6.0)
+    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.3), seed=2)
+    t0, t1 = 180_000, 230_000                     # the rate changes across the window
+    near = run.imu.around(t0, t1)
+    assert len(near) < len(run.imu) / 4
+    assert near.t_cam[0] <= t0 < near.t_cam[1] and near.t_cam[-2] < t1 <= near.t_cam[-1]
+    full = compensate(run.events.time_window(t0, t1), run.imu, CAM, dt_us=t1 - t0, t0_us=t0)
+    for alpha in solver.settings["pooled_alphas"]:         # identify_events, every sample
+        expected, weight = detect(full.xi[full.inside], full.yi[full.inside], CAM.width,
+                                  CAM.height, alpha)
+        before = identify(expected, CAM, (t0 + t1) // 2, solver=solver, weight=weight)
+        if before.ok:
+            break
+    fix, xy = identify_events(run.events, CAM, t0, t1, imu=run.imu, solver=solver)
+    assert fix.ok and before.ok
+    np.testing.assert_allclose(xy, expected, atol=1e-9)
+    assert np.array_equal(fix.hip, before.hip)
+    np.testing.assert_allclose(fix.q_icrs_cam, before.q_icrs_cam, atol=1e-12)
+
+
 def test_the_slow_roll_needs_the_looser_alphas(solver, tmp_path):
     run = slow_roll()
     strict = Solver.for_camera(CAM, cache_dir=solver.path.rsplit("/", 1)[0], timeout_ms=20_000,

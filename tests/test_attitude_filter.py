@@ -252,7 +252,10 @@ def test_no_solution_gives_no_rows(pan):
 
     est = AttitudeEstimator(CAM, identifier=never)
     assert len(est.run(pan[0])) == 0 and est.fixes[0][1] == "no_solution"
-    assert len(est.fixes) == 3          # 300 ms: a failed search is retried every 100 ms
+    assert len(est.fixes) == 30         # 300 ms: while lost, every 10 ms frame is searched
+    est = AttitudeEstimator(CAM, identifier=never, lost_retry_ms=100)
+    assert len(est.run(pan[0])) == 0
+    assert len(est.fixes) == 3          # a failed search retried every 100 ms
 
 
 def test_bad_options_and_inputs_are_evstar_errors(pan):
@@ -294,3 +297,17 @@ def test_centroid_delay_moves_the_centroid_times(pan):
     fixed = estimate(early, CAM, identifier=truth_identifier(truth), centroid_delay_us=2000)
     lag = np.sqrt(np.mean(errors_px(late, truth)[0][5:] ** 2))
     assert lag > 0.3 and np.sqrt(np.mean(errors_px(fixed, truth)[0][5:] ** 2)) < 0.05
+
+
+def test_pooled_centroids_identify_but_update_only_when_asked(pan):
+    """The pipeline's pooled centroids (a mean over several frames, biased under an
+    acceleration) are left out of the updates by default: shifted by 1 px they move the
+    attitude only with pooled_centroids on."""
+    c, truth, _ = pan
+    c = c.copy()
+    pooled = c["track"] % 2 == 1
+    c["source"][pooled] = "pooled"
+    c["x"][pooled] += 1.0
+    err = {on: errors_px(estimate(c, CAM, identifier=truth_identifier(truth), pooled_centroids=on),
+                         truth)[0] for on in (False, True)}
+    assert np.sqrt(np.mean(err[False] ** 2)) < 0.05 < 0.3 < np.sqrt(np.mean(err[True] ** 2))

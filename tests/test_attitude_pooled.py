@@ -96,17 +96,19 @@ def test_frames_without_centroids_count_for_the_pooled_window(slow_roll, centroi
 
 def test_noise_events_give_no_pooled_fix(slow_roll, centroids, solver):
     """The same centroids with events of noise only: the pooled search fails, is retried at
-    most every max(pooled_window_ms, reidentify_ms), and no row is written."""
+    most every max(pooled_window_ms, lost_retry_ms) (each new window by default), and no row
+    is written."""
     run = slow_roll
     rng = np.random.default_rng(4)
     n = len(run.events)
     t = np.sort(rng.integers(run.events.t[0], run.events.t[-1] + 1, n))
     noise = type(run.events)(t, rng.integers(0, CAM.width, n), rng.integers(0, CAM.height, n),
                              rng.integers(0, 2, n), CAM.width, CAM.height)
-    est = AttitudeEstimator(CAM, solver=solver)
-    assert len(est.run(centroids["none"], noise)) == 0
-    pooled = [t for t, s, _ in est.fixes if s.startswith("pooled")]
-    assert len(pooled) == 1 and "pooled ok" not in [s for _, s, _ in est.fixes]
+    for wait, tries in ((0.0, 2), (100.0, 1)):         # 100 ms of events
+        est = AttitudeEstimator(CAM, solver=solver, lost_retry_ms=wait)
+        assert len(est.run(centroids["none"], noise)) == 0
+        pooled = [t for t, s, _ in est.fixes if s.startswith("pooled")]
+        assert len(pooled) == tries and "pooled ok" not in [s for _, s, _ in est.fixes]
 
 
 def test_run_and_attitude_on_a_recording_use_the_pooled_events(slow_roll, tmp_path, capsys):
@@ -124,6 +126,42 @@ def test_run_and_attitude_on_a_recording_use_the_pooled_events(slow_roll, tmp_pa
     assert main(["attitude", str(tmp_path / "out" / "centroids.csv"), "-o", str(tmp_path / "b.csv"),
                  "--camera", str(tmp_path / "camera.json")]) == 3
     assert "no attitude" in capsys.readouterr().err and not (tmp_path / "b.csv").exists()
+
+
+def test_while_lost_a_failed_frame_search_is_retried_the_next_frame(solver):
+    """A DAVIS346 pointing at 2 °/s (perf/study_identify.py, seed 2): the 10 ms frame's search
+    fails, the 20 ms frame's identifies. lost_retry_ms 0 (default) searches it; 100 waits,
+    and the first fix is the pooled window's at 50 ms."""
+    rng = np.random.default_rng([2, 20, 8])
+    ra, dec, roll = rng.uniform(0, 360), math.degrees(math.asin(rng.uniform(-1, 1))), rng.uniform(0, 360)
+    axis = rng.normal(size=3)
+    motion = sim.ConstantRate(2.0, axis=axis / np.linalg.norm(axis),
+                              R0=sim.attitude_from_radec(ra, dec, roll))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.05, mag_limit=7.0)
+    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.05), seed=2)
+    c = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    t0 = int(run.events.t[0])
+    first = {}
+    for wait in (0.0, 100.0):
+        est = AttitudeEstimator(CAM, solver=solver, lost_retry_ms=wait)
+        est.run(c, run.events)
+        first[wait] = next((t - t0, s) for t, s, _ in est.fixes if s.endswith("ok"))
+        assert est.fixes[0][1] == "no_solution" and est.fixes[0][0] - t0 < 10_000
+    assert first[0.0][0] < 20_000 and first[0.0][1] == "ok"
+    assert first[100.0][0] > 40_000 and first[100.0][1] == "pooled ok"   # the frame closing 50 ms
+
+
+def test_the_demo_star_field_uses_the_pooled_events(tmp_path, capsys):
+    """`evstar demo`'s star field at 0.2 °/s: its frames hold too few tracks to identify, its
+    events pooled do."""
+    import argparse
+
+    from evstar.cli import demo
+
+    demo._field(tmp_path, argparse.Namespace(rate=0.2, seed=1, device="cpu"))
+    assert "first fix at 50 ms" in capsys.readouterr().out
+    rows = read_attitude(tmp_path / "attitude.csv")
+    assert len(rows) >= 40 and rows["status"][0] == "fix"
 
 
 def test_tracking_enough_stars_never_pools(solver):

@@ -116,3 +116,11 @@ def test_rotating_camera_at_rest_cancels_gravity_with_attitude():
     assert np.abs(kin.velocity).max() < 1e-9 and np.abs(kin.position).max() < 1e-9
     # without the attitude the same data seem to accelerate: the paper's assumption matters
     assert np.abs(integrate_accel(imu, gravity_world=(0, 0, -9.81)).position).max() > 1e-3
+
+
+def test_around_keeps_the_samples_bracketing_an_interval():
+    imu = Imu(np.arange(0, 10_000, 1000), np.zeros((10, 3)), time_offset_us=500)   # camera 500..9500
+    assert imu.around(2_000, 4_000).t_cam.tolist() == [1_500, 2_500, 3_500, 4_500]
+    assert imu.around(2_500, 3_500).t_cam.tolist() == [2_500, 3_500]
+    assert imu.around(-5_000, 0).t_cam.tolist() == [500, 1_500]          # before: the first two
+    assert imu.around(20_000, 30_000).t_cam.tolist() == [8_500, 9_500]   # after: the last two

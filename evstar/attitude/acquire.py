@@ -85,8 +85,10 @@ def identify_events(events, camera, t_start_us=None, t_stop_us=None, *, imu=None
     if imu is not None and len(window):
         from ..motion import compensate
 
-        # one frame spanning the window: every event moves to the window's mid-time
-        comp = compensate(window, imu, camera, dt_us=max(t_stop - t_start, 1), t0_us=t_start)
+        # one frame spanning the window: every event moves to the window's mid-time; only
+        # the samples around it are integrated (the whole record would be, at every try)
+        comp = compensate(window, imu.around(t_start, t_stop), camera,
+                          dt_us=max(t_stop - t_start, 1), t0_us=t_start)
         x, y = comp.xi[comp.inside], comp.yi[comp.inside]
     fix, xy = None, np.zeros((0, 2))
     for alpha in solver.settings["pooled_alphas"]:

@@ -7,12 +7,14 @@ no attitude — and at most every ``reidentify_ms`` while fewer than ``min_stars
 identified tracks are seen or confirmed tracks are unnamed — the centroids of the frame's
 confirmed tracks, moved to the frame's last centroid time with their tracks' image
 velocities (a fast pan would distort the pattern), are identified; a full search that
-fails is retried ``reidentify_ms`` later, not every frame (a noisy recording would spend
-the solver's timeout on each). When no frame has identified for ``pooled_window_ms`` while
+fails is retried ``lost_retry_ms`` later while the attitude is lost (0: the next frame, a
+quicker first fix), ``reidentify_ms`` later while tracking (a noisy recording would spend
+the solver's timeout on each frame). When no frame has identified for ``pooled_window_ms`` while
 the attitude is lost (or fewer than ``min_stars`` identified tracks are seen and some
 confirmed ones are unnamed) and the events are given, the
 window's events pooled into one image are identified (:func:`.identify_events`, warped by
-the gyro when there is an IMU; at most every max(``pooled_window_ms``, ``reidentify_ms``)):
+the gyro when there is an IMU; at most every max(``pooled_window_ms``, ``lost_retry_ms``)
+while lost, max(``pooled_window_ms``, ``reidentify_ms``) while tracking):
 its stars name the tracks whose position at the fix's time is within the solver's
 ``match_radius_px`` of them. A fix names the stars of its tracks: every later
 centroid of such a track measures that star. A fix starts a filter that has no attitude;
@@ -113,6 +115,9 @@ class AttitudeEstimator:
         self._next_frame = 0
         self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
         self._c, self._xy_dt = c, _track_velocity(c)
+        # a pooled centroid averages pool_frames frames: biased along an acceleration
+        self._updates = np.ones(len(c), bool) if self.o["pooled_centroids"] or \
+            "source" not in c.dtype.names else c["source"] != "pooled"
         self._z, self._sig = self._normalised(c)
         self._stars, self._misses = {}, {}          # track -> ICRS direction, rejections
         self.filt, self._t_f, self._last_id, self._retry_at = None, None, -math.inf, -math.inf
@@ -151,12 +156,13 @@ class AttitudeEstimator:
         known = np.array([k in self._stars for k in tracks.tolist()], bool)
         lost = self.filt is None
         few = known.sum() < self.o["min_stars"]
-        due = t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
+        # lost: retry once a failed search's wait has passed; tracking: every reidentify_ms
+        due = t_ref >= self._retry_at if lost else t_ref - self._last_id >= self.o["reidentify_ms"] * 1000
         if not (lost or few):
             self._pool_from = t_end       # the pooled window waits only while lost or few
         if not (lost or few or not known.all()):
             return
-        if (due or lost and t_ref >= self._retry_at) and self._identify_frame(idx, c, t_ref, lost):
+        if due and self._identify_frame(idx, c, t_ref, lost):
             self._pool_from = t_end
             return
         if lost or few and not known.all():    # tracking: only unnamed tracks can be named
@@ -175,7 +181,7 @@ class AttitudeEstimator:
     def _maybe_pool(self, t_end, t_ref, lost):
         """The pooled window ending at t_end, when no frame has identified for that long."""
         window_us = int(round(self.o["pooled_window_ms"] * 1000))
-        every_us = max(window_us, self.o["reidentify_ms"] * 1000)
+        every_us = max(window_us, self.o["lost_retry_ms" if lost else "reidentify_ms"] * 1000)
         if (self._events is not None and t_end - self._pool_from >= window_us
                 and t_end - self._pooled_at >= every_us):
             self._pooled_at = t_end
@@ -195,7 +201,8 @@ class AttitudeEstimator:
         self._record(fix, t_ref, "frame", xy, t_ref)
         if not fix.ok:
             if fix.status != "too_few_stars":        # a full search failed: not every frame
-                self._retry_at = t_ref + self.o["reidentify_ms"] * 1000
+                wait = self.o["lost_retry_ms"] if lost else self.o["reidentify_ms"]
+                self._retry_at = t_ref + wait * 1000
             return False
         self._name(fix, tracks)
         if lost:
@@ -281,7 +288,7 @@ class AttitudeEstimator:
     def _update(self, idx, t_ref):
         """One joint update with the frame's centroids of identified tracks."""
         tracks = self._c["track"][idx]
-        keep = np.array([k in self._stars for k in tracks.tolist()], bool)
+        keep = np.array([k in self._stars for k in tracks.tolist()], bool) & self._updates[idx]
         if not keep.any():
             return
         idx, tracks = idx[keep], tracks[keep]

@@ -1,7 +1,7 @@
 """`evstar demo`: simulate the default scene (a magnitude-3 star at 20 °/s, biased IMU),
 run the whole pipeline with particle-filter compensation and write results and plots; then
 a Hipparcos star field (Orion, DAVIS346 behind 16 mm, the same rate) through the pipeline to
-the inertial attitude (OUTDIR/field/, with attitude.csv)."""
+the inertial attitude (OUTDIR/field/, with attitude.csv; its events give the pooled fallback)."""
 from __future__ import annotations
 
 import pathlib
@@ -67,7 +67,7 @@ def _field(out, args):
     run_ = sim.simulate(sim.Scenario(cam, stars, motion, 0.5), seed=args.seed)
     cfg = Config(device=args.device)
     result = Pipeline(cfg).run(run_.events, run_.imu, run_.camera, truth=run_.truth)
-    rows = attitude_rows(result, run_.camera, run_.imu)
+    rows = attitude_rows(result, run_.camera, run_.imu, run_.events)   # + the pooled fallback
     outputs.write_run(out, result, cfg, run_.truth, attitude=rows)
     print(f"star field    {len(stars)} Hipparcos stars (Orion), DAVIS346 16 mm, "
           f"{args.rate:g} °/s: {result.metrics['tracks']} tracks")
