@@ -53,6 +53,7 @@ _MIN_Q_STEPS = 4                       # measured steps a track needs for a q (o
 _PRIOR_EVIDENCE = 3.0
 _OUTLIER_PASSES = 4                    # fits per track at most (outliers dropped between)
 _IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weightless
+_MIN_STIFF_CENTROIDS = 10              # centroids a track needs for the stiff outlier screen
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
@@ -336,15 +337,19 @@ class TrackSmoother:
         """Per track, the centroids beyond outlier_sigma from its stiffest fit (q =
         process_noise_min): an estimated q follows a stray centroid of a faint track (a noise
         clump merged into the star's cluster) instead of flagging it."""
-        none = [np.zeros(len(tr.resid), bool) for tr in tracks]
+        out = [np.zeros(len(tr.resid), bool) for tr in tracks]
         if self.process_noise != AUTO or self.outlier_sigma is None:
-            return none
-        problems = [kalman.CVProblem(tr.ts, tr.measured, tr.resid,
-                                     kalman.diagonal_covariances(tr.sigma), self.process_noise_min)
-                    for tr in tracks]
-        fits = _ENGINES[self.engine][0](problems) if problems else []
-        return [o if new is None else new for o, new in
-                zip(none, (self._new_outliers(tr, *fit, o) for tr, fit, o in zip(tracks, fits, none)))]
+            return out
+        # a short track's few centroids cannot tell which of them is off
+        long = [i for i, tr in enumerate(tracks) if len(tr.resid) >= _MIN_STIFF_CENTROIDS]
+        problems = [kalman.CVProblem(tracks[i].ts, tracks[i].measured, tracks[i].resid,
+                                     kalman.diagonal_covariances(tracks[i].sigma),
+                                     self.process_noise_min) for i in long]
+        for i, fit in zip(long, _ENGINES[self.engine][0](problems) if problems else []):
+            new = self._new_outliers(tracks[i], *fit, out[i])
+            if new is not None:
+                out[i] = new
+        return out
 
     def _new_outliers(self, tr, x, P, outlier):
         """Centroids newly beyond outlier_sigma, or None when there are none or the track
