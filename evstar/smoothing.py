@@ -212,7 +212,7 @@ class TrackSmoother:
         return out
 
     def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1,
-               t0_us=None, pixel_lag=None):
+               t0_us=None, pixel_lag=None, assigned=None):
         """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
         (evstar.crossings.pixel_crossings of the events near the stars) as along-track
         measurements; see :func:`along_track_fit`. Frames of a track's life that had no row
@@ -221,11 +221,13 @@ class TrackSmoother:
         (evstar.calibration.PixelLag) moves each crossing back by its pixels' calibrated lag
         first. A track that reverses loses the crossings its turns merge (_single_passes) and
         is fitted twice: then its centroids, less their along bias measured on the first
-        fit, weigh fully at the turns (_debiased). Returns (rows, crossings used)."""
+        fit, weigh fully at the turns (_debiased). assigned: along_track(crossings, est) where
+        the caller has it (evstar.estimation assigns once for its groups). Returns (rows,
+        crossings used)."""
         from .crossings import along_track
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
-        got, owner, u, resid = along_track(crossings, est)
+        got, owner, u, resid = along_track(crossings, est) if assigned is None else assigned
         # the assigned crossings' fields, gathered once (m below indexes them)
         t_got = crossings["t"][got]
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
