@@ -68,9 +68,10 @@ def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
     key = pixel_keys(events.x, events.y, events.width)
     near = np.zeros(events.height * events.width, bool)
-    # flatnonzero + take: several times faster than boolean indexing of these long arrays
-    near[key.take(np.flatnonzero(keep))] = True
-    sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel()[key])
+    # flatnonzero + take: several times faster than boolean indexing of these long arrays;
+    # intp indices: numpy casts uint32 ones chunk by chunk (~2x the time of one astype)
+    near[key.take(np.flatnonzero(keep)).astype(np.intp)] = True
+    sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel().take(key))
     return events.t.take(sel), key.take(sel), events.p.take(sel)
 
 

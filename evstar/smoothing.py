@@ -240,13 +240,14 @@ class TrackSmoother:
         tracks = []
         for tid, rows in zip(tids, est_rows):
             m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
-            radius = _turn_radius(centroids, est[rows])
-            turns = _turns(est[rows], radius)
+            track = est[rows]
+            radius = _turn_radius(centroids, track)
+            turns = _turns(track, radius)
             m = _single_passes(m, t_got, q_got, turns, radius)
             t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, est[rows], pixel_lag)
-            full = self._fill_frames(est[rows], t_c, t0_us)
+                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, track, pixel_lag)
+            full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
@@ -464,7 +465,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
         return None
     med = np.median(r)
     s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
-    ok = np.abs(r - med) <= gate_sigma * s_a
+    ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
     t_c, q, u = t_c[ok], q[ok], u[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c, q, u, velocity_prior))
@@ -492,7 +493,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
-    return _AlongTrack(est, int(ok.sum()), order, shift,
+    return _AlongTrack(est, len(ok), order, shift,
                        kalman.CVProblem(ts, m_s, resid, R[order][m_s], None),
                        (ts[c_s], resid[cent], sig[order][c_s]))
 
