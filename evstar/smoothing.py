@@ -213,7 +213,7 @@ class TrackSmoother:
         return out
 
     def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1,
-               t0_us=None, pixel_lag=None):
+               t0_us=None, pixel_lag=None, assigned=None):
         """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
         (evstar.crossings.pixel_crossings of the events near the stars) as along-track
         measurements; see :func:`along_track_fit`. Frames of a track's life that had no row
@@ -222,11 +222,13 @@ class TrackSmoother:
         (evstar.calibration.PixelLag) moves each crossing back by its pixels' calibrated lag
         first. A track that reverses loses the crossings its turns merge (_single_passes) and
         is fitted twice: then its centroids, less their along bias measured on the first
-        fit, weigh fully at the turns (_debiased). Returns (rows, crossings used)."""
+        fit, weigh fully at the turns (_debiased). assigned: along_track(crossings, est) where
+        the caller has it (evstar.estimation assigns once for its groups). Returns (rows,
+        crossings used)."""
         from .crossings import along_track
 
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
-        got, owner, u, resid = along_track(crossings, est)
+        got, owner, u, resid = along_track(crossings, est) if assigned is None else assigned
         # the assigned crossings' fields, gathered once (m below indexes them)
         t_got = crossings["t"][got]
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
@@ -239,13 +241,14 @@ class TrackSmoother:
         tracks = []
         for tid, rows in zip(tids, est_rows):
             m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
-            radius = _turn_radius(centroids, est[rows])
-            turns = _turns(est[rows], radius)
+            track = est[rows]
+            radius = _turn_radius(centroids, track)
+            turns = _turns(track, radius)
             m = _single_passes(m, t_got, q_got, turns, radius)
             t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, est[rows], pixel_lag)
-            full = self._fill_frames(est[rows], t_c, t0_us)
+                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, track, pixel_lag)
+            full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
@@ -481,7 +484,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
         return None
     med = np.median(r)
     s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
-    ok = np.abs(r - med) <= gate_sigma * s_a
+    ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
     t_c, q, u = t_c[ok], q[ok], u[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c, q, u, velocity_prior))
@@ -509,7 +512,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
-    return _AlongTrack(est, int(ok.sum()), order, shift,
+    return _AlongTrack(est, len(ok), order, shift,
                        kalman.CVProblem(ts, m_s, resid, R[order][m_s], None),
                        (ts[c_s], resid[cent], sig[order][c_s]))
 

@@ -360,7 +360,14 @@ def test_crossings_go_to_the_group_of_their_nearest_track():
     c = np.zeros(3, CROSSING_DTYPE)
     c["t"], c["x"], c["y"] = [5_000, 10_000, 15_000], [15, 20, 25], [51, 53, 52]
     mine = _crossings_by_group(c, groups)
-    assert sorted(mine[0].tolist()) == [0] and sorted(mine[1].tolist()) == [1, 2]
+    assert mine[0][0].tolist() == [0] and mine[1][0].tolist() == [1, 2]
+    # what refine would assign from the group's own crossings and tracks
+    from evstar.crossings import along_track
+
+    for (got, *rest), group in zip(mine, groups):
+        own = along_track(c[got], group)
+        assert np.array_equal(got[own[0]], got)
+        assert all(np.array_equal(a, b) for a, b in zip(own[1:], rest))
 
 
 def _reversing_track():

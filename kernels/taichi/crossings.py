@@ -6,8 +6,8 @@ Specification: evstar.crossings.key_crossings with engine "numpy", which handles
 together, pair i = 1, 2, ... in turn; here one thread per change sums its pairs in the same
 order i = 1 .. k with the same operations (where the rising level falls on an ON event, an
 int64 sum of the two times, then × 0.5; else the interpolated rising time), so the floats
-are the same bits. The events are read through the pixel-then-time order, not gathered into
-sorted copies: those random reads are most of the time.
+are the same bits. The pair sums read the times through the pixel-then-time order: a sorted
+copy of them would cost more to gather than the few reads a change makes.
 """
 import taichi as ti
 
@@ -15,27 +15,25 @@ from .arrays import any_1d, f64_1d, i32_1d, i64_1d, u32_1d
 
 
 @ti.kernel
-def run_lengths(order: i64_1d, key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d,
-                off_after: i32_1d):
-    """Events key, p (ON: p > 0) read in `order`. Where position c is an ON followed by an
-    OFF of its pixel: on_before[c], the ON events of its pixel right before it, and
-    off_after[c] >= 1, the OFF events right after it (each at most `cap`); elsewhere 0, 0."""
-    n = order.shape[0]
+def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_after: i32_1d):
+    """Events key, p (ON: p > 0) in the pixel-then-time order (gathered into it by the
+    caller: read through the order, these were most of the kernel's time). Where position c
+    is an ON followed by an OFF of its pixel: on_before[c], the ON events of its pixel right
+    before it, and off_after[c] >= 1, the OFF events right after it (each at most `cap`);
+    elsewhere 0, 0."""
+    n = key.shape[0]
     for c in range(n):
-        a = order[c]
         before, after = 0, 0
-        if p[a] > 0 and c + 1 < n:
-            nxt = order[c + 1]
-            if key[nxt] == key[a] and p[nxt] <= 0:
-                # c ± m were read by this thread's neighbouring iterations: mostly cached
+        if p[c] > 0 and c + 1 < n:
+            if key[c + 1] == key[c] and p[c + 1] <= 0:
                 while after < cap and c + after + 1 < n:
-                    e = order[c + after + 1]
-                    if key[e] != key[a] or p[e] > 0:
+                    e = c + after + 1
+                    if key[e] != key[c] or p[e] > 0:
                         break
                     after += 1
                 while before < cap and c - before - 1 >= 0:
-                    e = order[c - before - 1]
-                    if key[e] != key[a] or p[e] <= 0:
+                    e = c - before - 1
+                    if key[e] != key[c] or p[e] <= 0:
                         break
                     before += 1
         on_before[c] = before

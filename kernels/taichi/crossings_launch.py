@@ -15,13 +15,16 @@ class LevelPairs:
         p = np.asarray(p)
         p = p.view(np.uint8) if p.dtype == bool else p      # no bool arrays in Taichi kernels
         self.arrays = arrays = launch.Arrays(ti)
-        self.order = arrays.put(np.asarray(order, np.int64))
+        order = np.asarray(order, np.int64)
+        self.order = arrays.put(order)
         self.t = arrays.put(np.asarray(t, np.int64))
         n = len(order)
         on, off = arrays.empty(n, np.int32), arrays.empty(n, np.int32)
+        # key and p gathered in order: numpy's gathers + sequential reads take ~half the
+        # kernel's reads through the order (whose loops wait on each random read)
         with launch.RUNTIME_LOCK:
-            _run_lengths(self.order, arrays.put(np.asarray(key, np.uint32)), arrays.put(p),
-                         int(cap), on, off)
+            _run_lengths(arrays.put(np.asarray(key, np.uint32).take(order)),
+                         arrays.put(p.take(order)), int(cap), on, off)
         on, off = (on, off) if not arrays.on_device else (on.to_numpy(), off.to_numpy())
         #: positions c in the order of every ON→OFF change (pixel-major, then time) and the
         #: ON run before / OFF run after each
