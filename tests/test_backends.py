@@ -2,6 +2,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from evstar import BackendError, backends
@@ -82,3 +83,25 @@ def test_taichi_errors_still_name_file_line_and_source(mode, tmp_path):
     assert r.returncode == 0, r.stderr
     assert "undefined_name_here" in r.stdout and "line 6" in r.stdout and "in broken" in r.stdout
     assert ("^^^" in r.stdout) == (mode == "full")
+
+
+def test_taichis_class_body_check_is_patched_and_still_tells_classes_apart():
+    import evstar_kernels.taichi.arrays  # noqa: F401 (installs the quick check)
+    import taichi as ti
+    from taichi.lang import kernel_impl
+
+    assert kernel_impl._inside_class.__module__ == "evstar_kernels.taichi.quick_decorate"
+
+    assert not kernel_impl._inside_class(1)        # this test's frame: not a class body
+
+    @ti.data_oriented
+    class Counter:
+        @ti.kernel
+        def zero(self, a: ti.types.ndarray(dtype=ti.i32, ndim=1)):
+            for i in range(a.shape[0]):
+                a[i] = 0
+
+    backends.taichi("cpu")
+    a = np.ones(4, np.int32)
+    Counter().zero(a)                   # a class kernel still binds to its instance
+    assert not a.any()

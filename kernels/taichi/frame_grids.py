@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import taichi as ti
 
+from . import quick_decorate  # noqa: F401 (before any decorator runs)
+
 LANES = 4
 LANE_BITS = 16
 MAX_EVENTS = (1 << LANE_BITS) - 1  # per frame, for u16x4 cells
