@@ -450,6 +450,10 @@ ATTITUDE_FILTER = Params(
           "long while the attitude is lost (or fewer than min_stars identified tracks are seen "
           "and some are unnamed), this window's events pooled into one image are identified "
           "(identify_events; needs the events); 0: frames only", low=0, high=10_000, unit="ms"),
+    Param("pooled_max_wait_ms", float, 1600.0, "after each failed pooled search in a row the "
+          "wait before the next one doubles, up to this (a window without stars, e.g. a sensor "
+          "at rest, spends the solver's whole timeout on its noise)", low=0, high=3_600_000,
+          unit="ms"),
 )
 
 #: how the track smoother computes (never what): not part of Config

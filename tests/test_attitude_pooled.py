@@ -96,19 +96,27 @@ def test_frames_without_centroids_count_for_the_pooled_window(slow_roll, centroi
 
 def test_noise_events_give_no_pooled_fix(slow_roll, centroids, solver):
     """The same centroids with events of noise only: the pooled search fails, is retried at
-    most every max(pooled_window_ms, lost_retry_ms) (each new window by default), and no row
-    is written."""
+    most every max(pooled_window_ms, lost_retry_ms) (each new window by default), that wait
+    doubling after each failure up to pooled_max_wait_ms (0: no doubling), and no row is
+    written."""
     run = slow_roll
     rng = np.random.default_rng(4)
     n = len(run.events)
     t = np.sort(rng.integers(run.events.t[0], run.events.t[-1] + 1, n))
     noise = type(run.events)(t, rng.integers(0, CAM.width, n), rng.integers(0, CAM.height, n),
                              rng.integers(0, 2, n), CAM.width, CAM.height)
-    for wait, tries in ((0.0, 2), (100.0, 1)):         # 100 ms of events
-        est = AttitudeEstimator(CAM, solver=solver, lost_retry_ms=wait)
+    t0 = int(noise.t[0])                               # the windows start at the events' first
+    for options, ends_ms in (                          # 100 ms of events
+            (dict(lost_retry_ms=0.0, pooled_max_wait_ms=0.0), [50, 100]),
+            (dict(lost_retry_ms=100.0, pooled_max_wait_ms=0.0), [50]),
+            (dict(pooled_window_ms=10.0, pooled_max_wait_ms=0.0), list(range(10, 101, 10))),
+            (dict(pooled_window_ms=10.0), [10, 30, 70])):   # waits 20, 40, then 80 ms
+        est = AttitudeEstimator(CAM, solver=solver, **options)
         assert len(est.run(centroids["none"], noise)) == 0
-        pooled = [t for t, s, _ in est.fixes if s.startswith("pooled")]
-        assert len(pooled) == tries and "pooled ok" not in [s for _, s, _ in est.fixes]
+        half = est.o["pooled_window_ms"] / 2
+        centres = [f.t_us for f, _, _, source in est.searches if source == "pooled"]
+        assert centres == [t0 + round(1000 * (ms - half)) for ms in ends_ms], options
+        assert "pooled ok" not in [s for _, s, _ in est.fixes]
 
 
 def test_run_and_attitude_on_a_recording_use_the_pooled_events(slow_roll, tmp_path, capsys):

@@ -14,7 +14,8 @@ the attitude is lost (or fewer than ``min_stars`` identified tracks are seen and
 confirmed ones are unnamed) and the events are given, the
 window's events pooled into one image are identified (:func:`.identify_events`, warped by
 the gyro when there is an IMU; at most every max(``pooled_window_ms``, ``lost_retry_ms``)
-while lost, max(``pooled_window_ms``, ``reidentify_ms``) while tracking):
+while lost, max(``pooled_window_ms``, ``reidentify_ms``) while tracking, that wait doubling
+after each failed pooled search in a row up to ``pooled_max_wait_ms``):
 its stars name the tracks whose position at the fix's time is within the solver's
 ``match_radius_px`` of them. A fix names the stars of its tracks: every later
 centroid of such a track measures that star. A fix starts a filter that has no attitude;
@@ -110,6 +111,7 @@ class AttitudeEstimator:
         self._events = events if pooled else None
         self._ev_t0 = int(events.t[0]) if pooled else 0
         self._pool_from, self._pooled_at = self._ev_t0, -math.inf
+        self._pool_fails = 0          # failed pooled searches in a row
         # frames without centroids count too (the pipeline's frames start at the first event)
         empty = pooled and "frame" in c.dtype.names and np.all(c["frame"] >= 0)
         self._next_frame = 0
@@ -182,11 +184,16 @@ class AttitudeEstimator:
         """The pooled window ending at t_end, when no frame has identified for that long."""
         window_us = int(round(self.o["pooled_window_ms"] * 1000))
         every_us = max(window_us, self.o["lost_retry_ms" if lost else "reidentify_ms"] * 1000)
+        if self._pool_fails:      # failing again and again: a window without stars, back off
+            every_us = max(every_us, min(every_us * 2.0 ** self._pool_fails,
+                                         self.o["pooled_max_wait_ms"] * 1000))
         if (self._events is not None and t_end - self._pool_from >= window_us
                 and t_end - self._pooled_at >= every_us):
             self._pooled_at = t_end
             if self._identify_pooled(t_end - window_us, t_end, t_ref, lost):
-                self._pool_from = t_end
+                self._pool_from, self._pool_fails = t_end, 0
+            else:
+                self._pool_fails += 1
 
     def _identify_frame(self, idx, c, t_ref, lost):
         """Identify the frame's confirmed tracks (idx, their centroids c); True for a fix."""
