@@ -15,6 +15,7 @@ the previous chunk's last ``dt`` of events as context, and tracks are linked at 
 """
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -226,7 +227,7 @@ class Pipeline:
                               self._estimator(state, t0, imu, camera, filter_result, span),
                               span_us=span)
         result.keep, result.compensation = keep, comp
-        result.images = lambda: images(events, keep)
+        result.images = functools.partial(images, events, keep)   # a Result stays picklable
         return result
 
     def _particle_filter(self, centroids, imu, camera):

@@ -1,5 +1,6 @@
 """The whole pipeline: streaming equals whole runs, CLI outputs, robustness."""
 import json
+import pickle
 import re
 
 import numpy as np
@@ -47,6 +48,9 @@ def test_streaming_equals_whole_run(scene, scene_file, method, mode, estimator):
             np.testing.assert_array_equal(whole.centroids[f], streamed.centroids[f])
     if not inexact:
         assert whole.metrics == streamed.metrics
+    assert callable(whole.images)                                # not counted yet
+    again = pickle.loads(pickle.dumps(whole))                    # and picklable so
+    np.testing.assert_array_equal(again.image_after, streamed.image_after)
     np.testing.assert_array_equal(whole.image_after, streamed.image_after)
     np.testing.assert_array_equal(whole.image_before, streamed.image_before)
     assert whole.image_before.sum() == len(scene.events)        # counted on first look
