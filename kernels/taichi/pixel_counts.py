@@ -23,17 +23,14 @@ def pixel_flags(x: u16_1d, y: u16_1d, flags: u8_1d, width: ti.i32, out: u8_1d):
 
 @functools.lru_cache(maxsize=None)
 def count_pixels_kernel(serial):
-    """kernel(x, y, keep, kept, width, cells): cells[y·width + x] += 1 (+ 2³² where keep)
-    for every event; kept = 0: keep is not read (none kept)."""
+    """kernel(x, y, keep, width, cells): cells[y·width + x] += 1 (+ 2³² where keep) for
+    every event."""
 
     @ti.kernel
-    def count_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, kept: ti.i32, width: ti.i32,
-                     cells: i64_1d):
+    def count_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, cells: i64_1d):
         ti.loop_config(serialize=serial)
         for e in range(x.shape[0]):
-            add = ti.i64(1)
-            if kept:
-                add += ti.cast(keep[e], ti.i64) << 32
+            add = ti.i64(1) + (ti.cast(keep[e], ti.i64) << 32)
             ti.atomic_add(cells[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)], add)
 
     return count_pixels
@@ -42,8 +39,8 @@ def count_pixels_kernel(serial):
 @functools.lru_cache(maxsize=None)
 def count_all_kernel(serial):
     """kernel(x, y, width, cells): cells[y·width + x] += 1 for every event, int32 cells (half
-    the packed cells' memory: ~2x faster scattered adds on a megapixel sensor; a launch of at
-    most 2³¹ − 1 events cannot overflow them)."""
+    the packed cells' memory: scattered adds ~4x faster on a megapixel sensor, 14 vs 63 ms
+    for 2.9 M events; a launch of at most 2³¹ − 1 events cannot overflow them)."""
 
     @ti.kernel
     def count_all(x: u16_1d, y: u16_1d, width: ti.i32, cells: i32_1d):

@@ -1,5 +1,5 @@
-"""Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events, the packed
-halves split) and of the per-event pixel flags."""
+"""Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events; with a keep
+mask the packed halves split, without it int32 counts) and of the per-event pixel flags."""
 import numpy as np
 
 from . import launch
@@ -19,17 +19,14 @@ def pixel_counts(ti, x, y, width, height, keep=None):
     with launch.RUNTIME_LOCK:
         for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
             e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
-            flags = np.zeros(1, bool) if keep is None else keep[e0:e1]   # never read if None
             cells = arrays.put(np.zeros(size, np.int64))
             kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]),
-                   arrays.put(np.asarray(flags, bool).view(np.uint8)), int(keep is not None),
-                   width, cells)
+                   arrays.put(np.asarray(keep[e0:e1], bool).view(np.uint8)), width, cells)
             packed = cells.to_numpy() if arrays.on_device else cells
             # the first launch's halves are the sums (no adds into zeros)
             every = packed & _LOW if e0 == 0 else every + (packed & _LOW)
-            if keep is not None:
-                kept = packed >> 32 if e0 == 0 else kept + (packed >> 32)
-    return every.reshape(height, width), None if keep is None else kept.reshape(height, width)
+            kept = packed >> 32 if e0 == 0 else kept + (packed >> 32)
+    return every.reshape(height, width), kept.reshape(height, width)
 
 
 def _all_counts(ti, x, y, width, height):
