@@ -5,7 +5,7 @@ false rows per 100 frames).
     python perf/study_seeds.py [--motion 1] [--mag 4] [--psf 1.5] [--sensor default]
         [--comp none] [--seeds 7-14]
 
-Writes perf/results/study_seeds.json and .md.
+Writes perf/results/study_seeds_<scene>.json and .md (e.g. study_seeds_1dps_mag4_psf1.5_default_none).
 """
 import argparse
 import pathlib
@@ -48,8 +48,9 @@ def main():
     rows = [run_seed(dict(motion=motion, mag=a.mag, psf=a.psf, sensor=a.sensor, comp=a.comp,
                           seed=seed)) for seed in range(first, last + 1)]
     text = profiling.table(rows, COLUMNS)
-    profiling.write_results(RESULTS / "study_seeds.json", rows, vars(a))
-    (RESULTS / "study_seeds.md").write_text(f"# {vars(a)}\n\n{text}\n")
+    name = f"study_seeds_{a.motion}{'' if a.motion == 'sine' else 'dps'}_mag{a.mag:g}_psf{a.psf:g}_{a.sensor}_{a.comp}"
+    profiling.write_results(RESULTS / f"{name}.json", rows, vars(a))
+    (RESULTS / f"{name}.md").write_text(f"# {vars(a)}\n\n{text}\n")
     print(text)
 
 
