@@ -91,8 +91,7 @@ class Imu:
     def time_window(self, t_start_us, t_stop_us):
         """Samples with camera time in [t_start_us, t_stop_us)."""
         i0, i1 = np.searchsorted(self.t_cam, [t_start_us, t_stop_us], side="left")
-        return Imu(self.t[i0:i1], self.gyro[i0:i1], self.accel[i0:i1],
-                   R_cam_imu=self.R_cam_imu, time_offset_us=self.time_offset_us)
+        return self._samples(i0, i1)
 
     def around(self, t_start_us, t_stop_us):
         """Samples with camera time in [t_start_us, t_stop_us] and the nearest one beyond
@@ -100,6 +99,10 @@ class Imu:
         tc, n = self.t_cam, len(self)
         i0 = min(max(int(np.searchsorted(tc, t_start_us, side="right")) - 1, 0), max(n - 2, 0))
         i1 = min(max(int(np.searchsorted(tc, t_stop_us, side="left")) + 1, i0 + 2), n)
+        return self._samples(i0, i1)
+
+    def _samples(self, i0, i1):
+        """Samples i0 .. i1 − 1, the same mounting and clock offset."""
         return Imu(self.t[i0:i1], self.gyro[i0:i1], self.accel[i0:i1],
                    R_cam_imu=self.R_cam_imu, time_offset_us=self.time_offset_us)
 
