@@ -320,10 +320,7 @@ class TrackSmoother:
             keep = [~outlier[i] for i in todo]
             qs = self._q_many([(tracks[i].ts[tracks[i].measured][k], tracks[i].resid[k],
                                 tracks[i].sigma[k]) for i, k in zip(todo, keep)])
-            problems = [kalman.CVProblem(
-                tracks[i].ts, tracks[i].measured, tracks[i].resid,
-                kalman.diagonal_covariances(np.where(outlier[i], _IGNORED_SIGMA, tracks[i].sigma)),
-                q) for i, q in zip(todo, qs)]
+            problems = [_cv_problem(tracks[i], outlier[i], q) for i, q in zip(todo, qs)]
             again = []
             for i, fit in zip(todo, _ENGINES[self.engine][0](problems)):
                 fits[i] = fit
@@ -345,9 +342,7 @@ class TrackSmoother:
             return out
         # a short track's few centroids cannot tell which of them is off
         long = [i for i, tr in enumerate(tracks) if len(tr.resid) >= _MIN_STIFF_CENTROIDS]
-        problems = [kalman.CVProblem(tracks[i].ts, tracks[i].measured, tracks[i].resid,
-                                     kalman.diagonal_covariances(tracks[i].sigma),
-                                     self.process_noise_min) for i in long]
+        problems = [_cv_problem(tracks[i], out[i], self.process_noise_min) for i in long]
         for i, fit in zip(long, _ENGINES[self.engine][0](problems) if problems else []):
             new = self._new_outliers(tracks[i], *fit, out[i])
             if new is not None:
@@ -391,6 +386,13 @@ class TrackSmoother:
         if self.process_noise != AUTO:
             return [float(self.process_noise)] * len(tracks)
         return [max(q, self.process_noise_min) for q in _estimate_q_many(tracks, self.engine)]
+
+
+def _cv_problem(track, outlier, q):
+    """The kalman.CVProblem of a _Track's centroids at q, its outliers weightless."""
+    return kalman.CVProblem(track.ts, track.measured, track.resid,
+                            kalman.diagonal_covariances(np.where(outlier, _IGNORED_SIGMA, track.sigma)),
+                            q)
 
 
 def _near_any(t, times, limit):
