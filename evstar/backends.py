@@ -69,6 +69,7 @@ def taichi(device="cpu"):
     """Initialise Taichi for `device` (once per process) and return the taichi module."""
     global _taichi_arch
     want = check_device(device).split(":")[0]
+    from evstar_kernels.taichi import quick_decorate  # noqa: F401 (Taichi's import, quicker)
     import taichi as ti
 
     with _lock:

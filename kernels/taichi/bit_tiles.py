@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-from . import quick_decorate  # noqa: F401 (before any decorator runs)
 
 TILE = 8
 SHIFT = 3  # log2(TILE)

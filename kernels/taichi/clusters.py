@@ -409,17 +409,24 @@ def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: 
                 img[2, b + j] = img[0, b + j] + img[1, b + j]
             both = ti.u8(0)
             peaks[c, 0] = 0
-            if two_near_maxima(img, 2, tmp, b, w, h, rtol) != 0:
-                maybe[c, 0] = ti.u8(1)
-                certain_peaks(img, 2, tmp, b, w, h, rtol, peaks, c, 0)
-                if polarities[c] != 0:
-                    peaks[c, 3] = 0
-                    if two_near_maxima(img, 0, tmp, b, w, h, rtol) != 0:
-                        certain_peaks(img, 0, tmp, b, w, h, rtol, peaks, c, 3)
-                        peaks[c, 6] = 0
-                        both = two_near_maxima(img, 1, tmp, b, w, h, rtol)
-                        if both != 0:
-                            certain_peaks(img, 1, tmp, b, w, h, rtol, peaks, c, 6)
+            # the images in turn (one call site each: Taichi inlines a function per call, and
+            # three sites tripled this kernel's first-call build): all events, OFF, ON; each
+            # looked at only where the one before has two near-maxima
+            go = 1
+            for s in range(3):
+                if go != 0:
+                    go = 0
+                    k = (s + 2) % 3  # image 2 (both polarities), 0 (OFF), 1 (ON)
+                    near = two_near_maxima(img, k, tmp, b, w, h, rtol)
+                    if s == 2:
+                        both = near
+                    if near != 0:
+                        if s == 0:
+                            maybe[c, 0] = ti.u8(1)
+                        certain_peaks(img, k, tmp, b, w, h, rtol, peaks, c, 3 * s)
+                        if s == 1 or (s == 0 and polarities[c] != 0):
+                            peaks[c, 3 * s + 3] = 0
+                            go = 1
             maybe[c, 1] = both
 
 

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-from . import quick_decorate  # noqa: F401 (before any decorator runs)
 
 LANES = 4
 LANE_BITS = 16

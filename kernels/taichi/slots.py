@@ -8,7 +8,6 @@ per event). With at most n_slots iterations running at once a free slot always e
 """
 import taichi as ti
 
-from . import quick_decorate  # noqa: F401 (before any decorator runs)
 
 
 @ti.func
