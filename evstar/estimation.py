@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import lobes
 from .crossings import CROSSING_DTYPE, dilate, key_crossings, pixel_keys
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
@@ -110,6 +111,9 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         return out
     groups = _by_prior(centroids, sigma, smoother, velocity_prior)
     ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
+    stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
+                                           "process_noise": e.process_noise_min})
+    groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         mine = _crossings_by_group(crossings, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
@@ -142,6 +146,29 @@ def _by_prior(centroids, sigma, smoother, prior):
             cents["track"][~sel] = -1          # the other group's tracks: not smoothed here
             parts.append((cents, sigma, p))
     return parts
+
+
+def _without_lobe_bias(groups, ests, smoother, stiff, t0_us):
+    """The groups' centroids less their tracks' lobe bias (evstar.lobes.debiased, measured
+    against the `stiff` smoother's fit) and their smoothed rows, those of the tracks it
+    changed smoothed again."""
+    out_g, out_e = [], []
+    for (cents, sig, prior), est in zip(groups, ests):
+        maybe = lobes.candidates(cents)
+        if len(maybe):
+            sub = cents.copy()
+            sub["track"][~np.isin(sub["track"], maybe)] = -1
+            fixed, changed = lobes.debiased(sub, stiff.smooth(sub, t0_us, prior, sig))
+            if len(changed):
+                fixed["track"] = cents["track"]
+                fixed["track"][~np.isin(fixed["track"], changed)] = -1
+                est = np.concatenate([est[~np.isin(est["track"], changed)],
+                                      smoother.smooth(fixed, t0_us, prior, sig)])
+                fixed["track"] = cents["track"]
+                est, cents = est[np.lexsort((est["t"], est["track"]))], fixed
+        out_g.append((cents, sig, prior))
+        out_e.append(est)
+    return out_g, out_e
 
 
 def _crossings_by_group(crossings, ests):

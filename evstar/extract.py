@@ -25,7 +25,8 @@ from evstar_kernels.taichi.scratch import Scratch
 #: (a frame of a track without a centroid, from the track's motion)
 CENTROID_DTYPE = np.dtype([("t", "<i8"), ("x", "<f8"), ("y", "<f8"), ("track", "<i8"),
                            ("n_events", "<i4"), ("frame", "<i8"), ("spread", "<f8"),
-                           ("border", "?"), ("split", "?"), ("sigma", "<f8"), ("source", "<U8")])
+                           ("border", "?"), ("split", "?"), ("sigma", "<f8"), ("source", "<U8"),
+                           ("n_on", "<i4")])  # n_on: the ON events of n_events
 E = P.EXTRACT
 WEIGHTINGS, TIME_REFS = P.WEIGHTINGS, P.TIME_REFS
 SOURCES = ("measured", "coasted", "pooled")   # values of the `source` field (HDF5 stores their index)
@@ -196,6 +197,7 @@ class Extractor:
             out["t"] = t0 + frame * self.dt_us + self.dt_us // 2
         box = m["box"]
         out["x"], out["y"], out["track"], out["n_events"], out["frame"] = cx, cy, -1, n, frame
+        out["n_on"] = n_by_p[:, 1]
         out["spread"] = np.sqrt(np.maximum(sq, 0))
         out["border"] = ((box[:, 0] < 1) | (box[:, 2] < 1) | (box[:, 1] > events.width - 2)
                          | (box[:, 3] > events.height - 2))
@@ -369,7 +371,8 @@ class Extractor:
         spread = float(np.sqrt(((pts - (cx, cy)) ** 2).sum(1).mean()))
         border = bool(pts[:, 0].min() < 1 or pts[:, 1].min() < 1
                       or pts[:, 0].max() > events.width - 2 or pts[:, 1].max() > events.height - 2)
-        return (t, cx, cy, -1, len(m), frame, spread, border, split, np.nan, "measured")
+        return (t, cx, cy, -1, len(m), frame, spread, border, split, np.nan, "measured",
+                int(np.count_nonzero(events.p[m])))
 
     def _centre(self, pts, p):
         if self.weighting == "pixels":

@@ -89,3 +89,61 @@ def trails(frame, n_by_p, sx, sy):
         across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
         out[g] = np.any((along < 0) & (across < TRAIL_ACROSS_PX))
     return out
+
+
+#: centroids a track needs before its lobe bias is measured
+MIN_LOBE_CENTROIDS = 10
+#: least std of a track's ON shares: enough one-lobe centroids to measure the bias against
+MIN_SHARE_STD = 0.2
+#: least share of the residuals' variance the lobe bias must explain: a stiff fit of a track
+#: that accelerates leaves residuals the shares do not explain
+MIN_LOBE_R2 = 0.5
+
+
+def _shares(centroids):
+    """ON share less ½ per centroid (n_on / n_events − ½)."""
+    return centroids["n_on"] / np.maximum(centroids["n_events"], 1) - 0.5
+
+
+def candidates(centroids):
+    """Ids of the confirmed tracks with MIN_LOBE_CENTROIDS centroids whose ON shares spread
+    by MIN_SHARE_STD: those whose lobe bias debiased() may measure."""
+    on = centroids["track"] >= 0
+    ids, k = np.unique(centroids["track"][on], return_inverse=True)
+    s = _shares(centroids[on])
+    n = np.bincount(k, minlength=len(ids))
+    var = np.bincount(k, s * s, len(ids)) / np.maximum(n, 1) - (np.bincount(k, s, len(ids)) / np.maximum(n, 1)) ** 2
+    return ids[(n >= MIN_LOBE_CENTROIDS) & (var >= MIN_SHARE_STD ** 2)]
+
+
+def debiased(centroids, est):
+    """(centroids less each track's lobe bias, ids of the tracks changed). A centroid with ON
+    share s (n_on / n_events) sits ~β·(s − ½) ahead of its star along the motion: its ON events
+    lead the centre, its OFF events trail it, and a faint slow star's frames often catch one
+    lobe alone (±1.5 σ_PSF). β is measured per track — the slope of its centroids' residuals
+    along the motion from a stiff fit `est` (ESTIMATE_DTYPE rows, "centroid" indexing
+    `centroids`; a fit free to turn follows the lobes) against s − ½ — and removed from the
+    candidates() tracks where β > 0 explains MIN_LOBE_R2 of the residuals' variance; a
+    centroid of both lobes in balance (s = ½) stays."""
+    e = est[(est["centroid"] >= 0) & (np.hypot(est["vx"], est["vy"]) > 0)
+            & np.isin(est["track"], candidates(centroids))]
+    c = e["centroid"]
+    speed = np.hypot(e["vx"], e["vy"])
+    ux, uy = e["vx"] / speed, e["vy"] / speed
+    s = _shares(centroids[c])
+    r = (centroids["x"][c] - e["x"]) * ux + (centroids["y"][c] - e["y"]) * uy
+    ids, k = np.unique(e["track"], return_inverse=True)
+    n = np.bincount(k, minlength=len(ids)).astype(float)
+    mean = lambda v: np.bincount(k, v, len(ids)) / n
+    ds, dr = s - mean(s)[k], r - mean(r)[k]
+    sxx, sxy = np.bincount(k, ds * ds, len(ids)), np.bincount(k, ds * dr, len(ids))
+    syy = np.bincount(k, dr * dr, len(ids))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beta = sxy / sxx
+        use = (beta > 0) & (sxy * beta >= MIN_LOBE_R2 * syy)   # R² = β·Sxy / Syy
+    out = centroids.copy()
+    on = use[k]
+    shift = beta[k][on] * s[on]
+    out["x"][c[on]] -= shift * ux[on]
+    out["y"][c[on]] -= shift * uy[on]
+    return out, ids[use]

@@ -324,7 +324,7 @@ ESTIMATE = Params(
           "(auto: estimated per track from its centroids)", low=0, auto=True, unit="px²/s³"),
     Param("process_noise_min", float, 1.0, "floor of an estimated q (a straight track's q "
           "estimate can be 0)", low=0, unit="px²/s³"),
-    Param("coast_ms", float, 30.0, "report a frame without a centroid only within this of "
+    Param("coast_ms", float, 60.0, "report a frame without a centroid only within this of "
           "a measurement (before or after)", low=0, high=MAX_DT_US / 1000, unit="ms"),
     Param("coast_ends", bool, True, "coast also before a track's first and after its last "
           "centroid (within coast_ms)"),

@@ -252,7 +252,7 @@ class TrackSmoother:
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
-            tracks.append((full, z, s_cent, (t_c, q_got[m], u[m], r_c), turns))
+            tracks.append((full, z, s_cent, (t_c, q_got[m], u[m], r_c, pairs[m]), turns))
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
         # a reversing track's centroids, their along-motion bias measured against the fit
@@ -478,16 +478,15 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
                          gate_sigma=4.0, sigma_floor_px=0.01, pool_us=10_000):
     """along_track_fit up to the filter: an _AlongTrack, or None when the crossings do not
     pin the track (a _batched step)."""
-    t_c, q, u, r = crossings
+    t_c, q, u, r = crossings[:4]
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
     along = (q * u).sum(1) if len(t_c) else np.zeros(0)
     if len(t_c) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX:
         return None
-    med = np.median(r)
-    s_a = max(1.4826 * np.median(np.abs(r - med)), sigma_floor_px)
+    med, s_a = _class_scatter(r, crossings[4] if len(crossings) > 4 else None, sigma_floor_px)
     ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
-    t_c, q, u = t_c[ok], q[ok], u[ok]
+    t_c, q, u, s_a = t_c[ok], q[ok], u[ok], s_a[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c, q, u, velocity_prior))
     t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
@@ -704,13 +703,35 @@ def _lag_corrected(t_c, pairs, resid, track, pixel_lag):
     return t_c - lag_us, resid + speed * lag_us * 1e-6
 
 
+def _class_scatter(r, levels, floor):
+    """Per crossing, the median and robust σ (1.4826 × MAD, at least `floor`) of the
+    residuals `r` of its class: one-level and multi-level crossings apart where `levels`
+    (pairs per crossing) is given and each class has 3, else all together. A slow star's
+    one-level crossings are the noisy ones: a background event within its long passage
+    splits a pixel's run into fragments whose single pairs sit off its peak (at 1 °/s, PSF
+    σ 1.5 px: their residuals' MAD 2–8× the multi-level ones')."""
+    classes = [np.ones(len(r), bool)]
+    if levels is not None:
+        one = np.asarray(levels) < 2
+        if 3 <= one.sum() <= len(r) - 3:
+            classes = [one, ~one]
+    med, s = np.zeros(len(r)), np.zeros(len(r))
+    for c in classes:
+        med[c] = np.median(r[c])
+        s[c] = max(1.4826 * np.median(np.abs(r[c] - med[c])), floor)
+    return med, s
+
+
 def _pool_crossings(t_c, q, u, est, s_a, pool_us):
-    """Crossings binned by `pool_us`: per bin one measurement at the bin's mean time, its
-    along position the mean of the crossings' moved there with the track's speed (the
-    crossings of a bin lie along one short stretch of the motion), σ = s_a/√n."""
+    """Crossings binned by `pool_us`: per bin one measurement at the bin's weighted mean
+    time, its along position the weighted mean of the crossings' moved there with the
+    track's speed (the crossings of a bin lie along one short stretch of the motion), each
+    crossing weighted by 1/σ² (s_a: its σ), the bin's σ = (Σ 1/σ²)^-½."""
     b = np.floor(t_c / pool_us).astype(np.int64)
-    _, inv, n = np.unique(b, return_inverse=True, return_counts=True)
-    t_mean = np.bincount(inv, t_c) / n
+    _, inv = np.unique(b, return_inverse=True)
+    w = 1.0 / s_a ** 2
+    n = np.bincount(inv, w)
+    t_mean = np.bincount(inv, w * t_c) / n
     u_mean = np.column_stack([np.bincount(inv, u[:, 0]), np.bincount(inv, u[:, 1])])
     u_mean /= np.maximum(np.linalg.norm(u_mean, axis=1, keepdims=True), 1e-12)
     # along positions relative to the track at the bin's time, on the bin's one direction
@@ -718,8 +739,8 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     pos = np.column_stack([np.interp(t_mean, est["t"], est["x"]), np.interp(t_mean, est["t"], est["y"])])
     speed = np.hypot(np.interp(t_c, est["t"], est["vx"]), np.interp(t_c, est["t"], est["vy"]))
     along = ((q - pos[inv]) * u_mean[inv]).sum(1) - speed * (t_c - t_mean[inv]) * 1e-6
-    a_mean = np.bincount(inv, along) / n
-    return t_mean, pos + u_mean * a_mean[:, None], u_mean, s_a / np.sqrt(n)
+    a_mean = np.bincount(inv, w * along) / n
+    return t_mean, pos + u_mean * a_mean[:, None], u_mean, 1.0 / np.sqrt(n)
 
 
 def _covariances(u, s_along, s_cross):

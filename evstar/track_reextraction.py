@@ -48,7 +48,7 @@ def _track_rows(events, est, track, dt_us, t0_us, radius, min_events, max_frames
     px, py = np.interp(t, est["t"], est["x"]), np.interp(t, est["t"], est["y"])
     dx, dy = events.x[a:b] - px, events.y[a:b] - py
     near = np.hypot(dx, dy) <= radius
-    t, dx, dy = t[near], dx[near], dy[near]
+    t, dx, dy, p = t[near], dx[near], dy[near], events.p[a:b][near]
     frames = (t - t0_us) // dt_us
     rows = []
     for members in _windows(frames, min_events, max_frames):
@@ -59,7 +59,7 @@ def _track_rows(events, est, track, dt_us, t0_us, radius, min_events, max_frames
         y = np.interp(tm, est["t"], est["y"]) + oy
         frame = int((int(round(tm)) - t0_us) // dt_us)
         rows.append((int(round(tm)), x, y, track, len(members), frame, spread, False, False,
-                     np.nan, "measured"))
+                     np.nan, "measured", int(np.count_nonzero(p[members]))))
     return rows
 
 

@@ -12,7 +12,7 @@ def _truth(t):
 def _centroids(rows):
     out = np.zeros(len(rows), CENTROID_DTYPE)
     for i, (t, x, y, frame, track) in enumerate(rows):
-        out[i] = (t, x, y, track, 10, frame, 0.5, False, False, 0.1, "measured")
+        out[i] = (t, x, y, track, 10, frame, 0.5, False, False, 0.1, "measured", 5)
     return out
 
 

@@ -84,3 +84,54 @@ def test_mixed_polarity_clusters_are_never_joined():
 def test_bad_lobe_gap_is_rejected_by_name(bad):
     with pytest.raises(ParameterError, match="lobe_gap_px"):
         Extractor(lobe_gap_px=bad)
+
+
+@pytest.mark.parametrize("clustering", ["grid", "sklearn"])
+def test_centroids_count_their_on_events(clustering):
+    apart = Extractor(lobe_gap_px=None, clustering=clustering).centroids(lobes_scene())
+    ahead = apart["x"] > 60.0                          # the ON blobs lie ahead
+    assert np.array_equal(apart["n_on"], np.where(ahead, apart["n_events"], 0))
+    joined = Extractor(clustering=clustering).centroids(lobes_scene())
+    assert np.all(joined["n_on"] == 12) and np.all(joined["n_events"] > 12)   # 12 ON a frame
+
+
+def lobed_track(shares, beta=4.0, speed=40.0, sigma=0.05, seed=1):
+    """Centroids of a star moving +x at `speed` px/s, one per 10 ms frame, each with ON
+    share `shares[i]`, sitting beta·(share − ½) ahead of it; and its true x per centroid."""
+    from evstar.extract import CENTROID_DTYPE
+
+    rng = np.random.default_rng(seed)
+    shares = np.asarray(shares, float)
+    c = np.zeros(len(shares), CENTROID_DTYPE)
+    c["frame"] = np.arange(len(shares))
+    c["t"] = c["frame"] * 10_000 + 5_000
+    c["track"], c["n_events"], c["spread"] = 0, 20, 1.0
+    c["n_on"] = np.round(shares * 20)
+    truth = 30.0 + speed * c["t"] * 1e-6
+    c["x"] = truth + beta * (c["n_on"] / 20 - 0.5) + rng.normal(0, sigma, len(c))
+    c["y"] = 40.0 + rng.normal(0, sigma, len(c))
+    return c, truth
+
+
+def test_a_tracks_lobe_bias_is_measured_and_removed():
+    from evstar.lobes import debiased
+    from evstar.smoothing import TrackSmoother
+
+    c, truth = lobed_track(np.resize([1.0, 0.0, 0.5, 0.9, 0.1], 30))
+    fixed, changed = debiased(c, TrackSmoother(10_000, process_noise=1.0).smooth(c, 0))
+    assert list(changed) == [0]
+    assert np.abs(c["x"] - truth).max() > 1.5                   # one-lobe centroids: ±2 px
+    assert np.abs(fixed["x"] - truth).max() < 0.3
+    assert np.abs(fixed["y"] - c["y"]).max() < 0.02            # the motion is along x
+
+
+@pytest.mark.parametrize("case", ["balanced", "few", "off_ahead"])
+def test_tracks_without_a_measurable_lobe_bias_are_left_alone(case):
+    from evstar.lobes import MIN_LOBE_CENTROIDS, debiased
+    from evstar.smoothing import TrackSmoother
+
+    shares = {"balanced": np.full(30, 0.5), "few": [1.0, 0.0] * (MIN_LOBE_CENTROIDS // 2 - 1),
+              "off_ahead": np.resize([1.0, 0.0], 30)}[case]
+    c, _ = lobed_track(shares, beta=-4.0 if case == "off_ahead" else 4.0)
+    fixed, changed = debiased(c, TrackSmoother(10_000, process_noise=1.0).smooth(c, 0))
+    assert len(changed) == 0 and np.array_equal(fixed, c)

@@ -424,3 +424,30 @@ def test_centroids_along_bias_is_measured_away_from_the_turns_and_removed():
     np.testing.assert_allclose(z_fixed[moving], true[moving], atol=1e-6)
     assert set(np.unique(w)) == {0.1, 1.0}
     assert np.all(w[np.abs(fitted["t"] - 250_000) <= 10_000] == 1.0)
+
+
+def test_one_level_crossings_get_the_scatter_of_their_own_class():
+    from evstar.smoothing import _class_scatter
+
+    rng = np.random.default_rng(5)
+    levels = np.r_[np.ones(40, int), np.full(40, 3)]
+    r = np.r_[0.8 + rng.normal(0, 1.0, 40), rng.normal(0, 0.1, 40)]   # fragments: off and noisy
+    med, s = _class_scatter(r, levels, 0.01)
+    assert 0.6 < s[0] < 1.5 and 0.06 < s[-1] < 0.15
+    assert abs(med[0] - 0.8) < 0.4 and abs(med[-1]) < 0.05
+    together = _class_scatter(r, None, 0.01)[1]
+    assert np.all(together == together[0])
+    few = np.r_[np.ones(2, int), np.full(78, 3)]            # a class of 2: no scatter of its own
+    assert np.all(_class_scatter(r, few, 0.01)[1] == together[0])
+
+
+def test_pooled_crossings_weigh_each_by_its_scatter():
+    from evstar.smoothing import ESTIMATE_DTYPE, _pool_crossings
+
+    est = np.zeros(2, ESTIMATE_DTYPE)
+    est["t"], est["x"], est["vx"] = [0, 10_000], [0.0, 0.0], [1e-9, 1e-9]
+    q = np.array([[0.0, 0.0], [1.0, 0.0]])
+    u = np.array([[1.0, 0.0], [1.0, 0.0]])
+    t, pos, _, s = _pool_crossings(np.array([4000.0, 6000.0]), q, u, est, np.array([0.1, 1.0]), 10_000)
+    assert len(t) == 1 and abs(pos[0, 0] - 1 / 101) < 1e-6     # weights 100 : 1
+    assert abs(s[0] - 1 / np.sqrt(101)) < 1e-9

@@ -8,7 +8,7 @@ from evstar.tracking import Tracker
 def centroids(frames_x):
     c = np.zeros(len(frames_x), CENTROID_DTYPE)
     for i, (f, x) in enumerate(frames_x):
-        c[i] = (f * 10_000 + 5_000, x, 50.0, -1, 20, f, 1.0, False, False, 0.1, "measured")
+        c[i] = (f * 10_000 + 5_000, x, 50.0, -1, 20, f, 1.0, False, False, 0.1, "measured", 10)
     return c[np.lexsort((c["x"], c["t"]))]
 
 

@@ -1,7 +1,7 @@
 """`evstar extract IN -o centroids.csv`: denoise, cluster and track; write the centroids.
 
 CSV header `t,x,y,track,n_events,frame` (t in µs; track -1 = unconfirmed) followed by
-`spread,border,split`. With --compensate imu|pf the events are first warped with the IMU
+`spread,border,split,sigma,source,n_on` (n_on: the ON events among n_events). With --compensate imu|pf the events are first warped with the IMU
 (--imu CSV, or the IMU stream of an AEDAT4/HDF5/NPZ input) and --camera.
 """
 from __future__ import annotations
