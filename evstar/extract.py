@@ -238,17 +238,22 @@ class Extractor:
         first = self._first_halves(c, pts, events.p[members_all], starts, stops,
                                    None if peaks is None else peaks[ids, 0])
         rows, keys = [], []
-        # where the first test fails and there is no second one, _split would return None
-        todo = range(len(ids)) if first is None else np.flatnonzero(~first.fails | by_polarity[ids])
-        for n in todo:
+        p_all = events.p[members_all]
+        if first is None:  # the reference: cluster by cluster
+            found = {}
+            for n in range(len(ids)):
+                j, a, b = ids[n], starts[n], stops[n]
+                parts = self._split(pts[a:b], p_all[a:b], by_polarity[j],
+                                    (None, None) if peaks is None else
+                                    (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
+                if parts is not None:
+                    found[n] = parts
+        else:
+            found = self._split_many(pts, p_all, starts, stops, first, by_polarity[ids],
+                                     None if peaks is None else peaks[ids])
+        for n, parts in sorted(found.items()):
             j, a, b = ids[n], starts[n], stops[n]
             members = members_all[a:b]
-            parts = self._split(pts[a:b], events.p[members], by_polarity[j],
-                                None if first is None else first.at(n),
-                                (None, None) if peaks is None else
-                                (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
-            if parts is None:
-                continue
             keep[j] = False
             for half in (0, 1):
                 rows.append(self._row(events, pts[a:b][parts == half], c.frame[j],
@@ -258,6 +263,82 @@ class Extractor:
             return out, order, keep
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
+
+    def _split_many(self, pts, p, starts, stops, first, by_polarity, peaks):
+        """{candidate n: labels} of the candidates _split would split, all at once (the
+        2-means in Taichi, the halves' tests batched: splitting.halves_many): the first
+        test's halves where it does not certainly fail, kept when their polarities agree;
+        then, where the candidate's polarities may each split, its ON and its OFF events
+        apart, paired along the axis of the ON halves. peaks: the screen's (n, 3, 5)."""
+        found = {}
+        mcs, v = self.min_cluster_size, self.split_valley
+        a_ = np.flatnonzero(~first.fails & (stops - starts >= 2 * mcs))
+        lab = first.lab
+        if len(a_):
+            idx, st = _gather(starts[a_], stops[a_])
+            ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, v)
+            seg = np.repeat(np.arange(len(a_)), np.diff(st))
+            on = p[idx] != 0
+            one = lab[idx].astype(bool)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                share = [np.bincount(seg, on & (one == h), len(a_)) / np.bincount(seg, one == h, len(a_))
+                         for h in (False, True)]
+            for i in np.flatnonzero(ok & (np.abs(share[0] - share[1]) <= 0.5)):
+                found[a_[i]] = lab[starts[a_[i]]:stops[a_[i]]]
+        # the second test: where there are two peaks (first.has) and both polarities may split
+        rest = np.flatnonzero(first.has & by_polarity & (stops - starts >= 2 * mcs))
+        rest = rest[~np.isin(rest, list(found))]
+        lab_on = self._polarity_halves(pts, p, starts, stops, rest, 1,
+                                       None if peaks is None else peaks[rest, 2])
+        both = [n for n in rest if n in lab_on]
+        lab_off = self._polarity_halves(pts, p, starts, stops, np.array(both, np.int64), 0,
+                                        None if peaks is None else peaks[both, 1])
+        for n in both:
+            if n not in lab_off:
+                continue
+            q = pts[starts[n]:stops[n]]
+            on = p[starts[n]:stops[n]] == 1
+            l_on, l_off = lab_on[n], lab_off[n]
+            c_on, c_off = np.array(_half_means(q[on], l_on)), np.array(_half_means(q[~on], l_off))
+            if (c_off[1] - c_off[0]) @ (c_on[1] - c_on[0]) < 0:  # OFF halves in the opposite order
+                l_off = 1 - l_off
+            out = np.empty(len(q), np.int64)
+            out[on], out[~on] = l_on, l_off
+            found[n] = out
+        return found
+
+    def _polarity_halves(self, pts, p, starts, stops, cand, pol, peaks):
+        """{candidate n: 2-means labels of its events of polarity `pol`} where _halves keeps
+        them (batched); peaks: the screen's (status, ax, ay, bx, by) of those events' image
+        per candidate, or None (two_peaks for all)."""
+        if not len(cand):
+            return {}
+        from evstar_kernels.taichi import clusters_launch
+
+        mine = [np.flatnonzero(p[starts[n]:stops[n]] == pol) + starts[n] for n in cand]
+        sizes = np.array([len(m) for m in mine])
+        idx = np.concatenate(mine)
+        st = np.r_[0, np.cumsum(sizes)]
+        q = pts[idx]
+        has = np.ones(len(cand), bool)
+        a, b = np.zeros((len(cand), 2)), np.zeros((len(cand), 2))
+        known = np.zeros(len(cand), bool) if peaks is None else peaks[:, 0] == 1
+        if known.any():
+            a[known], b[known] = peaks[known, 1:3], peaks[known, 3:5]
+        todo = np.flatnonzero(~known & (sizes >= 2 * self.min_cluster_size))
+        if len(todo):
+            sub, sub_st = _gather(st[todo], st[todo + 1])
+            has[todo], a[todo], b[todo] = splitting.two_peaks_many(q[sub], sub_st[:-1], sub_st[1:])
+        has &= sizes >= 2 * self.min_cluster_size
+        go = np.flatnonzero(has)
+        if not len(go):
+            return {}
+        sub, sub_st = _gather(st[go], st[go + 1])
+        lab = clusters_launch.two_means(backends.taichi(self.device), q[sub], sub_st[:-1],
+                                        sub_st[1:], a[go], b[go])
+        ok = splitting.halves_many(q[sub], sub_st[:-1], sub_st[1:], lab, self.min_cluster_size,
+                                   self.split_valley)
+        return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
     def _first_halves(self, c, pts, p, starts, stops, peaks):
         """The first test (_FirstTest: seeds or None, 2-means labels, whether it fails whatever
@@ -289,10 +370,10 @@ class Extractor:
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
         fails = (n.min(1) < self.min_cluster_size) | ~(np.abs(mean_p[:, 0] - mean_p[:, 1]) <= 0.5)
-        return _FirstTest(has, a, b, lab, starts, stops, fails)
+        return _FirstTest(has, lab, fails)
 
     # -- one cluster, event by event (split candidates) ---------------------------------
-    def _split(self, pts, p, by_polarity=True, first=None, polarity_seeds=(None, None)):
+    def _split(self, pts, p, by_polarity=True, polarity_seeds=(None, None)):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
@@ -300,14 +381,14 @@ class Extractor:
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
-        first: the first test's (seeds, 2-means labels, certain failure) when known;
-        polarity_seeds: the OFF and the ON events' two_peaks when known."""
+        polarity_seeds: the OFF and the ON events' two_peaks when known. The scikit-learn
+        path's reference; grid clustering runs the same steps batched (_split_many)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds, lab, fails = (two_peaks(pts), None, False) if first is None else first
+        seeds = two_peaks(pts)
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        lab = None if fails else self._halves(pts, seeds, lab)
+        lab = self._halves(pts, seeds)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
@@ -354,12 +435,7 @@ class Extractor:
             return None
         # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep): it must
         # dip between the two; a lopsided blob stays whole
-        lo = np.floor(proj.min() - 0.5)
-        hist = np.bincount(np.floor(proj - lo).astype(int))
-        b0, b1 = int(np.floor(-lo)), int(np.floor(sep - lo))
-        peaks = min(hist[max(b0 - 1, 0):b0 + 2].max(), hist[b1 - 1:b1 + 2].max())
-        valley = hist[b0 + 1:b1].min() if b1 > b0 + 1 else peaks
-        return lab if valley <= self.split_valley * peaks else None
+        return lab if splitting._dips(proj, sep, self.split_valley) else None
 
     def _row(self, events, pts, frame, m, t0, split):
         """A centroid row of the events m (at pts) of one frame."""
@@ -383,20 +459,18 @@ class Extractor:
 
 
 class _FirstTest:
-    """_first_halves' result for every candidate n: fails[n] (the first test fails whatever
-    the rest of _halves says; no two peaks: _split stops there) and at(n), the (seeds or None,
-    2-means labels, fails[n]) _split takes (made only for the few it is asked for)."""
+    """_first_halves' result for every candidate: has (two peaks: else _split stops there),
+    lab (the 2-means labels per point) and fails (the first test fails whatever the rest of
+    _halves says, or no two peaks)."""
 
-    def __init__(self, has, a, b, lab, starts, stops, fails):
-        self.fails = ~has | fails
-        self._has, self._a, self._b, self._lab = has, a, b, lab
-        self._starts, self._stops = starts, stops
+    def __init__(self, has, lab, fails):
+        self.has, self.lab, self.fails = has, lab, ~has | fails
 
-    def at(self, n):
-        if not self._has[n]:
-            return None, None, True
-        return ((self._a[n], self._b[n]), self._lab[self._starts[n]:self._stops[n]],
-                bool(self.fails[n]))
+
+def _gather(starts, stops):
+    """(indices of the segments starts[i]:stops[i] concatenated, their offsets there)."""
+    sizes = np.asarray(stops) - np.asarray(starts)
+    return ranks(sizes, starts), np.r_[0, np.cumsum(sizes)]
 
 
 def _seeds(peak):

@@ -145,3 +145,52 @@ def two_means_many(pts, starts, stops, a, b, iterations=10, integral=True):
     cell_of = np.zeros(len(im["counts"]), np.int64)
     cell_of[px] = np.arange(len(px))
     return out[cell_of[im["flat"]]]
+
+
+def halves_many(pts, starts, stops, lab, min_size, valley_ratio):
+    """Per cluster j (points pts[starts[j]:stops[j]], 2-means labels lab per point): whether
+    `evstar.extract.Extractor._halves` keeps its two halves — each of >= min_size points,
+    their centres >= 2 px apart and far apart against their spread along the axis between
+    them, the 1-px profile along it dipping to valley_ratio of the peaks between them.
+    Centres are sums over counts as there (exact for integer coordinates); the spreads are
+    sums in another order than numpy's std (equal to the last bits). The profile test runs
+    per cluster, on the few that pass the others."""
+    k = len(starts)
+    ok = np.zeros(k, bool)
+    if not k:
+        return ok
+    seg, sizes = _segments(starts, stops)
+    one = np.asarray(lab).astype(bool)
+    n1 = np.bincount(seg, one, k)
+    n0 = sizes - n1
+    n_min = np.minimum(n0, n1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c = np.stack([[np.bincount(seg, pts[:, d] * ~one, k) / n0 for d in (0, 1)],
+                      [np.bincount(seg, pts[:, d] * one, k) / n1 for d in (0, 1)]])  # (2, 2, k)
+        delta = c[1] - c[0]
+        sep = np.hypot(delta[0], delta[1])
+        axis = delta / sep
+        proj = (pts[:, 0] - c[0, 0][seg]) * axis[0][seg] + (pts[:, 1] - c[0, 1][seg]) * axis[1][seg]
+        centred = proj - np.where(one, sep[seg], 0.0)       # half 1 about its own centre
+        mean = np.stack([np.bincount(seg, centred * ~one, k) / n0,
+                         np.bincount(seg, centred * one, k) / n1])
+        dev = (centred - mean[one.astype(int), seg]) ** 2
+        std = np.sqrt(np.stack([np.bincount(seg, dev * ~one, k) / n0,
+                                np.bincount(seg, dev * one, k) / n1]))
+        axial = std.sum(0) / 2
+        ok = (sizes >= 2 * min_size) & (n_min >= min_size) & (sep >= 2) \
+            & ~(sep < (2 * np.sqrt(3) + 8 / np.sqrt(n_min)) * np.maximum(axial, 0.25))
+    for j in np.flatnonzero(ok):
+        ok[j] = _dips(proj[starts[j]:stops[j]], sep[j], valley_ratio)
+    return ok
+
+
+def _dips(proj, sep, valley_ratio):
+    """Whether the 1-px profile of the projections `proj` (c0 at 0, c1 at sep) dips between
+    the two centres to valley_ratio of the lower of its peaks there (Extractor._halves)."""
+    lo = np.floor(proj.min() - 0.5)
+    hist = np.bincount(np.floor(proj - lo).astype(int))
+    b0, b1 = int(np.floor(-lo)), int(np.floor(sep - lo))
+    peaks = min(hist[max(b0 - 1, 0):b0 + 2].max(), hist[b1 - 1:b1 + 2].max())
+    valley = hist[b0 + 1:b1].min() if b1 > b0 + 1 else peaks
+    return valley <= valley_ratio * peaks

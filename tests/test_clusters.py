@@ -463,3 +463,68 @@ def test_split_from_the_screen_peaks_equals_the_split_without(float_coords, monk
         assert got["split"].sum() >= 10
         for name in want.dtype.names:
             np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+
+
+@pytest.mark.parametrize("float_coords", [False, True])
+def test_batched_halves_test_equals_the_per_cluster_one(float_coords):
+    from evstar import splitting
+
+    pts, starts, stops = clustered_points(7, n_frames=10, per_star=120)
+    if float_coords:
+        pts = pts + np.random.default_rng(3).uniform(-0.49, 0.49, pts.shape)
+    has, a, b = splitting.two_peaks_many(pts, starts, stops)
+    lab = splitting.two_means_many(pts, starts, stops, a, b, integral=not float_coords)
+    keep = np.flatnonzero(has)
+    st = np.r_[0, np.cumsum(stops[keep] - starts[keep])]
+    idx = np.concatenate([np.arange(starts[j], stops[j]) for j in keep])
+    ex = Extractor()
+    got = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], ex.min_cluster_size,
+                                ex.split_valley)
+    want = [ex._halves(pts[starts[j]:stops[j]], (a[j], b[j]), lab[starts[j]:stops[j]]) is not None
+            for j in keep]
+    np.testing.assert_array_equal(got, want)
+    assert 0 < got.sum() < len(got)
+
+
+def lobed_pair_events(seed, gap):
+    """Two stars `gap` px apart across their motion (+x, 400 px/s), each firing ON events
+    ahead of its centre and OFF events behind: the first split test sees the lobes, only
+    the per-polarity one the pair."""
+    rng = np.random.default_rng(seed)
+    ts, xs, ys, ps = [], [], [], []
+    for y0 in (40.0, 40.0 + gap):
+        t = rng.integers(0, 100_000, 1500)
+        along = rng.normal(0, 1.0, len(t))
+        ts.append(t)
+        xs.append(30 + 400e-6 * t + along)
+        ys.append(y0 + rng.normal(0, 0.6, len(t)))
+        ps.append((along > 0).astype(int))
+    t, x, y, p = (np.concatenate(v) for v in (ts, xs, ys, ps))
+    o = np.argsort(t, kind="stable")
+    return evstar.Events(t[o], np.round(x[o]), np.round(y[o]), p[o], 120, 90)
+
+
+def test_batched_split_equals_the_per_cluster_split(monkeypatch):
+    """The grid extractor's batched split (first test, then each polarity apart) gives the
+    centroids of the scikit-learn path's split cluster by cluster, and the second test
+    splits some pairs the first one leaves whole."""
+    from evstar import extract
+
+    second = []
+    polarity_halves = extract.Extractor._polarity_halves
+
+    def spy(self, *a):
+        out = polarity_halves(self, *a)
+        second.append(len(out))
+        return out
+
+    monkeypatch.setattr(extract.Extractor, "_polarity_halves", spy)
+    for gap in (3.0, 4.0):
+        ev = lobed_pair_events(5, gap)
+        grid = Extractor().centroids(ev)
+        skl = Extractor(clustering="sklearn").centroids(ev)
+        assert grid["split"].sum() >= 4
+        for name in ("t", "frame", "n_events", "n_on", "split"):
+            np.testing.assert_array_equal(grid[name], skl[name], err_msg=name)
+        np.testing.assert_allclose(grid["x"], skl["x"], rtol=0, atol=1e-9)
+    assert sum(second) > 0
