@@ -168,6 +168,7 @@ def _centroids():
     c["t"], c["x"], c["y"], c["track"], c["n_events"] = [10, 20, 30, 40], 1.25, 2.5, [0, 0, 1, -1], 5
     c["frame"], c["spread"], c["border"] = [0, 1, 2, 3], 0.5, [True, False, True, False]
     c["sigma"], c["source"] = [0.1, 0.2, 0.3, 0.4], ["measured", "coasted", "measured", "measured"]
+    c["n_on"] = [2, 0, 5, 1]
     return c
 
 
@@ -270,3 +271,15 @@ def test_errors_are_evstar_errors():
 def test_a_path_that_is_not_a_path_is_a_parameter_type_error(reader):
     with pytest.raises(ParameterTypeError, match="path must be a str or os.PathLike, got int"):
         reader(3)
+
+
+@pytest.mark.parametrize("n_on", [-1, 25])
+def test_centroid_on_counts_outside_their_events_name_the_row(tmp_path, n_on):
+    c = _centroids()
+    c["n_events"], c["n_on"] = 20, [3, 20, n_on, 0]
+    pd.DataFrame({k: c[k] for k in c.dtype.names}).to_csv(tmp_path / "c.csv", index=False)
+    with pytest.raises(FormatError, match=rf"c.csv.*row 2: column 'n_on' = {n_on} is not in 0..n_events \(20\)"):
+        io.read_centroids(tmp_path / "c.csv")
+    legacy = pd.DataFrame({k: c[k] for k in c.dtype.names if k != "n_on"})  # before n_on
+    legacy.to_csv(tmp_path / "old.csv", index=False)
+    assert np.all(io.read_centroids(tmp_path / "old.csv")["n_on"] == 0)

@@ -110,6 +110,11 @@ def _table(path, columns):
     i = check_time_range(out["t"])
     if i is not None:
         raise FormatError(path, f"row {i}: column 't' = {out['t'][i]} is outside ±{T_LIMIT_US} µs")
+    bad = np.flatnonzero((out["n_on"] < 0) | (out["n_on"] > np.maximum(out["n_events"], 0)))
+    if len(bad):   # the ON events are some of the cluster's events
+        i = int(bad[0])
+        raise FormatError(path, f"row {i}: column 'n_on' = {out['n_on'][i]} is not in 0..n_events "
+                                f"({out['n_events'][i]})")
     return out
 
 
