@@ -156,19 +156,25 @@ def _without_lobe_bias(groups, ests, smoother, stiff, t0_us):
     for (cents, sig, prior), est in zip(groups, ests):
         maybe = lobes.candidates(cents)
         if len(maybe):
-            sub = cents.copy()
-            sub["track"][~np.isin(sub["track"], maybe)] = -1
+            sub = _only(cents, maybe)
             fixed, changed = lobes.debiased(sub, stiff.smooth(sub, t0_us, prior, sig))
             if len(changed):
+                redo = smoother.smooth(_only(fixed, changed), t0_us, prior, sig)
+                est = np.concatenate([est[~np.isin(est["track"], changed)], redo])
+                est = est[np.lexsort((est["t"], est["track"]))]
                 fixed["track"] = cents["track"]
-                fixed["track"][~np.isin(fixed["track"], changed)] = -1
-                est = np.concatenate([est[~np.isin(est["track"], changed)],
-                                      smoother.smooth(fixed, t0_us, prior, sig)])
-                fixed["track"] = cents["track"]
-                est, cents = est[np.lexsort((est["t"], est["track"]))], fixed
+                cents = fixed
         out_g.append((cents, sig, prior))
         out_e.append(est)
     return out_g, out_e
+
+
+def _only(centroids, ids):
+    """A copy of `centroids` whose tracks other than `ids` are unconfirmed (track -1): the
+    smoother leaves them out."""
+    out = centroids.copy()
+    out["track"][~np.isin(out["track"], ids)] = -1
+    return out
 
 
 def _crossings_by_group(crossings, ests):

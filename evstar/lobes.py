@@ -111,8 +111,9 @@ def candidates(centroids):
     on = centroids["track"] >= 0
     ids, k = np.unique(centroids["track"][on], return_inverse=True)
     s = _shares(centroids[on])
-    n = np.bincount(k, minlength=len(ids))
-    var = np.bincount(k, s * s, len(ids)) / np.maximum(n, 1) - (np.bincount(k, s, len(ids)) / np.maximum(n, 1)) ** 2
+    n = np.maximum(np.bincount(k, minlength=len(ids)), 1)
+    mean = np.bincount(k, s, len(ids)) / n
+    var = np.bincount(k, s * s, len(ids)) / n - mean ** 2
     return ids[(n >= MIN_LOBE_CENTROIDS) & (var >= MIN_SHARE_STD ** 2)]
 
 
