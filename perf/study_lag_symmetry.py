@@ -15,7 +15,10 @@ for τ as fractions of the sensor's τ_bg = 1/(2π·cutoff_hz_background).
 Found by the tenth session: the lag goes through zero at 0.55–0.78 τ_bg on all four scenes,
 and the residual's minimum lies near it on three (vertex −0.5 to +0.35 ms off, against the
 level-profile fit's 2 ms short on the first two), but it is noisy (a few events per flank);
-C and the reference offset would have to be fitted too before a product could use it.
+C and the reference offset would have to be fitted too before a product could use it, and
+a first try at C failed: on a grid of 0.6–1.5 × the true C the residual (raw, or over the
+variance of ln(e^u − 1)) is least at the grid's smallest C on three of the four scenes, and
+the lag there is −1.34, −0.25, −0.41 and +2.39 ms.
 
     python perf/study_lag_symmetry.py
 
