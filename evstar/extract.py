@@ -271,19 +271,13 @@ class Extractor:
         then, where the candidate's polarities may each split, its ON and its OFF events
         apart, paired along the axis of the ON halves. peaks: the screen's (n, 3, 5)."""
         found = {}
-        mcs, v = self.min_cluster_size, self.split_valley
-        a_ = np.flatnonzero(~first.fails & (stops - starts >= 2 * mcs))
-        lab = first.lab
+        mcs, lab = self.min_cluster_size, first.lab
+        # not first.fails: two peaks and halves whose polarities agree (_first_halves)
+        a_ = np.flatnonzero(~first.fails)
         if len(a_):
             idx, st = _gather(starts[a_], stops[a_])
-            ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, v)
-            seg = np.repeat(np.arange(len(a_)), np.diff(st))
-            on = p[idx] != 0
-            one = lab[idx].astype(bool)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                share = [np.bincount(seg, on & (one == h), len(a_)) / np.bincount(seg, one == h, len(a_))
-                         for h in (False, True)]
-            for i in np.flatnonzero(ok & (np.abs(share[0] - share[1]) <= 0.5)):
+            ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, self.split_valley)
+            for i in np.flatnonzero(ok):
                 found[a_[i]] = lab[starts[a_[i]]:stops[a_[i]]]
         # the second test: where there are two peaks (first.has) and both polarities may split
         rest = np.flatnonzero(first.has & by_polarity & (stops - starts >= 2 * mcs))
