@@ -2,7 +2,6 @@
 ti.ndarray on a GPU), named dtype_ndim."""
 import taichi as ti
 
-
 i8_1d = ti.types.ndarray(dtype=ti.i8, ndim=1)
 u8_1d = ti.types.ndarray(dtype=ti.u8, ndim=1)
 u8_2d = ti.types.ndarray(dtype=ti.u8, ndim=2)

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 import taichi as ti
 
-
 TILE = 8
 SHIFT = 3  # log2(TILE)
 UNROLL_SPAN = 4  # boxes of at most 4 x 4 tiles are unrolled; larger ones loop

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import taichi as ti
 
-
 LANES = 4
 LANE_BITS = 16
 MAX_EVENTS = (1 << LANE_BITS) - 1  # per frame, for u16x4 cells

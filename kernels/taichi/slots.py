@@ -9,7 +9,6 @@ per event). With at most n_slots iterations running at once a free slot always e
 import taichi as ti
 
 
-
 @ti.func
 def claim(busy: ti.template(), n_slots: ti.i32) -> ti.i32:
     slot = -1
