@@ -122,14 +122,37 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
                 for est, assigned, (cents, sig, prior) in zip(ests, mine, groups)]
     est = np.concatenate(ests)
     rows = _merge(out[centroids["track"] < 0], out, est)
-    # a prediction far from any measurement is no position: keep coasted rows while certain
-    ok = rows["sigma"] <= e.coast_sigma_px
+    # a prediction far from any measurement is no position: keep coasted rows while certain,
+    # and in any case those between two of their track's measurements (a gap the smoother
+    # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out)
+    ok = (rows["sigma"] <= e.coast_sigma_px) | _bracketed(rows)
     if span_us is not None:
         ok &= (rows["t"] >= span_us[0]) & (rows["t"] <= span_us[1])
     if sensor is not None:
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     return rows[(rows["source"] != "coasted") | ok]
+
+
+def _bracketed(rows):
+    """Per row: whether it is a coasted row of a track that has rows of the other sources
+    (measured, pooled) both before and after it."""
+    out = np.zeros(len(rows), bool)
+    tracked = np.flatnonzero(rows["track"] >= 0)
+    if not len(tracked):
+        return out
+    order = tracked[np.lexsort((rows["t"][tracked], rows["track"][tracked]))]
+    tr, seen = rows["track"][order], rows["source"][order] != "coasted"
+    start = np.r_[True, tr[1:] != tr[:-1]]
+    group = np.cumsum(start) - 1
+    idx = np.arange(len(order))
+    # the last seen row at or before each position, and the first at or after, in its track
+    before = np.maximum.accumulate(np.where(seen, idx, -1))
+    after = np.minimum.accumulate(np.where(seen, idx, len(order))[::-1])[::-1]
+    ok_b = (before >= 0) & (group[np.clip(before, 0, None)] == group)
+    ok_a = (after < len(order)) & (group[np.clip(after, None, len(order) - 1)] == group)
+    out[order] = ~seen & ok_b & ok_a
+    return out
 
 
 def _by_prior(centroids, sigma, smoother, prior):

@@ -328,8 +328,9 @@ ESTIMATE = Params(
           "a measurement (before or after)", low=0, high=MAX_DT_US / 1000, unit="ms"),
     Param("coast_ends", bool, True, "coast also before a track's first and after its last "
           "centroid (within coast_ms)"),
-    Param("coast_sigma_px", float, 0.5, "a coasted position is reported only while its "
-          "uncertainty is at most this", low=0, open_low=True, unit="px"),
+    Param("coast_sigma_px", float, 0.5, "a coasted position before a track's first or after "
+          "its last measurement is reported only while its uncertainty is at most this (one "
+          "between two measurements always)", low=0, open_low=True, unit="px"),
     Param("sigma_floor_px", float, 0.02, "smallest per-axis measurement sigma of a centroid",
           low=0, open_low=True, unit="px"),
     Param("psf_sigma_px", float, None, "measurement sigma = this / sqrt(events) (default: "

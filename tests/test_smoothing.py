@@ -258,6 +258,25 @@ def test_the_pipeline_reports_coasted_rows_only_while_certain():
     assert few["sigma"][few["source"] == "coasted"].max() <= 0.3
 
 
+def test_a_gap_between_measurements_is_coasted_whatever_its_sigma():
+    """The σ gate holds for predictions beyond a track's ends only: a gap's frames, bridged
+    by the smoother from both sides, are all reported (a sinusoid's turn, where σ peaks)."""
+    from evstar import estimation
+    from evstar.config import Config
+
+    rng = np.random.default_rng(9)
+    cents = centroids(np.r_[10:21, 26:37], line, 0.2, rng, jitter_us=0)
+    cfg = Config().replace(**{"estimate.estimator": "track", "estimate.coast_ms": 200.0,
+                              "estimate.coast_sigma_px": 0.03})
+    rows = estimation.estimate(cents, cfg, 0)
+    coasted = rows[rows["source"] == "coasted"]
+    assert sorted(coasted["frame"]) == [21, 22, 23, 24, 25]   # only the gap: no ends
+    assert coasted["sigma"].min() > 0.03                      # each beyond the gate
+    err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
+    assert err.max() < 3 * coasted["sigma"].max()
+    assert not estimation._bracketed(rows[rows["source"] != "coasted"]).any()
+
+
 def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
     import evstar
     from evstar import sim
