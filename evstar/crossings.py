@@ -72,7 +72,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         r = float(threshold_ratio)
     else:
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
-        r = threshold_ratio_of(on_before, off_after, levels)
+        r = threshold_ratio_of(on_before, off_after, levels, first_of_pixel(key, order, change))
     # pairs as without a refractory period: the profiles' always, the crossings' when it is 0
     plain = _pair_counts(on_before, off_after, r, max_pairs) \
         if profiles is not None or refractory_us <= 0 else None
@@ -114,27 +114,38 @@ def _change_runs(t, key, p, engine):
     return order, None, _runs(order, key, p)
 
 
-def threshold_ratio_of(on_before, off_after, levels=None):
+def threshold_ratio_of(on_before, off_after, levels=None, first=None):
     """C_off / C_on measured from the changes' runs. A star rising through a pixel from its
     reference level ref (y above the background) to the peak fires a ON events, one every
     C_on, to the top T = ref + a·C_on, then falls back through b = floor((a·C_on + y) / C_off)
-    OFF levels to the background. A pixel's reference is uniform over its cycle, y in
-    (−C_on, C_off), so on average r·b = a − 1/2 (a Monte Carlo of this model gives r within
-    0.5 % for r 0.375–2.5; the sixth session's a + 1/2 = r·(b + 1) was exact at r = 1 only,
-    4–10 % off at 0.6 and 1.7). levels: (a, b) counted in levels instead of events (a pixel
-    with a refractory period skips levels: run_levels). Changes with >= 3 events on each
-    flank; 1 when there are too few."""
-    r = _measured_ratio(on_before, off_after, levels)
+    OFF levels to the background, where its reference ends y' = a·C_on + y − b·C_off above
+    it, y' in [0, C_off): so r·b = a − (y' − y) / C_on. The next passage of the pixel starts
+    from y', and over a pixel's passages these terms cancel but for its first: a reference
+    uniform over its cycle, y in (−C_on, C_off), puts E[y' − y] at C_on / 2, so
+    r·Σb = Σa − ½ · (first passages). (Charging every passage the ½, as the sixth to tenth
+    sessions did, took the ratio 3–7 % low on star fields and sinusoids, where pixels see
+    two or more passages; fresh pixels' Monte Carlo gives r within 0.5 % for r 0.375–2.5.)
+    levels: (a, b) counted in levels instead of events (a pixel with a refractory period
+    skips levels: run_levels). first: per change, whether it is its pixel's first (None:
+    all). Changes with >= 3 events on each flank; 1 when there are too few."""
+    r = _measured_ratio(on_before, off_after, levels, first)
     return 1.0 if r is None else r
 
 
-def _measured_ratio(on_before, off_after, levels=None):
+def first_of_pixel(key, order, change):
+    """Per change (positions in the pixel-then-time `order`): whether it is its pixel's first."""
+    k = np.asarray(key)[np.asarray(order)[np.asarray(change)]]
+    return np.r_[True, k[1:] != k[:-1]] if len(k) else np.zeros(0, bool)
+
+
+def _measured_ratio(on_before, off_after, levels=None, first=None):
     """threshold_ratio_of, or None when too few changes tell."""
     m = (np.asarray(on_before) >= 2) & (np.asarray(off_after) >= 3)
     a, b = (np.asarray(on_before) + 1, np.asarray(off_after)) if levels is None else levels
     if m.sum() < _MIN_RATIO_CHANGES:
         return None
-    return float(np.clip(np.sum(a[m] - 0.5) / np.sum(b[m]), 0.25, 4.0))
+    fresh = m.sum() if first is None else np.asarray(first)[m].sum()
+    return float(np.clip((np.sum(a[m]) - 0.5 * fresh) / np.sum(b[m]), 0.25, 4.0))
 
 
 def _pair_counts(on_before, off_after, ratio, max_pairs):
@@ -240,8 +251,8 @@ def sensor_hints(events, quantile=1e-3, max_events=2_000_000):
     same = (k[1:] == k[:-1]) & (ps[1:] == ps[:-1])
     gaps = np.diff(ts)[same]
     floor = float(np.quantile(gaps, quantile)) if len(gaps) else None
-    _, on_before, off_after = _runs(order, key, p)
-    return floor, _measured_ratio(on_before, off_after)
+    change, on_before, off_after = _runs(order, key, p)
+    return floor, _measured_ratio(on_before, off_after, first=first_of_pixel(key, order, change))
 
 
 def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):

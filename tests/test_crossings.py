@@ -447,3 +447,29 @@ def test_threshold_ratio_formula_on_its_model(ratio):
     a = np.floor((peak - ref) / c_on)
     b = np.floor((ref + a * c_on) / c_off)
     assert threshold_ratio_of(a - 1, b) == pytest.approx(ratio, rel=0.01)
+
+
+@pytest.mark.parametrize("ratio", [0.6, 1.0, 5 / 3])
+def test_threshold_ratio_of_pixels_passed_twice(ratio):
+    """A pixel's second passage starts where its first left the reference, within C_off
+    above the background, not anywhere in its cycle: only first passages carry the ½ (faint
+    passages, a = 3–14 ON events, where it matters most)."""
+    from evstar.crossings import threshold_ratio_of
+
+    rng = np.random.default_rng(9)
+    c_on, n = 0.2, 100_000
+    c_off = ratio * c_on
+    ref = rng.uniform(-c_on, c_off, n)            # fresh: anywhere in the cycle
+    a_all, b_all = [], []
+    for _ in range(2):
+        peak = rng.uniform(0.6, 3.0, n)
+        a = np.floor((peak - ref) / c_on)
+        b = np.floor((ref + a * c_on) / c_off)
+        ref = ref + a * c_on - b * c_off          # where this passage leaves it
+        a_all.append(a)
+        b_all.append(b)
+    a, b = np.concatenate(a_all), np.concatenate(b_all)
+    first = np.r_[np.ones(n, bool), np.zeros(n, bool)]
+    assert np.all(ref >= 0) and np.all(ref < c_off)
+    assert threshold_ratio_of(a - 1, b, first=first) == pytest.approx(ratio, rel=0.01)
+    assert threshold_ratio_of(a - 1, b) / ratio < 0.975           # every passage charged: low
