@@ -449,6 +449,24 @@ def test_threshold_ratio_formula_on_its_model(ratio):
     assert threshold_ratio_of(a - 1, b) == pytest.approx(ratio, rel=0.01)
 
 
+@pytest.mark.parametrize("on,off", [(0.2, 0.2), (0.25, 0.15), (0.15, 0.25)])
+def test_the_ratio_of_a_sinusoid_whose_pixels_see_the_star_twice(on, off):
+    """Simulated, ideal sensor: a 10°/1 Hz sinusoid passes its pixels back and forth (38 %
+    of the changes are a pixel's second or later); charging only first passages the ½ gives
+    the ratio within 1 %, where charging every passage was 1.5–2.5 % low."""
+    from evstar.crossings import _pixel_then_time, _runs, first_of_pixel, pixel_keys, threshold_ratio_of
+
+    sensor = sim.SensorSpec.ideal(threshold_on=on, threshold_off=off)
+    ev = sim.simulate(sim.paper_sinusoid(magnitude=3.0, sensor=sensor, duration_s=0.6), seed=4).events
+    key = pixel_keys(ev.x, ev.y, ev.width)
+    order = _pixel_then_time(key, ev.t, "numpy")
+    change, before, after = _runs(order, key, ev.p)
+    first = first_of_pixel(key, order, change)
+    assert 0.5 < first.mean() < 0.8
+    assert threshold_ratio_of(before, after, first=first) == pytest.approx(off / on, rel=0.01)
+    assert threshold_ratio_of(before, after) / (off / on) < 0.99
+
+
 @pytest.mark.parametrize("ratio", [0.6, 1.0, 5 / 3])
 def test_threshold_ratio_of_pixels_passed_twice(ratio):
     """A pixel's second passage starts where its first left the reference, within C_off
