@@ -77,7 +77,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     plain = _pair_counts(on_before, off_after, r, max_pairs) \
         if profiles is not None or refractory_us <= 0 else None
     if profiles is not None:
-        _add_profiles(profiles, order, t, change, plain, r)
+        _add_profiles(profiles, order, t, change, plain, r, on_before)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
         k, sums, sq = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
@@ -86,8 +86,8 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
     else:
         keep = plain > 0
-        change, k = change[keep], plain[keep]
-        sums, sq = kern.sums(change, k, r) if kern is not None else _pair_sums(order, t, change, k, r)
+        change, k, nb = change[keep], plain[keep], on_before[keep]
+        sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(order, t, change, k, r, nb)
     pixel = key[order.take(change)]
     mean = sums / k
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
@@ -148,10 +148,19 @@ def _measured_ratio(on_before, off_after, levels=None, first=None):
     return float(np.clip((np.sum(a[m]) - 0.5 * fresh) / np.sum(b[m]), 0.25, 4.0))
 
 
+#: how far below a run's first ON (in ON steps) a pair's rising time may be extrapolated
+DEPTH_REACH = 0.25
+
+
 def _pair_counts(on_before, off_after, ratio, max_pairs):
     """Level pairs per change: OFF j (level j·C_off below the change's) pairs with the rising
-    time j·ratio ON steps back, so ceil(j·ratio) ON events must precede the change."""
-    on_levels = np.floor(np.asarray(on_before) / ratio + 1e-9).astype(np.int64)
+    time j·ratio ON steps back, which must lie within DEPTH_REACH below the run's first ON
+    (extrapolated there: level_midpoints). Without that reach, at a ratio a hair above 1
+    (a sensor's equal thresholds, measured) every change would lose its deepest pair at
+    once: a sinusoid's errors jumped 0.069 → 0.102 px between ratios 1.000 and 1.001."""
+    nb = np.asarray(on_before)
+    reach = np.where(nb >= 1, DEPTH_REACH, 0.0)      # extrapolation needs two ON events
+    on_levels = np.floor((nb + reach) / ratio + 1e-9).astype(np.int64)
     return np.minimum(np.minimum(on_levels, off_after), max_pairs).astype(np.int64)
 
 
@@ -168,12 +177,12 @@ def _runs(order, key, p):
     return change, on_before, off_after
 
 
-def _pair_sums(order, t, change, k, ratio):
+def _pair_sums(order, t, change, k, ratio, on_before):
     """Sums of the pair midpoints and of their squares per change (the kernel's
     specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
     ON steps before c, interpolated between the ON events around it where not whole
     (level_midpoints); summed in the order of j."""
-    mids = level_midpoints(order, t, change, k, ratio)
+    mids = level_midpoints(order, t, change, k, ratio, on_before)
     sums, sq = np.zeros(len(change)), np.zeros(len(change))
     for j in range(mids.shape[1]):
         mid = np.where(k > j, mids[:, j], 0.0)
@@ -182,27 +191,35 @@ def _pair_sums(order, t, change, k, ratio):
     return sums, sq
 
 
-def level_midpoints(order, t, change, k, ratio):
+def level_midpoints(order, t, change, k, ratio, on_before):
     """(n, max k) midpoint of each level pair j = 1..k of the changes (NaN beyond k), as
-    _pair_sums pairs them (their mean is its sum / k)."""
+    _pair_sums pairs them (their mean is its sum / k). A rising time below the run's first
+    ON (on_before ON events precede c; _pair_counts allows DEPTH_REACH) is extrapolated
+    from its first two."""
     ts = lambda i: t[order[i]].astype(np.float64)   # gathered per level: few changes may ask
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
+    on_before = np.asarray(on_before)
     for j in range(1, mids.shape[1] + 1):
         m = np.flatnonzero(k >= j)
-        c = change[m]
+        c, nb = change[m], on_before[m]
         x = j * ratio
         j0 = int(np.floor(x + 1e-9))
         f = x - j0
-        rise = ts(c - j0) if f < 1e-9 else ts(c - j0) * (1 - f) + ts(c - j0 - 1) * f
+        deep = x > nb + 1e-9                         # below the first ON: extrapolated
+        a, b = np.where(deep, c, c - j0), np.where(deep, c, c - j0 - 1)   # (c: any valid index)
+        rise = ts(a) if f < 1e-9 else ts(a) * (1 - f) + ts(b) * f
+        if deep.any():
+            first = c[deep] - nb[deep]               # the run's first ON
+            rise[deep] = ts(first) - (x - nb[deep]) * (ts(first + 1) - ts(first))
         mids[m, j - 1] = 0.5 * (rise + ts(c + j))
     return mids
 
 
-def _add_profiles(profiles, order, t, change, k, ratio):
+def _add_profiles(profiles, order, t, change, k, ratio, on_before):
     """Give `profiles` the level midpoints of the changes it wants."""
     sel = profiles.wanted(k)
     if len(sel):
-        profiles.add(k[sel], level_midpoints(order, t, change[sel], k[sel], ratio))
+        profiles.add(k[sel], level_midpoints(order, t, change[sel], k[sel], ratio, on_before[sel]))
 
 
 #: most reference levels one event may stand for: a gap within r/3 of the refractory period

@@ -103,8 +103,9 @@ def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
 # -- the vectorised code against straightforward references -------------------------------
 def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
     """pixel_crossings one pixel and one polarity change at a time; OFF j pairs with the
-    rising time j·ratio ON events back (interpolated)."""
-    from evstar.crossings import CROSSING_DTYPE
+    rising time j·ratio ON events back (interpolated; extrapolated from the run's first two
+    ON events up to DEPTH_REACH below the first)."""
+    from evstar.crossings import CROSSING_DTYPE, DEPTH_REACH
 
     rows = []
     for py, px in sorted(set(zip(y.tolist(), x.tolist()))):
@@ -116,14 +117,22 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                 continue
             s = sq = 0.0
             k = 0
+            first = i                           # the ON run's first event
+            while first > 0 and on[first - 1]:
+                first -= 1
+            nb = i - first                      # ON events before i in its run
             for j in range(1, max_pairs + 1):    # the j-th OFF after, its level's ON time
                 level = j * ratio
                 j0 = int(np.floor(level + 1e-9))
                 f = level - j0
-                a, b = i - j0 - (f >= 1e-9), i + j
-                if a < 0 or b >= len(tt) or not on[a:i + 1].all() or on[i + 1:b + 1].any():
+                b = i + j
+                reach = DEPTH_REACH if nb >= 1 else 0.0
+                if level > nb + reach + 1e-9 or b >= len(tt) or on[i + 1:b + 1].any():
                     break
-                if f < 1e-9:
+                if level > nb + 1e-9:          # below the first ON: extrapolated
+                    rise = float(tt[first]) - (level - nb) * (float(tt[first + 1]) - float(tt[first]))
+                    mid = 0.5 * (rise + float(tt[b]))
+                elif f < 1e-9:
                     mid = 0.5 * (tt[i - j0] + tt[b])
                 else:
                     rise = float(tt[i - j0]) * (1 - f) + float(tt[i - j0 - 1]) * f
@@ -152,6 +161,19 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
         np.testing.assert_array_equal(got[f], ref[f])
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
+
+
+def test_the_pairs_follow_the_ratio_continuously_across_one():
+    """A measured ratio a hair above 1 keeps every change's deepest pair (its rising time a
+    fraction of a step below the run's first ON, extrapolated) instead of dropping them all
+    at once: the crossings move by 0.1 % of a step per pair (microseconds), not by pairs."""
+    run = sim.simulate(sim.paper_preset(12.0, duration_s=0.1), seed=2)
+    t, x, y, p = star_events(run)
+    at_one = pixel_crossings(t, x, y, p, threshold_ratio=1.0)
+    above = pixel_crossings(t, x, y, p, threshold_ratio=1.001)
+    assert len(at_one) > 50 and np.array_equal(at_one["pairs"], above["pairs"])
+    shift = np.abs(above["t"] - at_one["t"])
+    assert 0 < shift.max() < 20.0                                      # µs
 
 
 @pytest.mark.parametrize("ratio", [1.0, 0.6, 1.7])

@@ -57,8 +57,8 @@ def test_level_midpoints_average_to_the_pair_sums():
     for ratio in (1.0, 0.7, 1.6):
         k = crossings._pair_counts(nb, na, ratio, 16)
         m = k > 0
-        mids = crossings.level_midpoints(order, t, change[m], k[m], ratio)
-        sums, _ = crossings._pair_sums(order, t, change[m], k[m], ratio)
+        mids = crossings.level_midpoints(order, t, change[m], k[m], ratio, nb[m])
+        sums, _ = crossings._pair_sums(order, t, change[m], k[m], ratio, nb[m])
         np.testing.assert_allclose(np.nanmean(mids, axis=1), sums / k[m], rtol=0, atol=1e-6)
         assert np.all(np.isnan(mids) == (np.arange(mids.shape[1]) >= k[m][:, None]))
 

@@ -41,14 +41,16 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 
 
 @ti.kernel
-def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, ratio: ti.f64,
-              sums: f64_1d, sq: f64_1d):
+def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
+              ratio: ti.f64, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of
     their squares, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
     c's) and the rising time at the same level, j·ratio ON steps before c (ratio =
-    C_off / C_on), interpolated between ON events where that is not whole."""
+    C_off / C_on), interpolated between ON events where that is not whole, extrapolated from
+    the run's first two ON events (on_before[i] precede c) where it lies below the first."""
     for i in range(change.shape[0]):
         c = change[i]
+        nb = ti.cast(on_before[i], ti.i64)
         s = ti.f64(0.0)
         s2 = ti.f64(0.0)
         for j in range(1, pairs[i] + 1):
@@ -56,7 +58,11 @@ def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, ratio: ti
             j0 = ti.cast(ti.floor(x + 1e-9), ti.i64)
             f = x - j0
             mid = ti.f64(0.0)
-            if f < 1e-9:
+            if x > nb + 1e-9:
+                first = ti.cast(t[order[c - nb]], ti.f64)
+                rise = first - (x - nb) * (ti.cast(t[order[c - nb + 1]], ti.f64) - first)
+                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
+            elif f < 1e-9:
                 mid = 0.5 * ti.cast(t[order[c - j0]] + t[order[c + j]], ti.f64)
             else:
                 rise = (ti.cast(t[order[c - j0]], ti.f64) * (1 - f)

@@ -31,15 +31,16 @@ class LevelPairs:
         self.change = np.flatnonzero(off)
         self.on_before, self.off_after = on.take(self.change), off.take(self.change)
 
-    def sums(self, change, pairs, ratio):
+    def sums(self, change, pairs, ratio, on_before):
         """(sums of pair midpoints, of their squares) of the changes at positions `change`
-        with `pairs` pairs each (> 0)."""
+        with `pairs` pairs each (> 0) and `on_before` ON events before each."""
         arrays = self.arrays
         sums, sq = arrays.empty(len(change), np.float64), arrays.empty(len(change), np.float64)
         if len(change):
             with launch.RUNTIME_LOCK:
                 _pair_sums(self.order, self.t, arrays.put(np.asarray(change, np.int64)),
-                           arrays.put(np.asarray(pairs, np.int32)), float(ratio), sums, sq)
+                           arrays.put(np.asarray(pairs, np.int32)),
+                           arrays.put(np.asarray(on_before, np.int32)), float(ratio), sums, sq)
         if arrays.on_device:
             sums, sq = sums.to_numpy(), sq.to_numpy()
         return sums, sq
