@@ -3,7 +3,7 @@ its one seed (the default crossings estimator; mean / max error px, frames with 
 false rows per 100 frames).
 
     python perf/study_seeds.py [--motion 1] [--mag 4] [--psf 1.5] [--sensor default]
-        [--comp none] [--seeds 7-14]
+        [--comp none] [--seeds 7-14] [--refractory-us 0]
 
 Writes perf/results/study_seeds_<scene>.json and .md (e.g. study_seeds_1dps_mag4_psf1.5_default_none).
 """
@@ -23,7 +23,8 @@ COLUMNS = [("seed", "seed", ""), ("events_per_frame", "events/frame", ".0f"), ("
 def run_seed(s):
     run = sim.simulate(sa.scenario(s), seed=s["seed"])
     ev = run.events
-    cfg = Config().replace(**{"motion.compensate": s["comp"]})
+    cfg = Config().replace(**{"motion.compensate": s["comp"],
+                              "estimate.refractory_us": s.get("refractory_us", 0.0)})
     res = Pipeline(cfg).run(ev, run.imu, run.camera)
     t0 = int(ev.t[0])
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
@@ -42,13 +43,17 @@ def main():
     ap.add_argument("--sensor", default="default", choices=sorted(sa.SENSORS))
     ap.add_argument("--comp", default="none", choices=("none", "imu"))
     ap.add_argument("--seeds", default="7-14", help="first-last")
+    ap.add_argument("--refractory-us", type=float, default=0.0,
+                    help="tell the estimator the sensor's refractory period (the simulator's: 100)")
     a = ap.parse_args()
     first, last = (int(v) for v in a.seeds.split("-"))
     motion = a.motion if a.motion == "sine" else float(a.motion)
     rows = [run_seed(dict(motion=motion, mag=a.mag, psf=a.psf, sensor=a.sensor, comp=a.comp,
-                          seed=seed)) for seed in range(first, last + 1)]
+                          seed=seed, refractory_us=a.refractory_us))
+            for seed in range(first, last + 1)]
     text = profiling.table(rows, COLUMNS)
     name = f"study_seeds_{a.motion}{'' if a.motion == 'sine' else 'dps'}_mag{a.mag:g}_psf{a.psf:g}_{a.sensor}_{a.comp}"
+    name += f"_refractory{a.refractory_us:g}" if a.refractory_us else ""
     profiling.write_results(RESULTS / f"{name}.json", rows, vars(a))
     (RESULTS / f"{name}.md").write_text(f"# {vars(a)}\n\n{text}\n")
     print(text)
