@@ -161,14 +161,11 @@ def _by_prior(centroids, sigma, smoother, prior):
     (the caller has some); est["centroid"] indexes `centroids` in both."""
     if prior is None:
         return [(centroids, sigma, None)]
-    helps = np.isin(centroids["track"], sorted(smoother.prior_helps(centroids, prior, sigma)))
-    parts = []
-    for sel, p in ((helps, prior), (~helps & (centroids["track"] >= 0), None)):
-        if sel.any():
-            cents = centroids.copy()
-            cents["track"][~sel] = -1          # the other group's tracks: not smoothed here
-            parts.append((cents, sigma, p))
-    return parts
+    ids = np.unique(centroids["track"][centroids["track"] >= 0])
+    helps = np.isin(ids, sorted(smoother.prior_helps(centroids, prior, sigma)))
+    # each group with the other group's tracks unconfirmed: not smoothed there
+    return [(_only(centroids, chosen), sigma, p)
+            for chosen, p in ((ids[helps], prior), (ids[~helps], None)) if len(chosen)]
 
 
 def _without_lobe_bias(groups, ests, smoother, stiff, t0_us):
