@@ -335,8 +335,8 @@ class Extractor:
         return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
     def _first_halves(self, c, pts, p, starts, stops, peaks):
-        """The first test (_FirstTest: seeds or None, 2-means labels, whether it fails whatever
-        the rest of _halves says) of every candidate at once (grid clustering; exact for integer
+        """The first test (_FirstTest: two peaks or not, 2-means labels, whether it fails
+        whatever the rest of _halves says) of every candidate at once (grid clustering; exact for integer
         coordinates, to the last bits of the 2-means centres for floats); else None. The
         first test fails where a half has fewer than min_cluster_size events or the halves'
         polarities differ by more than 0.5 (a moving star's lobes: the common case).
