@@ -129,10 +129,15 @@ class Extractor:
 
     def centroids(self, events, xy=None):
         """Centroids of every cluster of every frame, in time order (track = -1 until linked)."""
+        return self.centroids_and_members(events, xy)[0]
+
+    def centroids_and_members(self, events, xy=None):
+        """(centroids, per event whether it belongs to a cluster that gave a centroid row):
+        the others are left for the pipeline's pooled second look (evstar.pooling)."""
         c = self._cluster(events, xy)
         k = len(c.frame)
         if k == 0:
-            return np.zeros(0, CENTROID_DTYPE)
+            return np.zeros(0, CENTROID_DTYPE), np.zeros(len(events), bool)
         frame_t0 = c.t0 + np.arange(c.f0, c.f0 + len(c.offsets) - 1, dtype=np.int64) * self.dt_us
         m = self._moments(events, c, frame_t0, k)
         if self.lobe_gap_px is not None:
@@ -144,6 +149,7 @@ class Extractor:
         keep = out["n_events"] >= self.min_cluster_size
         if self.lobe_gap_px is not None:
             keep &= ~lobes.trails(c.frame, m["n"], m["sx"], m["sy"])
+        used = np.r_[keep, False][c.labels]  # label -1: the False; a split's halves use all
         if self.split_valley:
             maybe = keep & (out["n_events"] >= 2 * self.min_cluster_size)
             by_polarity, peaks = maybe.copy(), None
@@ -152,7 +158,7 @@ class Extractor:
             out, order, keep = self._split_clusters(events, c, out, order, keep, maybe,
                                                     by_polarity, peaks)
         out, order = out[keep], order[keep]
-        return out[np.lexsort((order, out["x"], out["t"]))]
+        return out[np.lexsort((order, out["x"], out["t"]))], used
 
     def _join_lobes(self, c, m):
         """A slow star's ON-only and OFF-only clusters joined into one (evstar.lobes):

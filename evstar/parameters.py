@@ -235,8 +235,9 @@ EXTRACT = Params(
           "than this are one slow star's two lobes, joined; an OFF-only cluster behind a "
           "moving star is dropped as its trail (none: never join, keep all)", low=0,
           open_low=True, optional=True, unit="px"),
-    Param("pool_frames", int, 4, "the events the filter rejected are filtered and clustered "
-          "again in frames this many times longer, for faint stars (1: no second look)",
+    Param("pool_frames", int, 4, "the events no frame centroid used (the filter rejected them, "
+          "or no reported cluster holds them) are filtered and clustered again in frames this "
+          "many times longer, for faint stars (1: no second look)",
           low=1, high=1000),
 )
 

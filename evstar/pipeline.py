@@ -174,7 +174,8 @@ class Pipeline:
         # uncompensated coordinates are the kept events' own pixels
         xy = None if mode == "none" else \
             comp.coordinates(np.flatnonzero(keep_f) if whole else kept)
-        cents = self.make_extractor(t0_us, mode != "none").centroids(ev_f[keep_f], xy=xy)
+        cents, members = self.make_extractor(t0_us, mode != "none").centroids_and_members(
+            ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = keep_f
         if not whole:
@@ -182,7 +183,12 @@ class Pipeline:
             keep[kept] = True
         if state is not None:
             t = time.perf_counter()
-            cents = self._with_pooled(cents, events, keep if hot is None else keep | hot,
+            # the pooled look takes every event no frame centroid used: those the filter
+            # dropped, and those it kept that no reported cluster holds (a faint star's
+            # sparse events on a quiet sensor pass the filter but not DBSCAN)
+            used = np.zeros(len(events), bool)
+            used[(np.flatnonzero(keep_f) if whole else kept)[members]] = True
+            cents = self._with_pooled(cents, events, used if hot is None else used | hot,
                                       t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
@@ -191,8 +197,9 @@ class Pipeline:
         return keep, cents, timings, comp
 
     def _with_pooled(self, cents, events, used, t0_us, rate):
-        """The frame centroids and the pooled ones of the events neither kept nor on a hot
-        pixel (`used`: those that are; evstar.pooling), in time order."""
+        """The frame centroids and the pooled ones of the events neither in a frame
+        centroid's cluster nor on a hot pixel (`used`: those that are; evstar.pooling), in
+        time order."""
         from .pooling import pooled_centroids
 
         pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents)

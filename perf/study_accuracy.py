@@ -27,8 +27,12 @@ default sensor, seed 13), was run once when that was done. A fifth, "fresh-9" (4
 dark skies with other ceilings and thresholds, 10 and 25 °/s, seed 17), was added by the
 ninth session to check a change it then rejected. A sixth, "fresh-10" (slow faint stars,
 seed 21), was held out from the tenth session's lobe correction and run once before and after.
+A seventh, "fresh-11" (quiet sensors: 0.1 Hz of background, or none and no hot pixels, seed
+31), was run once before and once after the twelfth session's pooled look at the events
+DBSCAN left out (written on one other quiet scene).
 
-    python perf/study_accuracy.py [--quick]
+    python perf/study_accuracy.py [--quick] [--only PART]   (PART: dev, held-out, fresh, ...;
+        writes study_accuracy_PART.* instead)
 
 Writes perf/results/study_accuracy.json, .md and .png (error against the bound). Columns per estimator: mean and max error
 (px), the fraction of frames in which the star (in view) has a position, false rows (matching
@@ -69,7 +73,10 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                    threshold_off=0.25),
            "dark-sky-15": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=15.0,
                                                    cutoff_hz_max=3000.0, threshold_on=0.18,
-                                                   threshold_off=0.18)}
+                                                   threshold_off=0.18),
+           # quiet sensors: a tenth of a hertz of background, or none and no hot pixels
+           "quiet": lambda: sim.sensor_model("default", noise_hz=0.1),
+           "silent": lambda: sim.sensor_model("default", noise_hz=0.0, hot_pixels=0)}
 
 
 def dev_grid():
@@ -142,6 +149,26 @@ def fresh10_grid():
                                            (1.2, 4.0, 1.4, "dark-sky", "none")):
         yield dict(set="fresh-10", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
                    seed=21)
+
+
+def fresh11_grid():
+    """Quiet sensors, held out from the twelfth session's pooled look at the events DBSCAN
+    left out (written on 1.5 °/s, magnitude 4.5, σ 1.8 px; run once before and once after):
+    0.8–10 °/s, magnitudes 3.5–5, PSF σ 1.0–1.7, a sinusoid with IMU (seed 31)."""
+    for motion, mag, psf, sensor, comp in ((1, 4.5, 1.6, "quiet", "none"),
+                                           (3, 5.0, 1.2, "quiet", "none"),
+                                           (10, 5.0, 1.7, "quiet", "none"),
+                                           (1, 3.5, 1.0, "quiet", "none"),
+                                           ("sine", 4.5, 1.4, "quiet", "imu"),
+                                           (2, 4.5, 1.5, "silent", "none"),
+                                           (6, 5.0, 1.2, "silent", "none"),
+                                           (0.8, 4.0, 1.6, "silent", "none")):
+        yield dict(set="fresh-11", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=31)
+
+
+PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
+         "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid}
 
 
 def scenario(s):
@@ -241,14 +268,13 @@ def plot(rows, path):
     ax = fig.add_subplot()
     for name, colour in zip(ESTIMATORS + ("calibrated",),
                             ("tab:grey", "tab:blue", "tab:red", "tab:green")):
-        for part, fill in (("dev", colour), ("held-out", "none"), ("fresh", "none"),
-                           ("fresh-8", "none"), ("fresh-9", "none"), ("fresh-10", "none")):
+        for part, fill in [("dev", colour)] + [(p, "none") for p in PARTS if p != "dev"]:
             sel = [r for r in rows if r["set"] == part and name in r
                    and np.isfinite(r[name]["mean"])]
             ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
-                               "fresh-10": "v"}.get(part, "o"))
+                               "fresh-10": "v", "fresh-11": "P"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
@@ -262,18 +288,22 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a small held-out grid")
     ap.add_argument("--plot-only", action="store_true", help="redraw the figure from the JSON")
+    ap.add_argument("--only", choices=list(PARTS), help="one part of the grid alone (its own "
+                    "study_accuracy_PART files)")
     args = ap.parse_args(argv)
     if args.plot_only:
         plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
         return
-    rows = [run_scene(s) for s in itertools.chain(dev_grid(), held_out_grid(args.quick),
-                                                  fresh_grid(), fresh8_grid(), fresh9_grid(),
-                                                  fresh10_grid())]
+    parts = [args.only] if args.only else list(PARTS)
+    grids = [PARTS[p](args.quick) if p == "held-out" else PARTS[p]() for p in parts]
+    rows = [run_scene(s) for s in itertools.chain(*grids)]
+    name = f"study_accuracy_{args.only}" if args.only else "study_accuracy"
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_accuracy.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (RESULTS / "study_accuracy.md").write_text("# Star-position accuracy by estimator\n\n"
-                                               + markdown(rows) + "\n")
-    plot(rows, RESULTS / "study_accuracy.png")
+    (RESULTS / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (RESULTS / f"{name}.md").write_text("# Star-position accuracy by estimator\n\n"
+                                        + markdown(rows) + "\n")
+    if not args.only:
+        plot(rows, RESULTS / f"{name}.png")
     print(markdown(rows))
 
 

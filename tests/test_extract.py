@@ -73,6 +73,22 @@ def test_border_flag_and_min_cluster_size():
     assert len(Extractor(min_samples=4, min_cluster_size=10_000).centroids(ev)) == 0
 
 
+def test_members_are_the_events_of_the_clusters_that_gave_rows():
+    # a star, two close ones (split: their halves hold all their events) and noise
+    ev, _ = blob_scene([(30, 30, 0, 0), (100, 50, 0, 0), (103.5, 50, 0, 0)], noise=300,
+                       per_frame=150, sigma=0.5)
+    ex = Extractor(eps=2.5, min_samples=5, min_cluster_size=20)
+    cents, used = ex.centroids_and_members(ev)
+    frames, labels = ex.labels(ev)
+    assert cents["split"].any()
+    assert used.sum() == cents["n_events"].sum()   # each used event is in exactly one row
+    assert not used[labels < 0].any()              # DBSCAN's noise: left for the second look
+    # a cluster too small for a row leaves its events too
+    small = Extractor(eps=2.5, min_samples=5, min_cluster_size=10_000)
+    none, unused = small.centroids_and_members(ev)
+    assert len(none) == 0 and not unused.any() and (labels >= 0).any()
+
+
 def test_two_stars_closer_than_eps_are_split_and_flagged():
     ev, _ = blob_scene([(60, 50, 0, 0), (63.5, 50, 0, 0)], noise=0, per_frame=150, sigma=0.5)
     merged = Extractor(eps=2.5, min_samples=5, split_valley=None).centroids(ev)
