@@ -349,7 +349,7 @@ HOTPIXELS = Params(
     Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
           low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
     Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
-          "brightest 8-neighbour's", low=1),
+          "second-brightest 8-neighbour's (a hot pair is found)", low=1),
     Param("remove", bool, True, "drop the events of hot pixels (found in the calibration "
           "window, the first chunk_frames frames) before extraction",
           cli="--remove-hot-pixels"),
