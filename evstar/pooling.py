@@ -1,16 +1,18 @@
 """Faint stars' second look: the events no frame centroid used, pooled over longer frames.
 
 A star that gives a few events per frame passes neither the density filter's per-frame
-thresholds nor DBSCAN's min_samples in most frames, though its events are there. All events
-are filtered again (NDSEF at ``denoise.radius``, whatever the frame filter) in frames
-``extract.pool_frames`` (k) times as long (its threshold for that length: the noise per
-frame grows k-fold, but so does the star's count, and a slow star stays compact), and those
-no frame centroid used but this filter keeps are clustered in the long frames; a cluster
-needs k - 1 times the frame clusters' smallest size. "Not used" are the events the frame
-filter dropped and those it kept that no reported cluster holds: on a quiet sensor (no
-background, so every event passes the filter) a wide faint star's events fail DBSCAN alone,
-and a look at the filter's rejects found nothing (1.5 °/s, magnitude 4.5, σ 1.8 px, no
-noise: 32 % of frames, 1.6 px). A pooled
+thresholds nor DBSCAN's min_samples in most frames, though its events are there. The events
+no frame centroid used are filtered again among themselves (NDSEF at ``denoise.radius``,
+whatever the frame filter) in frames ``extract.pool_frames`` (k) times as long (its
+threshold for that length: the noise per frame grows k-fold, but so does the star's count,
+and a slow star stays compact), and those it keeps are clustered in the long frames; a
+cluster needs k - 1 times the frame clusters' smallest size. "Not used" are the events the
+frame filter dropped and those it kept that no reported cluster holds: on a quiet sensor
+(no background, so every event passes the filter) a wide faint star's events fail DBSCAN
+alone, and a look at the filter's rejects found nothing (1.5 °/s, magnitude 4.5, σ 1.8 px,
+no noise: 32 % of frames, 1.6 px). The used events are left out of the density too: counted,
+they let the background along a bright star's path pass, which pooled into a false track
+beside the star (10 Hz of background, a sinusoid: 12-14 false rows per 100 frames). A pooled
 centroid's ``t`` is its members' mean time (where a linearly moving star was at its
 position), its ``frame`` the frame of that time and its ``source`` "pooled". One within
 ``track.gate_px`` of a frame centroid of its own frame is dropped (the tracker would see two
@@ -44,15 +46,15 @@ def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
                                    **{"extract.min_cluster_size": min_size}))
     d = config.denoise
     # one density test, NDSEF at denoise.radius with its threshold for the long frame (a
-    # third of MR-NDSEF's cost, as good here); all events' density (a faint star's kept ones
-    # too) decides which of the rejected ones it keeps
+    # third of MR-NDSEF's cost, as good here), among the rejected events alone (above)
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device)
-    rejected = flt.mask(events, select=rejected)   # only the rejected ones are asked
-    if not rejected.any():
+    rest = events[rejected]
+    rest = rest[flt.mask(rest)]
+    if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
-    cents = long.make_extractor(t0_us).centroids(events[rejected])
+    cents = long.make_extractor(t0_us).centroids(rest)
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
     cents["source"] = "pooled"
     return cents[~_seen(cents, frame_centroids, config.track.gate_px)]
