@@ -123,9 +123,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     est = np.concatenate(ests)
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
-    # and in any case those between two of their track's measurements (a gap the smoother
+    # and, less certain, those between two of their track's measurements (a gap the smoother
     # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out)
-    ok = (rows["sigma"] <= e.coast_sigma_px) | _bracketed(rows)
+    sigma = rows["sigma"]
+    ok = (sigma <= e.coast_sigma_px) | (_bracketed(rows) & (sigma <= e.gap_sigma_px))
     if span_us is not None:
         ok &= (rows["t"] >= span_us[0]) & (rows["t"] <= span_us[1])
     if sensor is not None:
