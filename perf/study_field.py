@@ -1,0 +1,83 @@
+"""Star positions on a crowded field: every star of a Hipparcos field, not one star alone.
+
+The accuracy grid (study_accuracy.py) simulates one star per scene. A star tracker sees
+fields: Orion to magnitude 6.5 puts ~150 stars in a DAVIS346's 22° field (16 mm lens),
+some pairs a few pixels apart. Each scene (a constant pan about the image's up axis for
+0.5 s, the default sensor with 0.1 or 1.5 Hz of background, two seeds) runs through the
+default pipeline; its rows are matched to the nearest star within 3 px
+(evstar.accuracy.match). Per star, its mean error; stars are split into isolated (no other
+within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close (another
+within 8 px: blended pairs) and the rest. False rows: rows matching no star.
+
+    python perf/study_field.py [--seeds 61,62]
+
+Writes perf/results/study_field.json and .md; prints the table.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+
+import numpy as np
+
+from evstar import Config, Pipeline, accuracy, sim
+
+RESULTS = pathlib.Path(__file__).resolve().parent / "results"
+CAM = sim.camera_preset("davis346", 16.0)
+COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
+           "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px")
+
+
+def run_scene(noise_hz, rate_dps, seed):
+    motion = sim.ConstantRate(rate_dps, axis=np.array([0.0, 1.0, 0.0]),
+                              R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.5, mag_limit=6.5)
+    sensor = sim.sensor_model("default", noise_hz=noise_hz)
+    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.5, sensor=sensor), seed=seed)
+    rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    star, err = accuracy.match(rows, run.truth.star_position)
+    ids = np.unique(star[star >= 0])
+    per_star = np.array([err[star == i].mean() for i in ids])
+    t_mid = np.array([np.median(rows["t"][star == i]) for i in ids], np.float64)
+    pos = run.truth.star_position(t_mid)                     # (stars seen, all stars, 2)
+    own = pos[np.arange(len(ids)), ids]
+    gap = np.hypot(*(pos - own[:, None]).transpose(2, 0, 1))
+    gap[np.arange(len(ids)), ids] = np.inf
+    nearest = np.nanmin(gap, axis=1)
+    inner = ((own[:, 0] > 5) & (own[:, 0] < CAM.width - 6) & (own[:, 1] > 5)
+             & (own[:, 1] < CAM.height - 6))
+    iso, close = (nearest > 10) & inner, nearest < 8
+    return {"noise_hz": noise_hz, "rate_dps": rate_dps, "seed": seed, "stars_seen": len(ids),
+            "rows": len(rows), "false_pct": 100 * float((star < 0).mean()),
+            "isolated": [int(iso.sum()), float(np.median(per_star[iso])),
+                         float(np.percentile(per_star[iso], 90))],
+            "close": [int(close.sum()), float(np.median(per_star[close]))],
+            "all_median": float(np.median(per_star))}
+
+
+def markdown(rows):
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    for r in rows:
+        i, c = r["isolated"], r["close"]
+        lines.append(f"| {r['noise_hz']:g} | {r['rate_dps']:g} | {r['seed']} | {r['stars_seen']} | "
+                     f"{r['rows']} | {r['false_pct']:.1f} | {i[0]} / {i[1]:.3f} / {i[2]:.3f} | "
+                     f"{c[0]} / {c[1]:.3f} | {r['all_median']:.3f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", default="61,62", help="comma-separated simulator seeds")
+    args = ap.parse_args(argv)
+    seeds = [int(s) for s in args.seeds.split(",")]
+    rows = [run_scene(n, r, s) for n in (0.1, 1.5) for r in (2.0, 8.0) for s in seeds]
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / "study_field.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (RESULTS / "study_field.md").write_text("# Star positions on a crowded field\n\n"
+                                            + markdown(rows) + "\n")
+    print(markdown(rows))
+
+
+if __name__ == "__main__":
+    main()
