@@ -124,15 +124,17 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     rows = _merge(out[centroids["track"] < 0], out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother
-    # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out)
+    # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out);
+    # no row at all whose σ says it is no position (a short track's outlier, a crowded
+    # field's track that lost its star)
     sigma = rows["sigma"]
-    ok = (sigma <= e.coast_sigma_px) | (_bracketed(rows) & (sigma <= e.gap_sigma_px))
+    ok = (sigma <= e.coast_sigma_px) | _bracketed(rows)
     if span_us is not None:
         ok &= (rows["t"] >= span_us[0]) & (rows["t"] <= span_us[1])
     if sensor is not None:
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
-    return rows[(rows["source"] != "coasted") | ok]
+    return rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
 
 
 def _bracketed(rows):

@@ -33,6 +33,8 @@ SOURCES = ("measured", "coasted", "pooled")   # values of the `source` field (HD
 # the grid kernels' planes, kept zeroed between calls (the pipeline makes an Extractor per
 # chunk); Scratch serialises the calls
 _SCRATCH = Scratch()
+#: times a split cluster's half is split again at most (a cluster gives <= 2 ** (1 + this))
+_RESPLITS = 2
 
 
 class Extractor:
@@ -262,9 +264,10 @@ class Extractor:
             members = members_all[a:b]
             keep[j] = False
             for half in (0, 1):
-                rows.append(self._row(events, pts[a:b][parts == half], c.frame[j],
-                                      members[parts == half], c.t0, split=True))
-                keys.append(2 * j + half)
+                for q, m in self._pieces(pts[a:b][parts == half], members[parts == half],
+                                         events.p, _RESPLITS):
+                    rows.append(self._row(events, q, c.frame[j], m, c.t0, split=True))
+                    keys.append(2 * j + half)
         if not rows:
             return out, order, keep
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
@@ -436,6 +439,16 @@ class Extractor:
         # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep): it must
         # dip between the two; a lopsided blob stays whole
         return lab if splitting._dips(proj, sep, self.split_valley) else None
+
+    def _pieces(self, pts, members, p, depth):
+        """[(pts, members)] of the targets in one half of a split cluster: the half is split
+        again, `depth` times at most, while _split finds two targets in it (three stars a
+        few px apart: DBSCAN merges them and one split leaves two of them in a half)."""
+        parts = self._split(pts, p[members]) if depth > 0 else None
+        if parts is None:
+            return [(pts, members)]
+        return [piece for half in (0, 1)
+                for piece in self._pieces(pts[parts == half], members[parts == half], p, depth - 1)]
 
     def _row(self, events, pts, frame, m, t0, split):
         """A centroid row of the events m (at pts) of one frame."""

@@ -332,10 +332,11 @@ ESTIMATE = Params(
     Param("coast_sigma_px", float, 0.5, "a coasted position before a track's first or after "
           "its last measurement is reported only while its uncertainty is at most this",
           low=0, open_low=True, unit="px"),
-    Param("gap_sigma_px", float, 1.0, "a coasted position between two measurements of its "
-          "track is reported while its uncertainty is at most this (a sinusoid's turn: "
-          "~0.3 px; a crowded field's track that lost its star: up to tens of px)", low=0,
-          open_low=True, unit="px"),
+    Param("max_sigma_px", float, 1.0, "a smoothed position (measured, pooled, or coasted "
+          "between two measurements of its track) is reported only while its uncertainty is "
+          "at most this (a sinusoid's turn: ~0.3 px; a crowded field's track that lost its "
+          "star, or an outlier of a short track: up to tens of px)", low=0, open_low=True,
+          unit="px"),
     Param("sigma_floor_px", float, 0.02, "smallest per-axis measurement sigma of a centroid",
           low=0, open_low=True, unit="px"),
     Param("psf_sigma_px", float, None, "measurement sigma = this / sqrt(events) (default: "

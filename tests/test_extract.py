@@ -99,6 +99,21 @@ def test_two_stars_closer_than_eps_are_split_and_flagged():
     assert np.all(np.abs(xs[:, 0] - 60) < 0.4) and np.all(np.abs(xs[:, 1] - 63.5) < 0.4)
 
 
+def test_three_stars_closer_than_eps_are_split_into_three():
+    # DBSCAN merges them; one split leaves two in a half, which is split again
+    truth = np.array([(60.0, 50.0), (66.0, 50.0), (63.0, 55.5)])
+    ev, _ = blob_scene([(x, y, 0, 0) for x, y in truth], noise=0, per_frame=150, sigma=1.0)
+    assert len(Extractor(eps=2.5, min_samples=5, split_valley=None).centroids(ev)) == 10
+    c = Extractor(eps=2.5, min_samples=5).centroids(ev)
+    assert len(c) == 30 and np.all(c["split"])
+    xy = np.column_stack([c["x"], c["y"]])
+    d = np.hypot(*(xy[:, None] - truth[None]).transpose(2, 0, 1))
+    assert np.all(d.min(1) < 0.4) and np.all(np.bincount(d.argmin(1), minlength=3) == 10)
+    # the reference path (scikit-learn's DBSCAN, split cluster by cluster) agrees
+    ref = Extractor(eps=2.5, min_samples=5, clustering="sklearn").centroids(ev)
+    assert np.allclose(np.sort(ref["x"]), np.sort(c["x"]))
+
+
 def test_single_wide_star_is_not_split():
     ev, _ = blob_scene([(60, 50, 0, 0)], noise=0, per_frame=300, sigma=1.2)
     c = Extractor(eps=2.5, min_samples=5).centroids(ev)

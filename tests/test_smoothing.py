@@ -275,11 +275,11 @@ def test_a_gap_between_measurements_is_coasted_whatever_its_sigma():
     err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
     assert err.max() < 3 * coasted["sigma"].max()
     assert not estimation._bracketed(rows[rows["source"] != "coasted"]).any()
-    # a gap's rows less certain than gap_sigma_px are no positions either
+    # rows less certain than max_sigma_px are no positions, the gap's either
     gate = float(np.median(coasted["sigma"]))
-    tight = estimation.estimate(cents, cfg.replace(**{"estimate.gap_sigma_px": gate}), 0)
+    tight = estimation.estimate(cents, cfg.replace(**{"estimate.max_sigma_px": gate}), 0)
     kept = tight[tight["source"] == "coasted"]
-    assert 0 < len(kept) < len(coasted) and kept["sigma"].max() <= gate
+    assert 0 < len(kept) < len(coasted) and tight["sigma"].max() <= gate
 
 
 def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
