@@ -68,11 +68,12 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     ratio used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
     of the crossings it still wants (pairs as without a refractory period)."""
     order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
+    pixel = key[order.take(change)]
     if threshold_ratio != AUTO:
         r = float(threshold_ratio)
     else:
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
-        r = threshold_ratio_of(on_before, off_after, levels, first_of_pixel(key, order, change))
+        r = threshold_ratio_of(on_before, off_after, levels, first_of_pixel(pixel))
     # pairs as without a refractory period: the profiles' always, the crossings' when it is 0
     plain = _pair_counts(on_before, off_after, r, max_pairs) \
         if profiles is not None or refractory_us <= 0 else None
@@ -88,7 +89,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
         sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(order, t, change, k, r, nb)
-    pixel = key[order.take(change)]
+    pixel = pixel[keep]
     mean = sums / k
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
@@ -132,9 +133,10 @@ def threshold_ratio_of(on_before, off_after, levels=None, first=None):
     return 1.0 if r is None else r
 
 
-def first_of_pixel(key, order, change):
-    """Per change (positions in the pixel-then-time `order`): whether it is its pixel's first."""
-    k = np.asarray(key)[np.asarray(order)[np.asarray(change)]]
+def first_of_pixel(pixels):
+    """Per change, given the changes' pixel keys in the pixel-then-time order: whether it is
+    its pixel's first."""
+    k = np.asarray(pixels)
     return np.r_[True, k[1:] != k[:-1]] if len(k) else np.zeros(0, bool)
 
 
@@ -269,7 +271,7 @@ def sensor_hints(events, quantile=1e-3, max_events=2_000_000):
     gaps = np.diff(ts)[same]
     floor = float(np.quantile(gaps, quantile)) if len(gaps) else None
     change, on_before, off_after = _runs(order, key, p)
-    return floor, _measured_ratio(on_before, off_after, first=first_of_pixel(key, order, change))
+    return floor, _measured_ratio(on_before, off_after, first=first_of_pixel(key[order[change]]))
 
 
 def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):

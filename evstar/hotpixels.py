@@ -28,6 +28,7 @@ from .errors import ParameterError
 
 _BINS = 4          # sub-windows of the running window: the map forgets in steps of window/4
 _BOX = 9           # px side of the background neighbourhood
+_PAD = _BOX // 2   # zeros around the count image: every window read fits
 _MIN_LAMBDA = 0.1  # counts: the background is never taken as quieter than this
 _RING = np.ones((3, 3), bool)
 _RING[1, 1] = False
@@ -105,52 +106,59 @@ class HotPixelMap:
 def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
     """Bool mask of the hot pixels of a count image (see the module docstring)."""
     counts = np.asarray(counts)
+    padded = _padded(counts)
     # the neighbour test first: it leaves a handful of pixels for the costly Poisson tail;
     # none below the count that could pass the tail at the quietest background
     floor = stats.poisson.isf(alpha, _MIN_LAMBDA) + 1          # P(X >= floor) <= alpha
-    iy, ix = np.nonzero(_neighbour_candidates(counts, neighbour_ratio) & (counts >= floor))
-    near = counts[iy, ix] >= neighbour_ratio * _second_neighbour(counts, iy, ix)
+    iy, ix = np.nonzero(_neighbour_candidates(padded, neighbour_ratio) & (counts >= floor))
+    near = counts[iy, ix] >= neighbour_ratio * _second_neighbour(padded, iy, ix)
     iy, ix = iy[near], ix[near]
     c = counts[iy, ix].astype(np.float64)
-    lam = np.maximum((_box_sums(counts, iy, ix) - c) / (_BOX**2 - 1), _MIN_LAMBDA)
+    lam = np.maximum((_box_sums(padded, iy, ix) - c) / (_BOX**2 - 1), _MIN_LAMBDA)
     hot = stats.poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
     out = np.zeros(counts.shape, bool)
     out[iy[hot], ix[hot]] = True
     return out
 
 
-def _neighbour_candidates(counts, ratio):
+def _padded(counts):
+    """The count image padded with _PAD zeros on every side (int32), read by the neighbour
+    and background tests below: the image is copied once, not once per test."""
+    return np.pad(np.asarray(counts, np.int32), _PAD)
+
+
+def _neighbour_candidates(padded, ratio):
     """Pixels that may pass the neighbour test, by a cheap necessary condition: the 8
     neighbours make 4 opposite pairs, and were both of a pair above count / ratio, the
     second brightest would be too."""
-    p = np.pad(np.asarray(counts, np.int32), 1)
-    h, w = counts.shape
+    h, w = padded.shape[0] - 2 * _PAD, padded.shape[1] - 2 * _PAD
 
     def at(dy, dx):
-        return p[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+        return padded[_PAD + dy:_PAD + dy + h, _PAD + dx:_PAD + dx + w]
 
     pairs = np.minimum(at(0, -1), at(0, 1))
     for (ay, ax) in ((-1, 0), (-1, -1), (-1, 1)):
         np.maximum(pairs, np.minimum(at(ay, ax), at(-ay, -ax)), out=pairs)
+    counts = at(0, 0)
     return (counts > 0) & (counts >= ratio * pairs)
 
 
-def _second_neighbour(counts, iy, ix):
-    """The second-brightest 8-neighbour's count of each pixel (iy, ix) (0 beyond the
-    image)."""
-    p = np.pad(counts, 1)
-    ring = np.flatnonzero(_RING.ravel())
-    nb = p[iy[:, None] + ring // 3, ix[:, None] + ring % 3]
-    return np.partition(nb, 6, axis=1)[:, 6] if len(iy) else np.zeros(0, counts.dtype)
+def _windows(padded, iy, ix, size):
+    """(n, size²) counts of the size × size pixels centred on each (iy, ix), 0 beyond the
+    image (the few candidates only)."""
+    dy, dx = np.mgrid[0:size, 0:size] + (_PAD - size // 2)
+    return padded[iy[:, None] + dy.ravel(), ix[:, None] + dx.ravel()]
 
 
-def _box_sums(counts, iy, ix):
-    """Counts of the _BOX × _BOX pixels centred on each (iy, ix), 0 beyond the image (the
-    few candidates only)."""
-    r = _BOX // 2
-    p = np.pad(counts, r)
-    dy, dx = np.mgrid[0:_BOX, 0:_BOX]
-    return p[iy[:, None] + dy.ravel(), ix[:, None] + dx.ravel()].sum(axis=1).astype(np.float64)
+def _second_neighbour(padded, iy, ix):
+    """The second-brightest 8-neighbour's count of each pixel (iy, ix)."""
+    ring = _windows(padded, iy, ix, 3)[:, _RING.ravel()]
+    return np.partition(ring, 6, axis=1)[:, 6]
+
+
+def _box_sums(padded, iy, ix):
+    """Counts of the _BOX × _BOX pixels centred on each (iy, ix)."""
+    return _windows(padded, iy, ix, _BOX).sum(axis=1).astype(np.float64)
 
 
 def remove_hot_centroids(centroids, hot, max_spread_px=0.5):

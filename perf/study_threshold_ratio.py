@@ -48,7 +48,7 @@ def measure(scenario, seed=2):
     res = Pipeline(Config()).run(run.events, run.imu, run.camera)
     t, key, p = _near_kept(run.events, res.keep, Config().estimate.crossing_radius_px)
     order, _, (change, on_before, off_after) = _change_runs(t, key, p, "numpy")
-    first = first_of_pixel(key, order, change)
+    first = first_of_pixel(key[order[change]])
     return (float(first.mean()), threshold_ratio_of(on_before, off_after),
             threshold_ratio_of(on_before, off_after, first=first))
 

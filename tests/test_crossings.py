@@ -483,7 +483,7 @@ def test_the_ratio_of_a_sinusoid_whose_pixels_see_the_star_twice(on, off):
     key = pixel_keys(ev.x, ev.y, ev.width)
     order = _pixel_then_time(key, ev.t, "numpy")
     change, before, after = _runs(order, key, ev.p)
-    first = first_of_pixel(key, order, change)
+    first = first_of_pixel(key[order[change]])
     assert 0.5 < first.mean() < 0.8
     assert threshold_ratio_of(before, after, first=first) == pytest.approx(off / on, rel=0.01)
     assert threshold_ratio_of(before, after) / (off / on) < 0.99
