@@ -29,14 +29,15 @@ from .frames import nearest_in_frame
 from .parameters import AUTO, MAX_DT_US
 
 
-def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
-    """CENTROID_DTYPE rows (source "pooled") of the `rejected` events (mask over `events`,
-    the chunk's raw events: those no frame centroid used) in frames config.extract.pool_frames times config.dt_us long,
-    aligned to t0_us, less those a frame centroid (frame_centroids) already covers."""
+def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
+    """CENTROID_DTYPE rows (source "pooled") of the `unused` events (mask over `events`,
+    the chunk's raw events: those no frame centroid used) in frames
+    config.extract.pool_frames times config.dt_us long, aligned to t0_us, less those a
+    frame centroid (frame_centroids) already covers."""
     from .pipeline import Pipeline
 
     k = config.extract.pool_frames
-    if k <= 1 or config.dt_us * k > MAX_DT_US or not rejected.any():
+    if k <= 1 or config.dt_us * k > MAX_DT_US or not unused.any():
         return np.zeros(0, CENTROID_DTYPE)
     e = config.extract
     # a pooled cluster must hold (k - 1) frames' worth of the smallest cluster: a weaker one
@@ -46,11 +47,11 @@ def pooled_centroids(config, events, rejected, t0_us, rate_hz, frame_centroids):
                                    **{"extract.min_cluster_size": min_size}))
     d = config.denoise
     # one density test, NDSEF at denoise.radius with its threshold for the long frame (a
-    # third of MR-NDSEF's cost, as good here), among the rejected events alone (above)
+    # third of MR-NDSEF's cost, as good here), among the unused events alone (above)
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device)
-    rest = events[rejected]
+    rest = events[unused]
     rest = rest[flt.mask(rest)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
