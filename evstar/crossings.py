@@ -94,10 +94,11 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
     pixel, k, sq, mean = pixel[by_t], k[by_t], sq[by_t], mean[by_t]
+    t_c = t[order.take(change[by_t])].astype(np.float64)   # sq is about the change's time
     out = np.zeros(len(k), CROSSING_DTYPE)
     out["x"], out["y"] = pixel % width, pixel // width
     out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq / k - mean ** 2, 0.0))
+    out["t_spread"] = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
     return (out, r) if with_ratio else out
 
 
@@ -180,16 +181,20 @@ def _runs(order, key, p):
 
 
 def _pair_sums(order, t, change, k, ratio, on_before):
-    """Sums of the pair midpoints and of their squares per change (the kernel's
+    """Sums of the pair midpoints and of their squares about the change's own time (an
+    hour's µs squared would round the spread to ~50 µs; the offsets of whole-µs midpoints
+    square exactly, whatever the arithmetic contracts) per change (the kernel's
     specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
     ON steps before c, interpolated between the ON events around it where not whole
     (level_midpoints); summed in the order of j."""
     mids = level_midpoints(order, t, change, k, ratio, on_before)
+    t_c = t[order[change]].astype(np.float64)
     sums, sq = np.zeros(len(change)), np.zeros(len(change))
     for j in range(mids.shape[1]):
         mid = np.where(k > j, mids[:, j], 0.0)
+        d = np.where(k > j, mids[:, j] - t_c, 0.0)
         sums += mid
-        sq += mid * mid
+        sq += d * d
     return sums, sq
 
 
@@ -276,7 +281,7 @@ def sensor_hints(events, quantile=1e-3, max_events=2_000_000):
 
 def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):
     """Level pairs of a sensor with a refractory period (the kernel's specification): (pairs,
-    sums of the midpoints, of their squares) per change c. Levels are counted down from the
+    sums of the midpoints, of their squares about c's time) per change c. Levels are counted down from the
     last ON (depth 0) in ON thresholds, each event's step from its gap (level_step): ON
     event c − m lies level_step-sums deep; OFF 1 lies `ratio` below the level the last ON's
     release re-armed at (its step less 1 above the last ON), OFF j one step · ratio below
@@ -313,7 +318,7 @@ def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_
         rise = np.where(f < 1e-9, late, late * (1 - f) + early * f)
         mid = 0.5 * (rise + t[c + np.minimum(j, na)].astype(np.float64))
         sums[valid] += mid[valid]
-        sq[valid] += mid[valid] ** 2
+        sq[valid] += (mid - t[c].astype(np.float64))[valid] ** 2
         k += valid
         alive &= ~beyond & (j < na) & (k < max_pairs)
     return k, sums, sq

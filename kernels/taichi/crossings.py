@@ -44,13 +44,14 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
               ratio: ti.f64, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of
-    their squares, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
+    their squares about c's time, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
     c's) and the rising time at the same level, j·ratio ON steps before c (ratio =
     C_off / C_on), interpolated between ON events where that is not whole, extrapolated from
     the run's first two ON events (on_before[i] precede c) where it lies below the first."""
     for i in range(change.shape[0]):
         c = change[i]
         nb = ti.cast(on_before[i], ti.i64)
+        t_c = ti.cast(t[order[c]], ti.f64)
         s = ti.f64(0.0)
         s2 = ti.f64(0.0)
         for j in range(1, pairs[i] + 1):
@@ -69,7 +70,7 @@ def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before
                         + ti.cast(t[order[c - j0 - 1]], ti.f64) * f)
                 mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
             s += mid
-            s2 += mid * mid
+            s2 += (mid - t_c) * (mid - t_c)
         sums[i] = s
         sq[i] = s2
 
@@ -88,12 +89,13 @@ def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i3
                          off_after: i32_1d, ratio: ti.f64, refractory: ti.f64, max_step: ti.f64,
                          max_pairs: ti.i32, pairs: i32_1d, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i]: the level pairs of a sensor with a refractory period, their
-    count and the sums of their midpoints and of their squares (specification:
+    count and the sums of their midpoints and of their squares about c's time (specification:
     evstar.crossings._refractory_pairs, one change per thread with the same operations).
     ON event c − m lies d_m levels below the last ON; d_next is the depth of the next one
     back (has_next false past the run's first); OFF j lies d_off below."""
     for i in range(change.shape[0]):
         c, nb, na = change[i], ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
+        t_c = ti.cast(t[order[c]], ti.f64)
         m = ti.i64(0)
         d_m, d_next = ti.f64(0.0), ti.f64(0.0)
         has_next = nb > 0
@@ -127,7 +129,7 @@ def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i3
                     rise = rise * (1 - f) + ti.cast(t[order[c - m - 1]], ti.f64) * f
                 mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
                 s += mid
-                s2 += mid * mid
+                s2 += (mid - t_c) * (mid - t_c)
                 k += 1
             alive = (not beyond) and j < na and k < max_pairs
             j += 1
