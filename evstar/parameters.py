@@ -245,7 +245,8 @@ TRACK = Params(
     "track",
     Param("gate_px", float, 6.0, "largest jump of a track between frames", low=0,
           open_low=True, unit="px"),
-    Param("init_gate_px", float, 40.0, "largest jump between a track's first two centroids",
+    Param("init_gate_px", float, 40.0, "largest jump between a track's first two centroids "
+          "while no track is confirmed (after that a new track moves with the field's flow)",
           low=0, open_low=True, unit="px"),
     Param("max_gap", int, 3, "frames a track survives without a centroid (the pipeline "
           "raises it to 2·extract.pool_frames − 1 for pooled centroids)", low=0, high=10**6),

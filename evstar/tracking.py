@@ -5,6 +5,15 @@ centroids); centroids of a frame are assigned to tracks by minimum total distanc
 (Hungarian, scipy) within a gate. A track survives up to ``max_gap`` frames without a
 centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
 start new tracks, so stars entering the field get fresh ids.
+
+A new track (one centroid) has no velocity of its own. Stars are fixed on the sky, so
+they all move with the camera's rotation: once confirmed tracks exist, a new track moves
+like its nearest confirmed ones (the field's flow), within gate_px plus their velocities'
+spread per frame (a roll spreads them), or stands still within gate_px (a turn stops every
+star before their flow shows it). Only where no track is confirmed yet does it stand
+still within init_gate_px. Without the flow, a crowded field's faint stars, seen
+now and then, chained into false tracks: one star's centroid, then another's 30 px
+away, then a third that happened to lie on the jump's extrapolation.
 """
 from __future__ import annotations
 
@@ -62,14 +71,48 @@ class Tracker:
         """(indices into live, rows of pts) of the frame's assignment within the gates."""
         if not len(live) or not len(pts):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        big = 1e9
         pred = st.predict(live, f)
         gates = np.where(st.n[live] > 1, self.gate_px, self.init_gate_px)
-        cost = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
-        big = 1e9
-        masked = np.where(cost <= gates[:, None], cost, big)
-        ti, ri = linear_sum_assignment(masked)
-        ok = masked[ti, ri] < big
+        new = np.flatnonzero(st.n[live] == 1)
+        flow = live[(st.n[live] >= self.min_length) & (st.last_f[live] >= f - 1)]
+        if len(new) and len(flow):
+            pred[new], gates[new] = _with_flow(st, live[new], flow, f, self.gate_px,
+                                               self.init_gate_px)
+        cost = _gated(pred, gates, pts, big)
+        if len(new) and len(flow):
+            # or still, within gate_px: a turn stops every star, while the flow measured
+            # on the frames before still has them moving
+            cost[new] = np.minimum(cost[new], _gated(st.last_xy[live[new]], self.gate_px, pts, big))
+        ti, ri = linear_sum_assignment(cost)
+        ok = cost[ti, ri] < big
         return ti[ok], ri[ok]
+
+
+def _gated(pred, gates, pts, big):
+    """Distances from each prediction to each point, `big` beyond the prediction's gate."""
+    d = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
+    return np.where(d <= np.reshape(gates, (-1, 1)), d, big)
+
+
+#: confirmed tracks whose velocities make a new track's flow
+FLOW_NEIGHBOURS = 5
+
+
+def _with_flow(st, new, flow, f, gate_px, init_gate_px):
+    """(predictions at frame f, gates) of the `new` tracks moving with the field's flow:
+    the median velocity of their nearest `flow` tracks, gated by gate_px plus those
+    velocities' largest deviation from it per frame since the new track's centroid."""
+    v = st.velocity(flow)
+    d = np.linalg.norm(st.last_xy[new][:, None] - st.last_xy[flow][None], axis=2)
+    k = min(FLOW_NEIGHBOURS, len(flow))
+    near = np.argpartition(d, k - 1, axis=1)[:, :k]
+    vn = v[near]                                              # (new, k, 2)
+    vc = np.median(vn, axis=1)
+    spread = np.linalg.norm(vn - vc[:, None], axis=2).max(axis=1)
+    steps = f - st.last_f[new]
+    return (st.last_xy[new] + vc * steps[:, None],
+            np.minimum(gate_px + spread * steps, init_gate_px))
 
 
 class _Tracks:
@@ -97,12 +140,15 @@ class _Tracks:
         self.last_f[ids], self.last_xy[ids] = f, pts
         self.n[ids] += 1
 
+    def velocity(self, ids):
+        """(n, 2) px per frame from each track's last two centroids (0 for one centroid)."""
+        return (self.last_xy[ids] - self.prev_xy[ids]) / (self.last_f[ids] - self.prev_f[ids])[:, None]
+
     def predict(self, ids, f):
         """(n, 2) positions at frame f: constant velocity from each track's last two
         centroids (per frame), else where it is."""
-        last, prev = self.last_xy[ids], self.prev_xy[ids]
-        f_last = self.last_f[ids]
-        v = (last - prev) / (f_last - self.prev_f[ids])[:, None]
+        last, f_last = self.last_xy[ids], self.last_f[ids]
+        v = self.velocity(ids)
         return np.where((self.n[ids] > 1)[:, None], last + v * (f - f_last)[:, None], last)
 
     def as_dicts(self):
