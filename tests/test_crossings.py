@@ -208,6 +208,23 @@ def test_an_hours_offset_leaves_the_spread_as_it_was(engine, ratio):
     np.testing.assert_allclose(later["t_spread"], near["t_spread"], rtol=0, atol=1e-3)
 
 
+def test_a_slow_faint_stars_few_runs_still_measure_the_ratio():
+    """2 °/s, magnitude 4.5, σ 1.3 px, ON 0.25 / OFF 0.15: ~25 changes with >= 3 levels on
+    both flanks. Below 50 the ratio was taken as 1, and the positions led by 0.2-0.4 px."""
+    from evstar import denoise
+    from evstar.crossings import _change_runs, key_crossings
+    from evstar.estimation import _near_kept
+
+    sensor = sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15)
+    run = sim.simulate(sim.paper_preset(2.0, magnitude=4.5, psf_sigma_px=1.3, sensor=sensor),
+                       seed=21)
+    t, key, p = _near_kept(run.events, denoise.MRNDSEF().apply(run.events), 3)
+    _, _, (_, before, after) = _change_runs(t, key, p, "numpy")
+    assert 20 <= ((before >= 2) & (after >= 3)).sum() < 50
+    _, r = key_crossings(t, key, p, run.events.width, with_ratio=True)
+    assert r == pytest.approx(0.6, abs=0.1)
+
+
 @pytest.mark.parametrize("on,off", [(0.15, 0.25), (0.25, 0.15), (0.2, 0.2)])
 def test_the_threshold_ratio_is_measured_from_the_runs(on, off):
     from evstar.crossings import _pixel_then_time, _runs, pixel_keys, threshold_ratio_of
