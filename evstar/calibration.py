@@ -16,7 +16,11 @@ displacement D and velocity v; per track an offset s0 and a drift b (a gyro bias
 by all tracks one τ per k and speed (the pulse a pixel sees is shorter for a faster star).
 `evstar calibrate` writes the result as a small
 JSON file that `run` and `extract` accept (`estimate.pixel_lag_file`): every crossing's
-time is then moved back by τ(k) before the track smoother uses it.
+time is then moved back by τ(k) before the track smoother uses it. The file also holds the
+sensor's OFF/ON threshold ratio measured on the recording (`meta.threshold_ratio`; tell
+it the sensor's refractory period, estimate.refractory_us, or a fast field's dense OFF runs
+lose events and read it high), which those runs pair levels with where their own level
+runs are too few to measure it (a faint slow star's).
 """
 from __future__ import annotations
 
@@ -72,6 +76,16 @@ class PixelLag:
             raise DataError("pixel lag table: pairs and speed_px_s must increase (speeds > 0)")
         if not np.all(np.isfinite(self.lag_us)):
             raise DataError("pixel lag table: lag_us must be finite")
+        r = self.meta.get("threshold_ratio")
+        if r is not None and not (isinstance(r, (int, float)) and 0.25 <= r <= 4):
+            raise DataError(f"pixel lag table: meta.threshold_ratio must be a number in "
+                            f"[0.25, 4], got {r!r:.40}")
+
+    @property
+    def threshold_ratio(self):
+        """The sensor's OFF/ON threshold ratio the calibration paired levels with (measured
+        on its recording, or the one it was told), None where it had too few changes."""
+        return self.meta.get("threshold_ratio")
 
     def lag_at(self, pairs, speed_px_s):
         """τ in µs for crossings of `pairs` level pairs by a star moving at `speed_px_s`."""
@@ -189,11 +203,14 @@ def calibrate(events, imu, camera, config=None, progress=None):
     result = Pipeline(config).run(events, imu, camera)
     if progress:
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
-    crossings = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
-                                config.estimate.threshold_ratio,
-                                refractory_us=config.estimate.refractory_us)
+    crossings, ratio = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
+                                       config.estimate.threshold_ratio, with_ratio=True,
+                                       refractory_us=config.estimate.refractory_us)
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
+    # runs that read the file pair levels with this ratio unless told one: a faint star's
+    # few runs measure it poorly
+    lag.meta.update(threshold_ratio=None if ratio is None else round(float(ratio), 4))
     lag.meta.update(events=len(events), duration_s=events.duration_us / 1e6,
                     created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"))
     return lag

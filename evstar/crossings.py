@@ -62,13 +62,14 @@ _MIN_RATIO_CHANGES = 20
 
 
 def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
-                  with_ratio=False, refractory_us=0.0, profiles=None):
+                  with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
     by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
     same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
     runs: threshold_ratio_of). refractory_us: the pixels' refractory period; > 0 counts the
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the
-    ratio used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
+    ratio: the one given, or the measured one — None where too few changes measure it and
+    fallback_ratio was used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
     of the crossings it still wants (pairs as without a refractory period)."""
     order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
     pixel = key[order.take(change)]
@@ -76,7 +77,8 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         r = float(threshold_ratio)
     else:
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
-        r = threshold_ratio_of(on_before, off_after, levels, first_of_pixel(pixel))
+        measured = _measured_ratio(on_before, off_after, levels, first_of_pixel(pixel))
+        r = fallback_ratio if measured is None else measured
     # pairs as without a refractory period: the profiles' always, the crossings' when it is 0
     plain = _pair_counts(on_before, off_after, r, max_pairs) \
         if profiles is not None or refractory_us <= 0 else None
@@ -102,7 +104,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
     out["x"], out["y"] = pixel % width, pixel // width
     out["t"], out["pairs"] = mean, k
     out["t_spread"] = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
-    return (out, r) if with_ratio else out
+    return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
 def _change_runs(t, key, p, engine):

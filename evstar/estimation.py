@@ -51,7 +51,7 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0, profiles=None):
+                    refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
@@ -59,10 +59,11 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
-        return (none, 1.0 if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
+        return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return key_crossings(*_near_kept(events, keep, radius_px), events.width,
                          threshold_ratio=threshold_ratio, with_ratio=with_ratio,
-                         refractory_us=refractory_us, profiles=profiles)
+                         refractory_us=refractory_us, profiles=profiles,
+                         fallback_ratio=fallback_ratio)
 
 
 def _near_kept(events, keep, radius_px):

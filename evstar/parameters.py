@@ -308,7 +308,8 @@ ESTIMATE = Params(
           "kept event (a filter drops a faint star's flank events)", low=0, high=MAX_RADIUS,
           unit="px"),
     Param("threshold_ratio", float, AUTO, "the sensor's OFF / ON contrast threshold, for "
-          "pairing crossing levels (auto: measured from the ON and OFF runs of the data)",
+          "pairing crossing levels (auto: measured from the ON and OFF runs of the data; where they "
+          "are too few, the pixel_lag_file's, which evstar calibrate measured, else 1)",
           low=0.25, high=4, auto=True),
     Param("refractory_us", float, 0.0, "the pixels' refractory period (the sensor's bias "
           "setting), for pairing crossing levels: each event then stands for the levels its "

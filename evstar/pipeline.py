@@ -395,6 +395,13 @@ class _RunState:
         self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
+        # where too few changes measure it: the calibration recording's (a bright moving
+        # field, pixel_lag_file), else 1
+        self.fallback_ratio = 1.0
+        if self.threshold_ratio is None and e.pixel_lag_file is not None:
+            from .estimation import pixel_lag
+
+            self.fallback_ratio = pixel_lag(e.pixel_lag_file).threshold_ratio or 1.0
         self.profiles = None
         if e.estimator == "crossings" and e.measure_lag and e.pixel_lag_file is None:
             from .level_lag import LevelProfiles
@@ -410,9 +417,11 @@ class _RunState:
         _, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
         for a, b in zip(bounds[:-1], bounds[1:]):
             if self.threshold_ratio is None:   # the first span: the calibration window
-                crossings, self.threshold_ratio = chunk_crossings(
+                crossings, r = chunk_crossings(
                     events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
-                    refractory_us=e.refractory_us, profiles=self.profiles)
+                    refractory_us=e.refractory_us, profiles=self.profiles,
+                    fallback_ratio=self.fallback_ratio)
+                self.threshold_ratio = self.fallback_ratio if r is None else r
             else:
                 crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
                                             self.threshold_ratio, refractory_us=e.refractory_us,

@@ -86,6 +86,10 @@ def test_file_round_trip_and_bad_files(tmp_path):
         with pytest.raises(FormatError, match=match) as e:
             PixelLag.load(bad)
         assert str(bad) in str(e.value)
+    bad = tmp_path / "bad_ratio.json"
+    bad.write_text(json.dumps({**doc, "meta": {"threshold_ratio": 9}}))
+    with pytest.raises(FormatError, match="meta.threshold_ratio must be a number in"):
+        PixelLag.load(bad)
     with pytest.raises(FormatError, match="cannot read"):
         evstar.Pipeline(evstar.Config().replace(**{"estimate.pixel_lag_file": str(tmp_path / "no")}))
 
@@ -108,3 +112,30 @@ def test_calibrated_lag_removes_the_dark_sky_trail(tmp_path):
         r = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera, truth=run.truth)
         err[name] = r.metrics["centroid_error_px"]["mean"]
     assert err["raw"] > 0.25 and err["calibrated"] < err["raw"] / 2.5, err
+
+
+def test_the_calibration_files_threshold_ratio_pairs_a_faint_stars_levels(tmp_path):
+    """A bright field on a sensor with ON 0.25 / OFF 0.15 measures the ratio; a slow faint
+    star's few runs (under 20 changes with >= 3 levels on both flanks) cannot, were paired
+    at 1 and led the star along its motion. With the file's ratio they are not."""
+    from evstar.calibration import calibrate
+
+    sensor = sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15)
+    cam = sim.camera_preset("davis346", 16.0)
+    motion = sim.Sinusoid(10.0, 1.0, R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
+    field = sim.hipparcos_field_along(cam, motion, 0.6, mag_limit=4.5)
+    cal = sim.simulate(sim.Scenario(cam, field, motion, 0.6, sensor=sensor), seed=3)
+    told = evstar.Config().replace(**{"estimate.refractory_us": sensor.refractory_us})
+    lag = calibrate(cal.events, cal.imu, cal.camera, told)
+    assert lag.threshold_ratio == pytest.approx(0.6, abs=0.03)
+    path = lag.save(tmp_path / "lag.json")
+    assert PixelLag.load(path).threshold_ratio == lag.threshold_ratio
+
+    faint = sim.simulate(sim.paper_preset(1.0, magnitude=4.0, psf_sigma_px=1.2, sensor=sensor),
+                         seed=22)
+    err = {}
+    for name, extra in (("auto", {}), ("file", {"estimate.pixel_lag_file": str(path)})):
+        r = evstar.Pipeline(evstar.Config().replace(**extra)).run(
+            faint.events, faint.imu, faint.camera, truth=faint.truth)
+        err[name] = r.metrics["centroid_error_px"]["mean"]
+    assert err["auto"] > 0.2 and err["file"] < err["auto"] / 2, err

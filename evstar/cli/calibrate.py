@@ -39,5 +39,8 @@ def run(args):
     print(f"pixel lag (ms) by level pairs (rows) and speed (px/s): {speeds}")
     for k, row in zip(lag.pairs, lag.lag_us):
         print(f"  {k:>2d}  " + "  ".join(f"{v / 1000:7.2f}" for v in row))
+    r = lag.threshold_ratio
+    print(f"OFF/ON threshold ratio {r:.3f}" if r is not None else
+          "OFF/ON threshold ratio: too few level runs to measure (runs measure their own)")
     print(f"from {lag.meta['crossings']:,} crossings of {lag.meta['tracks']} tracks; "
           f"lag {np.min(lag.lag_us) / 1000:.2f}–{np.max(lag.lag_us) / 1000:.2f} ms; wrote {args.output}")
