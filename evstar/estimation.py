@@ -68,13 +68,16 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
 
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
-    key = pixel_keys(events.x, events.y, events.width)
-    near = np.zeros(events.height * events.width, bool)
-    # flatnonzero + take: several times faster than boolean indexing of these long arrays;
-    # intp indices: numpy casts uint32 ones chunk by chunk (~2x the time of one astype)
-    near[key.take(np.flatnonzero(keep)).astype(np.intp)] = True
-    sel = np.flatnonzero(dilate(near.reshape(events.height, events.width), radius_px).ravel().take(key))
-    return events.t.take(sel), key.take(sel), events.p.take(sel)
+    from .frames import on_pixels
+
+    # flatnonzero + take: several times faster than boolean indexing of these long arrays
+    kept = np.flatnonzero(keep)
+    near = np.zeros((events.height, events.width), bool)
+    near[events.y.take(kept), events.x.take(kept)] = True
+    # the pixel test of every event in one Taichi pass; keys of the chosen events only
+    sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
+    return (events.t.take(sel), pixel_keys(events.x.take(sel), events.y.take(sel), events.width),
+            events.p.take(sel))
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):
