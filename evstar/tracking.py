@@ -13,7 +13,9 @@ spread per frame (a roll spreads them), or stands still within gate_px (a turn s
 star before their flow shows it). Only where no track is confirmed yet does it stand
 still within init_gate_px. Without the flow, a crowded field's faint stars, seen
 now and then, chained into false tracks: one star's centroid, then another's 30 px
-away, then a third that happened to lie on the jump's extrapolation.
+away, then a third that happened to lie on the jump's extrapolation. A target moving on
+its own (a satellite) faster than gate_px per frame against the stars starts no track
+once stars are confirmed.
 """
 from __future__ import annotations
 
