@@ -9,9 +9,14 @@ default pipeline; its rows are matched to the nearest star within 3 px
 within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close (another
 within 8 px: blended pairs) and the rest. False rows: rows matching no star.
 
-    python perf/study_field.py [--seeds 61,62]
+    python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
+        [--name field]
 
-Writes perf/results/study_field.json and .md; prints the table.
+Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
+table. study_cygnus.*: Cygnus (RA 305°, Dec +40°, ~330 stars) on a DVXplorer behind 8 mm,
+seeds 71 and 72 (`--camera dvxplorer:8 --pointing 305,40 --seeds 71,72 --name cygnus`), a
+field held out from the thirteenth session's tracker change, run once on its end and once
+on its start (study_cygnus_before.*: 156c8fc's evstar on PYTHONPATH).
 """
 from __future__ import annotations
 
@@ -25,16 +30,17 @@ from evstar import Config, Pipeline, accuracy, sim
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 CAM = sim.camera_preset("davis346", 16.0)
+POINTING = (83.8, -5.4)   # Orion's belt and sword (RA, Dec °)
 COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
            "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px")
 
 
-def run_scene(noise_hz, rate_dps, seed):
+def run_scene(noise_hz, rate_dps, seed, cam=CAM, pointing=POINTING):
     motion = sim.ConstantRate(rate_dps, axis=np.array([0.0, 1.0, 0.0]),
-                              R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
-    stars = sim.hipparcos_field_along(CAM, motion, 0.5, mag_limit=6.5)
+                              R0=sim.attitude_from_radec(*pointing, 0.0))
+    stars = sim.hipparcos_field_along(cam, motion, 0.5, mag_limit=6.5)
     sensor = sim.sensor_model("default", noise_hz=noise_hz)
-    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.5, sensor=sensor), seed=seed)
+    run = sim.simulate(sim.Scenario(cam, stars, motion, 0.5, sensor=sensor), seed=seed)
     rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     ids = np.unique(star[star >= 0])
@@ -45,8 +51,8 @@ def run_scene(noise_hz, rate_dps, seed):
     gap = np.hypot(*(pos - own[:, None]).transpose(2, 0, 1))
     gap[np.arange(len(ids)), ids] = np.inf
     nearest = np.nanmin(gap, axis=1)
-    inner = ((own[:, 0] > 5) & (own[:, 0] < CAM.width - 6) & (own[:, 1] > 5)
-             & (own[:, 1] < CAM.height - 6))
+    inner = ((own[:, 0] > 5) & (own[:, 0] < cam.width - 6) & (own[:, 1] > 5)
+             & (own[:, 1] < cam.height - 6))
     iso, close = (nearest > 10) & inner, nearest < 8
     return {"noise_hz": noise_hz, "rate_dps": rate_dps, "seed": seed, "stars_seen": len(ids),
             "rows": len(rows), "false_pct": 100 * float((star < 0).mean()),
@@ -69,13 +75,21 @@ def markdown(rows):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="61,62", help="comma-separated simulator seeds")
+    ap.add_argument("--camera", default="davis346:16", help="evstar.sim camera preset:focal mm")
+    ap.add_argument("--pointing", default="83.8,-5.4", help="RA,Dec (°) at the start")
+    ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     args = ap.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",")]
-    rows = [run_scene(n, r, s) for n in (0.1, 1.5) for r in (2.0, 8.0) for s in seeds]
+    name, focal = args.camera.split(":")
+    cam = sim.camera_preset(name, float(focal))
+    pointing = tuple(float(v) for v in args.pointing.split(","))
+    rows = [run_scene(n, r, s, cam, pointing) for n in (0.1, 1.5) for r in (2.0, 8.0)
+            for s in seeds]
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_field.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (RESULTS / "study_field.md").write_text("# Star positions on a crowded field\n\n"
-                                            + markdown(rows) + "\n")
+    title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
+             f"seeds {args.seeds})\n\n")
+    (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")
     print(markdown(rows))
 
 
