@@ -210,8 +210,8 @@ def calibrate(events, imu, camera, config=None, progress=None):
                         velocity_prior(config, imu, camera, events.t))
     # runs that read the file pair levels with this ratio unless told one: a faint star's
     # few runs measure it poorly
-    lag.meta.update(threshold_ratio=None if ratio is None else round(float(ratio), 4))
-    lag.meta.update(events=len(events), duration_s=events.duration_us / 1e6,
+    lag.meta.update(threshold_ratio=None if ratio is None else round(float(ratio), 4),
+                    events=len(events), duration_s=events.duration_us / 1e6,
                     created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"))
     return lag
 

@@ -197,7 +197,7 @@ def _pair_sums(order, t, change, k, ratio, on_before):
     sums, sq = np.zeros(len(change)), np.zeros(len(change))
     for j in range(mids.shape[1]):
         mid = np.where(k > j, mids[:, j], 0.0)
-        d = np.where(k > j, mids[:, j] - t_c, 0.0)
+        d = np.where(k > j, mid - t_c, 0.0)
         sums += mid
         sq += d * d
     return sums, sq
@@ -295,6 +295,7 @@ def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_
     an OFF above the last ON is skipped."""
     t = t[order]
     c, nb, na = np.asarray(change), np.asarray(on_before), np.asarray(off_after)
+    t_c = t[c].astype(np.float64)                   # the squares are about c's time
     step = lambda a, b: level_step(t[a] - t[b], refractory_us)
     has = nb > 0
     m = np.zeros(len(c), np.int64)                  # ON event c − m: the deepest not below
@@ -323,7 +324,7 @@ def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_
         rise = np.where(f < 1e-9, late, late * (1 - f) + early * f)
         mid = 0.5 * (rise + t[c + np.minimum(j, na)].astype(np.float64))
         sums[valid] += mid[valid]
-        sq[valid] += (mid - t[c].astype(np.float64))[valid] ** 2
+        sq[valid] += (mid - t_c)[valid] ** 2
         k += valid
         alive &= ~beyond & (j < na) & (k < max_pairs)
     return k, sums, sq

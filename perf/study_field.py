@@ -29,13 +29,11 @@ import numpy as np
 from evstar import Config, Pipeline, accuracy, sim
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
-CAM = sim.camera_preset("davis346", 16.0)
-POINTING = (83.8, -5.4)   # Orion's belt and sword (RA, Dec °)
 COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
            "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px")
 
 
-def run_scene(noise_hz, rate_dps, seed, cam=CAM, pointing=POINTING):
+def run_scene(noise_hz, rate_dps, seed, cam, pointing):
     motion = sim.ConstantRate(rate_dps, axis=np.array([0.0, 1.0, 0.0]),
                               R0=sim.attitude_from_radec(*pointing, 0.0))
     stars = sim.hipparcos_field_along(cam, motion, 0.5, mag_limit=6.5)
@@ -76,7 +74,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="61,62", help="comma-separated simulator seeds")
     ap.add_argument("--camera", default="davis346:16", help="evstar.sim camera preset:focal mm")
-    ap.add_argument("--pointing", default="83.8,-5.4", help="RA,Dec (°) at the start")
+    ap.add_argument("--pointing", default="83.8,-5.4",
+                    help="RA,Dec (°) at the start (default: Orion's belt and sword)")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     args = ap.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",")]
