@@ -104,8 +104,8 @@ def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
 def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
     """pixel_crossings one pixel and one polarity change at a time; OFF j pairs with the
     rising time j·ratio ON events back (interpolated; extrapolated from the run's first two
-    ON events up to DEPTH_REACH below the first)."""
-    from evstar.crossings import CROSSING_DTYPE, DEPTH_REACH
+    ON events up to DEPTH_REACH below the first); the runs less a stray outermost event."""
+    from evstar.crossings import CROSSING_DTYPE, DEPTH_REACH, STRAY_GAP_FACTOR
 
     rows = []
     for py, px in sorted(set(zip(y.tolist(), x.tolist()))):
@@ -117,9 +117,19 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                 continue
             s = sq = 0.0
             k = 0
-            first = i                           # the ON run's first event
+            first, last = i, i + 1              # the ON run's first event, the OFF run's last
             while first > 0 and on[first - 1]:
                 first -= 1
+            while last + 1 < len(tt) and not on[last + 1]:
+                last += 1
+            # an outermost event further from the passage than STRAY_GAP_FACTOR times its
+            # largest inside gap is a stray (noise), not the star's
+            inner = range(first + 1 if first < i else first, last - 1 if last > i + 1 else last)
+            inside = max(tt[e + 1] - tt[e] for e in inner)
+            if first < i and tt[first + 1] - tt[first] > STRAY_GAP_FACTOR * inside:
+                first += 1
+            if last > i + 1 and tt[last] - tt[last - 1] > STRAY_GAP_FACTOR * inside:
+                last -= 1
             nb = i - first                      # ON events before i in its run
             for j in range(1, max_pairs + 1):    # the j-th OFF after, its level's ON time
                 level = j * ratio
@@ -127,7 +137,7 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                 f = level - j0
                 b = i + j
                 reach = DEPTH_REACH if nb >= 1 else 0.0
-                if level > nb + reach + 1e-9 or b >= len(tt) or on[i + 1:b + 1].any():
+                if level > nb + reach + 1e-9 or b > last:
                     break
                 if level > nb + 1e-9:          # below the first ON: extrapolated
                     rise = float(tt[first]) - (level - nb) * (float(tt[first + 1]) - float(tt[first]))
@@ -548,3 +558,67 @@ def test_threshold_ratio_of_pixels_passed_twice(ratio):
     assert np.all(ref >= 0) and np.all(ref < c_off)
     assert threshold_ratio_of(a - 1, b, first=first) == pytest.approx(ratio, rel=0.01)
     assert threshold_ratio_of(a - 1, b) / ratio < 0.975           # every passage charged: low
+
+
+# -- stray events: noise or leak joining a passage's runs ------------------------------------
+def passage(t0, on=5, off=5, gap=1000):
+    """(t, p) of one pixel passage: `on` ON events then `off` OFF events, `gap` µs apart."""
+    return t0 + gap * np.arange(on + off), np.r_[np.ones(on, np.int8), np.zeros(off, np.int8)]
+
+
+@pytest.mark.parametrize("engine", ["numpy", "taichi"])
+def test_a_stray_event_far_before_or_after_a_passage_leaves_its_runs(engine):
+    from evstar.crossings import STRAY_GAP_FACTOR, key_crossings
+
+    t, p = passage(1_000_000)
+    far = STRAY_GAP_FACTOR * 1000 + 1                 # past the limit: a stray
+    near = STRAY_GAP_FACTOR * 1000                    # at it: still the run's
+    for before, after, pairs in ((far, None, 4), (near, None, 5), (None, far, 4), (far, far, 4)):
+        tt, pp = t, p
+        if before is not None:                          # an ON event before the ON run
+            tt, pp = np.r_[t[0] - before, tt], np.r_[1, pp].astype(np.int8)
+        if after is not None:                           # an OFF event after the OFF run
+            tt, pp = np.r_[tt, tt[-1] + after], np.r_[pp, 0].astype(np.int8)
+        c = key_crossings(tt, np.zeros(len(tt), np.uint32), pp, 1, engine=engine,
+                          threshold_ratio=1.0)
+        # ON run 1..5 (+1), OFF 6..10 (+1): the pairs are the shorter run's, the change's own
+        # ON not counted; a stray would add one and put a pair hundreds of µs off
+        assert len(c) == 1 and c["pairs"][0] == pairs, (before, after)
+        if pairs == 4:                  # OFF j (t[4] + j·gap) with ON t[4] − j·gap
+            assert c["t"][0] == t[4] and c["t_spread"][0] == 0
+
+
+def test_ON_strays_no_longer_raise_the_measured_threshold_ratio():
+    """A leaking pixel fires ON events on its own (v2e's leak); one that joins a star's ON run
+    made it one longer: the measured OFF/ON ratio came out high (1.07 on a 12 °/s star with a
+    2 Hz leak, 0.96 without), which moved the crossings along the motion by ~0.1 px."""
+    from evstar.crossings import _change_runs, first_of_pixel, pixel_keys, _measured_ratio
+    from evstar.crossings import without_strays
+
+    sensor = sim.sensor_model("default", leak_hz=2.0, noise_hz=0.0)
+    run = sim.simulate(sim.paper_preset(12.0, magnitude=5.0, duration_s=0.5, sensor=sensor),
+                       seed=51)
+    ev = run.events
+    key = pixel_keys(ev.x, ev.y, ev.width)
+    order, _, (change, nb, na) = _change_runs(ev.t, key, ev.p, "numpy")
+    first = first_of_pixel(key[order[change]])
+    nb2, na2 = without_strays(order, ev.t, change, nb, na)
+    assert (nb2 < nb).sum() > 20                           # leak events left the ON runs
+    assert _measured_ratio(nb, na, first=first) > 1.03
+    assert _measured_ratio(nb2, na2, first=first) == pytest.approx(1.0, abs=0.03)
+
+
+def test_the_stray_kernel_equals_its_specification():
+    from evstar.crossings import _change_runs, STRAY_GAP_FACTOR, without_strays
+
+    rng = np.random.default_rng(11)
+    n = 50_000
+    key = rng.integers(0, 400, n).astype(np.uint32)
+    t = np.sort(rng.exponential(20.0, n).cumsum().astype(np.int64)) + 3_600_000_000
+    p = (np.sin(t / 3e3 + key) + rng.normal(0, 0.8, n) > 0).astype(np.int8)
+    order, kern, (change, nb, na) = _change_runs(t, key, p, "taichi")
+    got = kern.without_strays(change, nb, na, STRAY_GAP_FACTOR)
+    ref = without_strays(order, t, change, nb, na)
+    assert (ref[0] < nb).sum() > 100 and (ref[1] < na).sum() > 100     # both sides trimmed
+    np.testing.assert_array_equal(got[0], ref[0])
+    np.testing.assert_array_equal(got[1], ref[1])

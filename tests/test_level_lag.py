@@ -35,6 +35,16 @@ def test_profiles_without_a_lowpass_give_none():
     assert fit_lag({3: (np.array([-1.0, 0.0, 1.0]), 50)}) is None      # one profile: no shape
 
 
+def test_a_profile_falling_with_depth_is_no_lowpass():
+    """Deep profiles that a geometric lag fits (R² > 0.99) beside a short one that falls with
+    depth, as refractory and jitter effects made them on the default sensor (12 °/s): a
+    low-pass delays every deeper level more, so no lag is measured."""
+    prof = _profiles(1.3, 1500.0, ks=range(4, 8), noise_us=5.0)
+    assert fit_lag(prof) is not None
+    prof[2] = (np.array([18.0, -18.0]), 60)
+    assert fit_lag(prof) is None
+
+
 def test_profiles_keep_at_most_their_cap_per_k():
     prof = LevelProfiles()
     k = np.array([1, 2, 3] * (MAX_PROFILES + 10))

@@ -41,6 +41,30 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 
 
 @ti.kernel
+def without_strays(order: i64_1d, t: i64_1d, change: i64_1d, factor: ti.i64,
+                   on_before: i32_1d, off_after: i32_1d):
+    """Per change c = change[i], in place: the ON run less its first event, the OFF run less
+    its last, where that event's gap to its neighbour in the run exceeds `factor` times the
+    largest gap between the passage's other events (from the ON run's second event to the
+    OFF run's second last; c's own gap always among them)."""
+    for i in range(change.shape[0]):
+        c = change[i]
+        nb, na = ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
+        first, last = c - nb, c + na
+        lo = ti.select(nb >= 1, first + 1, first)
+        hi = ti.select(na >= 2, last - 1, last)
+        inside = ti.i64(0)
+        e = lo
+        while e < hi:                  # (a range over i64 bounds would be cast to i32)
+            inside = ti.max(inside, t[order[e + 1]] - t[order[e]])
+            e += 1
+        if nb >= 1 and t[order[first + 1]] - t[order[first]] > factor * inside:
+            on_before[i] -= 1
+        if na >= 2 and t[order[last]] - t[order[last - 1]] > factor * inside:
+            off_after[i] -= 1
+
+
+@ti.kernel
 def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
               ratio: ti.f64, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of

@@ -4,7 +4,7 @@ import numpy as np
 
 from . import launch
 from .crossings import pair_sums as _pair_sums, refractory_pair_sums as _refractory_sums
-from .crossings import run_lengths as _run_lengths
+from .crossings import run_lengths as _run_lengths, without_strays as _without_strays
 
 
 class LevelPairs:
@@ -30,6 +30,17 @@ class LevelPairs:
         #: ON run before / OFF run after each
         self.change = np.flatnonzero(off)
         self.on_before, self.off_after = on.take(self.change), off.take(self.change)
+
+    def without_strays(self, change, on_before, off_after, factor):
+        """(on_before, off_after) of the changes at positions `change` less their runs'
+        stray outermost events (evstar.crossings.without_strays)."""
+        arrays = self.arrays
+        on, off = arrays.put(np.array(on_before, np.int32)), arrays.put(np.array(off_after, np.int32))
+        if len(change):
+            with launch.RUNTIME_LOCK:
+                _without_strays(self.order, self.t, arrays.put(np.asarray(change, np.int64)),
+                                int(factor), on, off)
+        return (on, off) if not arrays.on_device else (on.to_numpy(), off.to_numpy())
 
     def sums(self, change, pairs, ratio, on_before):
         """(sums of pair midpoints, of their squares) of the changes at positions `change`
