@@ -122,7 +122,8 @@ def without_strays(order, t, change, on_before, off_after):
     """(on_before, off_after) less a stray outermost event: the ON run's first or the OFF
     run's last event, where its gap to its neighbour in the run exceeds STRAY_GAP_FACTOR times
     the largest gap between the passage's other events (from the ON run's second event to
-    the OFF run's second last, the change's own gap always among them)."""
+    the OFF run's second last, the change's own gap always among them). Changes without an
+    ON event before them are left as they are: they pair no level and tell no ratio."""
     nb, na = np.asarray(on_before), np.asarray(off_after)
     if not len(change):
         return nb, na
@@ -133,9 +134,9 @@ def without_strays(order, t, change, on_before, off_after):
     hi = np.where(na >= 2, last - 1, last)       # the inside gaps: lo .. hi - 1
     inside = np.maximum.reduceat(gaps, np.ravel(np.column_stack([lo, hi])))[::2]
     limit = STRAY_GAP_FACTOR * inside
-    nb = nb - ((nb >= 1) & (gaps[first] > limit))
-    na = na - ((na >= 2) & (gaps[last - 1] > limit))
-    return nb, na
+    has_on = nb >= 1
+    off = has_on & (na >= 2) & (gaps[last - 1] > limit)
+    return nb - (has_on & (gaps[first] > limit)), na - off
 
 
 def _change_runs(t, key, p, engine):

@@ -43,25 +43,35 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 @ti.kernel
 def without_strays(order: i64_1d, t: i64_1d, change: i64_1d, factor: ti.i64,
                    on_before: i32_1d, off_after: i32_1d):
-    """Per change c = change[i], in place: the ON run less its first event, the OFF run less
-    its last, where that event's gap to its neighbour in the run exceeds `factor` times the
-    largest gap between the passage's other events (from the ON run's second event to the
-    OFF run's second last; c's own gap always among them)."""
+    """Per change c = change[i] with ON events before it, in place: the ON run less its
+    first event, the OFF run less its last, where that event's gap to its neighbour in the
+    run exceeds `factor` times the largest gap between the passage's other events (from the
+    ON run's second event to the OFF run's second last; c's own gap always among them). The
+    inside gaps are read from c's own outwards only until they clear both outer ones (a
+    star's passage: after one or two; the times are random reads through the order)."""
     for i in range(change.shape[0]):
         c = change[i]
         nb, na = ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
-        first, last = c - nb, c + na
-        lo = ti.select(nb >= 1, first + 1, first)
-        hi = ti.select(na >= 2, last - 1, last)
-        inside = ti.i64(0)
-        e = lo
-        while e < hi:                  # (a range over i64 bounds would be cast to i32)
-            inside = ti.max(inside, t[order[e + 1]] - t[order[e]])
-            e += 1
-        if nb >= 1 and t[order[first + 1]] - t[order[first]] > factor * inside:
-            on_before[i] -= 1
-        if na >= 2 and t[order[last]] - t[order[last - 1]] > factor * inside:
-            off_after[i] -= 1
+        if nb >= 1:
+            first, last = c - nb, c + na
+            g_on = t[order[first + 1]] - t[order[first]]
+            g_off = ti.i64(0)
+            if na >= 2:
+                g_off = t[order[last]] - t[order[last - 1]]
+            lo, hi = first + 1, ti.select(na >= 2, last - 1, last)
+            inside = t[order[c + 1]] - t[order[c]]
+            down, up = c - 1, c + 1          # the next inside gaps: down .. down + 1, up .. up + 1
+            while factor * inside < ti.max(g_on, g_off) and (down >= lo or up < hi):
+                if down >= lo:
+                    inside = ti.max(inside, t[order[down + 1]] - t[order[down]])
+                    down -= 1
+                if up < hi:
+                    inside = ti.max(inside, t[order[up + 1]] - t[order[up]])
+                    up += 1
+            if g_on > factor * inside:
+                on_before[i] -= 1
+            if g_off > factor * inside:
+                off_after[i] -= 1
 
 
 @ti.kernel
