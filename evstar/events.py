@@ -1,6 +1,8 @@
 """Events: the validated structure-of-arrays container every stage of evstar consumes."""
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from .errors import DataError, ParameterTypeError
@@ -62,6 +64,36 @@ def _check_times(t):
     if i is not None:
         raise DataError(f"events field 't' = {t[i]} at index {i} is outside the valid range "
                         f"±{T_LIMIT_US} µs (±2**61)")
+
+
+#: selections of at least this many events gather their first array on a second thread
+PARALLEL_GATHER = 1 << 20
+
+
+def gather(arrays, index):
+    """[a.take(index) for a in arrays], the first on a helper thread for long selections
+    (numpy's take releases the GIL: a 3.7 M-event selection's four gathers took ~70 ms on one
+    core, ~35 ms on two). A thread per call, not a pool: nothing to go stale across a fork."""
+    if len(index) < PARALLEL_GATHER or len(arrays) < 2:
+        return [a.take(index) for a in arrays]
+    out, error = [None] * len(arrays), []
+
+    def first():
+        try:
+            out[0] = arrays[0].take(index)
+        except BaseException as e:          # raised again in the caller
+            error.append(e)
+
+    helper = threading.Thread(target=first, name="evstar-gather")
+    helper.start()
+    try:
+        for i in range(1, len(arrays)):
+            out[i] = arrays[i].take(index)
+    finally:
+        helper.join()
+    if error:
+        raise error[0]
+    return out
 
 
 class Events:
@@ -167,8 +199,8 @@ class Events:
         if isinstance(index, slice):
             sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}     # views
         else:   # take: ~20 % quicker than fancy indexing of these long arrays
-            index = np.asarray(index)
-            sel = {k: getattr(self, k).take(index) for k in ("t", "x", "y", "p")}
+            keys = ("t", "x", "y", "p")
+            sel = dict(zip(keys, gather([getattr(self, k) for k in keys], np.asarray(index))))
         if not ordered and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
             raise DataError("an index array must keep events in time order")
         return Events._trusted(sel["t"], sel["x"], sel["y"], sel["p"], self.width, self.height)

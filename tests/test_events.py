@@ -89,3 +89,20 @@ def test_camera_validation_and_projection_round_trip():
     cam = Camera(640, 480, 500, 510, 320, 240, k1=-0.1, k2=0.01)
     uv = np.array([[10.0, 20.0], [600.5, 470.25], [320, 240]])
     np.testing.assert_allclose(cam.project(cam.unproject(uv, iterations=50)), uv, atol=1e-6)
+
+
+@pytest.mark.parametrize("threshold", [1, 10**9])        # the helper thread, and without
+def test_gather_takes_every_array_and_raises_a_bad_index(monkeypatch, threshold):
+    from evstar import events as E
+
+    monkeypatch.setattr(E, "PARALLEL_GATHER", threshold)
+    rng = np.random.default_rng(2)
+    arrays = [rng.integers(0, 1000, 5000).astype(d) for d in (np.int64, np.uint16, np.int8)]
+    idx = np.sort(rng.choice(5000, 1200, replace=False))
+    for got, a in zip(E.gather(arrays, idx), arrays):
+        assert got.dtype == a.dtype and np.array_equal(got, a[idx])
+    with pytest.raises(IndexError):
+        E.gather(arrays, np.array([0, 5000]))
+    ev = Events(np.arange(5000), arrays[1] % 64, arrays[1] % 32, arrays[2] > 0, 64, 32)
+    sub = ev[rng.random(5000) < 0.3]
+    assert len(sub) > 1000 and np.all(np.diff(sub.t) >= 0)
