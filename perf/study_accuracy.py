@@ -29,7 +29,9 @@ ninth session to check a change it then rejected. A sixth, "fresh-10" (slow fain
 seed 21), was held out from the tenth session's lobe correction and run once before and after.
 A seventh, "fresh-11" (quiet sensors: 0.1 Hz of background, or none and no hot pixels, seed
 31), was run once before and once after the twelfth session's pooled look at the events
-DBSCAN left out (written on one other quiet scene).
+DBSCAN left out (written on one other quiet scene). An eighth, "fresh-14" (30 °/s, a leak, a
+wider threshold mismatch, seed 43), was run once when the fourteenth session's stray rule
+was done.
 
     python perf/study_accuracy.py [--quick] [--only PART]   (PART: dev, held-out, fresh, ...;
         writes study_accuracy_PART.* instead)
@@ -76,7 +78,10 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                    threshold_off=0.18),
            # quiet sensors: a tenth of a hertz of background, or none and no hot pixels
            "quiet": lambda: sim.sensor_model("default", noise_hz=0.1),
-           "silent": lambda: sim.sensor_model("default", noise_hz=0.0, hot_pixels=0)}
+           "silent": lambda: sim.sensor_model("default", noise_hz=0.0, hot_pixels=0),
+           # the fourteenth session's held-out part: a 1 Hz leak, a 0.05 threshold mismatch
+           "leak": lambda: sim.sensor_model("default", leak_hz=1.0),
+           "mismatch": lambda: sim.sensor_model("default", threshold_mismatch=0.05)}
 
 
 def dev_grid():
@@ -136,39 +141,57 @@ def fresh9_grid():
                    seed=17)
 
 
+def _listed(part, seed, scenes):
+    """Grid rows of the part's (motion, magnitude, PSF σ, sensor, compensation) scenes."""
+    for motion, mag, psf, sensor, comp in scenes:
+        yield dict(set=part, motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp, seed=seed)
+
+
 def fresh10_grid():
     """Slow faint stars the tenth session's lobe correction was not written on (it was run
     once before and once after): 0.7–3 °/s, magnitudes 3–5, PSF σ 1.0–1.8, the mismatched
     and dark-sky sensors, IMU compensation (seed 21)."""
-    for motion, mag, psf, sensor, comp in ((0.7, 3.5, 1.3, "default", "none"),
-                                           (1.5, 4.5, 1.8, "default", "none"),
-                                           (1.5, 3.0, 1.0, "default", "none"),
-                                           (2, 4.5, 1.3, "asym", "none"),
-                                           (3, 5.0, 1.5, "default", "none"),
-                                           (1, 4.0, 1.2, "default", "imu"),
-                                           (1.2, 4.0, 1.4, "dark-sky", "none")):
-        yield dict(set="fresh-10", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=21)
+    return _listed("fresh-10", 21, ((0.7, 3.5, 1.3, "default", "none"),
+                                    (1.5, 4.5, 1.8, "default", "none"),
+                                    (1.5, 3.0, 1.0, "default", "none"),
+                                    (2, 4.5, 1.3, "asym", "none"),
+                                    (3, 5.0, 1.5, "default", "none"),
+                                    (1, 4.0, 1.2, "default", "imu"),
+                                    (1.2, 4.0, 1.4, "dark-sky", "none")))
 
 
 def fresh11_grid():
     """Quiet sensors, held out from the twelfth session's pooled look at the events DBSCAN
     left out (written on 1.5 °/s, magnitude 4.5, σ 1.8 px; run once before and once after):
     0.8–10 °/s, magnitudes 3.5–5, PSF σ 1.0–1.7, a sinusoid with IMU (seed 31)."""
-    for motion, mag, psf, sensor, comp in ((1, 4.5, 1.6, "quiet", "none"),
-                                           (3, 5.0, 1.2, "quiet", "none"),
-                                           (10, 5.0, 1.7, "quiet", "none"),
-                                           (1, 3.5, 1.0, "quiet", "none"),
-                                           ("sine", 4.5, 1.4, "quiet", "imu"),
-                                           (2, 4.5, 1.5, "silent", "none"),
-                                           (6, 5.0, 1.2, "silent", "none"),
-                                           (0.8, 4.0, 1.6, "silent", "none")):
-        yield dict(set="fresh-11", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=31)
+    return _listed("fresh-11", 31, ((1, 4.5, 1.6, "quiet", "none"),
+                                    (3, 5.0, 1.2, "quiet", "none"),
+                                    (10, 5.0, 1.7, "quiet", "none"),
+                                    (1, 3.5, 1.0, "quiet", "none"),
+                                    ("sine", 4.5, 1.4, "quiet", "imu"),
+                                    (2, 4.5, 1.5, "silent", "none"),
+                                    (6, 5.0, 1.2, "silent", "none"),
+                                    (0.8, 4.0, 1.6, "silent", "none")))
+
+
+def fresh14_grid():
+    """The mission's fastest slews and sensors with a leak or a wider threshold mismatch, run
+    once when the fourteenth session's stray rule was done (seed 43): 30 °/s on the default
+    and dark-sky sensors, 25 °/s with IMU, a 1 Hz leak at 6 °/s and on a sinusoid with IMU,
+    a 0.05 mismatch at 3 °/s."""
+    return _listed("fresh-14", 43, ((30, 3.0, 1.0, "default", "none"),
+                                    (30, 5.0, 1.3, "default", "none"),
+                                    (30, 3.0, 1.0, "dark-sky", "none"),
+                                    (30, 5.0, 1.0, "dark-sky", "none"),
+                                    (25, 4.5, 1.2, "default", "imu"),
+                                    (6, 4.5, 1.2, "leak", "none"),
+                                    ("sine", 4.0, 1.1, "leak", "imu"),
+                                    (3, 4.0, 1.1, "mismatch", "none")))
 
 
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
-         "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid}
+         "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
+         "fresh-14": fresh14_grid}
 
 
 def scenario(s):
@@ -274,7 +297,7 @@ def plot(rows, path):
             ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
-                               "fresh-10": "v", "fresh-11": "P"}.get(part, "o"))
+                               "fresh-10": "v", "fresh-11": "P", "fresh-14": "X"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
