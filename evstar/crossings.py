@@ -14,7 +14,10 @@ threshold differs from its ON one (C_off = r·C_on, set by its biases) puts the 
 j·C_off below the top: the rising time at that level lies j·r ON steps back, interpolated
 between ON events (r = 1 gives the pairs above). r is measured from the data: the ON and
 OFF runs of one passage span the same log intensity (threshold_ratio_of); at r 0.6 and 1.7
-the midpoints of unequal levels put the positions 0.13–0.26 px off.
+the midpoints of unequal levels put the positions 0.13–0.26 px off. A noise or leak event
+the pixel fired long before or after the passage, of the run's polarity, would join the run
+and add a pair 0.1 s off: a run's outermost event is left out when its gap to the run is
+more than STRAY_GAP_FACTOR times the passage's largest inside gap (without_strays).
 
 A pixel low-pass delays the peak by ~1/(2π f_c), f_c growing with intensity; the number of
 level pairs k (∝ the pixel's peak contrast) comes with each crossing, so that delay can be
