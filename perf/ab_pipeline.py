@@ -7,11 +7,12 @@ its lazy imports resolve to its own files) and share one Taichi runtime. Each si
 the star-field scenes of bench_pipeline.py --fields itself, runs the pipeline twice
 (compilation, warm-up), then --repeats timed runs. Asserts identical outputs for every
 scene and compensation mode: keep mask, centroids (every field), before/after images,
-per-frame counts and metrics. Writes perf/results/ab_pipeline.json (+ .md) and prints
+per-frame counts and metrics. Writes perf/results/ab_pipeline.json (+ .md; --out names another) and prints
 the table: per-stage and total medians, s.
 
     python perf/ab_pipeline.py --before main [--repeats 5] [--stars 50,100] [--modes none,imu]
         [--changed pf]   (modes whose outputs are known to differ: reported, not asserted)
+        [--out ab_pipeline]   (the results' file name in perf/results/)
 """
 import argparse
 import io
@@ -129,6 +130,7 @@ def main():
     ap.add_argument("--stars", default="50,100")
     ap.add_argument("--modes", default="none,imu")
     ap.add_argument("--changed", default="", help="modes whose outputs may differ")
+    ap.add_argument("--out", default="ab_pipeline", help="results file name (no suffix)")
     a = ap.parse_args()
     v = Versions(a.before)
     rows = [r for stars in map(int, a.stars.split(",")) for mode in a.modes.split(",")
@@ -137,8 +139,8 @@ def main():
     v.use("B")
     from evstar import profiling
     text = profiling.table(rows, COLUMNS)
-    profiling.write_results(RESULTS / "ab_pipeline.json", rows, vars(a))
-    (RESULTS / "ab_pipeline.md").write_text(text + "\n")
+    profiling.write_results(RESULTS / f"{a.out}.json", rows, vars(a))
+    (RESULTS / f"{a.out}.md").write_text(text + "\n")
     print(text)
 
 

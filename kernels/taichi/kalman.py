@@ -8,30 +8,84 @@ Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by 
 update, the diffuse start about the first position. Tracks are concatenated: track i holds
 steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a smoother launch holds
 at most kalman_launch.MAX_STEPS steps, a likelihood launch the tracks' steps, far below 2³¹).
+
+The matrix algebra loops at run time over dynamically indexed local matrices, F's products
+add h × the velocity rows or columns: Taichi's front end unrolls static loops and `@` into
+one expression per term, and it runs in every process before the kernel can be looked up
+in the offline cache (the unrolled smoother took ~1 s of each process's first call; this one
+~0.3 s, and ~2 ms more per launch).
 """
 import taichi as ti
 
 from .arrays import f64_1d, f64_2d, f64_3d, i32_1d
 
 mat4 = ti.types.matrix(4, 4, ti.f64)
-mat42 = ti.types.matrix(4, 2, ti.f64)
 mat2 = ti.types.matrix(2, 2, ti.f64)
 vec4 = ti.types.vector(4, ti.f64)
-vec2 = ti.types.vector(2, ti.f64)
 
 
 @ti.func
-def _transition(h: ti.f64, q: ti.f64):
-    F = ti.Matrix.identity(ti.f64, 4)
-    F[0, 1] = h
-    F[2, 3] = h
+def _noise(h: ti.f64, q: ti.f64) -> mat4:
     Q = mat4(0.0)
-    for a in ti.static((0, 2)):
+    for half in range(2):
+        a = 2 * half
         Q[a, a] = q * (h ** 3 / 3)
         Q[a, a + 1] = q * (h ** 2 / 2)
         Q[a + 1, a] = q * (h ** 2 / 2)
         Q[a + 1, a + 1] = q * h
-    return F, Q
+    return Q
+
+
+@ti.func
+def _f_left(A: mat4, h: ti.f64) -> mat4:
+    """F @ A: F = [[1, h], [0, 1]] per axis adds h × each velocity row to its position row."""
+    B = A
+    for half, c in ti.ndrange(2, 4):
+        B[2 * half, c] += h * A[2 * half + 1, c]
+    return B
+
+
+@ti.func
+def _f_right(A: mat4, h: ti.f64) -> mat4:
+    """A @ Fᵀ."""
+    B = A
+    for r, half in ti.ndrange(4, 2):
+        B[r, 2 * half] += h * A[r, 2 * half + 1]
+    return B
+
+
+@ti.func
+def _mm(A: mat4, B: mat4) -> mat4:
+    C = mat4(0.0)
+    for r, c in ti.ndrange(4, 4):
+        s = A[r, 0] * B[0, c]
+        for m in range(1, 4):
+            s += A[r, m] * B[m, c]
+        C[r, c] = s
+    return C
+
+
+@ti.func
+def _mmt(A: mat4, B: mat4) -> mat4:
+    """A @ Bᵀ."""
+    C = mat4(0.0)
+    for r, c in ti.ndrange(4, 4):
+        s = A[r, 0] * B[c, 0]
+        for m in range(1, 4):
+            s += A[r, m] * B[c, m]
+        C[r, c] = s
+    return C
+
+
+@ti.func
+def _mv(A: mat4, v: vec4) -> vec4:
+    w = vec4(0.0)
+    for r in range(4):
+        s = A[r, 0] * v[0]
+        for m in range(1, 4):
+            s += A[r, m] * v[m]
+        w[r] = s
+    return w
 
 
 @ti.func
@@ -41,27 +95,25 @@ def _inv4(A: mat4) -> mat4:
     entries span 12 orders of magnitude)."""
     M = A
     X = ti.Matrix.identity(ti.f64, 4)
-    for c in ti.static(range(4)):
+    for c in range(4):
         piv = c
         big = ti.abs(M[c, c])
-        for r in ti.static(range(c + 1, 4)):
+        for r in range(c + 1, 4):
             if ti.abs(M[r, c]) > big:
                 big = ti.abs(M[r, c])
                 piv = r
         if piv != c:
-            for j in ti.static(range(4)):
-                for r in ti.static(range(c + 1, 4)):
-                    if r == piv:
-                        M[c, j], M[r, j] = M[r, j], M[c, j]
-                        X[c, j], X[r, j] = X[r, j], X[c, j]
+            for j in range(4):
+                M[c, j], M[piv, j] = M[piv, j], M[c, j]
+                X[c, j], X[piv, j] = X[piv, j], X[c, j]
         d = M[c, c]
-        for j in ti.static(range(4)):
+        for j in range(4):
             M[c, j] /= d
             X[c, j] /= d
-        for r in ti.static(range(4)):
+        for r in range(4):
             if r != c:
                 f = M[r, c]
-                for j in ti.static(range(4)):
+                for j in range(4):
                     M[r, j] -= f * M[c, j]
                     X[r, j] -= f * X[c, j]
     return X
@@ -70,25 +122,28 @@ def _inv4(A: mat4) -> mat4:
 @ti.func
 def _get4(a: ti.template(), k: ti.i32) -> mat4:
     m = mat4(0.0)
-    for r, c in ti.static(ti.ndrange(4, 4)):
+    for r, c in ti.ndrange(4, 4):
         m[r, c] = a[k, r, c]
     return m
 
 
 @ti.func
 def _put4(a: ti.template(), k: ti.i32, m: mat4):
-    for r, c in ti.static(ti.ndrange(4, 4)):
+    for r, c in ti.ndrange(4, 4):
         a[k, r, c] = m[r, c]
 
 
 @ti.func
 def _getv(a: ti.template(), k: ti.i32) -> vec4:
-    return vec4(a[k, 0], a[k, 1], a[k, 2], a[k, 3])
+    v = vec4(0.0)
+    for r in range(4):
+        v[r] = a[k, r]
+    return v
 
 
 @ti.func
 def _putv(a: ti.template(), k: ti.i32, v: vec4):
-    for r in ti.static(range(4)):
+    for r in range(4):
         a[k, r] = v[r]
 
 
@@ -98,32 +153,32 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
            Ps: f64_3d):
     """Filter then smooth each track; xp, Pp, xf, Pf: predicted and filtered scratch;
     xs, Ps: the smoothed states and covariances. z, R: per step (read where measured; the
-    first step is measured and gives the start)."""
+    first step is measured and gives the start). The gain K (4×2) and R (2×2) are held in
+    columns and rows 0 and 2 of 4×4 matrices, zero elsewhere (H picks x and y)."""
     for i in range(start.shape[0] - 1):
         a, b = start[i], start[i + 1]
         x = vec4(z[a, 0], 0.0, z[a, 1], 0.0)
         P = ti.Matrix.identity(ti.f64, 4) * diffuse
         for k in range(a, b):
-            F, Q = _transition(h[k], q[i])
-            x = F @ x
-            P = F @ P @ F.transpose() + Q
+            x[0] += h[k] * x[1]
+            x[2] += h[k] * x[3]
+            P = _f_right(_f_left(P, h[k]), h[k]) + _noise(h[k], q[i])
             _putv(xp, k, x)
             _put4(Pp, k, P)
             if measured[k]:
-                PHT = mat42(0.0)
-                for r in ti.static(range(4)):
-                    PHT[r, 0] = P[r, 0]
-                    PHT[r, 1] = P[r, 2]
-                Rk = mat2([[R[k, 0, 0], R[k, 0, 1]], [R[k, 1, 0], R[k, 1, 1]]])
-                S = mat2([[P[0, 0], P[0, 2]], [P[2, 0], P[2, 2]]]) + Rk
-                K = PHT @ S.inverse()
-                y = vec2(z[k, 0] - x[0], z[k, 1] - x[2])
-                x = x + K @ y
-                IKH = ti.Matrix.identity(ti.f64, 4)
-                for r in ti.static(range(4)):
-                    IKH[r, 0] -= K[r, 0]
-                    IKH[r, 2] -= K[r, 1]
-                P = IKH @ P @ IKH.transpose() + K @ Rk @ K.transpose()
+                R4 = mat4(0.0)
+                for r, c in ti.ndrange(2, 2):
+                    R4[2 * r, 2 * c] = R[k, r, c]
+                S = mat2([[P[0, 0] + R4[0, 0], P[0, 2] + R4[0, 2]],
+                          [P[2, 0] + R4[2, 0], P[2, 2] + R4[2, 2]]]).inverse()
+                K = mat4(0.0)
+                for r, c in ti.ndrange(4, 2):
+                    K[r, 2 * c] = P[r, 0] * S[0, c] + P[r, 2] * S[1, c]
+                y0, y1 = z[k, 0] - x[0], z[k, 1] - x[2]
+                for r in range(4):
+                    x[r] = x[r] + (K[r, 0] * y0 + K[r, 2] * y1)
+                IKH = ti.Matrix.identity(ti.f64, 4) - K
+                P = _mmt(_mm(IKH, P), IKH) + _mmt(_mm(K, R4), K)
             _putv(xf, k, x)
             _put4(Pf, k, P)
         # Rauch–Tung–Striebel, backwards from the last step
@@ -132,12 +187,11 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
         _put4(Ps, b - 1, Pn)
         for j in range(b - a - 1):
             k = b - 2 - j
-            F, _ = _transition(h[k + 1], q[i])
             Ppn = _get4(Pp, k + 1)
             Pk = _get4(Pf, k)
-            G = Pk @ F.transpose() @ _inv4(Ppn)
-            xn = _getv(xf, k) + G @ (xn - _getv(xp, k + 1))
-            Pn = Pk + G @ (Pn - Ppn) @ G.transpose()
+            G = _mm(_f_right(Pk, h[k + 1]), _inv4(Ppn))
+            xn = _getv(xf, k) + _mv(G, xn - _getv(xp, k + 1))
+            Pn = Pk + _mmt(_mm(G, Pn - Ppn), G)
             _putv(xs, k, xn)
             _put4(Ps, k, Pn)
 
