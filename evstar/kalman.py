@@ -6,9 +6,11 @@ and white-acceleration process noise q·[[h³/3, h²/2], [h²/2, h]], positions 
 a 2×2 covariance R (full: along-track crossings couple the axes). filterpy's
 ``batch_filter`` + ``rts_smoother`` run it one measurement at a time in Python (~80 µs a
 step); here every step is a handful of numpy operations on all tracks at once, and the
-smoother's gains are computed for all steps in one call. The arithmetic is filterpy's
-(Joseph-form update, the same diffuse start, the same matrix products and inverses), so
-results agree with :func:`cv_rts_filterpy`, the reference, to the last bit or nearly.
+smoother's gains are computed for all steps in one call. The filter's arithmetic is
+filterpy's (Joseph-form update, the same diffuse start, the same matrix products and
+inverses), so states agree with :func:`cv_rts_filterpy` to the last bit or nearly; the
+smoother's covariances come in a Joseph-like form (_rts) that stays positive where
+filterpy's difference loses every digit (tests: against 60-digit arithmetic).
 
 Tracks of different lengths are padded at the end with steps of length 0 and no
 measurement, which leave a filter's state and covariance bit-for-bit unchanged and so
@@ -133,22 +135,31 @@ def _cv_rts_batch(problems):
         KT = K.swapaxes(-1, -2)
         np.add(I_KH @ Pp[k] @ I_KH.swapaxes(-1, -2), K @ R[k] @ KT, out=Pf[k])
         x, P = xf[k], Pf[k]
-    xs, Ps = _rts(xf, Pf, xp, Pp, FT)
+    xs, Ps = _rts(xf, Pf, xp, Pp, FT, Q, [len(p.ts) for p in problems])
     return [(xs[:len(p.ts), i, :, 0], Ps[:len(p.ts), i]) for i, p in enumerate(problems)]
 
 
-def _rts(xf, Pf, xp, Pp, FT):
+def _rts(xf, Pf, xp, Pp, FT, Q, lengths):
     """Rauch–Tung–Striebel: gains G_k = P_k Fᵀ (P⁻_{k+1})⁻¹ for every step at once (they need
-    only the forward pass), then the backward recursion."""
+    only the forward pass), then the backward recursion. The covariance in the Joseph-like
+    form (I − G F) P_k (I − G F)ᵀ + G (Q + P^s_{k+1}) Gᵀ, equal to filterpy's
+    P_k + G (P^s_{k+1} − P⁻_{k+1}) Gᵀ in exact arithmetic: a sum of positive semi-definite
+    terms, where filterpy's difference lost every digit on tracks whose crossings' covariances
+    span 14 orders of magnitude (negative variances, σ reported as 0). A track's padding
+    (steps past its length) keeps its covariance as filtered, bit for bit, as it is then."""
     L = len(xf)
     if L < 2:
         return xf, Pf
     G = Pf[:-1] @ FT[1:] @ np.linalg.inv(Pp[1:])
     GT = G.swapaxes(-1, -2)
+    A = np.eye(4) - G @ FT[1:].swapaxes(-1, -2)
+    AT = A.swapaxes(-1, -2)
     xs, Ps = xf.copy(), Pf.copy()
+    inside = np.arange(L)[:, None] < np.asarray(lengths)[None, :] - 1   # (L, T)
     for k in range(L - 2, -1, -1):
         xs[k] += G[k] @ (xs[k + 1] - xp[k + 1])
-        Ps[k] += G[k] @ (Ps[k + 1] - Pp[k + 1]) @ GT[k]
+        back = A[k] @ Pf[k] @ AT[k] + G[k] @ (Q[k + 1] + Ps[k + 1]) @ GT[k]
+        Ps[k] = np.where(inside[k][:, None, None], back, Pf[k])
     return xs, Ps
 
 

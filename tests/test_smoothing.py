@@ -296,7 +296,8 @@ def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
 def test_tracks_smoothed_together_equal_the_filterpy_reference_one_by_one(engine, atol):
     """The Taichi kernel (the default) and the numpy batch run the tracks together (of
     different lengths, with gaps and outliers refitted in later passes); filterpy, one track
-    and step at a time, is the reference (the kernel's 4×4 inverse is not LAPACK's)."""
+    and step at a time, is the reference (the kernel's 4×4 inverse is not LAPACK's; σ: the
+    smoothed covariances in another form, equal in exact arithmetic, kalman._rts)."""
     rng = np.random.default_rng(12)
     parts = []
     for k in range(6):
@@ -311,8 +312,10 @@ def test_tracks_smoothed_together_equal_the_filterpy_reference_one_by_one(engine
     assert fast["outlier"].sum() >= 3 and np.array_equal(fast["outlier"], ref["outlier"])
     for f in ("t", "frame", "track", "centroid", "coasted"):
         np.testing.assert_array_equal(fast[f], ref[f])
-    for f in ("x", "y", "sigma_x", "sigma_y"):
+    for f in ("x", "y"):
         np.testing.assert_allclose(fast[f], ref[f], rtol=0, atol=atol)
+    for f in ("sigma_x", "sigma_y"):   # filterpy's smoother form rounds off on a few rows
+        np.testing.assert_allclose(fast[f], ref[f], rtol=1e-5, atol=atol)
 
 
 def test_the_pipeline_gives_the_positions_of_the_filterpy_reference(monkeypatch):

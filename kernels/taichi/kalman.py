@@ -5,7 +5,7 @@ step at a time, which costs ~15 array operations per step whatever the track cou
 
 Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
 (x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
-update, the diffuse start about the first position. Tracks are concatenated: track i holds
+update and its like in the smoother (kalman._rts), the diffuse start about the first position. Tracks are concatenated: track i holds
 steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a smoother launch holds
 at most kalman_launch.MAX_STEPS steps, a likelihood launch the tracks' steps, far below 2³¹).
 
@@ -51,6 +51,15 @@ def _f_right(A: mat4, h: ti.f64) -> mat4:
     B = A
     for r, half in ti.ndrange(4, 2):
         B[r, 2 * half] += h * A[r, 2 * half + 1]
+    return B
+
+
+@ti.func
+def _times_f(A: mat4, h: ti.f64) -> mat4:
+    """A @ F: adds h × each position column to its velocity column."""
+    B = A
+    for r, half in ti.ndrange(4, 2):
+        B[r, 2 * half + 1] += h * A[r, 2 * half]
     return B
 
 
@@ -191,7 +200,8 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
             Pk = _get4(Pf, k)
             G = _mm(_f_right(Pk, h[k + 1]), _inv4(Ppn))
             xn = _getv(xf, k) + _mv(G, xn - _getv(xp, k + 1))
-            Pn = Pk + _mmt(_mm(G, Pn - Ppn), G)
+            A = ti.Matrix.identity(ti.f64, 4) - _times_f(G, h[k + 1])
+            Pn = _mmt(_mm(A, Pk), A) + _mmt(_mm(G, _noise(h[k + 1], q[i]) + Pn), G)
             _putv(xs, k, xn)
             _put4(Ps, k, Pn)
 
