@@ -9,7 +9,6 @@ is the time at which the star actually was at the centroid) or the frame's mid-t
 from __future__ import annotations
 
 import numpy as np
-from sklearn.cluster import DBSCAN
 
 from . import backends, lobes, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
@@ -123,6 +122,8 @@ class Extractor:
                                                   return_counts=True)
         inverse = inverse.ravel()
         pts = np.column_stack([cells % w, (cells // w) % h, (cells // (w * h)) * FRAME_GAP])
+        from sklearn.cluster import DBSCAN   # here: importing scikit-learn takes ~2 s
+
         labels = DBSCAN(eps=self.eps, min_samples=self.min_samples).fit_predict(
             pts.astype(np.float64), sample_weight=counts)
         c.labels, c.first = labels[inverse].astype(np.int64), first[inverse].astype(np.int64)

@@ -21,10 +21,10 @@ passes, and the mask is re-derived from the window's total after each update.
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 from .parameters import HOTPIXEL_MAP, HOTPIXELS
 from .errors import ParameterError
+from evstar_kernels.reference import poisson
 
 _BINS = 4          # sub-windows of the running window: the map forgets in steps of window/4
 _BOX = 9           # px side of the background neighbourhood
@@ -109,13 +109,13 @@ def hot_pixels(counts, alpha=1e-6, neighbour_ratio=4.0):
     padded = _padded(counts)
     # the neighbour test first: it leaves a handful of pixels for the costly Poisson tail;
     # none below the count that could pass the tail at the quietest background
-    floor = stats.poisson.isf(alpha, _MIN_LAMBDA) + 1          # P(X >= floor) <= alpha
+    floor = poisson.isf(alpha, _MIN_LAMBDA) + 1          # P(X >= floor) <= alpha
     iy, ix = np.nonzero(_neighbour_candidates(padded, neighbour_ratio) & (counts >= floor))
     near = counts[iy, ix] >= neighbour_ratio * _second_neighbour(padded, iy, ix)
     iy, ix = iy[near], ix[near]
     c = counts[iy, ix].astype(np.float64)
     lam = np.maximum((_box_sums(padded, iy, ix) - c) / (_BOX**2 - 1), _MIN_LAMBDA)
-    hot = stats.poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
+    hot = poisson.sf(c - 1, lam) <= alpha                      # P(X >= count)
     out = np.zeros(counts.shape, bool)
     out[iy[hot], ix[hot]] = True
     return out

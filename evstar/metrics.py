@@ -9,10 +9,10 @@ no-reference Event Structural Ratio (Ding et al., IEEE TMM 2023).
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import poisson
 
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
+from evstar_kernels.reference import poisson
 
 
 def snr_db(n_signal, n_noise):
