@@ -77,13 +77,7 @@ def _mm(A: mat4, B: mat4) -> mat4:
 @ti.func
 def _mmt(A: mat4, B: mat4) -> mat4:
     """A @ Bᵀ."""
-    C = mat4(0.0)
-    for r, c in ti.ndrange(4, 4):
-        s = A[r, 0] * B[c, 0]
-        for m in range(1, 4):
-            s += A[r, m] * B[c, m]
-        C[r, c] = s
-    return C
+    return _mm(A, B.transpose())
 
 
 @ti.func
