@@ -162,8 +162,10 @@ def summary_text(result, outdir, steady=None):
         lines += [f"SNR           {m['snr_before_db']:.1f} dB -> {m['snr_after_db']:.1f} dB "
                   f"(signal retained {100 * m['signal_retained']:.1f} %)",
                   f"centroid err  mean {e['mean']:.3f} px, max {e['max']:.3f} px ({e['n']} matched)"]
-    if steady is None:
-        lines.append(f"throughput    {_throughput(result)}")
+    if steady is None:   # a process's first run: its kernels' compile or cache load in it
+        lines += [f"throughput    {_throughput(result)}",
+                  "              (this process's first run, kernel compiles included; "
+                  "`evstar bench` measures the steady state)"]
     else:
         lines += [f"first call    {_throughput(result)}", f"steady state  {_throughput(steady)}"]
     return "\n".join(lines + [f"wrote         {outdir}/"])

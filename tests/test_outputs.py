@@ -171,6 +171,9 @@ def test_write_run_writes_the_tables_and_figures(scene, tmp_path):
     assert tracks[0].startswith("track,t_first") and len(tracks) == 1 + result.metrics["tracks"]
     text = outputs.summary_text(result, tmp_path / "r")
     assert "centroid err" in text and f"{result.metrics['events']:,}" in text
+    assert "kernel compiles included" in text      # `evstar run`'s one run is its first
+    both = outputs.summary_text(result, tmp_path / "r", steady=result)
+    assert "first call" in both and "steady state" in both and "compiles included" not in both
 
 
 def test_per_frame_snr_is_metrics_snr_db():
