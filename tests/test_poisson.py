@@ -4,6 +4,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 from scipy.stats import poisson as scipy_poisson
 
 from evstar_kernels.reference import poisson
@@ -17,6 +18,17 @@ def test_isf_and_sf_equal_scipy_stats():
     assert np.array_equal(poisson.isf(q, mu), scipy_poisson.isf(q, mu))
     assert np.array_equal(poisson.sf(k, mu), scipy_poisson.sf(k, mu))
     assert poisson.isf(0.01, 3.0) == scipy_poisson.isf(0.01, 3.0) and np.ndim(poisson.isf(0.01, 3.0)) == 0
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_the_edges_equal_scipy_stats():
+    """q 0 and 1, outside [0, 1], mu 0, tiny, huge, negative, nan; k below the support, inf."""
+    qs = np.array([0.0, 1.0, 0.5, 1e-300, 1 - 1e-16, -0.1, 1.1, np.nan])
+    mus = np.array([0.0, 1e-300, 2.0, 1e6, -1.0, np.nan])
+    q, mu = (a.ravel() for a in np.meshgrid(qs, mus))
+    np.testing.assert_array_equal(poisson.isf(q, mu), scipy_poisson.isf(q, mu))
+    k, mu = (a.ravel() for a in np.meshgrid([-1.0, 0.0, 3.0, np.inf, np.nan], mus))
+    np.testing.assert_array_equal(poisson.sf(k, mu), scipy_poisson.sf(k, mu))
 
 
 def test_a_pipeline_run_imports_neither_scipy_stats_nor_scikit_learn():
