@@ -5,9 +5,10 @@ step at a time, which costs ~15 array operations per step whatever the track cou
 
 Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
 (x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
-update and its like in the smoother (kalman._rts), the diffuse start about the first position. Tracks are concatenated: track i holds
-steps start[i] .. start[i + 1] − 1 of the flat arrays (int32 offsets: a smoother launch holds
-at most kalman_launch.MAX_STEPS steps, a likelihood launch the tracks' steps, far below 2³¹).
+update and its like in the smoother (kalman._rts), the diffuse start about the first
+position. Tracks are concatenated: track i holds steps start[i] .. start[i + 1] − 1 of the
+flat arrays (int32 offsets: a smoother launch holds at most kalman_launch.MAX_STEPS steps, a
+likelihood launch the tracks' steps, far below 2³¹).
 
 The matrix algebra loops at run time over dynamically indexed local matrices, F's products
 add h × the velocity rows or columns: Taichi's front end unrolls static loops and `@` into
@@ -37,7 +38,7 @@ def _noise(h: ti.f64, q: ti.f64) -> mat4:
 
 
 @ti.func
-def _f_left(A: mat4, h: ti.f64) -> mat4:
+def _f_times(A: mat4, h: ti.f64) -> mat4:
     """F @ A: F = [[1, h], [0, 1]] per axis adds h × each velocity row to its position row."""
     B = A
     for half, c in ti.ndrange(2, 4):
@@ -46,7 +47,7 @@ def _f_left(A: mat4, h: ti.f64) -> mat4:
 
 
 @ti.func
-def _f_right(A: mat4, h: ti.f64) -> mat4:
+def _times_ft(A: mat4, h: ti.f64) -> mat4:
     """A @ Fᵀ."""
     B = A
     for r, half in ti.ndrange(4, 2):
@@ -165,7 +166,7 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
         for k in range(a, b):
             x[0] += h[k] * x[1]
             x[2] += h[k] * x[3]
-            P = _f_right(_f_left(P, h[k]), h[k]) + _noise(h[k], q[i])
+            P = _times_ft(_f_times(P, h[k]), h[k]) + _noise(h[k], q[i])
             _putv(xp, k, x)
             _put4(Pp, k, P)
             if measured[k]:
@@ -192,7 +193,7 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
             k = b - 2 - j
             Ppn = _get4(Pp, k + 1)
             Pk = _get4(Pf, k)
-            G = _mm(_f_right(Pk, h[k + 1]), _inv4(Ppn))
+            G = _mm(_times_ft(Pk, h[k + 1]), _inv4(Ppn))
             xn = _getv(xf, k) + _mv(G, xn - _getv(xp, k + 1))
             A = ti.Matrix.identity(ti.f64, 4) - _times_f(G, h[k + 1])
             Pn = _mmt(_mm(A, Pk), A) + _mmt(_mm(G, _noise(h[k + 1], q[i]) + Pn), G)
