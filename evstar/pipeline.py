@@ -269,8 +269,18 @@ class Pipeline:
         from . import estimation
 
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
-        return lambda cents: estimation.estimate(cents, self.config, t0, state.crossings(), prior,
-                                                 span, state.sensor, state.measured_lag())
+        e = self.config.estimate
+
+        def positions(cents):
+            rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
+                                       state.sensor, state.measured_lag())
+            if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
+                return rows
+            from . import field
+
+            return field.refine(rows, camera, e.field_min_stars)
+
+        return positions
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None,
                 span_us=None):

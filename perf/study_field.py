@@ -10,7 +10,7 @@ within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close
 within 8 px: blended pairs) and the rest. False rows: rows matching no star.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
-        [--name field]
+        [--name field] [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
 table. study_cygnus.*: Cygnus (RA 305°, Dec +40°, ~330 stars) on a DVXplorer behind 8 mm,
@@ -33,13 +33,13 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
            "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px")
 
 
-def run_scene(noise_hz, rate_dps, seed, cam, pointing):
+def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None):
     motion = sim.ConstantRate(rate_dps, axis=np.array([0.0, 1.0, 0.0]),
                               R0=sim.attitude_from_radec(*pointing, 0.0))
     stars = sim.hipparcos_field_along(cam, motion, 0.5, mag_limit=6.5)
     sensor = sim.sensor_model("default", noise_hz=noise_hz)
     run = sim.simulate(sim.Scenario(cam, stars, motion, 0.5, sensor=sensor), seed=seed)
-    rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    rows = Pipeline(Config().replace(**(settings or {}))).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     ids = np.unique(star[star >= 0])
     per_star = np.array([err[star == i].mean() for i in ids])
@@ -70,6 +70,14 @@ def markdown(rows):
     return "\n".join(lines)
 
 
+def _value(text):
+    """A --set value as JSON reads it (0, 1.5, true, null), else the text itself."""
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="61,62", help="comma-separated simulator seeds")
@@ -77,16 +85,19 @@ def main(argv=None):
     ap.add_argument("--pointing", default="83.8,-5.4",
                     help="RA,Dec (°) at the start (default: Orion's belt and sword)")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
     args = ap.parse_args(argv)
+    settings = {k: _value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
     seeds = [int(s) for s in args.seeds.split(",")]
     name, focal = args.camera.split(":")
     cam = sim.camera_preset(name, float(focal))
     pointing = tuple(float(v) for v in args.pointing.split(","))
-    rows = [run_scene(n, r, s, cam, pointing) for n in (0.1, 1.5) for r in (2.0, 8.0)
+    rows = [run_scene(n, r, s, cam, pointing, settings) for n in (0.1, 1.5) for r in (2.0, 8.0)
             for s in seeds]
     RESULTS.mkdir(exist_ok=True)
     title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
-             f"seeds {args.seeds})\n\n")
+             f"seeds {args.seeds}{''.join(', ' + kv for kv in args.set)})\n\n")
     (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")
     print(markdown(rows))

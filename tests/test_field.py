@@ -1,0 +1,140 @@
+"""Rigid-field refinement (evstar.field): stars share the camera's rotation.
+
+Rows are synthetic: stars' true pixels along a known rotation, plus a wander per track
+(AR(1) noise, as a smoothed track's errors are), with the estimator's columns.
+"""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from evstar import Config, Pipeline, field, sim
+from evstar.errors import ParameterError
+from evstar.extract import CENTROID_DTYPE
+
+CAM = sim.camera_preset("davis346", 16.0)
+FRAMES = 60
+
+
+def rotations(t_s, rate_dps=8.0, wobble_deg=0.3):
+    """Camera rotations at times t_s: a pan about y with a wobble about the other axes."""
+    rv = np.stack([wobble_deg * np.sin(9 * t_s), rate_dps * t_s, wobble_deg * np.cos(7 * t_s)], 1)
+    return Rotation.from_rotvec(np.radians(rv)).as_matrix()
+
+
+def star_dirs(n, rng):
+    """Unit directions of stars in view across the pan."""
+    uv = np.stack([rng.uniform(60, CAM.width - 60, n), rng.uniform(20, CAM.height - 20, n)], 1)
+    return CAM.unproject(uv)
+
+
+def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000):
+    """Rows of every star in every frame where it is in view: truth + AR(1) wander; and truth.
+    A row's time is its frame's middle ± up to spread_us (its events' mean time)."""
+    rows, truth = [], []
+    for i, d in enumerate(dirs):
+        t = np.arange(FRAMES) * 10_000 + 5_000 + rng.integers(-spread_us, spread_us + 1, FRAMES)
+        uv = CAM.project(np.einsum("fij,j->fi", rotations(t / 1e6), d))
+        e = np.zeros((FRAMES, 2))
+        e[0] = rng.normal(0, sigma, 2)
+        for f in range(1, FRAMES):
+            e[f] = rho * e[f - 1] + np.sqrt(1 - rho ** 2) * rng.normal(0, sigma, 2)
+        inside = (uv[:, 0] > 0) & (uv[:, 0] < CAM.width - 1) & (uv[:, 1] > 0) & (uv[:, 1] < CAM.height - 1)
+        r = np.zeros(inside.sum(), CENTROID_DTYPE)
+        r["frame"], r["t"] = np.flatnonzero(inside), t[inside]
+        r["track"], r["sigma"], r["source"] = i, sigma, "measured"
+        r["x"], r["y"] = (uv + e)[inside].T
+        rows.append(r)
+        truth.append(uv[inside])
+    order = np.argsort(np.concatenate(rows)["frame"], kind="stable")
+    return np.concatenate(rows)[order], np.concatenate(truth)[order]
+
+
+def err(rows, truth):
+    return np.hypot(rows["x"] - truth[:, 0], rows["y"] - truth[:, 1])
+
+
+def test_noise_free_rows_are_a_fixed_point():
+    rng = np.random.default_rng(0)
+    dirs = star_dirs(12, rng)
+    for spread_us, atol in ((0, 1e-6), (3000, 1e-2)):
+        rows, truth = rows_of(dirs, rng, rho=0.0, spread_us=spread_us)
+        rows["x"], rows["y"] = truth.T
+        out = field.refine(rows, CAM, 4)
+        # rows of one frame at different times move to one along straight lines: <= 5e-3 px
+        # off where the wobble bends their paths
+        np.testing.assert_allclose(out["x"], truth[:, 0], atol=atol)
+        np.testing.assert_allclose(out["y"], truth[:, 1], atol=atol)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_wandering_tracks_are_pulled_onto_the_field(seed):
+    rng = np.random.default_rng(seed)
+    rows, truth = rows_of(star_dirs(15, rng), rng)
+    out = field.refine(rows, CAM, 4)
+    before, after = err(rows, truth).mean(), err(out, truth).mean()
+    # the wander of 60 frames at ρ 0.8 averages like ~7 independent rows (≈ 0.4 of a row's)
+    assert after < 0.6 * before
+    np.testing.assert_array_equal(out["sigma"], rows["sigma"])
+    for f in ("t", "track", "frame", "source"):
+        np.testing.assert_array_equal(out[f], rows[f])
+
+
+def test_a_target_that_is_no_star_keeps_its_rows():
+    rng = np.random.default_rng(4)
+    rows, truth = rows_of(star_dirs(10, rng), rng)
+    sat = np.zeros(FRAMES, CENTROID_DTYPE)           # crosses the field at its own 3 px/frame
+    sat["frame"] = np.arange(FRAMES)
+    sat["t"] = sat["frame"] * 10_000 + 5_000
+    sat["track"], sat["sigma"], sat["source"] = 99, 0.1, "measured"
+    sat["x"], sat["y"] = 40 + 3.0 * sat["frame"], 100 + 0.5 * sat["frame"]
+    out = field.refine(np.concatenate([rows, sat]), CAM, 4)
+    mine = out["track"] == 99
+    np.testing.assert_array_equal(out["x"][mine], sat["x"])
+    np.testing.assert_array_equal(out["y"][mine], sat["y"])
+    assert err(out[~mine], truth).mean() < 0.6 * err(rows, truth).mean()
+
+
+def test_frames_with_too_few_stars_and_untracked_rows_are_left_alone():
+    rng = np.random.default_rng(5)
+    rows, _ = rows_of(star_dirs(5, rng), rng)
+    rows["track"][rows["frame"] % 7 == 0] = -1
+    out = field.refine(rows, CAM, 6)                  # never 6 stars in a frame
+    np.testing.assert_array_equal(out, rows)
+    out = field.refine(rows, CAM, 4)
+    loose = rows["track"] < 0
+    np.testing.assert_array_equal(out[loose], rows[loose])
+    assert not np.array_equal(out["x"][~loose], rows["x"][~loose])
+
+
+def test_no_rows_and_no_tracks_pass_through():
+    empty = np.zeros(0, CENTROID_DTYPE)
+    assert len(field.refine(empty, CAM, 4)) == 0
+
+
+def test_pipeline_refines_a_star_field_only_when_asked():
+    motion = sim.ConstantRate(6.0, axis=np.array([0.0, 1.0, 0.0]),
+                              R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.2, mag_limit=5.0)
+    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.2), seed=8)
+    res = {n: Pipeline(Config().replace(**{"estimate.field_min_stars": n})).run(
+        run.events, run.imu, run.camera).centroids for n in (0, 4)}
+    off, on = res[0], res[4]
+    for f in ("t", "track", "frame", "sigma", "source"):
+        np.testing.assert_array_equal(off[f], on[f])
+    moved = (off["x"] != on["x"]) | (off["y"] != on["y"])
+    assert moved.mean() > 0.5
+    xy = run.truth.star_position(on["t"])                    # (rows, stars, 2)
+    star = np.nanargmin(np.hypot(xy[..., 0] - off["x"][:, None], xy[..., 1] - off["y"][:, None]), 1)
+    truth = xy[np.arange(len(on)), star]
+    ok = err(off, truth) < 3
+    assert err(on[ok], truth[ok]).mean() < err(off[ok], truth[ok]).mean()
+    # without a camera the pipeline cannot tell the field's rotation: rows as estimated
+    plain = {n: Pipeline(Config().replace(**{"estimate.field_min_stars": n})).run(
+        run.events).centroids for n in (0, 4)}
+    for f in CENTROID_DTYPE.names:                             # (NaN spreads compare equal)
+        np.testing.assert_array_equal(plain[0][f], plain[4][f])
+
+
+def test_bad_min_stars_is_rejected_naming_it():
+    with pytest.raises(ParameterError, match="estimate.field_min_stars"):
+        Config().replace(**{"estimate.field_min_stars": -1})
