@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
-#: rounds of the alternating fit (the chained start is within a row's error already)
-ITERATIONS = 5
+#: rounds of the alternating fit (from the chained start, 5 left positions within 0.003 px
+#: median of their limit on a crowded sinusoid, 10 within 0.0001 px)
+ITERATIONS = 8
 #: scale (in σ) of the Cauchy weights of a row's residual
 CAUCHY_SIGMA = 3.0
 #: fewest rows of a track for the field to refine it (a shorter one gains little)
@@ -52,7 +53,7 @@ def refine(rows, camera, min_stars):
     good = (stars_in[fi] >= min_stars) & (rows_of[ti] >= MIN_ROWS)
     if np.count_nonzero(good) == 0:
         return out
-    R, d = _chained_start(fi, ti, ray, w, len(frames), len(tracks))
+    R = _chained_start(fi, ti, ray, w, len(frames))
     wt = w * good
     for _ in range(ITERATIONS):
         d = _directions(R, fi, ti, ray, wt, len(tracks))
@@ -92,25 +93,22 @@ def _velocities(t, xy, ti):
     return v
 
 
-def _chained_start(fi, ti, ray, w, n_frames, n_tracks):
-    """R_f frame by frame against the directions the earlier frames gave; a track's d_i from
-    its first row (its frame's rotation undone)."""
-    R = np.tile(np.eye(3), (n_frames, 1, 1))
-    d = np.full((n_tracks, 3), np.nan)
-    order = np.argsort(fi, kind="stable")
-    bounds = np.searchsorted(fi[order], np.arange(n_frames + 1))
-    for f in range(n_frames):
-        rows = order[bounds[f]:bounds[f + 1]]
-        known = ~np.isnan(d[ti[rows], 0])
-        k = rows[known]
-        if len(k) >= 2:
-            B = np.einsum("n,ni,nj->ij", w[k], ray[k], d[ti[k]])
-            R[f] = wahba_batch(B[None])[0]
-        elif f > 0:
-            R[f] = R[f - 1]
-        new = rows[~known]
-        d[ti[new]] = ray[new] @ R[f]                          # R_fᵀ r
-    return R, d
+def _chained_start(fi, ti, ray, w, n_frames):
+    """R_f chained frame to frame: each frame's rotation from the previous one's rows of the
+    same tracks (Wahba's problem of the pairs), R_0 = I (the gauge: any common rotation)."""
+    o = np.lexsort((fi, ti))
+    a, b = o[:-1], o[1:]
+    pair = (ti[a] == ti[b]) & (fi[b] == fi[a] + 1)
+    a, b = a[pair], b[pair]
+    wab = w[a] * w[b] / (w[a] + w[b])
+    outer = wab[:, None, None] * ray[b][:, :, None] * ray[a][:, None, :]
+    step = wahba_batch(_per_frame(fi[b], outer, n_frames))
+    step[np.bincount(fi[b], minlength=n_frames) < 2] = np.eye(3)
+    R = np.empty((n_frames, 3, 3))
+    R[0] = np.eye(3)
+    for f in range(1, n_frames):
+        R[f] = step[f] @ R[f - 1]
+    return R
 
 
 def _directions(R, fi, ti, ray, wt, n_tracks):
@@ -123,7 +121,11 @@ def _directions(R, fi, ti, ray, wt, n_tracks):
 
 def _rotations(fi, ti, ray, d, wt, n_frames):
     """R_f: Wahba's problem of the frame's rows against their stars' directions."""
-    outer = wt[:, None, None] * ray[:, :, None] * d[ti][:, None, :]
-    B = np.stack([np.bincount(fi, outer[:, a, b], n_frames) for a in range(3) for b in range(3)],
-                 axis=1).reshape(n_frames, 3, 3)
-    return wahba_batch(B)
+    return wahba_batch(_per_frame(fi, wt[:, None, None] * ray[:, :, None] * d[ti][:, None, :],
+                                  n_frames))
+
+
+def _per_frame(fi, outer, n_frames):
+    """Sums of 3x3 matrices `outer` (N, 3, 3) per frame index fi."""
+    return np.stack([np.bincount(fi, outer[:, a, b], n_frames) for a in range(3)
+                     for b in range(3)], axis=1).reshape(n_frames, 3, 3)
