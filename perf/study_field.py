@@ -10,7 +10,8 @@ within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close
 within 8 px: blended pairs) and the rest. False rows: rows matching no star.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
-        [--name field] [--set estimate.field_min_stars=0]
+        [--motion pan|sine] [--rates 2,8] [--sensor default] [--name field]
+        [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
 table. study_cygnus.*: Cygnus (RA 305°, Dec +40°, ~330 stars) on a DVXplorer behind 8 mm,
@@ -33,12 +34,16 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
            "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px")
 
 
-def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None):
-    motion = sim.ConstantRate(rate_dps, axis=np.array([0.0, 1.0, 0.0]),
-                              R0=sim.attitude_from_radec(*pointing, 0.0))
-    stars = sim.hipparcos_field_along(cam, motion, 0.5, mag_limit=6.5)
-    sensor = sim.sensor_model("default", noise_hz=noise_hz)
-    run = sim.simulate(sim.Scenario(cam, stars, motion, 0.5, sensor=sensor), seed=seed)
+def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
+              sensor="default"):
+    R0, up = sim.attitude_from_radec(*pointing, 0.0), np.array([0.0, 1.0, 0.0])
+    if motion == "sine":   # 1 Hz, peak rate rate_dps, 1 s
+        move, duration = sim.Sinusoid(rate_dps / (2 * np.pi), 1.0, axis=up, R0=R0), 1.0
+    else:
+        move, duration = sim.ConstantRate(rate_dps, axis=up, R0=R0), 0.5
+    stars = sim.hipparcos_field_along(cam, move, duration, mag_limit=6.5)
+    model = sim.sensor_model(sensor, noise_hz=noise_hz)
+    run = sim.simulate(sim.Scenario(cam, stars, move, duration, sensor=model), seed=seed)
     rows = Pipeline(Config().replace(**(settings or {}))).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     ids = np.unique(star[star >= 0])
@@ -84,6 +89,10 @@ def main(argv=None):
     ap.add_argument("--camera", default="davis346:16", help="evstar.sim camera preset:focal mm")
     ap.add_argument("--pointing", default="83.8,-5.4",
                     help="RA,Dec (°) at the start (default: Orion's belt and sword)")
+    ap.add_argument("--motion", choices=("pan", "sine"), default="pan",
+                    help="pan: constant rate, 0.5 s; sine: 1 Hz with the rate as its peak, 1 s")
+    ap.add_argument("--rates", default="2,8", help="comma-separated (peak) rates, °/s")
+    ap.add_argument("--sensor", default="default", help="evstar.sim.sensor_model name")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
@@ -93,11 +102,13 @@ def main(argv=None):
     name, focal = args.camera.split(":")
     cam = sim.camera_preset(name, float(focal))
     pointing = tuple(float(v) for v in args.pointing.split(","))
-    rows = [run_scene(n, r, s, cam, pointing, settings) for n in (0.1, 1.5) for r in (2.0, 8.0)
-            for s in seeds]
+    rates = [float(r) for r in args.rates.split(",")]
+    rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor)
+            for n in (0.1, 1.5) for r in rates for s in seeds]
     RESULTS.mkdir(exist_ok=True)
     title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
-             f"seeds {args.seeds}{''.join(', ' + kv for kv in args.set)})\n\n")
+             f"{args.motion}, {args.sensor} sensor, seeds {args.seeds}"
+             f"{''.join(', ' + kv for kv in args.set)})\n\n")
     (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")
     print(markdown(rows))
