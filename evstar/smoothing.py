@@ -113,10 +113,14 @@ class TrackSmoother:
         """Per-axis σ (px) of each centroid: psf_sigma_px/√N when given, else spread/√(2N)
         (spread is the 2-D RMS radius, √2 × the per-axis σ), where a centroid of fewer than
         ``min_events`` events takes its track's median spread (a spread from a handful of
-        events is itself noise); floored at ``sigma_floor_px``."""
+        events is itself noise); floored at ``sigma_floor_px``. A centroid touching the
+        sensor's edge (``border``) has a star cut by it, its mean pulled inward by up to the
+        profile's width: σ at least that per-axis width (psf_sigma_px, or spread/√2)."""
         n = np.maximum(centroids["n_events"].astype(float), 1.0)
+        border = centroids["border"]
         if self.psf_sigma_px is not None:
-            return np.maximum(self.psf_sigma_px / np.sqrt(n), self.sigma_floor_px)
+            sigma = np.maximum(self.psf_sigma_px / np.sqrt(n), self.sigma_floor_px)
+            return np.where(border, np.maximum(sigma, self.psf_sigma_px), sigma)
         spread = centroids["spread"].astype(float).copy()
         few = centroids["n_events"] < self.min_events
         for tr in np.unique(centroids["track"][few]):
@@ -124,7 +128,8 @@ class TrackSmoother:
             rich = rows & ~few
             pool = centroids["spread"][rich if rich.any() else rows]
             spread[rows & few] = np.median(pool)
-        return np.maximum(spread / np.sqrt(2 * n), self.sigma_floor_px)
+        sigma = np.maximum(spread / np.sqrt(2 * n), self.sigma_floor_px)
+        return np.where(border, np.maximum(sigma, spread / np.sqrt(2)), sigma)
 
     # -- all tracks ---------------------------------------------------------------------
     def smooth(self, centroids, t0_us=None, velocity_prior=None, sigma=None):
