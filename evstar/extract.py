@@ -286,17 +286,34 @@ class Extractor:
         a_ = np.flatnonzero(~first.fails)
         if len(a_):
             idx, st = _gather(starts[a_], stops[a_])
-            ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, self.split_valley)
+            along = splitting.motion_axes(pts[idx], p[idx], st[:-1], st[1:])
+            ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, self.split_valley,
+                                       along)
             for i in np.flatnonzero(ok):
                 found[a_[i]] = lab[starts[a_[i]]:stops[a_[i]]]
+        # two stars side by side (_split): all events, across the motion, where two peaks
+        near = np.flatnonzero(first.has & (stops - starts >= 2 * mcs))
+        near = near[~np.isin(near, list(found))]
+        idx, st = _gather(starts[near], stops[near])
+        along_near = splitting.motion_axes(pts[idx], p[idx], st[:-1], st[1:])
+        along = dict(zip(near.tolist(), along_near))
+        go = np.flatnonzero(np.isfinite(along_near).all(1))
+        if len(go):
+            sub, sub_st = _gather(st[go], st[go + 1])
+            q = pts[idx][sub]
+            lab_x = splitting.across_labels(q, sub_st[:-1], sub_st[1:], along_near[go])
+            ok = splitting.halves_many(q, sub_st[:-1], sub_st[1:], lab_x, mcs, self.split_valley,
+                                       along_near[go])
+            for i in np.flatnonzero(ok):
+                found[near[go[i]]] = lab_x[sub_st[i]:sub_st[i + 1]]
         # the second test: where there are two peaks (first.has) and both polarities may split
         rest = np.flatnonzero(first.has & by_polarity & (stops - starts >= 2 * mcs))
         rest = rest[~np.isin(rest, list(found))]
         lab_on = self._polarity_halves(pts, p, starts, stops, rest, 1,
-                                       None if peaks is None else peaks[rest, 2])
+                                       None if peaks is None else peaks[rest, 2], along)
         both = [n for n in rest if n in lab_on]
         lab_off = self._polarity_halves(pts, p, starts, stops, np.array(both, np.int64), 0,
-                                        None if peaks is None else peaks[both, 1])
+                                        None if peaks is None else peaks[both, 1], along)
         for n in both:
             if n not in lab_off:
                 continue
@@ -311,10 +328,11 @@ class Extractor:
             found[n] = out
         return found
 
-    def _polarity_halves(self, pts, p, starts, stops, cand, pol, peaks):
+    def _polarity_halves(self, pts, p, starts, stops, cand, pol, peaks, along):
         """{candidate n: 2-means labels of its events of polarity `pol`} where _halves keeps
         them (batched); peaks: the screen's (status, ax, ay, bx, by) of those events' image
-        per candidate, or None (two_peaks for all)."""
+        per candidate, or None (two_peaks for all); along: {n: the candidate's motion axis}
+        (splitting.motion_axes of all its events)."""
         if not len(cand):
             return {}
         from evstar_kernels.taichi import clusters_launch
@@ -341,7 +359,7 @@ class Extractor:
         lab = clusters_launch.two_means(backends.taichi(self.device), q[sub], sub_st[:-1],
                                         sub_st[1:], a[go], b[go])
         ok = splitting.halves_many(q[sub], sub_st[:-1], sub_st[1:], lab, self.min_cluster_size,
-                                   self.split_valley)
+                                   self.split_valley, np.array([along[int(cand[g])] for g in go]))
         return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
     def _first_halves(self, c, pts, p, starts, stops, peaks):
@@ -392,16 +410,24 @@ class Extractor:
         seeds = two_peaks(pts)
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        lab = self._halves(pts, seeds)
+        one = (np.array([0]), np.array([len(pts)]))
+        along = splitting.motion_axes(pts, p, *one)
+        lab = self._halves(pts, seeds, along=along)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
+        # two stars side by side: the halves above were one star's lobes, both stars' lobes
+        # paired; across the motion all their events show the pair
+        if np.isfinite(along).all():
+            lab = self._halves(pts, lab=splitting.across_labels(pts, *one, along), along=along)
+            if lab is not None:
+                return lab
         if not by_polarity:  # a polarity's events hold one peak: _halves would say None
             return None
         on, off = p == 1, p == 0
         pts_on, pts_off = pts[on], pts[off]
         seeds_off, seeds_on = polarity_seeds
-        lab_on = self._halves(pts_on, seeds_on)
-        lab_off = None if lab_on is None else self._halves(pts_off, seeds_off)
+        lab_on = self._halves(pts_on, seeds_on, along=along)
+        lab_off = None if lab_on is None else self._halves(pts_off, seeds_off, along=along)
         if lab_off is None:
             return None
         c_on, c_off = np.array(_half_means(pts_on, lab_on)), np.array(_half_means(pts_off, lab_off))
@@ -412,16 +438,18 @@ class Extractor:
         out[on], out[off] = lab_on, lab_off
         return out
 
-    def _halves(self, pts, seeds=None, lab=None):
+    def _halves(self, pts, seeds=None, lab=None, along=None):
         """Labels 0/1 when `pts` hold two compact targets with a clear valley between them,
         else None. The seeds are the two highest peaks of the smoothed count image, so a
-        faint star beside a bright one is found (2-means would halve the bright one)."""
+        faint star beside a bright one is found (2-means would halve the bright one).
+        along: splitting.motion_axes of the cluster ((1, 2)), or None (unknown)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
-        seeds = two_peaks(pts) if seeds is None else seeds
-        if seeds is None:
-            return None
-        lab = _two_means(pts, *seeds) if lab is None else lab
+        if lab is None:
+            seeds = two_peaks(pts) if seeds is None else seeds
+            if seeds is None:
+                return None
+            lab = _two_means(pts, *seeds)
         n_min = np.bincount(lab, minlength=2).min()
         if n_min < self.min_cluster_size:
             return None
@@ -430,12 +458,13 @@ class Extractor:
         if sep < 2:  # closer than two pixels: not resolvable on the pixel grid
             return None
         proj = (pts - c0) @ ((c1 - c0) / sep)
-        # a uniform streak cut in two has sep / axial std = 2·sqrt(3) ≈ 3.5 (more by chance
-        # with few events: + 8 / sqrt(n) bounds 99.9 % of simulated streaks); two compact
-        # targets have far more
+        # a uniform streak cut in two has sep / axial std = 2·sqrt(3) ≈ 3.5, a blob (a star
+        # cut across its motion) 2.65 (more by chance with few events: + 8 / sqrt(n) bounds
+        # 99.9 % of simulated streaks); two compact targets have far more
         one = lab.astype(bool)
         axial = (proj[~one].std() + (proj[one] - sep).std()) / 2   # np.mean of the two
-        if sep < (2 * np.sqrt(3) + 8 / np.sqrt(n_min)) * max(axial, 0.25):
+        ratio = splitting.streak_ratios((c1 - c0)[:, None] / sep, along)
+        if sep < (float(np.squeeze(ratio)) + 8 / np.sqrt(n_min)) * max(axial, 0.25):
             return None
         # 1-px profile of the events along the axis c0 -> c1 (c0 at 0, c1 at sep): it must
         # dip between the two; a lopsided blob stays whole

@@ -147,11 +147,70 @@ def two_means_many(pts, starts, stops, a, b, iterations=10, integral=True):
     return out[cell_of[im["flat"]]]
 
 
-def halves_many(pts, starts, stops, lab, min_size, valley_ratio):
+#: a star's halves, cut along its motion, are at most this many times their axial spread
+#: apart: a uniform streak cut in two (sep = L/2, each half's std = L/(4·sqrt(3)))
+STREAK_RATIO = 2 * np.sqrt(3)
+#: ... and cut across it, where its events' profile is a blob: a Gaussian cut in two
+#: (sep = 2·sqrt(2/pi)·σ, each half's std = sqrt(1 - 2/pi)·σ)
+BLOB_RATIO = 2 * np.sqrt(2 / np.pi) / np.sqrt(1 - 2 / np.pi)
+#: a cluster's ON and OFF means this far apart (px) give its motion's direction (a moving
+#: star's lobes lie 2-3 px apart; closer, the direction is noise)
+LOBE_GAP_PX = 1.0
+
+
+def motion_axes(pts, p, starts, stops):
+    """Per cluster, the unit vector from its OFF events' mean to its ON events' mean (a
+    moving star fires ON ahead of its centre, OFF behind), NaN where a polarity is missing
+    or the means lie closer than LOBE_GAP_PX."""
+    seg, sizes = _segments(starts, stops)
+    k = len(starts)
+    on = np.asarray(p).astype(bool)
+    n_on = np.bincount(seg, on, k)
+    n_off = sizes - n_on
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.stack([np.bincount(seg, pts[:, c] * on, k) / n_on
+                      - np.bincount(seg, pts[:, c] * ~on, k) / n_off for c in (0, 1)], axis=1)
+        gap = np.hypot(d[:, 0], d[:, 1])
+        return np.where((gap >= LOBE_GAP_PX)[:, None], d / gap[:, None], np.nan)
+
+
+def across_labels(pts, starts, stops, along, iterations=10):
+    """Per point, 0/1 halves of its cluster across the cluster's motion `along` ((k, 2)):
+    1-D 2-means of the points' coordinate perpendicular to it, from the midpoint of their
+    range (two stars side by side, whose lobes a 2-D split along the motion pairs up)."""
+    seg, _ = _segments(starts, stops)
+    k = len(starts)
+    u = pts[:, 1] * along[seg, 0] - pts[:, 0] * along[seg, 1]
+    cut = (np.minimum.reduceat(u, starts) + np.maximum.reduceat(u, starts)) / 2 if k else u[:0]
+    for _ in range(iterations):
+        up = u > cut[seg]
+        n1 = np.bincount(seg, up, k)
+        n0 = np.bincount(seg, minlength=k) - n1
+        with np.errstate(invalid="ignore", divide="ignore"):
+            new = (np.bincount(seg, u * ~up, k) / n0 + np.bincount(seg, u * up, k) / n1) / 2
+        new = np.where((n0 > 0) & (n1 > 0), new, cut)
+        if np.array_equal(new, cut):
+            break
+        cut = new
+    return (u > cut[seg]).astype(np.int64)
+
+
+def streak_ratios(axis, along):
+    """Per cluster, the halves' smallest sep / axial spread for two targets before the chance
+    margin: BLOB_RATIO where the split axis (unit, (2, k)) lies more than 60° from the
+    motion `along` ((k, 2), NaN: unknown), else STREAK_RATIO."""
+    if along is None:
+        return STREAK_RATIO
+    cos = np.abs(axis[0] * along[:, 0] + axis[1] * along[:, 1])
+    return np.where(cos < 0.5, BLOB_RATIO, STREAK_RATIO)
+
+
+def halves_many(pts, starts, stops, lab, min_size, valley_ratio, along=None):
     """Per cluster j (points pts[starts[j]:stops[j]], 2-means labels lab per point): whether
     `evstar.extract.Extractor._halves` keeps its two halves — each of >= min_size points,
     their centres >= 2 px apart and far apart against their spread along the axis between
-    them, the 1-px profile along it dipping to valley_ratio of the peaks between them.
+    them (streak_ratios: across the motion `along`, (k, 2) or None, a blob's ratio), the
+    1-px profile along it dipping to valley_ratio of the peaks between them.
     Centres are sums over counts as there (exact for integer coordinates); the spreads are
     sums in another order than numpy's std (equal to the last bits). The profile test runs
     per cluster, on the few that pass the others."""
@@ -178,8 +237,9 @@ def halves_many(pts, starts, stops, lab, min_size, valley_ratio):
         std = np.sqrt(np.stack([np.bincount(seg, dev * ~one, k) / n0,
                                 np.bincount(seg, dev * one, k) / n1]))
         axial = std.sum(0) / 2
+        ratio = streak_ratios(axis, along)
         ok = (sizes >= 2 * min_size) & (n_min >= min_size) & (sep >= 2) \
-            & ~(sep < (2 * np.sqrt(3) + 8 / np.sqrt(n_min)) * np.maximum(axial, 0.25))
+            & ~(sep < (ratio + 8 / np.sqrt(n_min)) * np.maximum(axial, 0.25))
     for j in np.flatnonzero(ok):
         ok[j] = _dips(proj[starts[j]:stops[j]], sep[j], valley_ratio)
     return ok

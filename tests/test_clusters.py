@@ -528,3 +528,27 @@ def test_batched_split_equals_the_per_cluster_split(monkeypatch):
             np.testing.assert_array_equal(grid[name], skl[name], err_msg=name)
         np.testing.assert_allclose(grid["x"], skl["x"], rtol=0, atol=1e-9)
     assert sum(second) > 0
+
+
+def test_motion_axes_point_from_the_off_lobe_to_the_on_lobe():
+    from evstar import splitting
+
+    pts = np.array([[10.0, 5], [11, 5], [14, 6], [15, 6],      # OFF behind, ON ahead (+x)
+                    [3, 3], [3, 4],                            # one polarity only
+                    [7, 7], [7.5, 7]], float)                  # lobes 0.5 px apart
+    p = np.array([0, 0, 1, 1, 1, 1, 0, 1])
+    ax = splitting.motion_axes(pts, p, np.array([0, 4, 6]), np.array([4, 6, 8]))
+    np.testing.assert_allclose(ax[0], np.array([4.0, 1.0]) / np.hypot(4, 1))
+    assert np.isnan(ax[1:]).all()
+
+
+def test_across_labels_part_two_rows_across_the_motion():
+    from evstar import splitting
+
+    rng = np.random.default_rng(0)
+    x = rng.uniform(0, 20, 60)                                 # streaks along x ...
+    y = np.r_[np.full(30, 10.0), np.full(30, 16.0)] + rng.normal(0, 0.5, 60)  # ... 6 px apart
+    lab = splitting.across_labels(np.column_stack([x, y]), np.array([0]), np.array([60]),
+                                  np.array([[1.0, 0.0]]))
+    assert len(np.unique(lab[:30])) == 1 and len(np.unique(lab[30:])) == 1
+    assert lab[0] != lab[-1]

@@ -226,3 +226,38 @@ def test_pixels_weighting_counts_each_distinct_pixel_once():
     assert len(by_pixels) == len(by_events) == 1
     np.testing.assert_allclose([by_pixels["x"][0], by_pixels["y"][0]], [20.0, 30.0], atol=1e-9)
     assert by_events["x"][0] > 20.5 and by_events["y"][0] > 30.5  # pulled to the hot pixel
+
+
+def lobed_stars(rows_y, vx, n_per_frame, seed, across=1.2, lobe=1.5, duration_us=100_000):
+    """Events of stars at heights rows_y moving together along x at vx px/s, ON events
+    `lobe` px ahead and OFF behind, their profile `across` px wide across the motion."""
+    rng = np.random.default_rng(seed)
+    parts = []
+    for y0 in rows_y:
+        t, x, _, p = lobed_star_events(40, 0, vx, n_per_frame, rng, duration_us, lobe, 0.8)
+        parts.append((t, x, y0 + rng.normal(0, across, len(t)), p))
+    t, x, y, p = (np.concatenate(c) for c in zip(*parts))
+    o = np.argsort(t, kind="stable")
+    return Events(t[o], np.round(x[o]), np.round(y[o]), p[o], 200, 150)
+
+
+def test_stars_side_by_side_across_their_motion_are_split():
+    # 5.5 px apart across the motion, each star's events 1.2 px wide across it: a streak
+    # cut in two would need ~5.9 px (2·sqrt(3) + chance, x the halves' spread), a blob 4.4
+    ev = lobed_stars((60.0, 65.5), 300, 60, seed=2)
+    out = {k: Extractor(clustering=k).centroids(ev) for k in ("grid", "sklearn")}
+    for c in out.values():
+        assert len(c) == 20 and c["split"].all()
+        y = np.sort(c["y"].reshape(10, 2), axis=1)
+        assert np.all(np.abs(y[:, 0] - 60) < 0.4) and np.all(np.abs(y[:, 1] - 65.5) < 0.4)
+    for name in ("t", "frame", "n_events", "n_on"):   # the batched split is the per-cluster one
+        np.testing.assert_array_equal(out["grid"][name], out["sklearn"][name])
+    np.testing.assert_allclose(out["grid"]["y"], out["sklearn"]["y"], rtol=0, atol=1e-9)
+
+
+def test_a_single_fast_star_is_not_cut_along_or_across_its_motion():
+    # 15 px per frame along x: a long streak of both polarities, 1.2 px wide across
+    ev = lobed_stars((60.0,), 1500, 300, seed=3)
+    for clustering in ("grid", "sklearn"):
+        c = Extractor(clustering=clustering).centroids(ev)
+        assert not c["split"].any() and len(c) == 10, clustering
