@@ -97,11 +97,12 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None, measured_lag=None):
+             sensor=None, measured_lag=None, rate_hz=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
     (width, height) are dropped: there is no star to report there. measured_lag: the
-    pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given."""
+    pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given.
+    rate_hz: the measured background rate (events/pixel/s), for untracked_alpha."""
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster (evstar.pooling)
@@ -126,7 +127,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
                                 assigned)[0]
                 for est, assigned, (cents, sig, prior) in zip(ests, mine, groups)]
     est = np.concatenate(ests)
-    rows = _merge(out[centroids["track"] < 0], out, est)
+    loose = out[centroids["track"] < 0]
+    if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
+        loose = loose[loose["n_events"] >= untracked_min_events(config, sensor, rate_hz)]
+    rows = _merge(loose, out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother
     # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out);
@@ -140,6 +144,19 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     return rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
+
+
+def untracked_min_events(config, sensor, rate_hz):
+    """The fewest events of a reported untracked centroid: a track confirms a star, while
+    one cluster of n events could be background — λ·dt·π·eps² expected in a spot of the
+    cluster's radius, and width·height / (π·eps²) such spots in a frame — so n must be
+    reached there with probability <= estimate.untracked_alpha anywhere in the frame."""
+    from evstar_kernels.reference import poisson
+
+    area = np.pi * config.extract.eps ** 2
+    spots = sensor[0] * sensor[1] / area
+    mu = rate_hz * config.dt_us * 1e-6 * area
+    return int(poisson.isf(min(config.estimate.untracked_alpha / spots, 1.0), mu)) + 1
 
 
 def _bracketed(rows):

@@ -349,6 +349,10 @@ ESTIMATE = Params(
     Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "
           "smoothed track is dropped and the track refitted (none: keep all)", low=0,
           open_low=True, optional=True),
+    Param("untracked_alpha", float, 0.01, "an untracked centroid (of no confirmed track) "
+          "is reported only where background alone would form a cluster of as many events "
+          "somewhere in its frame with at most this probability (the measured background "
+          "rate; none: report all)", low=0, high=1, open_low=True, optional=True),
     Param("field_min_stars", int, 4, "rigid-field refinement (evstar.field, needs the "
           "camera): in a frame with at least this many tracked stars, a star's position is "
           "the one the field's rotation and all its track's rows give (0: off)", low=0,

@@ -231,7 +231,7 @@ class Pipeline:
         acc = _Summary(events.width, events.height, self.config.dt_us, t0, images=False)
         acc.add(events, keep, truth, 0)
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
-                              self._estimator(state, t0, imu, camera, filter_result, span),
+                              self._estimator(state, t0, imu, camera, filter_result, span, rate),
                               span_us=span)
         result.keep, result.compensation = keep, comp
         result.images = functools.partial(images, events, keep)   # a Result stays picklable
@@ -261,11 +261,12 @@ class Pipeline:
 
         return hold_ends(imu, span[0], span[1], self.config.motion.extrapolate_us)
 
-    def _estimator(self, state, t0, imu, camera, filter_result, span):
+    def _estimator(self, state, t0, imu, camera, filter_result, span, rate):
         """linked centroids -> star positions (evstar.estimation), with the run's crossings
         and, when the run compensates with the IMU, the gyro's image velocity as the motion
         prior (an IMU that only came along in the file is not trusted with that); span: the
-        recording's (first, last) event µs, None when it has none."""
+        recording's (first, last) event µs, None when it has none; rate: the measured
+        background rate (events/pixel/s)."""
         from . import estimation
 
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
@@ -273,7 +274,7 @@ class Pipeline:
 
         def positions(cents):
             rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
-                                       state.sensor, state.measured_lag())
+                                       state.sensor, state.measured_lag(), rate)
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
@@ -355,7 +356,8 @@ class Pipeline:
         if mode == "pf":
             filter_result, timings["particle_filter"] = self._particle_filter(_cat(parts), imu, camera)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
-                            self._estimator(state, t0, imu, camera, filter_result, first_last),
+                            self._estimator(state, t0, imu, camera, filter_result, first_last,
+                                            rate),
                             span_us=first_last)
 
 

@@ -238,6 +238,7 @@ def run_scene(s):
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
+    rate = Pipeline(cfg).calibration_rate(ev, t0)      # the background, as a run measures it
     for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
@@ -247,7 +248,7 @@ def run_scene(s):
                                "estimate.refractory_us": refractory_us if name == "refractory" else 0.0})
         rows = estimation.estimate(linked, c, t0, crossings_r if name == "refractory" else crossings,
                                    prior, (t0, int(ev.t[-1])), (ev.width, ev.height),
-                                   None if name == "no_lag" else lag)
+                                   None if name == "no_lag" else lag, rate)
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 
