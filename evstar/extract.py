@@ -159,7 +159,7 @@ class Extractor:
             if self.clustering == "grid":  # the reference looks at every cluster
                 maybe, by_polarity, peaks = self._screen(events, c, m, maybe)
             out, order, keep = self._split_clusters(events, c, out, order, keep, maybe,
-                                                    by_polarity, peaks)
+                                                    by_polarity, splitting.cluster_axes(m), peaks)
         out, order = out[keep], order[keep]
         return out[np.lexsort((order, out["x"], out["t"]))], used
 
@@ -229,10 +229,12 @@ class Extractor:
         both &= (peaks[:, 1, 0] != 0) & (peaks[:, 2, 0] != 0)
         return maybe, both, peaks
 
-    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity, peaks=None):
+    def _split_clusters(self, events, c, out, order, keep, candidates, by_polarity, axes,
+                        peaks=None):
         """Replace every candidate cluster that holds two targets by its two halves (flag
         split); the others keep their row. by_polarity: clusters whose polarities may each
-        split (the second test of _split); peaks: the screen's certain peaks (_screen)."""
+        split (the second test of _split); axes: splitting.cluster_axes of every cluster;
+        peaks: the screen's certain peaks (_screen)."""
         labels = c.labels
         idx = np.flatnonzero(np.r_[candidates, False][labels])  # label -1: the False
         if self.clustering == "grid":  # a counting sort by cluster (Taichi)
@@ -254,12 +256,14 @@ class Extractor:
                 j, a, b = ids[n], starts[n], stops[n]
                 parts = self._split(pts[a:b], p_all[a:b], by_polarity[j],
                                     (None, None) if peaks is None else
-                                    (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])))
+                                    (_seeds(peaks[j, 1]), _seeds(peaks[j, 2])),
+                                    (axes[0][j:j + 1], axes[1][j]))
                 if parts is not None:
                     found[n] = parts
         else:
             found = self._split_many(pts, p_all, starts, stops, first, by_polarity[ids],
-                                     None if peaks is None else peaks[ids])
+                                     None if peaks is None else peaks[ids],
+                                     (axes[0][ids], axes[1][ids]))
         for n, parts in sorted(found.items()):
             j, a, b = ids[n], starts[n], stops[n]
             members = members_all[a:b]
@@ -274,38 +278,35 @@ class Extractor:
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
                 np.r_[keep, np.ones(len(rows), bool)])
 
-    def _split_many(self, pts, p, starts, stops, first, by_polarity, peaks):
+    def _split_many(self, pts, p, starts, stops, first, by_polarity, peaks, axes):
         """{candidate n: labels} of the candidates _split would split, all at once (the
         2-means in Taichi, the halves' tests batched: splitting.halves_many): the first
         test's halves where it does not certainly fail, kept when their polarities agree;
         then, where the candidate's polarities may each split, its ON and its OFF events
-        apart, paired along the axis of the ON halves. peaks: the screen's (n, 3, 5)."""
+        apart, paired along the axis of the ON halves. peaks: the screen's (n, 3, 5); axes:
+        the candidates' splitting.cluster_axes."""
         found = {}
         mcs, lab = self.min_cluster_size, first.lab
+        along, wide = axes
         # not first.fails: two peaks and halves whose polarities agree (_first_halves)
         a_ = np.flatnonzero(~first.fails)
         if len(a_):
             idx, st = _gather(starts[a_], stops[a_])
-            along = splitting.motion_axes(pts[idx], p[idx], st[:-1], st[1:])
             ok = splitting.halves_many(pts[idx], st[:-1], st[1:], lab[idx], mcs, self.split_valley,
-                                       along)
+                                       along[a_])
             for i in np.flatnonzero(ok):
                 found[a_[i]] = lab[starts[a_[i]]:stops[a_[i]]]
         # two stars side by side (_split): all events, across the motion, where two peaks
-        near = np.flatnonzero(first.has & (stops - starts >= 2 * mcs))
-        near = near[~np.isin(near, list(found))]
-        idx, st = _gather(starts[near], stops[near])
-        along_near = splitting.motion_axes(pts[idx], p[idx], st[:-1], st[1:])
-        along = dict(zip(near.tolist(), along_near))
-        go = np.flatnonzero(np.isfinite(along_near).all(1))
+        go = np.flatnonzero(first.has & (stops - starts >= 2 * mcs) & wide)
+        go = go[~np.isin(go, list(found))]
         if len(go):
-            sub, sub_st = _gather(st[go], st[go + 1])
-            q = pts[idx][sub]
-            lab_x = splitting.across_labels(q, sub_st[:-1], sub_st[1:], along_near[go])
+            sub, sub_st = _gather(starts[go], stops[go])
+            q = pts[sub]
+            lab_x = splitting.across_labels(q, sub_st[:-1], sub_st[1:], along[go])
             ok = splitting.halves_many(q, sub_st[:-1], sub_st[1:], lab_x, mcs, self.split_valley,
-                                       along_near[go])
+                                       along[go])
             for i in np.flatnonzero(ok):
-                found[near[go[i]]] = lab_x[sub_st[i]:sub_st[i + 1]]
+                found[go[i]] = lab_x[sub_st[i]:sub_st[i + 1]]
         # the second test: where there are two peaks (first.has) and both polarities may split
         rest = np.flatnonzero(first.has & by_polarity & (stops - starts >= 2 * mcs))
         rest = rest[~np.isin(rest, list(found))]
@@ -331,8 +332,8 @@ class Extractor:
     def _polarity_halves(self, pts, p, starts, stops, cand, pol, peaks, along):
         """{candidate n: 2-means labels of its events of polarity `pol`} where _halves keeps
         them (batched); peaks: the screen's (status, ax, ay, bx, by) of those events' image
-        per candidate, or None (two_peaks for all); along: {n: the candidate's motion axis}
-        (splitting.motion_axes of all its events)."""
+        per candidate, or None (two_peaks for all); along: every candidate's motion axis
+        (splitting.cluster_axes)."""
         if not len(cand):
             return {}
         from evstar_kernels.taichi import clusters_launch
@@ -359,7 +360,7 @@ class Extractor:
         lab = clusters_launch.two_means(backends.taichi(self.device), q[sub], sub_st[:-1],
                                         sub_st[1:], a[go], b[go])
         ok = splitting.halves_many(q[sub], sub_st[:-1], sub_st[1:], lab, self.min_cluster_size,
-                                   self.split_valley, np.array([along[int(cand[g])] for g in go]))
+                                   self.split_valley, along[cand[go]])
         return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
     def _first_halves(self, c, pts, p, starts, stops, peaks):
@@ -395,7 +396,7 @@ class Extractor:
         return _FirstTest(has, lab, fails)
 
     # -- one cluster, event by event (split candidates) ---------------------------------
-    def _split(self, pts, p, by_polarity=True, polarity_seeds=(None, None)):
+    def _split(self, pts, p, by_polarity=True, polarity_seeds=(None, None), motion=None):
         """Labels 0/1 when the cluster holds two separable targets, else None.
 
         First on all events; a moving star fires ON at its leading edge and OFF at its
@@ -403,7 +404,9 @@ class Extractor:
         Then on each polarity alone, where one target is one lobe: that finds a faint star
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
-        polarity_seeds: the OFF and the ON events' two_peaks when known. The scikit-learn
+        polarity_seeds: the OFF and the ON events' two_peaks when known; motion: the
+        cluster's splitting.cluster_axes ((1, 2) axis, wider across), else from pts. The
+        scikit-learn
         path's reference; grid clustering runs the same steps batched (_split_many)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
@@ -411,13 +414,16 @@ class Extractor:
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
         one = (np.array([0]), np.array([len(pts)]))
-        along = splitting.motion_axes(pts, p, *one)
+        if motion is None:   # a split cluster's half (_pieces): its own events tell
+            along = splitting.motion_axes(pts, p, *one)
+            motion = along, bool(splitting.wider_across(pts, *one, along)[0])
+        along, wide = motion
         lab = self._halves(pts, seeds, along=along)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         # two stars side by side: the halves above were one star's lobes, both stars' lobes
         # paired; across the motion all their events show the pair
-        if np.isfinite(along).all():
+        if wide:
             lab = self._halves(pts, lab=splitting.across_labels(pts, *one, along), along=along)
             if lab is not None:
                 return lab

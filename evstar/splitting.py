@@ -174,6 +174,47 @@ def motion_axes(pts, p, starts, stops):
         return np.where((gap >= LOBE_GAP_PX)[:, None], d / gap[:, None], np.nan)
 
 
+def cluster_axes(m):
+    """(motion axes (k, 2): motion_axes from the clusters' moments `m` (evstar.extract's
+    per-polarity sums), whether each spreads wider across that axis than along it
+    (wider_across)) — the clusters' own split tests take these, their halves' the point
+    forms."""
+    n = m["n"].astype(np.float64)
+    total = n.sum(1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.stack([m["sx"][:, 1] / n[:, 1] - m["sx"][:, 0] / n[:, 0],
+                      m["sy"][:, 1] / n[:, 1] - m["sy"][:, 0] / n[:, 0]], axis=1)
+        gap = np.hypot(d[:, 0], d[:, 1])
+        along = np.where((gap >= LOBE_GAP_PX)[:, None], d / gap[:, None], np.nan)
+        mx, my = m["sx"].sum(1) / total, m["sy"].sum(1) / total
+        cxx = m["sxx"].sum(1) / total - mx * mx
+        cyy = m["syy"].sum(1) / total - my * my
+        cxy = m["sxy"].sum(1) / total - mx * my
+    ax, ay = along[:, 0], along[:, 1]
+    var_along = ax * ax * cxx + 2 * ax * ay * cxy + ay * ay * cyy
+    var_across = ay * ay * cxx - 2 * ax * ay * cxy + ax * ax * cyy
+    return along, var_across > var_along
+
+
+def wider_across(pts, starts, stops, along):
+    """Per cluster, whether its points spread more across its motion `along` ((k, 2)) than
+    along it: one star's events spread more along (its lobes and its streak lie there), a
+    pair side by side more across — only such clusters are split across the motion."""
+    seg, sizes = _segments(starts, stops)
+    k = len(starts)
+    if not k:
+        return np.zeros(0, bool)
+    a = along[seg]
+    w = pts[:, 0] * a[:, 0] + pts[:, 1] * a[:, 1]
+    u = pts[:, 1] * a[:, 0] - pts[:, 0] * a[:, 1]
+
+    def var(v):
+        m = np.bincount(seg, v, k) / sizes
+        return np.bincount(seg, (v - m[seg]) ** 2, k)
+
+    return var(u) > var(w)
+
+
 def across_labels(pts, starts, stops, along, iterations=10):
     """Per point, 0/1 halves of its cluster across the cluster's motion `along` ((k, 2)):
     1-D 2-means of the points' coordinate perpendicular to it, from the midpoint of their
