@@ -98,6 +98,9 @@ MIN_SHARE_STD = 0.2
 #: least share of the residuals' variance the lobe bias must explain: a stiff fit of a track
 #: that accelerates leaves residuals the shares do not explain
 MIN_LOBE_R2 = 0.5
+#: a centroid whose residual from the stiff fit exceeds this many times its track's median
+#: |residual| is no lobe's (a lobe moves a centroid by ~β/2 at most) and sets no β
+WILD = 5.0
 
 
 def _shares(centroids):
@@ -134,6 +137,10 @@ def debiased(centroids, est):
     s = _shares(centroids[c])
     r = (centroids["x"][c] - e["x"]) * ux + (centroids["y"][c] - e["y"]) * uy
     ids, k = np.unique(e["track"], return_inverse=True)
+    # a wild centroid (another star's, taken by the tracker) would set β: left out
+    typical = np.array([np.median(np.abs(r[k == j])) for j in range(len(ids))])
+    tame = np.abs(r) <= WILD * typical[k]
+    e, c, s, r, ux, uy, k = e[tame], c[tame], s[tame], r[tame], ux[tame], uy[tame], k[tame]
     n = np.bincount(k, minlength=len(ids)).astype(float)
     mean = lambda v: np.bincount(k, v, len(ids)) / n
     ds, dr = s - mean(s)[k], r - mean(r)[k]

@@ -366,9 +366,19 @@ class TrackSmoother:
         d = tr.resid - x[m][:, [0, 2]]
         res = (np.abs(d) / np.sqrt(np.maximum(var, 1e-6 * sigma[:, None] ** 2))).max(1)
         new = (res > self.outlier_sigma) & ~outlier
-        # never more than a quarter of a track: beyond that the model, not the data, is off
-        if not new.any() or (outlier | new).sum() > len(tr.resid) // 4:
+        if not new.any():
             return None
+        # never more than a quarter of a track: beyond that the model, not the data, is off
+        if (outlier | new).sum() > len(tr.resid) // 4:
+            # unless one wild centroid pulls its neighbours' residuals past the threshold
+            # too: the worst alone, where it stands out of the rest's spread as an outlier
+            # of a fitting model would (and the track refitted without it)
+            worst = np.argmax(np.where(outlier, -np.inf, res))
+            spread = max(float(np.median(res[~outlier])), 1.0)
+            if outlier.sum() + 1 > len(tr.resid) // 4 or res[worst] <= self.outlier_sigma * spread:
+                return None
+            new = np.zeros_like(new)
+            new[worst] = True
         return new
 
     def _coast_frames(self, t_meas, frames, t0_us):

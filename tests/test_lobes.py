@@ -135,3 +135,15 @@ def test_tracks_without_a_measurable_lobe_bias_are_left_alone(case):
     c, _ = lobed_track(shares, beta=-4.0 if case == "off_ahead" else 4.0)
     fixed, changed = debiased(c, TrackSmoother(10_000, process_noise=1.0).smooth(c, 0))
     assert len(changed) == 0 and np.array_equal(fixed, c)
+
+
+def test_a_wild_centroid_does_not_set_the_lobe_bias():
+    from evstar.lobes import debiased
+    from evstar.smoothing import TrackSmoother
+
+    c, truth = lobed_track(np.resize([1.0, 0.0, 0.5, 0.9, 0.1], 30))
+    c["y"][0] += 35.0                                         # another star's, taken by the tracker
+    c["x"][0] -= 20.0
+    fixed, changed = debiased(c, TrackSmoother(10_000, process_noise=1.0).smooth(c, 0))
+    assert list(changed) == [0]
+    assert np.abs(fixed["x"][1:] - truth[1:]).max() < 0.3
