@@ -3,6 +3,8 @@
 Rows are synthetic: stars' true pixels along a known rotation, plus a wander per track
 (AR(1) noise, as a smoothed track's errors are), with the estimator's columns.
 """
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -21,24 +23,24 @@ def rotations(t_s, rate_dps=8.0, wobble_deg=0.3):
     return Rotation.from_rotvec(np.radians(rv)).as_matrix()
 
 
-def star_dirs(n, rng):
+def star_dirs(n, rng, cam=CAM):
     """Unit directions of stars in view across the pan."""
-    uv = np.stack([rng.uniform(60, CAM.width - 60, n), rng.uniform(20, CAM.height - 20, n)], 1)
-    return CAM.unproject(uv)
+    uv = np.stack([rng.uniform(60, cam.width - 60, n), rng.uniform(20, cam.height - 20, n)], 1)
+    return cam.unproject(uv)
 
 
-def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000):
+def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000, cam=CAM):
     """Rows of every star in every frame where it is in view: truth + AR(1) wander; and truth.
     A row's time is its frame's middle ± up to spread_us (its events' mean time)."""
     rows, truth = [], []
     for i, d in enumerate(dirs):
         t = np.arange(FRAMES) * 10_000 + 5_000 + rng.integers(-spread_us, spread_us + 1, FRAMES)
-        uv = CAM.project(np.einsum("fij,j->fi", rotations(t / 1e6), d))
+        uv = cam.project(np.einsum("fij,j->fi", rotations(t / 1e6), d))
         e = np.zeros((FRAMES, 2))
         e[0] = rng.normal(0, sigma, 2)
         for f in range(1, FRAMES):
             e[f] = rho * e[f - 1] + np.sqrt(1 - rho ** 2) * rng.normal(0, sigma, 2)
-        inside = (uv[:, 0] > 0) & (uv[:, 0] < CAM.width - 1) & (uv[:, 1] > 0) & (uv[:, 1] < CAM.height - 1)
+        inside = (uv[:, 0] > 0) & (uv[:, 0] < cam.width - 1) & (uv[:, 1] > 0) & (uv[:, 1] < cam.height - 1)
         r = np.zeros(inside.sum(), CENTROID_DTYPE)
         r["frame"], r["t"] = np.flatnonzero(inside), t[inside]
         r["track"], r["sigma"], r["source"] = i, sigma, "measured"
@@ -64,6 +66,18 @@ def test_noise_free_rows_are_a_fixed_point():
         # off where the wobble bends their paths
         np.testing.assert_allclose(out["x"], truth[:, 0], atol=atol)
         np.testing.assert_allclose(out["y"], truth[:, 1], atol=atol)
+
+
+def test_a_distorted_lens_keeps_the_fixed_point_and_the_gain():
+    cam = dataclasses.replace(CAM, k1=-0.2, k2=0.05)           # barrel, ~2 px at the corners
+    rng = np.random.default_rng(9)
+    dirs = star_dirs(12, rng, cam)
+    rows, truth = rows_of(dirs, rng, rho=0.0, spread_us=0, cam=cam)
+    rows["x"], rows["y"] = truth.T
+    out = field.refine(rows, cam, 4)
+    np.testing.assert_allclose(np.column_stack([out["x"], out["y"]]), truth, atol=1e-5)
+    rows, truth = rows_of(dirs, rng, cam=cam)
+    assert err(field.refine(rows, cam, 4), truth).mean() < 0.6 * err(rows, truth).mean()
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
