@@ -78,11 +78,15 @@ class Tracker:
         gates = np.where(st.n[live] > 1, self.gate_px, self.init_gate_px)
         new = np.flatnonzero(st.n[live] == 1)
         flow = live[(st.n[live] >= self.min_length) & (st.last_f[live] >= f - 1)]
+        guided = len(new) and (len(flow) or len(new) >= FLOW_NEIGHBOURS)
         if len(new) and len(flow):
             pred[new], gates[new] = _with_flow(st, live[new], flow, f, self.gate_px,
                                                self.init_gate_px)
+        elif guided:   # no confirmed track yet (a recording's first frames), but a field
+            pred[new], gates[new] = _provisional_flow(st, live[new], pts, f, self.gate_px,
+                                                      self.init_gate_px)
         cost = _gated(pred, gates, pts, big)
-        if len(new) and len(flow):
+        if guided:
             # or still, within gate_px: a turn stops every star, while the flow measured
             # on the frames before still has them moving
             cost[new] = np.minimum(cost[new], _gated(st.last_xy[live[new]], self.gate_px, pts, big))
@@ -115,6 +119,30 @@ def _with_flow(st, new, flow, f, gate_px, init_gate_px):
     steps = f - st.last_f[new]
     return (st.last_xy[new] + vc * steps[:, None],
             np.minimum(gate_px + spread * steps, init_gate_px))
+
+
+def _provisional_flow(st, new, pts, f, gate_px, init_gate_px):
+    """_with_flow's (predictions at frame f, gates) before any track is confirmed: each new
+    track's step (per frame) to its nearest centroid of frame f, within init_gate_px; its
+    flow the median step of its FLOW_NEIGHBOURS nearest new tracks — stars lying farther
+    apart than they move, most nearest steps are the true ones — and its gate gate_px
+    plus three times their median deviation from it (one wrong step must not open it)."""
+    steps = (f - st.last_f[new]).astype(float)
+    d = pts[None, :, :] - st.last_xy[new][:, None, :]
+    j = np.argmin(np.linalg.norm(d, axis=2), axis=1)
+    step = d[np.arange(len(new)), j] / steps[:, None]
+    step[np.linalg.norm(step, axis=1) > init_gate_px] = np.nan
+    gap = np.linalg.norm(st.last_xy[new][:, None] - st.last_xy[new][None], axis=2)
+    near = np.argpartition(gap, FLOW_NEIGHBOURS - 1, axis=1)[:, :FLOW_NEIGHBOURS]
+    vn = step[near]                                           # (new, k, 2)
+    known = np.isfinite(vn[..., 0]).any(axis=1)
+    vc = np.zeros((len(new), 2))
+    dev = np.full(len(new), np.inf)
+    if known.any():
+        vc[known] = np.nanmedian(vn[known], axis=1)
+        dev[known] = np.nanmedian(np.linalg.norm(vn[known] - vc[known][:, None], axis=2), axis=1)
+    gates = np.minimum(gate_px + 3 * dev * steps, init_gate_px)
+    return st.last_xy[new] + vc * steps[:, None], gates
 
 
 class _Tracks:

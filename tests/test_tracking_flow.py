@@ -63,3 +63,16 @@ def test_a_roll_spreads_the_flow_and_widens_the_gate():
     linked = Tracker().link(centroids(rows + faint))
     ids = {track_of(linked, f, x) for f, x, _ in faint}
     assert len(ids) == 1 and -1 not in ids
+
+
+def test_before_any_track_is_confirmed_new_tracks_move_with_the_field():
+    # a recording's first frames: no track has min_length centroids, so no flow is known; a
+    # noise cluster in frame 0 and a star first seen in frame 1, 27 px from it, were one
+    # track (the 40 px init gate); the new tracks' own nearest steps give the field's flow
+    starts = ((20, 20), (20, 80), (60, 50), (100, 20), (140, 80), (180, 50))
+    star = [(f, 122.0 + 2.0 * f, 100.0) for f in range(1, 12)]
+    rows = field(range(12), starts=starts) + [(0, 97.0, 100.0)] + star
+    linked = Tracker().link(centroids(rows))
+    assert track_of(linked, 0, 97.0) == -1
+    ids = {track_of(linked, f, x) for f, x, _ in star}
+    assert len(ids) == 1 and -1 not in ids
