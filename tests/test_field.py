@@ -152,3 +152,20 @@ def test_pipeline_refines_a_star_field_only_when_asked():
 def test_bad_min_stars_is_rejected_naming_it():
     with pytest.raises(ParameterError, match="estimate.field_min_stars"):
         Config().replace(**{"estimate.field_min_stars": -1})
+
+
+def test_a_streamed_star_field_equals_the_whole_run(tmp_path):
+    from evstar import io
+
+    motion = sim.ConstantRate(6.0, axis=np.array([0.0, 1.0, 0.0]),
+                              R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
+    stars = sim.hipparcos_field_along(CAM, motion, 0.2, mag_limit=5.0)
+    run = sim.simulate(sim.Scenario(CAM, stars, motion, 0.2), seed=9)
+    io.write(tmp_path / "events.h5", run.events)
+    cfg = Config(chunk_frames=7).replace(**{"estimate.estimator": "track"})
+    whole = Pipeline(cfg).run(run.events, run.imu, run.camera).centroids
+    streamed = Pipeline(cfg).run_file(tmp_path / "events.h5", run.imu, run.camera,
+                                      progress=False).centroids
+    assert (whole["track"] >= 0).sum() > 4 * 20                 # a field: the fit ran
+    for name in CENTROID_DTYPE.names:
+        np.testing.assert_array_equal(whole[name], streamed[name], err_msg=name)
