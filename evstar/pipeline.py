@@ -248,6 +248,11 @@ class Pipeline:
         tracked = self.make_tracker().link(centroids[centroids["source"] != "pooled"])
         # stars cut by the sensor edge give centroids biased by up to ~3 px: leave them out
         obs = tracked[(tracked["track"] >= 0) & ~tracked["border"]]
+        # a track joined where one ended as another began (tracking._join: a turn, two stars
+        # side by side) can hold two centroids at one time: which is the star's is unknown
+        _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,
+                                    return_inverse=True, return_counts=True)
+        obs = obs[count[where.ravel()] == 1]
         t = time.perf_counter()
         pf = ParticleFilter(self.config.motion.n_particles, seed=self.config.seed,
                             device=self.config.device)

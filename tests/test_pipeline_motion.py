@@ -93,3 +93,27 @@ def test_pf_warps_as_imu_and_reports_the_filters_attitude(strong_bias):
     t = run.events.t[:: len(run.events) // 50]
     np.testing.assert_allclose(pf.compensation.attitude.relative(t, np.full(len(t), t[0])),
                                want.relative(t, np.full(len(t), t[0])), atol=1e-12)
+
+
+def test_a_track_with_two_centroids_at_one_time_leaves_them_out_of_the_filter():
+    # tracking._join relabels a track that starts where another ended (a turn; two stars
+    # side by side split apart), so one track can hold two centroids of one frame; with
+    # compensation both carry the frame's time, which the filter cannot take twice
+    from evstar.extract import CENTROID_DTYPE
+
+    run = simulate((0.3, -0.2, 0.25))
+    t0 = int(run.events.t[0])
+    rows = [(f, 100.0 + 2 * f, 100.0) for f in range(6)]            # A: frames 0-5
+    rows += [(f, 101.0 + 2 * f, 103.0) for f in range(5, 16)]       # B: from frame 5, beside A
+    rows += [(f, 60.0 + 2 * f, 60.0 + k) for f in range(16) for k in (0, 40)]  # two more stars
+    c = np.zeros(len(rows), CENTROID_DTYPE)
+    for i, (f, x, y) in enumerate(rows):
+        c[i] = (t0 + f * 10_000 + 5_000, x, y, -1, 20, f, 1.0, False, False, 0.1, "measured", 10)
+    c = c[np.lexsort((c["x"], c["t"]))]
+    linked = evstar.tracking.Tracker().link(c)
+    pairs = np.column_stack([linked["track"], linked["t"]])[linked["track"] >= 0]
+    assert len(np.unique(pairs, axis=0)) < len(pairs)             # the join made a twin
+    pipe = evstar.Pipeline(Config().replace(**{"motion.compensate": "pf",
+                                               "motion.n_particles": 256}))
+    result, _ = pipe._particle_filter(c, run.imu, run.camera)
+    assert len(result.bias) and np.isfinite(result.bias).all()
