@@ -34,7 +34,7 @@ wider threshold mismatch, seed 43), was run once when the fourteenth session's s
 was done.
 
     python perf/study_accuracy.py [--quick] [--only PART]   (PART: dev, held-out, fresh, ...;
-        writes study_accuracy_PART.* instead)
+        writes study_accuracy_PART.* instead) [--set KEY=VALUE --name NAME]
 
 Writes perf/results/study_accuracy.json, .md and .png (error against the bound). Columns per estimator: mean and max error
 (px), the fraction of frames in which the star (in view) has a position, false rows (matching
@@ -218,10 +218,11 @@ def scores(rows, truth, frames_t, cam, n_frames):
             "within_2_45_sigma": float(np.mean(z <= 2.45)) if ok.any() else float("nan")}
 
 
-def run_scene(s):
+def run_scene(s, settings=None):
     run = sim.simulate(scenario(s), seed=s["seed"])
     ev = run.events
-    cfg = Config().replace(**{"motion.compensate": s["comp"], "estimate.estimator": "mean"})
+    cfg = Config().replace(**{**(settings or {}), "motion.compensate": s["comp"],
+                              "estimate.estimator": "mean"})
     res = Pipeline(cfg).run(ev, run.imu, run.camera)
     linked = res.centroids
     t0 = int(ev.t[0])
@@ -322,19 +323,27 @@ def main(argv=None):
     ap.add_argument("--plot-only", action="store_true", help="redraw the figure from the JSON")
     ap.add_argument("--only", choices=list(PARTS), help="one part of the grid alone (its own "
                     "study_accuracy_PART files)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a Config setting for every run, e.g. denoise.method=ndsef (repeatable; "
+                    "needs --name)")
+    ap.add_argument("--name", help="results: study_accuracy_NAME.* instead")
     args = ap.parse_args(argv)
+    if args.set and not args.name:
+        ap.error("--set needs --name (the default results are the default configuration's)")
+    from study_field import setting_value
+    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
     if args.plot_only:
         plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
         return
     parts = [args.only] if args.only else list(PARTS)
     grids = [PARTS[p](args.quick) if p == "held-out" else PARTS[p]() for p in parts]
-    rows = [run_scene(s) for s in itertools.chain(*grids)]
-    name = f"study_accuracy_{args.only}" if args.only else "study_accuracy"
+    rows = [run_scene(s, settings) for s in itertools.chain(*grids)]
+    name = "study_accuracy" + "".join(f"_{v}" for v in (args.only, args.name) if v)
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"{name}.md").write_text("# Star-position accuracy by estimator\n\n"
                                         + markdown(rows) + "\n")
-    if not args.only:
+    if not args.only and not args.name:
         plot(rows, RESULTS / f"{name}.png")
     print(markdown(rows))
 

@@ -75,7 +75,7 @@ def markdown(rows):
     return "\n".join(lines)
 
 
-def _value(text):
+def setting_value(text):
     """A --set value as JSON reads it (0, 1.5, true, null), else the text itself."""
     try:
         return json.loads(text)
@@ -97,7 +97,7 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
     args = ap.parse_args(argv)
-    settings = {k: _value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
     seeds = [int(s) for s in args.seeds.split(",")]
     name, focal = args.camera.split(":")
     cam = sim.camera_preset(name, float(focal))
