@@ -405,7 +405,7 @@ class Extractor:
         beside a bright one, whose lobes dominate the first split. Both polarities must
         show the pair; their halves are matched by their order along the pair's axis.
         polarity_seeds: the OFF and the ON events' two_peaks when known; motion: the
-        cluster's splitting.cluster_axes ((1, 2) axis, wider across), else from pts. The
+        cluster's splitting.cluster_axes ((1, 2) axis, wider across), else from its pts' moments. The
         scikit-learn
         path's reference; grid clustering runs the same steps batched (_split_many)."""
         if len(pts) < 2 * self.min_cluster_size:
@@ -413,17 +413,18 @@ class Extractor:
         seeds = two_peaks(pts)
         if seeds is None:  # one peak: one target (the common case, decided cheaply)
             return None
-        one = (np.array([0]), np.array([len(pts)]))
-        if motion is None:   # a split cluster's half (_pieces): its own events tell
-            along = splitting.motion_axes(pts, p, *one)
-            motion = along, bool(splitting.wider_across(pts, *one, along)[0])
+        if motion is None:   # a split cluster's half (_pieces): its own events' moments
+            zero = np.zeros(len(pts), np.int64)
+            m = cluster_moments(zero, zero, pts[:, 0], pts[:, 1], zero, p, np.zeros(1, np.int64))
+            motion = splitting.cluster_axes(m)
         along, wide = motion
         lab = self._halves(pts, seeds, along=along)
         if lab is not None and abs(p[lab == 0].mean() - p[lab == 1].mean()) <= 0.5:
             return lab
         # two stars side by side: the halves above were one star's lobes, both stars' lobes
         # paired; across the motion all their events show the pair
-        if wide:
+        if np.all(wide):
+            one = (np.array([0]), np.array([len(pts)]))
             lab = self._halves(pts, lab=splitting.across_labels(pts, *one, along), along=along)
             if lab is not None:
                 return lab
@@ -448,7 +449,7 @@ class Extractor:
         """Labels 0/1 when `pts` hold two compact targets with a clear valley between them,
         else None. The seeds are the two highest peaks of the smoothed count image, so a
         faint star beside a bright one is found (2-means would halve the bright one).
-        along: splitting.motion_axes of the cluster ((1, 2)), or None (unknown)."""
+        along: splitting.cluster_axes' axis of the cluster ((1, 2)), or None (unknown)."""
         if len(pts) < 2 * self.min_cluster_size:
             return None
         if lab is None:

@@ -158,27 +158,12 @@ BLOB_RATIO = 2 * np.sqrt(2 / np.pi) / np.sqrt(1 - 2 / np.pi)
 LOBE_GAP_PX = 1.0
 
 
-def motion_axes(pts, p, starts, stops):
-    """Per cluster, the unit vector from its OFF events' mean to its ON events' mean (a
-    moving star fires ON ahead of its centre, OFF behind), NaN where a polarity is missing
-    or the means lie closer than LOBE_GAP_PX."""
-    seg, sizes = _segments(starts, stops)
-    k = len(starts)
-    on = np.asarray(p).astype(bool)
-    n_on = np.bincount(seg, on, k)
-    n_off = sizes - n_on
-    with np.errstate(invalid="ignore", divide="ignore"):
-        d = np.stack([np.bincount(seg, pts[:, c] * on, k) / n_on
-                      - np.bincount(seg, pts[:, c] * ~on, k) / n_off for c in (0, 1)], axis=1)
-        gap = np.hypot(d[:, 0], d[:, 1])
-        return np.where((gap >= LOBE_GAP_PX)[:, None], d / gap[:, None], np.nan)
-
-
 def cluster_axes(m):
-    """(motion axes (k, 2): motion_axes from the clusters' moments `m` (evstar.extract's
-    per-polarity sums), whether each spreads wider across that axis than along it
-    (wider_across)) — the clusters' own split tests take these, their halves' the point
-    forms."""
+    """Per cluster, from its per-polarity moments `m` (cluster_moments' dict): (the unit
+    vector from its OFF events' mean to its ON events' mean — a moving star fires ON ahead
+    of its centre, OFF behind — NaN where a polarity is missing or the means lie closer
+    than LOBE_GAP_PX, (k, 2); whether its events spread more across that axis than along
+    it — one star's lobes and streak lie along it, a pair side by side across — (k,))."""
     n = m["n"].astype(np.float64)
     total = n.sum(1)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -194,25 +179,6 @@ def cluster_axes(m):
     var_along = ax * ax * cxx + 2 * ax * ay * cxy + ay * ay * cyy
     var_across = ay * ay * cxx - 2 * ax * ay * cxy + ax * ax * cyy
     return along, var_across > var_along
-
-
-def wider_across(pts, starts, stops, along):
-    """Per cluster, whether its points spread more across its motion `along` ((k, 2)) than
-    along it: one star's events spread more along (its lobes and its streak lie there), a
-    pair side by side more across — only such clusters are split across the motion."""
-    seg, sizes = _segments(starts, stops)
-    k = len(starts)
-    if not k:
-        return np.zeros(0, bool)
-    a = along[seg]
-    w = pts[:, 0] * a[:, 0] + pts[:, 1] * a[:, 1]
-    u = pts[:, 1] * a[:, 0] - pts[:, 0] * a[:, 1]
-
-    def var(v):
-        m = np.bincount(seg, v, k) / sizes
-        return np.bincount(seg, (v - m[seg]) ** 2, k)
-
-    return var(u) > var(w)
 
 
 def across_labels(pts, starts, stops, along, iterations=10):

@@ -537,9 +537,13 @@ def test_motion_axes_point_from_the_off_lobe_to_the_on_lobe():
                     [3, 3], [3, 4],                            # one polarity only
                     [7, 7], [7.5, 7]], float)                  # lobes 0.5 px apart
     p = np.array([0, 0, 1, 1, 1, 1, 0, 1])
-    ax = splitting.motion_axes(pts, p, np.array([0, 4, 6]), np.array([4, 6, 8]))
+    lab = np.array([0, 0, 0, 0, 1, 1, 2, 2])
+    m = ref.cluster_moments(lab, np.zeros(8, np.int64), pts[:, 0], pts[:, 1],
+                            np.zeros(8, np.int64), p, np.zeros(1, np.int64))
+    ax, wide = splitting.cluster_axes(m)
     np.testing.assert_allclose(ax[0], np.array([4.0, 1.0]) / np.hypot(4, 1))
     assert np.isnan(ax[1:]).all()
+    assert not wide.any()                      # spread along the lobes; no axis: unknown
 
 
 def test_across_labels_part_two_rows_across_the_motion():
