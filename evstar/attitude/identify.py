@@ -173,10 +173,9 @@ def _angles(rays, dirs, R):
 
 def wahba(rays_cam, dirs_icrs):
     """The rotation R (3x3) minimising sum |dirs - R rays|² (SVD solution of Wahba's problem)."""
-    B = np.asarray(dirs_icrs).T @ np.asarray(rays_cam)
-    U, _, Vt = np.linalg.svd(B)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U) * np.linalg.det(Vt))])
-    return U @ D @ Vt
+    from ..field import wahba_batch
+
+    return wahba_batch((np.asarray(dirs_icrs).T @ np.asarray(rays_cam))[None])[0]
 
 
 def matrix_to_quat(R):
