@@ -51,16 +51,18 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0, profiles=None, fallback_ratio=1.0):
+                    refractory_us=0.0, profiles=None, fallback_ratio=1.0, near=None):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.key_crossings). with_ratio: return
-    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
+    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed.
+    near: near_kept(events, keep, radius_px) where the caller has it."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    return key_crossings(*_near_kept(events, keep, radius_px), events.width,
+    t, x, y, p = near_kept(events, keep, radius_px) if near is None else near
+    return key_crossings(t, pixel_keys(x, y, events.width), p, events.width,
                          threshold_ratio=threshold_ratio, with_ratio=with_ratio,
                          refractory_us=refractory_us, profiles=profiles,
                          fallback_ratio=fallback_ratio)
@@ -68,6 +70,12 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
 
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
+    t, x, y, p = near_kept(events, keep, radius_px)
+    return t, pixel_keys(x, y, events.width), p
+
+
+def near_kept(events, keep, radius_px):
+    """(t, x, y, p) of the events within `radius_px` (square) of a kept event."""
     from .events import gather
     from .frames import on_pixels
 
@@ -77,8 +85,16 @@ def _near_kept(events, keep, radius_px):
     near[tuple(gather([events.y, events.x], kept))] = True
     # the pixel test of every event in one Taichi pass; keys of the chosen events only
     sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
-    t, x, y, p = gather([events.t, events.x, events.y, events.p], sel)
-    return t, pixel_keys(x, y, events.width), p
+    return gather([events.t, events.x, events.y, events.p], sel)
+
+
+def off_hot(txy, hot):
+    """(t, x, y) of events less those on the pixels `hot` flags (a bool image, or None)."""
+    if hot is None:
+        return tuple(txy)
+    t, x, y = txy
+    cold = np.flatnonzero(~hot[y, x])
+    return t[cold], x[cold], y[cold]
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):
@@ -97,12 +113,14 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None, measured_lag=None, rate_hz=None):
+             sensor=None, measured_lag=None, rate_hz=None, near=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
     (width, height) are dropped: there is no star to report there. measured_lag: the
     pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given.
-    rate_hz: the measured background rate (events/pixel/s), for untracked_alpha."""
+    rate_hz: the measured background rate (events/pixel/s), for untracked_alpha. near:
+    (t, x, y) of the events near the stars, hot pixels out, for the tracks' positions
+    across their motion (evstar.across; needs `sensor`)."""
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster (evstar.pooling)
@@ -143,7 +161,12 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     if sensor is not None:
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
-    return rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
+    rows = rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
+    if near is None or sensor is None or not e.across_kernel_px:
+        return rows
+    from . import across
+
+    return across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
 
 
 def untracked_min_events(config, sensor, rate_hz):

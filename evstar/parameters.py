@@ -357,6 +357,10 @@ ESTIMATE = Params(
           "camera): in a frame with at least this many tracked stars, a star's position is "
           "the one the field's rotation and all its track's rows give (0: off)", low=0,
           high=10**6),
+    Param("across_kernel_px", float, 1.5, "a track's position across its motion is the "
+          "mean-shift fixed point of all events near its path, pooled over the track, with "
+          "Gaussian weights of this σ (evstar.across; 0: the centroids' own)", low=0, high=10,
+          unit="px"),
 )
 
 HOTPIXELS = Params(

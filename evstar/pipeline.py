@@ -279,7 +279,8 @@ class Pipeline:
 
         def positions(cents):
             rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
-                                       state.sensor, state.measured_lag(), rate)
+                                       state.sensor, state.measured_lag(), rate,
+                                       state.near_events())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
@@ -409,6 +410,7 @@ class _RunState:
 
     def __init__(self, config, width, height, t0_us, hot=None):
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
+        self._near = []
         self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
@@ -426,27 +428,43 @@ class _RunState:
             self.profiles = LevelProfiles()
 
     def add_crossings(self, events, keep):
-        from .estimation import chunk_crossings
+        """Gather a chunk's crossings (estimator crossings) and the events near its stars
+        (evstar.across), span by span."""
+        from .estimation import chunk_crossings, near_kept, off_hot
 
         e = self.config.estimate
-        if e.estimator != "crossings" or not len(events):
+        with_crossings = e.estimator == "crossings"
+        across = e.estimator != "mean" and e.across_kernel_px > 0
+        if not (with_crossings or across) or not len(events):
             return
         _, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
         for a, b in zip(bounds[:-1], bounds[1:]):
+            near = near_kept(events[a:b], keep[a:b], e.crossing_radius_px) \
+                if keep[a:b].any() else None
+            if across and near is not None:
+                self._near.append(off_hot(near[:3], self.hot))
+            if not with_crossings:
+                continue
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, r = chunk_crossings(
                     events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
                     refractory_us=e.refractory_us, profiles=self.profiles,
-                    fallback_ratio=self.fallback_ratio)
+                    fallback_ratio=self.fallback_ratio, near=near)
                 self.threshold_ratio = self.fallback_ratio if r is None else r
             else:
                 crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
-                                            self.threshold_ratio, refractory_us=e.refractory_us,
-                                            profiles=self.profiles)
+                                             self.threshold_ratio, refractory_us=e.refractory_us,
+                                             profiles=self.profiles, near=near)
             self._crossings.append(crossings)
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None
+
+    def near_events(self):
+        """(t, x, y) of the events within crossing_radius_px of a kept one, hot pixels out."""
+        if not self._near:
+            return np.zeros(0, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16)
+        return tuple(np.concatenate(c) for c in zip(*self._near))
 
     def measured_lag(self):
         """The pixels' lag measured from the crossings' level profiles (None: not measured,

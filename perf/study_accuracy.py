@@ -239,7 +239,9 @@ def run_scene(s, settings=None):
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
-    rate = Pipeline(cfg).calibration_rate(ev, t0)      # the background, as a run measures it
+    rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
+    near = estimation.off_hot(estimation.near_kept(ev, res.keep, cfg.estimate.crossing_radius_px)[:3],
+                              hot)
     for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
@@ -249,7 +251,7 @@ def run_scene(s, settings=None):
                                "estimate.refractory_us": refractory_us if name == "refractory" else 0.0})
         rows = estimation.estimate(linked, c, t0, crossings_r if name == "refractory" else crossings,
                                    prior, (t0, int(ev.t[-1])), (ev.width, ev.height),
-                                   None if name == "no_lag" else lag, rate)
+                                   None if name == "no_lag" else lag, rate, near)
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 

@@ -1,0 +1,136 @@
+"""A track's position across its motion from every event near its path (evstar.across).
+
+Events are drawn from a star's pixel-sampled Gaussian profile about a known path (plus
+uniform background); the rows sit on the path with a known offset across it.
+"""
+import numpy as np
+import pytest
+
+from evstar import Config, Pipeline, across, sim
+from evstar.errors import ParameterError
+from evstar.extract import CENTROID_DTYPE
+
+DT = 10_000
+SENSOR = (240, 180)
+
+
+def star_events(rng, start, velocity, frames, per_frame=40, psf=1.0, background=0, sensor=SENSOR):
+    """(t, x, y) time-ordered: per frame `per_frame` events of a star moving from `start`
+    (px) at `velocity` (px/frame), each at the pixel its PSF sample falls in; `background`
+    uniform events per frame."""
+    t = np.sort(rng.integers(0, frames * DT, frames * per_frame))
+    pos = np.asarray(start) + np.outer(t / DT, velocity) + rng.normal(0, psf, (len(t), 2))
+    tb = rng.integers(0, frames * DT, frames * background)
+    xb, yb = rng.uniform(-0.5, sensor[0] - 0.5, len(tb)), rng.uniform(-0.5, sensor[1] - 0.5, len(tb))
+    t, x, y = np.r_[t, tb], np.r_[pos[:, 0], xb], np.r_[pos[:, 1], yb]
+    o = np.argsort(t, kind="stable")
+    inside = (np.rint(x) >= 0) & (np.rint(x) < sensor[0]) & (np.rint(y) >= 0) & (np.rint(y) < sensor[1])
+    o = o[inside[o]]
+    return t[o].astype(np.int64), np.rint(x[o]).astype(np.uint16), np.rint(y[o]).astype(np.uint16)
+
+
+def track_rows(start, velocity, frames, track=0, offset=(0.0, 0.0)):
+    """One row per frame at the frame's middle: the true position + offset."""
+    r = np.zeros(frames, CENTROID_DTYPE)
+    r["frame"] = np.arange(frames)
+    r["t"] = r["frame"] * DT + DT // 2
+    pos = np.asarray(start) + np.outer(r["t"] / DT, velocity) + offset
+    r["x"], r["y"] = pos.T
+    r["track"], r["sigma"], r["source"] = track, 0.1, "measured"
+    return r
+
+
+def cat(*parts):
+    t, x, y = (np.concatenate(p) for p in zip(*parts))
+    o = np.argsort(t, kind="stable")
+    return t[o], x[o], y[o]
+
+
+@pytest.mark.parametrize("centre", [0.0, 0.3, 0.5, -0.2])
+def test_mean_shift_finds_the_centre_of_a_symmetric_profile_on_background(centre):
+    rng = np.random.default_rng(1)
+    star = centre + rng.normal(0, 1.0, 20_000)
+    noise = rng.uniform(-6, 6, 4_000)
+    a = np.r_[star, noise]
+    d = across.mean_shift(np.zeros(len(a), np.int64), a, 1, 2.0)
+    assert abs(d[0] - centre) < 0.03
+
+
+def test_mean_shift_leaves_groups_with_too_few_events_alone():
+    rng = np.random.default_rng(2)
+    a = 0.4 + rng.normal(0, 1.0, across.MIN_EVENTS // 2)
+    assert across.mean_shift(np.zeros(len(a), np.int64), a, 1, 2.0)[0] == 0
+
+
+@pytest.mark.parametrize("velocity", [(0.2, 0.0), (0.15, 0.1), (3.0, -1.0)])
+def test_rows_offset_across_the_motion_move_onto_the_star(velocity):
+    rng = np.random.default_rng(3)
+    start, frames = (60.3, 90.6), 80
+    t, x, y = star_events(rng, start, velocity, frames, background=3)
+    u = np.asarray(velocity) / np.hypot(*velocity)
+    normal = np.array([-u[1], u[0]])
+    rows = track_rows(start, velocity, frames, offset=0.25 * normal)
+    out = across.refine(rows, t, x, y, 0, DT, SENSOR, 2.0)
+    truth = track_rows(start, velocity, frames)
+    moved = np.stack([out["x"] - rows["x"], out["y"] - rows["y"]], 1)
+    np.testing.assert_allclose(moved @ u, 0, atol=1e-12)       # across only
+    err_before = (np.stack([rows["x"] - truth["x"], rows["y"] - truth["y"]], 1) @ normal).mean()
+    err_after = (np.stack([out["x"] - truth["x"], out["y"] - truth["y"]], 1) @ normal).mean()
+    assert err_before == pytest.approx(0.25)
+    assert abs(err_after) < 0.05
+    for f in ("t", "track", "frame", "sigma", "source"):
+        np.testing.assert_array_equal(out[f], rows[f])
+
+
+def test_each_track_takes_its_own_events():
+    rng = np.random.default_rng(4)
+    frames = 60
+    a = star_events(rng, (40.0, 50.4), (0.3, 0.0), frames, per_frame=200)
+    b = star_events(rng, (40.0, 120.7), (0.3, 0.0), frames, per_frame=200)
+    rows = np.concatenate([track_rows((40.0, 50.4), (0.3, 0.0), frames, 0, (0, 0.3)),
+                           track_rows((40.0, 120.7), (0.3, 0.0), frames, 1, (0, -0.3))])
+    rows = rows[np.argsort(rows["t"], kind="stable")]
+    out = across.refine(rows, *cat(a, b), 0, DT, SENSOR, 2.0)
+    for track, y in ((0, 50.4), (1, 120.7)):
+        assert abs(out["y"][out["track"] == track].mean() - y) < 0.05
+
+
+def test_untracked_rows_edges_and_an_off_switch_are_left_alone():
+    rng = np.random.default_rng(5)
+    frames = 50
+    t, x, y = star_events(rng, (60.0, 2.0), (0.3, 0.0), frames)      # 2 px from the edge
+    rows = track_rows((60.0, 2.0), (0.3, 0.0), frames, offset=(0, 0.3))
+    loose = track_rows((150.0, 90.0), (0.0, 0.0), 3, track=-1)
+    both = np.concatenate([rows, loose])
+    out = across.refine(both, t, x, y, 0, DT, SENSOR, 2.0)
+    np.testing.assert_array_equal(out, both)
+    far = star_events(rng, (60.0, 90.0), (0.3, 0.0), frames)
+    rows = track_rows((60.0, 90.0), (0.3, 0.0), frames, offset=(0, 0.3))
+    np.testing.assert_array_equal(across.refine(rows, *far, 0, DT, SENSOR, 0.0), rows)
+    assert not np.array_equal(across.refine(rows, *far, 0, DT, SENSOR, 2.0), rows)
+
+
+def dev_star(window, estimator="crossings"):
+    """The accuracy grid's development 2 °/s magnitude-5 star (seed 1): its rows' mean
+    offset across the motion (y) and their mean error, px."""
+    run = sim.simulate(sim.paper_preset(2.0, magnitude=5.0, psf_sigma_px=1.0), seed=1)
+    cfg = Config().replace(**{"estimate.across_kernel_px": window,
+                              "estimate.estimator": estimator})
+    c = Pipeline(cfg).run(run.events, run.imu, run.camera).centroids
+    c = c[c["track"] >= 0]
+    truth = run.truth.star_position(c["t"])[:, 0]
+    return (c["y"] - truth[:, 1]).mean(), np.hypot(c["x"] - truth[:, 0], c["y"] - truth[:, 1]).mean()
+
+
+@pytest.mark.parametrize("estimator", ["crossings", "track"])
+def test_a_slow_faint_stars_offset_across_its_motion_shrinks(estimator):
+    off_across, off_err = dev_star(0.0, estimator)
+    on_across, on_err = dev_star(2.0, estimator)
+    assert abs(off_across) > 0.08            # the density filter's flank bias
+    assert abs(on_across) < abs(off_across) / 2
+    assert on_err < off_err
+
+
+def test_bad_window_is_rejected_naming_it():
+    with pytest.raises(ParameterError, match="estimate.across_kernel_px"):
+        Config().replace(**{"estimate.across_kernel_px": -1})
