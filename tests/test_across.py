@@ -46,20 +46,67 @@ def cat(*parts):
     return t[o], x[o], y[o]
 
 
+def counts_of(a):
+    """A one-track histogram of offsets `a`, as across.offset_counts bins them."""
+    reach = across.REACH_PX + across.MAX_SHIFT_PX
+    nb = int(round(2 * reach / across.BIN_PX))
+    a = a[np.abs(a) < reach]
+    return np.bincount(np.minimum(((a + reach) / across.BIN_PX).astype(np.int64), nb - 1),
+                       minlength=nb)[None]
+
+
 @pytest.mark.parametrize("centre", [0.0, 0.3, 0.5, -0.2])
-def test_mean_shift_finds_the_centre_of_a_symmetric_profile_on_background(centre):
+@pytest.mark.parametrize("profile", [1.0, 2.5])
+def test_mean_shift_finds_the_centre_of_a_symmetric_profile_on_background(centre, profile):
     rng = np.random.default_rng(1)
-    star = centre + rng.normal(0, 1.0, 20_000)
-    noise = rng.uniform(-6, 6, 4_000)
-    a = np.r_[star, noise]
-    d = across.mean_shift(np.zeros(len(a), np.int64), a, 1, 2.0)
+    star = centre + rng.normal(0, profile, 100_000)
+    noise = rng.uniform(-9, 9, 20_000)
+    d = across.mean_shift(counts_of(np.r_[star, noise]), 1.5)
     assert abs(d[0] - centre) < 0.03
 
 
-def test_mean_shift_leaves_groups_with_too_few_events_alone():
+def test_mean_shift_on_pixel_rows_does_not_lock_onto_them():
+    """A star moving along a pixel row puts its events' offsets on the rows (integers less
+    its across position): a flat-topped wide profile (a bright star) and a narrow one."""
+    rng = np.random.default_rng(7)
+    for centre in (0.2, 0.4):
+        for width in (0.9, 2.5):
+            rows = np.rint(centre + rng.normal(0, width, 40_000)) - centre
+            assert abs(across.mean_shift(counts_of(rows), 1.5)[0]) < 0.03
+
+
+def test_mean_shift_leaves_tracks_with_too_few_events_alone():
     rng = np.random.default_rng(2)
     a = 0.4 + rng.normal(0, 1.0, across.MIN_EVENTS // 2)
-    assert across.mean_shift(np.zeros(len(a), np.int64), a, 1, 2.0)[0] == 0
+    assert across.mean_shift(counts_of(a), 1.5)[0] == 0
+
+
+def test_the_histogram_kernel_equals_its_numpy_specification():
+    """Tracks straight and curved, fast and slow, sharing cells, with frames missing and
+    rows near the edge: the Taichi counts equal the reference's bit for bit."""
+    rng = np.random.default_rng(11)
+    frames, parts, rows = 40, [], []
+    paths = [((30.0, 40.0), (0.2, 0.05)), ((35.0, 44.0), (0.1, -0.2)), ((10.0, 150.0), (4.0, 0.3)),
+             ((200.0, 3.0), (-0.5, 0.0)), ((120.0, 100.0), (1.5, 1.5))]
+    for i, (start, vel) in enumerate(paths):
+        parts.append(star_events(rng, start, vel, frames, per_frame=60, background=20))
+        r = track_rows(start, vel, frames, track=3 * i, offset=rng.normal(0, 0.2, 2))
+        r["x"] += 0.3 * np.sin(r["frame"] / 5.0) * (i == 4)          # a curved path
+        rows.append(r[rng.random(frames) > 0.15])                     # frames without a row
+    rows = np.concatenate(rows)
+    rows = rows[np.argsort(rows["t"], kind="stable")]
+    t, x, y = cat(*parts)
+    sel = np.lexsort((rows["t"], rows["track"]))
+    _, g = np.unique(rows["track"][sel], return_inverse=True)
+    p = np.stack([rows["x"][sel], rows["y"][sel]], 1)
+    tr = rows["t"][sel].astype(np.float64)
+    args = (t, x, y, 0, DT, SENSOR, rows["frame"][sel], g, p, across._velocities(tr, p, g),
+            across._directions(p, g), tr, 5.5)
+    ref = across.offset_counts(*args, "numpy")
+    got = across.offset_counts(*args, "taichi")
+    assert ref.shape == (len(paths), int(round(2 * (across.REACH_PX + across.MAX_SHIFT_PX) / across.BIN_PX)))
+    assert (ref.sum(axis=1)[[0, 1, 2, 4]] > 1000).all() and ref[3].sum() == 0     # 3: at the edge
+    np.testing.assert_array_equal(got, ref)
 
 
 @pytest.mark.parametrize("velocity", [(0.2, 0.0), (0.15, 0.1), (3.0, -1.0)])
@@ -70,7 +117,7 @@ def test_rows_offset_across_the_motion_move_onto_the_star(velocity):
     u = np.asarray(velocity) / np.hypot(*velocity)
     normal = np.array([-u[1], u[0]])
     rows = track_rows(start, velocity, frames, offset=0.25 * normal)
-    out = across.refine(rows, t, x, y, 0, DT, SENSOR, 2.0)
+    out = across.refine(rows, t, x, y, 0, DT, SENSOR, 1.5)
     truth = track_rows(start, velocity, frames)
     moved = np.stack([out["x"] - rows["x"], out["y"] - rows["y"]], 1)
     np.testing.assert_allclose(moved @ u, 0, atol=1e-12)       # across only
@@ -90,7 +137,7 @@ def test_each_track_takes_its_own_events():
     rows = np.concatenate([track_rows((40.0, 50.4), (0.3, 0.0), frames, 0, (0, 0.3)),
                            track_rows((40.0, 120.7), (0.3, 0.0), frames, 1, (0, -0.3))])
     rows = rows[np.argsort(rows["t"], kind="stable")]
-    out = across.refine(rows, *cat(a, b), 0, DT, SENSOR, 2.0)
+    out = across.refine(rows, *cat(a, b), 0, DT, SENSOR, 1.5)
     for track, y in ((0, 50.4), (1, 120.7)):
         assert abs(out["y"][out["track"] == track].mean() - y) < 0.05
 
@@ -102,12 +149,12 @@ def test_untracked_rows_edges_and_an_off_switch_are_left_alone():
     rows = track_rows((60.0, 2.0), (0.3, 0.0), frames, offset=(0, 0.3))
     loose = track_rows((150.0, 90.0), (0.0, 0.0), 3, track=-1)
     both = np.concatenate([rows, loose])
-    out = across.refine(both, t, x, y, 0, DT, SENSOR, 2.0)
+    out = across.refine(both, t, x, y, 0, DT, SENSOR, 1.5)
     np.testing.assert_array_equal(out, both)
     far = star_events(rng, (60.0, 90.0), (0.3, 0.0), frames)
     rows = track_rows((60.0, 90.0), (0.3, 0.0), frames, offset=(0, 0.3))
     np.testing.assert_array_equal(across.refine(rows, *far, 0, DT, SENSOR, 0.0), rows)
-    assert not np.array_equal(across.refine(rows, *far, 0, DT, SENSOR, 2.0), rows)
+    assert not np.array_equal(across.refine(rows, *far, 0, DT, SENSOR, 1.5), rows)
 
 
 def dev_star(window, estimator="crossings"):
