@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .crossings import dilate
 from .field import _velocities
 
 #: cells (px, a power of two) that index which tracks pass where
@@ -41,6 +42,37 @@ EDGE_SIGMAS = 3.0
 MAX_SHIFT_PX = 1.0
 #: the direction of the motion at a row: its track's displacement over at least this (px)
 DIRECTION_SPAN_PX = 4.0
+
+
+#: events within this (px, square) of a frame centroid are kept for the histograms: a
+#: region symmetric about the star, wider than its profile (those near *kept* events are
+#: not: a faint star's kept events can lie on one flank, and its events on the other were
+#: missed — 0.4 px shifts on a dark-sky field)
+STORE_RADIUS_PX = 6
+
+
+def near_centroids(events, centroids, radius_px=STORE_RADIUS_PX):
+    """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel."""
+    from .events import gather
+    from .frames import on_pixels
+
+    if not len(centroids) or not len(events):
+        return events.t[:0], events.x[:0], events.y[:0]
+    near = np.zeros((events.height, events.width), bool)
+    x = np.clip(np.rint(centroids["x"]), 0, events.width - 1).astype(np.intp)
+    y = np.clip(np.rint(centroids["y"]), 0, events.height - 1).astype(np.intp)
+    near[y, x] = True
+    sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
+    return tuple(gather([events.t, events.x, events.y], sel))
+
+
+def off_hot(txy, hot):
+    """(t, x, y) of events less those on the pixels `hot` flags (a bool image, or None)."""
+    if hot is None:
+        return tuple(txy)
+    t, x, y = txy
+    cold = np.flatnonzero(~hot[y, x])
+    return t[cold], x[cold], y[cold]
 
 
 def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):

@@ -51,18 +51,16 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0, profiles=None, fallback_ratio=1.0, near=None):
+                    refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.key_crossings). with_ratio: return
-    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed.
-    near: near_kept(events, keep, radius_px) where the caller has it."""
+    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    t, x, y, p = near_kept(events, keep, radius_px) if near is None else near
-    return key_crossings(t, pixel_keys(x, y, events.width), p, events.width,
+    return key_crossings(*_near_kept(events, keep, radius_px), events.width,
                          threshold_ratio=threshold_ratio, with_ratio=with_ratio,
                          refractory_us=refractory_us, profiles=profiles,
                          fallback_ratio=fallback_ratio)
@@ -70,12 +68,6 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
 
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
-    t, x, y, p = near_kept(events, keep, radius_px)
-    return t, pixel_keys(x, y, events.width), p
-
-
-def near_kept(events, keep, radius_px):
-    """(t, x, y, p) of the events within `radius_px` (square) of a kept event."""
     from .events import gather
     from .frames import on_pixels
 
@@ -85,16 +77,8 @@ def near_kept(events, keep, radius_px):
     near[tuple(gather([events.y, events.x], kept))] = True
     # the pixel test of every event in one Taichi pass; keys of the chosen events only
     sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
-    return gather([events.t, events.x, events.y, events.p], sel)
-
-
-def off_hot(txy, hot):
-    """(t, x, y) of events less those on the pixels `hot` flags (a bool image, or None)."""
-    if hot is None:
-        return tuple(txy)
-    t, x, y = txy
-    cold = np.flatnonzero(~hot[y, x])
-    return t[cold], x[cold], y[cold]
+    t, x, y, p = gather([events.t, events.x, events.y, events.p], sel)
+    return t, pixel_keys(x, y, events.width), p
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -192,7 +192,7 @@ class Pipeline:
                                       t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
-            state.add_crossings(events, keep)
+            state.add_crossings(events, keep, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
@@ -427,41 +427,42 @@ class _RunState:
 
             self.profiles = LevelProfiles()
 
-    def add_crossings(self, events, keep):
-        """Gather a chunk's crossings (estimator crossings) and the events near its stars
-        (evstar.across), span by span."""
-        from .estimation import chunk_crossings, near_kept, off_hot
+    def add_crossings(self, events, keep, centroids):
+        """Gather a chunk's crossings (estimator crossings) and the events near its
+        `centroids` (evstar.across), span by span."""
+        from .across import near_centroids, off_hot
+        from .estimation import chunk_crossings
 
         e = self.config.estimate
         with_crossings = e.estimator == "crossings"
         across = e.estimator != "mean" and e.across_kernel_px > 0
         if not (with_crossings or across) or not len(events):
             return
-        _, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            near = near_kept(events[a:b], keep[a:b], e.crossing_radius_px) \
-                if keep[a:b].any() else None
-            if across and near is not None:
-                self._near.append(off_hot(near[:3], self.hot))
+        f0, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
+        for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+            if across:
+                lo = self.t0_us + (f0 + k) * self.span_us
+                mine = centroids[(centroids["t"] >= lo) & (centroids["t"] < lo + self.span_us)]
+                self._near.append(off_hot(near_centroids(events[a:b], mine), self.hot))
             if not with_crossings:
                 continue
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, r = chunk_crossings(
                     events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
                     refractory_us=e.refractory_us, profiles=self.profiles,
-                    fallback_ratio=self.fallback_ratio, near=near)
+                    fallback_ratio=self.fallback_ratio)
                 self.threshold_ratio = self.fallback_ratio if r is None else r
             else:
                 crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
-                                             self.threshold_ratio, refractory_us=e.refractory_us,
-                                             profiles=self.profiles, near=near)
+                                            self.threshold_ratio, refractory_us=e.refractory_us,
+                                            profiles=self.profiles)
             self._crossings.append(crossings)
 
     def crossings(self):
         return np.concatenate(self._crossings) if self._crossings else None
 
     def near_events(self):
-        """(t, x, y) of the events within crossing_radius_px of a kept one, hot pixels out."""
+        """(t, x, y) of the events near a centroid (across.near_centroids), hot pixels out."""
         if not self._near:
             return np.zeros(0, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16)
         return tuple(np.concatenate(c) for c in zip(*self._near))

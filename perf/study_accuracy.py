@@ -54,7 +54,7 @@ import tempfile
 
 import numpy as np
 
-from evstar import Config, Pipeline, accuracy, estimation, sim
+from evstar import Config, Pipeline, accuracy, across, estimation, sim
 from evstar.level_lag import LevelProfiles
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
@@ -240,8 +240,7 @@ def run_scene(s, settings=None):
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
     rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
-    near = estimation.off_hot(estimation.near_kept(ev, res.keep, cfg.estimate.crossing_radius_px)[:3],
-                              hot)
+    near = across.off_hot(across.near_centroids(ev, linked), hot)   # (one span: the whole run)
     for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",
