@@ -51,8 +51,9 @@ DIRECTION_SPAN_PX = 4.0
 STORE_RADIUS_PX = 6
 
 
-def near_centroids(events, centroids, radius_px=STORE_RADIUS_PX):
-    """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel."""
+def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
+    """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel, none on
+    a pixel `hot` flags (a bool image, or None)."""
     from .events import gather
     from .frames import on_pixels
 
@@ -62,17 +63,10 @@ def near_centroids(events, centroids, radius_px=STORE_RADIUS_PX):
     x = np.clip(np.rint(centroids["x"]), 0, events.width - 1).astype(np.intp)
     y = np.clip(np.rint(centroids["y"]), 0, events.height - 1).astype(np.intp)
     near[y, x] = True
-    sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
-    return tuple(gather([events.t, events.x, events.y], sel))
-
-
-def off_hot(txy, hot):
-    """(t, x, y) of events less those on the pixels `hot` flags (a bool image, or None)."""
-    if hot is None:
-        return tuple(txy)
-    t, x, y = txy
-    cold = np.flatnonzero(~hot[y, x])
-    return t[cold], x[cold], y[cold]
+    near = dilate(near, radius_px)
+    if hot is not None:
+        near &= ~hot
+    return tuple(gather([events.t, events.x, events.y], np.flatnonzero(on_pixels(events, near))))
 
 
 def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):

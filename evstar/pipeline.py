@@ -430,7 +430,7 @@ class _RunState:
     def add_crossings(self, events, keep, centroids):
         """Gather a chunk's crossings (estimator crossings) and the events near its
         `centroids` (evstar.across), span by span."""
-        from .across import near_centroids, off_hot
+        from .across import near_centroids
         from .estimation import chunk_crossings
 
         e = self.config.estimate
@@ -443,7 +443,7 @@ class _RunState:
             if across:
                 lo = self.t0_us + (f0 + k) * self.span_us
                 mine = centroids[(centroids["t"] >= lo) & (centroids["t"] < lo + self.span_us)]
-                self._near.append(off_hot(near_centroids(events[a:b], mine), self.hot))
+                self._near.append(near_centroids(events[a:b], mine, self.hot))
             if not with_crossings:
                 continue
             if self.threshold_ratio is None:   # the first span: the calibration window

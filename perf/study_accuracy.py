@@ -240,7 +240,7 @@ def run_scene(s, settings=None):
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
     rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
-    near = across.off_hot(across.near_centroids(ev, linked), hot)   # (one span: the whole run)
+    near = across.near_centroids(ev, linked, hot)   # (one span: the whole run)
     for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
         if name == "calibrated":   # crossings, moved back by a calibration recording's lag
             c = cfg.replace(**{"estimate.estimator": "crossings",

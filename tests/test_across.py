@@ -203,7 +203,7 @@ def test_the_events_kept_for_it_lie_about_the_centroids_on_both_sides():
     np.testing.assert_array_equal(t, ev.t[inside])
     hot = np.zeros((90, 120), bool)
     hot[41, 30] = True
-    t2, x2, y2 = across.off_hot((t, x, y), hot)
+    t2, x2, y2 = across.near_centroids(ev, cents, hot)
     assert len(t2) == len(t) - ((x == 30) & (y == 41)).sum() and not ((x2 == 30) & (y2 == 41)).any()
 
 
