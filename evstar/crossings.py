@@ -417,7 +417,7 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
     ci, seg = _candidates(crossings, tracks, max_offset_px)
     t = crossings["t"][ci]
-    px, py, vx, vy = (_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y", "vx", "vy"))
+    px, py, vx, vy = _interp(t, tracks["t"], [tracks[f] for f in ("x", "y", "vx", "vy")], seg)
     dx, dy = crossings["x"][ci] - px, crossings["y"][ci] - py
     # np.linalg.norm's arithmetic, without its (n, 2) temporaries
     speed, dist = np.sqrt(vx * vx + vy * vy), np.sqrt(dx * dx + dy * dy)
@@ -489,12 +489,18 @@ def _is_last_row(track):
     return np.r_[track[1:] != track[:-1], True]
 
 
-def _interp(t, t_row, f_row, seg):
-    """np.interp(t, t_row, f_row) of each t in its segment (rows seg, seg + 1), with
-    np.interp's arithmetic (its value at a row's time is the row's; the last row's at the
-    segment's end)."""
-    x0, x1 = t_row[seg].astype(np.float64), t_row[seg + 1].astype(np.float64)
-    f0, f1 = f_row[seg], f_row[seg + 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        val = (f1 - f0) / (x1 - x0) * (t - x0) + f0
-    return np.where(t == x1, f1, np.where(t == x0, f0, val))
+def _interp(t, t_row, f_rows, seg):
+    """[np.interp(t, t_row, f_row) for f_row in f_rows] of each t in its segment (rows seg,
+    seg + 1), with np.interp's arithmetic (its value at a row's time is the row's; the last
+    row's at the segment's end); the segments' times gathered once for all fields."""
+    nxt = seg + 1
+    x0, x1 = t_row[seg].astype(np.float64), t_row[nxt].astype(np.float64)
+    dx, dt = x1 - x0, t - x0
+    at_1, at_0 = t == x1, t == x0
+    out = []
+    for f_row in f_rows:
+        f0, f1 = f_row[seg], f_row[nxt]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            val = (f1 - f0) / dx * dt + f0
+        out.append(np.where(at_1, f1, np.where(at_0, f0, val)))
+    return out

@@ -658,6 +658,8 @@ def _single_passes(m, t_c, q_c, turns, radius):
     (_turns) in its time: the star passes such a pixel, turns and passes it again before its
     intensity has fallen, so the one rise and fall mark the turn's time, not a passage (the
     estimate then cut the turn by ~0.3 px on a 10°/1 Hz sinusoid, PSF σ 1.5 px)."""
+    if not turns:  # most tracks: no gather of their crossings
+        return m
     t, q = t_c[m], q_c[m]
     keep = np.ones(len(m), bool)
     for t_lo, t_hi, x, y in turns:
