@@ -844,16 +844,20 @@ def imu_velocity_prior(imu, camera):
     camera-frame direction d), through the camera model (distortion included)."""
     from .motion.imu_integration import gyro_at
 
+    from .camera import unit
+
     gyro = gyro_at(imu)
 
     def prior(t_us, x, y):
-        omega = gyro(t_us)
-        d = camera.unproject(np.column_stack([x, y]))
-        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        # column by column (np.cross's and np.linalg.norm's arithmetic, without their
+        # (n, 3) temporaries: this runs on every crossing of every track)
+        ox, oy, oz = gyro(t_us).T
+        dx, dy, dz = unit(*camera.unproject_columns(np.asarray(x, float), np.asarray(y, float)))
         h = 1e-4   # s: a step small against any slew, large against rounding
-        uv1 = camera.project(d - np.cross(omega, d) * h)
-        uv0 = camera.project(d)
-        return (uv1 - uv0) / h
+        u1, v1 = camera.project_columns(dx - (oy * dz - oz * dy) * h, dy - (oz * dx - ox * dz) * h,
+                                        dz - (ox * dy - oy * dx) * h)
+        u0, v0 = camera.project_columns(dx, dy, dz)
+        return np.column_stack([(u1 - u0) / h, (v1 - v0) / h])
 
     return prior
 
