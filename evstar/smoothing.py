@@ -745,7 +745,10 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     track's speed (the crossings of a bin lie along one short stretch of the motion), each
     crossing weighted by 1/σ² (s_a: its σ), the bin's σ = (Σ 1/σ²)^-½."""
     b = np.floor(t_c / pool_us).astype(np.int64)
-    _, inv = np.unique(b, return_inverse=True)
+    if np.all(b[1:] >= b[:-1]):   # time-sorted (the common case): np.unique's inverse, no sort
+        inv = np.r_[0, np.cumsum(b[1:] != b[:-1])]
+    else:
+        _, inv = np.unique(b, return_inverse=True)
     w = 1.0 / s_a ** 2
     n = np.bincount(inv, w)
     t_mean = np.bincount(inv, w * t_c) / n
@@ -753,9 +756,14 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     u_mean /= np.maximum(np.linalg.norm(u_mean, axis=1, keepdims=True), 1e-12)
     # along positions relative to the track at the bin's time, on the bin's one direction
     # (projecting absolute pixel coordinates on slightly different directions would not do)
-    pos = np.column_stack([np.interp(t_mean, est["t"], est["x"]), np.interp(t_mean, est["t"], est["y"])])
-    speed = np.hypot(np.interp(t_c, est["t"], est["vx"]), np.interp(t_c, est["t"], est["vy"]))
-    along = ((q - pos[inv]) * u_mean[inv]).sum(1) - speed * (t_c - t_mean[inv]) * 1e-6
+    t_est = est["t"].astype(np.float64)   # as np.interp converts it, once for its four calls
+    pos = np.column_stack([np.interp(t_mean, t_est, est["x"]), np.interp(t_mean, t_est, est["y"])])
+    speed = np.hypot(np.interp(t_c, t_est, est["vx"]), np.interp(t_c, t_est, est["vy"]))
+    p_in, u_in = pos[inv], u_mean[inv]
+    # the dot product column by column (its sum's arithmetic but for the sign of a zero,
+    # which the bin sums below drop)
+    along = ((q[:, 0] - p_in[:, 0]) * u_in[:, 0] + (q[:, 1] - p_in[:, 1]) * u_in[:, 1]
+             - speed * (t_c - t_mean[inv]) * 1e-6)
     a_mean = np.bincount(inv, w * along) / n
     return t_mean, pos + u_mean * a_mean[:, None], u_mean, 1.0 / np.sqrt(n)
 
