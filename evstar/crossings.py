@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frames import ranks
+from .frames import ranks, stable_order
 from .parameters import AUTO
 
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
@@ -379,8 +379,7 @@ def _pixel_then_time(key, t, engine="taichi"):
         from .backends import taichi_running
 
         return sorting_launch.stable_order(taichi_running(), key, int(key.max()) + 1)
-    low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
-    return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
+    return stable_order(key)
 
 
 def dilate(img, radius_px):
@@ -455,7 +454,7 @@ def _candidates(crossings, tracks, max_offset_px):
     x0 = int(crossings["x"].min())
     kx = int(crossings["x"].max()) - x0 + 1
     key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + (crossings["x"] - x0)
-    srt = np.argsort(key, kind="stable")
+    srt = stable_order(key)
     key = key[srt]
     # one query per segment and time bin it spans: the x range of the segment's box
     b0 = np.floor((t_row[j] - t0) / bin_us).astype(np.int64)

@@ -38,6 +38,7 @@ import numpy as np
 
 from . import kalman
 from .errors import ParameterError
+from .frames import stable_order
 from .parameters import AUTO, ESTIMATE, SMOOTHER
 
 ESTIMATE_DTYPE = np.dtype([
@@ -438,7 +439,7 @@ def _estimate_q_many(tracks, engine):
 
 def _groups(ids):
     """(distinct ids ascending, the indices of each, in their order)."""
-    order = np.argsort(ids, kind="stable")
+    order = stable_order(ids)
     cut = np.flatnonzero(np.diff(ids[order])) + 1
     return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
