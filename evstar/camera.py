@@ -60,22 +60,37 @@ class Camera:
     def project(self, dirs):
         """Camera-frame directions (N, 3) -> pixel coordinates (N, 2), distortion applied."""
         dirs = np.asarray(dirs, dtype=np.float64)
-        xn, yn = dirs[:, 0] / dirs[:, 2], dirs[:, 1] / dirs[:, 2]
+        return np.stack(self.project_columns(dirs[:, 0], dirs[:, 1], dirs[:, 2]), axis=1)
+
+    def project_columns(self, x, y, z):
+        """project of directions given as three (N,) columns: (u, v) columns."""
+        xn, yn = x / z, y / z
         if self.has_distortion:
             r2 = xn * xn + yn * yn
             s = 1 + self.k1 * r2 + self.k2 * r2 * r2
             xn, yn = xn * s, yn * s
-        return np.stack([self.fx * xn + self.cx, self.fy * yn + self.cy], axis=1)
+        return self.fx * xn + self.cx, self.fy * yn + self.cy
 
     def unproject(self, uv, iterations=5):
         """Pixel coordinates (N, 2) -> unit camera-frame rays (N, 3), distortion removed."""
         uv = np.asarray(uv, dtype=np.float64)
-        xd, yd = (uv[:, 0] - self.cx) / self.fx, (uv[:, 1] - self.cy) / self.fy
+        return np.stack(self.unproject_columns(uv[:, 0], uv[:, 1], iterations), axis=1)
+
+    def unproject_columns(self, u, v, iterations=5):
+        """unproject of pixel coordinates given as two (N,) columns: (x, y, z) columns (no
+        (N, 3) temporaries: the velocity prior unprojects every crossing)."""
+        xd, yd = (u - self.cx) / self.fx, (v - self.cy) / self.fy
         xn, yn = xd, yd
         if self.has_distortion:  # fixed-point inversion, ample for mild radial distortion
             for _ in range(iterations):
                 r2 = xn * xn + yn * yn
                 s = 1 + self.k1 * r2 + self.k2 * r2 * r2
                 xn, yn = xd / s, yd / s
-        rays = np.stack([xn, yn, np.ones_like(xn)], axis=1)
-        return rays / np.linalg.norm(rays, axis=1, keepdims=True)
+        return unit(xn, yn, np.ones_like(xn))
+
+
+def unit(x, y, z):
+    """(x, y, z) / their norm, per row of three columns: np.linalg.norm's arithmetic
+    (sqrt of x² + y² + z² summed in that order)."""
+    n = np.sqrt(x * x + y * y + z * z)
+    return x / n, y / n, z / n

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frames import ranks
+from .frames import ranks, stable_order
 from .parameters import AUTO
 
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
@@ -379,8 +379,7 @@ def _pixel_then_time(key, t, engine="taichi"):
         from .backends import taichi_running
 
         return sorting_launch.stable_order(taichi_running(), key, int(key.max()) + 1)
-    low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
-    return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
+    return stable_order(key)
 
 
 def dilate(img, radius_px):
@@ -417,7 +416,7 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
     ci, seg = _candidates(crossings, tracks, max_offset_px)
     t = crossings["t"][ci]
-    px, py, vx, vy = (_interp(t, tracks["t"], tracks[f], seg) for f in ("x", "y", "vx", "vy"))
+    px, py, vx, vy = _interp(t, tracks["t"], [tracks[f] for f in ("x", "y", "vx", "vy")], seg)
     dx, dy = crossings["x"][ci] - px, crossings["y"][ci] - py
     # np.linalg.norm's arithmetic, without its (n, 2) temporaries
     speed, dist = np.sqrt(vx * vx + vy * vy), np.sqrt(dx * dx + dy * dy)
@@ -455,7 +454,7 @@ def _candidates(crossings, tracks, max_offset_px):
     x0 = int(crossings["x"].min())
     kx = int(crossings["x"].max()) - x0 + 1
     key = np.floor((crossings["t"] - t0) / bin_us).astype(np.int64) * kx + (crossings["x"] - x0)
-    srt = np.argsort(key, kind="stable")
+    srt = stable_order(key)
     key = key[srt]
     # one query per segment and time bin it spans: the x range of the segment's box
     b0 = np.floor((t_row[j] - t0) / bin_us).astype(np.int64)
@@ -489,12 +488,18 @@ def _is_last_row(track):
     return np.r_[track[1:] != track[:-1], True]
 
 
-def _interp(t, t_row, f_row, seg):
-    """np.interp(t, t_row, f_row) of each t in its segment (rows seg, seg + 1), with
-    np.interp's arithmetic (its value at a row's time is the row's; the last row's at the
-    segment's end)."""
-    x0, x1 = t_row[seg].astype(np.float64), t_row[seg + 1].astype(np.float64)
-    f0, f1 = f_row[seg], f_row[seg + 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        val = (f1 - f0) / (x1 - x0) * (t - x0) + f0
-    return np.where(t == x1, f1, np.where(t == x0, f0, val))
+def _interp(t, t_row, f_rows, seg):
+    """[np.interp(t, t_row, f_row) for f_row in f_rows] of each t in its segment (rows seg,
+    seg + 1), with np.interp's arithmetic (its value at a row's time is the row's; the last
+    row's at the segment's end); the segments' times gathered once for all fields."""
+    nxt = seg + 1
+    x0, x1 = t_row[seg].astype(np.float64), t_row[nxt].astype(np.float64)
+    dx, dt = x1 - x0, t - x0
+    at_1, at_0 = t == x1, t == x0
+    out = []
+    for f_row in f_rows:
+        f0, f1 = f_row[seg], f_row[nxt]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            val = (f1 - f0) / dx * dt + f0
+        out.append(np.where(at_1, f1, np.where(at_0, f0, val)))
+    return out

@@ -14,7 +14,7 @@ from . import backends, lobes, parameters as P, splitting
 from .errors import ParameterError, ParameterTypeError
 from .events import Events
 from .frames import FRAME_GAP, check_dt, frame_bounds, frame_offsets, ranks
-from evstar_kernels.reference.clusters import cluster_moments, two_peaks
+from evstar_kernels.reference.clusters import PEAKS_UNSURE, cluster_moments, two_peaks
 from evstar_kernels.taichi.scratch import Scratch
 
 #: one row per centroid; t in µs (the time x, y refer to); flags: border (touches the sensor
@@ -246,10 +246,10 @@ class Extractor:
             members_all = idx[np.argsort(labels[idx], kind="stable")]
         pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
-        first = self._first_halves(c, pts, events.p[members_all], starts, stops,
+        p_all = events.p[members_all]
+        first = self._first_halves(pts, p_all, starts, stops,
                                    None if peaks is None else peaks[ids, 0])
         rows, keys = [], []
-        p_all = events.p[members_all]
         if first is None:  # the reference: cluster by cluster
             found = {}
             for n in range(len(ids)):
@@ -264,15 +264,20 @@ class Extractor:
             found = self._split_many(pts, p_all, starts, stops, first, by_polarity[ids],
                                      None if peaks is None else peaks[ids],
                                      (axes[0][ids], axes[1][ids]))
-        for n, parts in sorted(found.items()):
-            j, a, b = ids[n], starts[n], stops[n]
-            members = members_all[a:b]
+        # (candidate n, half, its points' indices into pts) of every split's halves
+        halves = [(n, half, np.flatnonzero(parts == half) + starts[n])
+                  for n, parts in sorted(found.items()) for half in (0, 1)]
+        if first is None:  # the reference: half by half
+            pieces = [(n, half, piece) for n, half, idx in halves
+                      for piece in self._pieces(pts, p_all, idx, _RESPLITS)]
+        else:
+            pieces = self._pieces_many(pts, p_all, halves)
+        for n, half, idx in pieces:
+            j = ids[n]
             keep[j] = False
-            for half in (0, 1):
-                for q, m in self._pieces(pts[a:b][parts == half], members[parts == half],
-                                         events.p, _RESPLITS):
-                    rows.append(self._row(events, q, c.frame[j], m, c.t0, split=True))
-                    keys.append(2 * j + half)
+            rows.append(self._row(events, pts[idx], c.frame[j], members_all[idx], c.t0,
+                                  split=True))
+            keys.append(2 * j + half)
         if not rows:
             return out, order, keep
         return (np.concatenate([out, np.array(rows, CENTROID_DTYPE)]), np.r_[order, keys],
@@ -363,16 +368,20 @@ class Extractor:
                                    self.split_valley, along[cand[go]])
         return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
-    def _first_halves(self, c, pts, p, starts, stops, peaks):
+    def _first_halves(self, pts, p, starts, stops, peaks):
         """The first test (_FirstTest: two peaks or not, 2-means labels, whether it fails
         whatever the rest of _halves says) of every candidate at once (grid clustering; exact for integer
         coordinates, to the last bits of the 2-means centres for floats); else None. The
         first test fails where a half has fewer than min_cluster_size events or the halves'
         polarities differ by more than 0.5 (a moving star's lobes: the common case).
         peaks: the screen's (status, ax, ay, bx, by) of each candidate's image (_screen);
-        the seeds are computed here (splitting.two_peaks_many) only where it is undecided."""
+        the seeds are computed here (splitting.two_peaks_many) only where it is undecided
+        (None: for all, where nothing was screened)."""
         if self.clustering != "grid" or not len(starts):
             return None
+        if peaks is None:
+            peaks = np.zeros((len(starts), 5), np.int64)
+            peaks[:, 0] = PEAKS_UNSURE
         has = peaks[:, 0] == 1
         a, b = peaks[:, 1:3].astype(np.float64), peaks[:, 3:5].astype(np.float64)
         todo = np.flatnonzero(peaks[:, 0] > 1)
@@ -477,15 +486,53 @@ class Extractor:
         # dip between the two; a lopsided blob stays whole
         return lab if splitting._dips(proj, sep, self.split_valley) else None
 
-    def _pieces(self, pts, members, p, depth):
-        """[(pts, members)] of the targets in one half of a split cluster: the half is split
-        again, `depth` times at most, while _split finds two targets in it (three stars a
-        few px apart: DBSCAN merges them and one split leaves two of them in a half)."""
-        parts = self._split(pts, p[members]) if depth > 0 else None
+    def _pieces(self, pts, p, idx, depth):
+        """[indices into pts] of the targets in one half (pts[idx]) of a split cluster: the
+        half is split again, `depth` times at most, while _split finds two targets in it
+        (three stars a few px apart: DBSCAN merges them and one split leaves two of them in
+        a half). p: the points' polarities."""
+        parts = self._split(pts[idx], p[idx]) if depth > 0 else None
         if parts is None:
-            return [(pts, members)]
+            return [idx]
         return [piece for half in (0, 1)
-                for piece in self._pieces(pts[parts == half], members[parts == half], p, depth - 1)]
+                for piece in self._pieces(pts, p, idx[parts == half], depth - 1)]
+
+    def _pieces_many(self, pts, p, halves):
+        """_pieces of every split's halves ((candidate, half, indices into pts)) at once:
+        each level's open pieces split together (_split_each); [(candidate, half, indices)]
+        in _pieces' order."""
+        pieces = [(n, half, idx, True) for n, half, idx in halves]   # True: may split again
+        for _ in range(_RESPLITS):
+            todo = [i for i, piece in enumerate(pieces) if piece[3]]
+            if not todo:
+                break
+            found = self._split_each(pts, p, [pieces[i][2] for i in todo])
+            split = {todo[k]: lab for k, lab in found.items()}
+            pieces = [new for i, (n, half, idx, _) in enumerate(pieces)
+                      for new in ([(n, half, idx[split[i] == h], True) for h in (0, 1)]
+                                  if i in split else [(n, half, idx, False)])]
+        return [(n, half, idx) for n, half, idx, _ in pieces]
+
+    def _split_each(self, pts, p, groups):
+        """{g: labels} of the point sets pts[groups[g]] that _split (its defaults: both
+        polarities tried, the motion from the set's own moments) splits, all at once: the
+        batched steps of _split_many, unscreened."""
+        sizes = np.array([len(g) for g in groups], np.int64)
+        go = np.flatnonzero(sizes >= max(2 * self.min_cluster_size, 1))
+        if not len(go):
+            return {}
+        idx = np.concatenate([groups[g] for g in go])
+        q, pq = pts[idx], p[idx]
+        stops = np.cumsum(sizes[go])
+        starts = stops - sizes[go]
+        # each set's moments as _split takes them (bincount sums each set in its order)
+        seg = np.repeat(np.arange(len(go)), sizes[go])
+        zero = np.zeros(len(idx), np.int64)
+        m = cluster_moments(seg, zero, q[:, 0], q[:, 1], zero, pq, np.zeros(1, np.int64))
+        first = self._first_halves(q, pq, starts, stops, None)
+        found = self._split_many(q, pq, starts, stops, first, np.ones(len(go), bool), None,
+                                 splitting.cluster_axes(m))
+        return {int(go[k]): lab for k, lab in found.items()}
 
     def _row(self, events, pts, frame, m, t0, split):
         """A centroid row of the events m (at pts) of one frame."""

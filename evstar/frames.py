@@ -31,6 +31,20 @@ def frame_bounds(frames):
     return frames[starts], starts, stops
 
 
+def stable_order(key):
+    """np.argsort(key, kind="stable") of integers, by numpy's 16-bit radix sort where they
+    fit: one pass for keys in [0, 2¹⁶), two (low half, then high) in [0, 2³²) — 2-8x quicker
+    than its sort of wider integers (the same permutation: stable sorts agree)."""
+    key = np.asarray(key)
+    if (not len(key) or key.dtype.kind not in "iu" or key.min() < 0
+            or key.max() >= 1 << 32):
+        return np.argsort(key, kind="stable")
+    if key.max() < 1 << 16:
+        return np.argsort(key.astype(np.uint16), kind="stable")
+    low = np.argsort((key & 0xFFFF).astype(np.uint16), kind="stable")
+    return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
+
+
 def ranks(counts, starts=0):
     """s, s + 1, ..., s + c − 1 for each count c and start s, concatenated (one repeat):
     e.g. each member's place in its group, or (starts) its index in the sorted whole."""

@@ -38,6 +38,7 @@ import numpy as np
 
 from . import kalman
 from .errors import ParameterError
+from .frames import stable_order
 from .parameters import AUTO, ESTIMATE, SMOOTHER
 
 ESTIMATE_DTYPE = np.dtype([
@@ -438,7 +439,7 @@ def _estimate_q_many(tracks, engine):
 
 def _groups(ids):
     """(distinct ids ascending, the indices of each, in their order)."""
-    order = np.argsort(ids, kind="stable")
+    order = stable_order(ids)
     cut = np.flatnonzero(np.diff(ids[order])) + 1
     return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
@@ -658,6 +659,8 @@ def _single_passes(m, t_c, q_c, turns, radius):
     (_turns) in its time: the star passes such a pixel, turns and passes it again before its
     intensity has fallen, so the one rise and fall mark the turn's time, not a passage (the
     estimate then cut the turn by ~0.3 px on a 10°/1 Hz sinusoid, PSF σ 1.5 px)."""
+    if not turns:  # most tracks: no gather of their crossings
+        return m
     t, q = t_c[m], q_c[m]
     keep = np.ones(len(m), bool)
     for t_lo, t_hi, x, y in turns:
@@ -743,7 +746,10 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     track's speed (the crossings of a bin lie along one short stretch of the motion), each
     crossing weighted by 1/σ² (s_a: its σ), the bin's σ = (Σ 1/σ²)^-½."""
     b = np.floor(t_c / pool_us).astype(np.int64)
-    _, inv = np.unique(b, return_inverse=True)
+    if np.all(b[1:] >= b[:-1]):   # time-sorted (the common case): np.unique's inverse, no sort
+        inv = np.r_[0, np.cumsum(b[1:] != b[:-1])]
+    else:
+        _, inv = np.unique(b, return_inverse=True)
     w = 1.0 / s_a ** 2
     n = np.bincount(inv, w)
     t_mean = np.bincount(inv, w * t_c) / n
@@ -751,9 +757,14 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     u_mean /= np.maximum(np.linalg.norm(u_mean, axis=1, keepdims=True), 1e-12)
     # along positions relative to the track at the bin's time, on the bin's one direction
     # (projecting absolute pixel coordinates on slightly different directions would not do)
-    pos = np.column_stack([np.interp(t_mean, est["t"], est["x"]), np.interp(t_mean, est["t"], est["y"])])
-    speed = np.hypot(np.interp(t_c, est["t"], est["vx"]), np.interp(t_c, est["t"], est["vy"]))
-    along = ((q - pos[inv]) * u_mean[inv]).sum(1) - speed * (t_c - t_mean[inv]) * 1e-6
+    t_est = est["t"].astype(np.float64)   # as np.interp converts it, once for its four calls
+    pos = np.column_stack([np.interp(t_mean, t_est, est["x"]), np.interp(t_mean, t_est, est["y"])])
+    speed = np.hypot(np.interp(t_c, t_est, est["vx"]), np.interp(t_c, t_est, est["vy"]))
+    p_in, u_in = pos[inv], u_mean[inv]
+    # the dot product column by column (its sum's arithmetic but for the sign of a zero,
+    # which the bin sums below drop)
+    along = ((q[:, 0] - p_in[:, 0]) * u_in[:, 0] + (q[:, 1] - p_in[:, 1]) * u_in[:, 1]
+             - speed * (t_c - t_mean[inv]) * 1e-6)
     a_mean = np.bincount(inv, w * along) / n
     return t_mean, pos + u_mean * a_mean[:, None], u_mean, 1.0 / np.sqrt(n)
 
@@ -842,16 +853,20 @@ def imu_velocity_prior(imu, camera):
     camera-frame direction d), through the camera model (distortion included)."""
     from .motion.imu_integration import gyro_at
 
+    from .camera import unit
+
     gyro = gyro_at(imu)
 
     def prior(t_us, x, y):
-        omega = gyro(t_us)
-        d = camera.unproject(np.column_stack([x, y]))
-        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        # column by column (np.cross's and np.linalg.norm's arithmetic, without their
+        # (n, 3) temporaries: this runs on every crossing of every track)
+        ox, oy, oz = gyro(t_us).T
+        dx, dy, dz = unit(*camera.unproject_columns(np.asarray(x, float), np.asarray(y, float)))
         h = 1e-4   # s: a step small against any slew, large against rounding
-        uv1 = camera.project(d - np.cross(omega, d) * h)
-        uv0 = camera.project(d)
-        return (uv1 - uv0) / h
+        u1, v1 = camera.project_columns(dx - (oy * dz - oz * dy) * h, dy - (oz * dx - ox * dz) * h,
+                                        dz - (ox * dy - oy * dx) * h)
+        u0, v0 = camera.project_columns(dx, dy, dz)
+        return np.column_stack([(u1 - u0) / h, (v1 - v0) / h])
 
     return prior
 

@@ -622,3 +622,14 @@ def test_the_stray_kernel_equals_its_specification():
     assert (ref[0] < nb).sum() > 100 and (ref[1] < na).sum() > 100     # both sides trimmed
     np.testing.assert_array_equal(got[0], ref[0])
     np.testing.assert_array_equal(got[1], ref[1])
+
+
+@pytest.mark.parametrize("high, dtype", [(50, np.int64), (70_000, np.int64), (2**32, np.uint32),
+                                         (2**40, np.int64), (100, np.int8)])
+def test_stable_order_is_numpys_stable_argsort(high, dtype):
+    # the radix passes give the stable sort's permutation (ties in input order), any range
+    from evstar.frames import stable_order
+
+    key = np.random.default_rng(3).integers(0, high, 20_000, dtype=np.int64).astype(dtype)
+    assert np.array_equal(stable_order(key), np.argsort(key, kind="stable"))
+    assert np.array_equal(stable_order(-key.astype(np.int64)), np.argsort(-key.astype(np.int64), kind="stable"))

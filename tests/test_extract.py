@@ -114,6 +114,30 @@ def test_three_stars_closer_than_eps_are_split_into_three():
     assert np.allclose(np.sort(ref["x"]), np.sort(c["x"]))
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.3])
+def test_halves_split_again_all_at_once_as_half_by_half(monkeypatch, offset):
+    # the grid path splits every split's halves again in one batch (_pieces_many): the same
+    # rows, bit for bit, as _pieces half by half, on pixels and on float coordinates (offset:
+    # the coordinates moved as compensation moves them)
+    from evstar import extract
+
+    stars = [(60.0, 50.0, 0, 0), (66.0, 50.0, 0, 0), (63.0, 55.5, 0, 0), (120, 60, 0, 0),
+             (124, 61, 0, 0), (80, 110, 0, 0), (85, 108, 0, 0), (82.5, 104, 0, 0)]
+    ev, _ = blob_scene(stars, noise=200, per_frame=150, sigma=1.0, seed=4)
+    rng = np.random.default_rng(5)
+    xy = np.column_stack([ev.x, ev.y]) + offset * rng.uniform(-1, 1, (len(ev), 2))
+    ex = Extractor(eps=2.5, min_samples=5)
+    batched = ex.centroids(ev, xy=xy)
+    assert (batched["split"].sum() >= 30)
+
+    def half_by_half(self, pts, p, halves):
+        return [(n, half, piece) for n, half, idx in halves
+                for piece in self._pieces(pts, p, idx, extract._RESPLITS)]
+
+    monkeypatch.setattr(Extractor, "_pieces_many", half_by_half)
+    assert batched.tobytes() == ex.centroids(ev, xy=xy).tobytes()
+
+
 def test_single_wide_star_is_not_split():
     ev, _ = blob_scene([(60, 50, 0, 0)], noise=0, per_frame=300, sigma=1.2)
     c = Extractor(eps=2.5, min_samples=5).centroids(ev)

@@ -161,6 +161,28 @@ def test_imu_prior_gives_the_image_velocity_of_a_simulated_star():
     assert np.linalg.norm((v - true_v).mean(0)) < 0.05 * speed.mean()
 
 
+@pytest.mark.parametrize("k1, k2", [(0.0, 0.0), (-0.12, 0.03)])
+def test_imu_prior_is_the_rotated_ray_formula_bit_for_bit(k1, k2):
+    # the prior runs column by column; the same bits as the (n, 3) form: unproject,
+    # normalise, step by -ω × d · h, project, difference over h
+    from types import SimpleNamespace
+
+    from evstar.camera import Camera
+    from evstar.motion.imu_integration import gyro_at
+
+    rng = np.random.default_rng(2)
+    cam = Camera(1280, 720, 900.0, 905.0, 640.2, 359.7, k1, k2)
+    t_cam = np.arange(0, 1_000_000, 1000)
+    imu = SimpleNamespace(t_cam=t_cam, gyro_cam=rng.normal(0, 0.2, (len(t_cam), 3)))
+    t = rng.uniform(0, 999_000, 5000)
+    x, y = rng.uniform(-20, 1300, 5000), rng.uniform(-20, 740, 5000)
+    omega = gyro_at(imu)(t)
+    d = cam.unproject(np.column_stack([x, y]))
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    want = (cam.project(d - np.cross(omega, d) * 1e-4) - cam.project(d)) / 1e-4
+    assert imu_velocity_prior(imu, cam)(t, x, y).tobytes() == want.tobytes()
+
+
 @pytest.mark.parametrize("name, value", [("coast_ms", -1), ("process_noise", "fast"),
                                          ("process_noise", -2.0), ("sigma_floor_px", 0),
                                          ("psf_sigma_px", -1.0), ("min_events", 0),
