@@ -358,8 +358,10 @@ ESTIMATE = Params(
           "the one the field's rotation and all its track's rows give (0: off)", low=0,
           high=10**6),
     Param("across_kernel_px", float, 1.5, "a track's position across its motion is the "
-          "mean-shift fixed point of all events near its path, pooled over the track, with "
-          "Gaussian weights of this σ (evstar.across; 0: the centroids' own)", low=0, high=10,
+          "mode of all events near its path, pooled over the track (evstar.across): a "
+          "mean-shift whose first pass weighs with a Gaussian of this σ and measures the "
+          "profile's width, the second with a kernel matched to it (0: the centroids' own)",
+          low=0, high=10,
           unit="px"),
 )
 
