@@ -81,9 +81,17 @@ def test_mean_shift_leaves_tracks_with_too_few_events_alone():
     assert across.mean_shift(counts_of(a), 1.5)[0] == 0
 
 
-def test_the_histogram_kernel_equals_its_numpy_specification():
+@pytest.mark.parametrize("max_launch, device_arrays", [(None, False), (700, False), (None, True)])
+def test_the_histogram_kernel_equals_its_numpy_specification(monkeypatch, max_launch,
+                                                             device_arrays):
     """Tracks straight and curved, fast and slow, sharing cells, with frames missing and
-    rows near the edge: the Taichi counts equal the reference's bit for bit."""
+    rows near the edge: the Taichi counts equal the reference's bit for bit (in one launch
+    or many, on the CPU's arrays or the GPU's data path)."""
+    from evstar_kernels.taichi import launch
+
+    if max_launch:
+        monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", max_launch)
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
     rng = np.random.default_rng(11)
     frames, parts, rows = 40, [], []
     paths = [((30.0, 40.0), (0.2, 0.05)), ((35.0, 44.0), (0.1, -0.2)), ((10.0, 150.0), (4.0, 0.3)),

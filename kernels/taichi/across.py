@@ -38,11 +38,12 @@ def _add_event(t: ti.i64, xe: ti.i64, ye: ti.i64, f: ti.i64, cell_shift: ti.i64,
 @functools.lru_cache(maxsize=None)
 def across_counts_kernel(serial):
     """kernel(t, x, y, bounds, f_first, ..., counts): the counts of the events of frames
-    f_first + j (events bounds[j] .. bounds[j + 1]) added into `counts`."""
+    f_first + j (events bounds[j] .. bounds[j + 1]; i32, as Taichi's loop bounds are: a
+    launch holds < 2³¹ events) added into `counts`."""
 
     @ti.kernel
-    def across_counts(t: i64_1d, x: u16_1d, y: u16_1d, bounds: i64_1d, f_first: ti.i64,
-                      cell_shift: ti.i64, cells_w: ti.i64, start: i64_1d, pair_track: i32_1d,
+    def across_counts(t: i64_1d, x: u16_1d, y: u16_1d, bounds: i32_1d, f_first: ti.i64,
+                      cell_shift: ti.i64, cells_w: ti.i64, start: i32_1d, pair_track: i32_1d,
                       tracks: i64_2d, table: i32_1d, rows: f64_2d, along_px: ti.f64,
                       reach_px: ti.f64, bin_px: ti.f64, nb: ti.i64, counts: i64_1d):
         ti.loop_config(serialize=serial)
