@@ -42,8 +42,6 @@ EDGE_SIGMAS = 3.0
 MAX_SHIFT_PX = 1.0
 #: the direction of the motion at a row: its track's displacement over at least this (px)
 DIRECTION_SPAN_PX = 4.0
-
-
 #: events within this (px, square) of a frame centroid are kept for the histograms: a
 #: region symmetric about the star, wider than its profile (those near *kept* events are
 #: not: a faint star's kept events can lie on one flank, and its events on the other were
@@ -103,8 +101,8 @@ def offset_counts(t, x, y, t0_us, dt_us, sensor, frame, g, p, v, u, tr, margin_p
             & (p[:, 1] >= margin_px - 0.5) & (p[:, 1] <= height - 0.5 - margin_px))
     table_rows = np.column_stack([p, v, u, tr, away])
     reach = REACH_PX + MAX_SHIFT_PX
-    args = (t, x, y, t0_us, dt_us, CELL_PX.bit_length() - 1, cells_w, start, pair_track, tracks, table,
-            table_rows, ALONG_PX, reach, BIN_PX, int(round(2 * reach / BIN_PX)))
+    args = (t, x, y, t0_us, dt_us, CELL_PX.bit_length() - 1, cells_w, start, pair_track,
+            tracks, table, table_rows, ALONG_PX, reach, BIN_PX, int(round(2 * reach / BIN_PX)))
     if engine == "numpy":
         from evstar_kernels.reference.across import across_counts
 
