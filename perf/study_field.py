@@ -17,7 +17,12 @@ Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); pri
 table. study_cygnus.*: Cygnus (RA 305°, Dec +40°, ~330 stars) on a DVXplorer behind 8 mm,
 seeds 71 and 72 (`--camera dvxplorer:8 --pointing 305,40 --seeds 71,72 --name cygnus`), a
 field held out from the thirteenth session's tracker change, run once on its end and once
-on its start (study_cygnus_before.*: 156c8fc's evstar on PYTHONPATH).
+on its start (study_cygnus_before.*: 156c8fc's evstar on PYTHONPATH). The seventeenth
+session's across step (evstar.across) off / on: `--set estimate.across_kernel_px=0`, results
+*_off_s17 beside study_field.*, study_cygnus.* and study_{scorpius,sine,dark}_s17.*;
+study_scorpius_sine_dark_s17_{on,off}.*: Scorpius on an EVK4 with the dark-sky sensor on
+1 Hz sinusoids (`--camera evk4:16 --pointing 253,-38 --seeds 93,94 --motion sine --sensor
+dark-sky --rates 5,20`), a setting first run then.
 """
 from __future__ import annotations
 
