@@ -405,8 +405,10 @@ class _RunState:
     estimator, span by span of the calibration window's length (chunk_frames frames; a
     crossing whose flanks fall in two spans is lost), the sensor's OFF/ON threshold ratio
     measured on the first span (the calibration window) unless configured, and the
-    crossings' level profiles for the lag estimate (evstar.level_lag). A streamed run's
-    chunks are those spans, so it gathers the same crossings as a run in memory."""
+    crossings' level profiles for the lag estimate (evstar.level_lag), and the events about
+    each span's frame centroids for the across step (evstar.across: 12 bytes an event, kept
+    for the run). A streamed run's chunks are those spans, so it gathers the same crossings
+    and events as a run in memory."""
 
     def __init__(self, config, width, height, t0_us, hot=None):
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
