@@ -18,12 +18,11 @@ Writes perf/results/study_across.json and .md; prints the table.
 """
 from __future__ import annotations
 
-import json
 import pathlib
 
 import numpy as np
 
-from evstar import Config, Pipeline, sim
+from evstar import Config, Pipeline, profiling, sim
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 #: (°/s, magnitude, PSF σ px, seed): the grid's dev 2 °/s magnitude-5 star and others
@@ -86,7 +85,7 @@ def markdown(rows):
 def main():
     rows = [run(*s) for s in SCENES]
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_across.json").write_text(json.dumps(rows, indent=1) + "\n")
+    profiling.write_results(RESULTS / "study_across.json", rows)
     (RESULTS / "study_across.md").write_text(
         "# A slow star's offset across its motion, and a per-track mean-shift\n\n"
         + markdown(rows) + "\n")

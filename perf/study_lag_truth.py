@@ -17,17 +17,18 @@ crossings' lag is overestimated (k = 2: 5.3 against 3.2 ms); on the DAVIS346 it 
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 
 import numpy as np
 
-from evstar import Config, Pipeline, estimation, sim
+from evstar import Config, Pipeline, estimation, profiling, sim
 from evstar.level_lag import LevelProfiles, fit_lag
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 #: (camera, focal mm, RA, Dec, least speed px per 10 ms frame)
 CAMERAS = (("evk4", 16.0, 253.0, -38.0, 1.0), ("davis346", 16.0, 83.8, -5.4, 0.3))
+COLUMNS = [("camera", "camera", ""), ("k", "k", ""), ("measured_ms", "measured lag ms", ".2f"),
+           ("true_median_ms", "true median ms", ".2f"), ("crossings", "crossings", "")]
 
 
 def run(camera, focal, ra, dec, min_speed, seed):
@@ -70,24 +71,17 @@ def _true_lags(cr, truth, min_speed):
     return (off * u).sum(axis=1) / np.maximum(speed, 1e-12), usable
 
 
-def markdown(rows):
-    lines = ["| camera | k | measured lag ms | true median ms | crossings |", "|---|---|---|---|---|"]
-    lines += [f"| {r['camera']} | {r['k']} | {r['measured_ms']:.2f} | {r['true_median_ms']:.2f} | "
-              f"{r['crossings']} |" for r in rows]
-    return "\n".join(lines)
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seed", type=int, default=93)
     seed = ap.parse_args().seed
     rows = [row for c in CAMERAS for row in run(*c, seed)]
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_lag_truth.json").write_text(json.dumps(rows, indent=1) + "\n")
+    profiling.write_results(RESULTS / "study_lag_truth.json", rows, {"seed": seed})
+    text = profiling.table(rows, COLUMNS)
     (RESULTS / "study_lag_truth.md").write_text(
-        f"# Measured pixel lag per k against each crossing's true lag (seed {seed})\n\n"
-        + markdown(rows) + "\n")
-    print(markdown(rows))
+        f"# Measured pixel lag per k against each crossing's true lag (seed {seed})\n\n{text}\n")
+    print(text)
 
 
 if __name__ == "__main__":

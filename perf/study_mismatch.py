@@ -15,15 +15,15 @@ Writes perf/results/study_mismatch.json and .md; prints the table.
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 
-import numpy as np
-
-from evstar import Config, Pipeline, accuracy, sim
+from evstar import Config, Pipeline, accuracy, profiling, sim
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 SCENES = ((2.0, 5.0, 1.0), (1.0, 4.0, 1.5), (2.0, 3.0, 1.0))   # °/s, magnitude, PSF σ px
+COLUMNS = [("rate", "°/s", "g"), ("mag", "mag", "g"), ("psf", "PSF σ", "g"), ("seed", "seed", ""),
+           ("mismatch", "mismatch", ""), ("error", "mean error px", ".3f"),
+           ("along", "along bias px", "+.3f"), ("across", "across bias px", "+.3f")]
 
 
 def run(rate, mag, psf, seed, mismatch):
@@ -41,15 +41,6 @@ def run(rate, mag, psf, seed, mismatch):
             "across": float((rows["y"][ok] - xy[:, 1]).mean())}
 
 
-def markdown(rows):
-    lines = ["| °/s | mag | PSF σ | seed | mismatch | mean error px | along bias px | across bias px |",
-             "|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['rate']:g} | {r['mag']:g} | {r['psf']:g} | {r['seed']} | "
-                     f"{r['mismatch']} | {r['error']:.3f} | {r['along']:+.3f} | {r['across']:+.3f} |")
-    return "\n".join(lines)
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="1,2,3", help="comma-separated simulator seeds")
@@ -57,10 +48,11 @@ def main(argv=None):
     rows = [run(*s, int(seed), mm) for s in SCENES for seed in args.seeds.split(",")
             for mm in (None, 0.0)]
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "study_mismatch.json").write_text(json.dumps(rows, indent=1) + "\n")
+    profiling.write_results(RESULTS / "study_mismatch.json", rows, {"seeds": args.seeds})
+    text = profiling.table(rows, COLUMNS)
     (RESULTS / "study_mismatch.md").write_text(
-        "# Slow faint stars with and without the pixels' threshold mismatch\n\n" + markdown(rows) + "\n")
-    print(markdown(rows))
+        f"# Slow faint stars with and without the pixels' threshold mismatch\n\n{text}\n")
+    print(text)
 
 
 if __name__ == "__main__":
