@@ -192,7 +192,7 @@ class Pipeline:
                                       t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
-            state.add_crossings(events, keep, cents)
+            state.add_chunk(events, keep, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
@@ -429,9 +429,10 @@ class _RunState:
 
             self.profiles = LevelProfiles()
 
-    def add_crossings(self, events, keep, centroids):
+    def add_chunk(self, events, keep, centroids):
         """Gather a chunk's crossings (estimator crossings) and the events near its
-        `centroids` (evstar.across), span by span."""
+        `centroids` (evstar.across; time-ordered, as the extractor gives them), span by
+        span."""
         from .across import near_centroids
         from .estimation import chunk_crossings
 
@@ -441,11 +442,13 @@ class _RunState:
         if not (with_crossings or across) or not len(events):
             return
         f0, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
+        # each span's centroids: one search, not a scan of all of them per span
+        cuts = np.searchsorted(centroids["t"],
+                               self.t0_us + np.arange(f0, f0 + len(bounds)) * self.span_us)
         for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
             if across:
-                lo = self.t0_us + (f0 + k) * self.span_us
-                mine = centroids[(centroids["t"] >= lo) & (centroids["t"] < lo + self.span_us)]
-                self._near.append(near_centroids(events[a:b], mine, self.hot))
+                self._near.append(near_centroids(events[a:b], centroids[cuts[k]:cuts[k + 1]],
+                                                 self.hot))
             if not with_crossings:
                 continue
             if self.threshold_ratio is None:   # the first span: the calibration window
