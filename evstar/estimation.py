@@ -125,9 +125,11 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         mine = _crossings_by_group(crossings, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
-        ests = [smoother.refine(est, cents, crossings, prior, sig, e.along_weight, t0_us, lag,
-                                assigned)[0]
-                for est, assigned, (cents, sig, prior) in zip(ests, mine, groups)]
+        refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag)
+        if lag is not None and e.pixel_lag_file is None and e.lag_from_tracks:
+            refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
+                                       e.along_weight, t0_us, lag)
+        ests = refined
     est = np.concatenate(ests)
     loose = out[centroids["track"] < 0]
     if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
@@ -151,6 +153,39 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     from . import across
 
     return across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
+
+
+def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag):
+    """Each group's smoothed rows refitted with its crossings (TrackSmoother.refine)."""
+    return [smoother.refine(est, cents, crossings, prior, sig, along_weight, t0_us, lag,
+                            assigned)[0]
+            for est, assigned, (cents, sig, prior) in zip(ests, mine, groups)]
+
+
+def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_weight, t0_us,
+                     lag):
+    """The `refined` rows of the tracks that anchor the faint crossings' lag
+    (evstar.level_lag.track_consistent) refitted with the lag they agree on; the other
+    tracks' rows as they were: a faint star's own crossings cannot check the correction,
+    and its centroids, which carry the lag, weigh more in its fit."""
+    from .level_lag import track_consistent
+
+    lag, anchored = track_consistent(lag, crossings, _by_track(refined))
+    if not len(anchored):
+        return refined
+    keep = [est[np.isin(est["track"], anchored)] for est in ests]
+    again = _refined(smoother, keep, mine, groups, crossings, along_weight, t0_us, lag)
+    out = []
+    for old, new in zip(refined, again):
+        rows = np.concatenate([old[~np.isin(old["track"], anchored)], new])
+        out.append(rows[np.lexsort((rows["t"], rows["track"]))])
+    return out
+
+
+def _by_track(ests):
+    """The groups' rows in one array, sorted by track, then time."""
+    every = np.concatenate(ests)
+    return every[np.lexsort((every["t"], every["track"]))]
 
 
 def untracked_min_events(config, sensor, rate_hz):
@@ -239,8 +274,7 @@ def _crossings_by_group(crossings, ests):
         return [None]
     from .crossings import along_track
 
-    every = np.concatenate(ests)
-    got, owner, u, resid = along_track(crossings, every[np.lexsort((every["t"], every["track"]))])
+    got, owner, u, resid = along_track(crossings, _by_track(ests))
     parts = []
     for est in ests:
         m = np.isin(owner, np.unique(est["track"]))

@@ -124,3 +124,85 @@ def _fit_grid(D, k):
     a = bc @ d / np.sum(bc * bc, axis=1)
     c = D[:n].mean() - a * b.mean(axis=1)
     return c, np.sum(d * d) - a * a * np.sum(bc * bc, axis=1)
+
+
+#: crossings of at least this many pairs anchor each track's lags: their profiles have the
+#: levels that shape the fit (the deepest one dropped, see _levels)
+ANCHOR_PAIRS = _DROP_BOTTOM_FROM
+#: a track anchors only with this many anchoring crossings
+MIN_ANCHORS = 10
+#: fewest anchored crossings of one k to correct its lag
+MIN_CORRECTED = 50
+#: slowest crossings measured (px/s): a lag is seen as an along offset of speed × lag, so
+#: slower ones tell the time little (0.3 px of pixel noise is 6 ms at 50 px/s)
+MIN_SPEED_PX_S = 50.0
+
+
+def track_consistent(lag, crossings, rows):
+    """`lag` (a PixelLag of one speed column, from the level profiles) with the lags of the
+    faint crossings (k < ANCHOR_PAIRS) moved to agree with the bright ones along the
+    tracks, and the ids of the tracks that told it (none: unchanged).
+
+    The geometric extrapolation of a 2–4-level profile overestimates the lag where a star
+    crosses a pixel in a time near the pixel's time constant (EVK4 dark sky at 1–3 px a
+    frame: k = 2 measured 5.3 against a true 3.2 ms), and those crossings are the many, so
+    the fit leads the star. Along one track all crossings time one motion: a crossing's
+    lag seen from the refitted `rows` (evstar.smoothing estimates with vx, vy) is
+    −(along residual) / speed; less the lag used, its median over a track's anchoring
+    crossings is the track's own offset, and the median, over tracks that have anchors, of
+    the faint crossings' remainder per k is their lag's error."""
+    from .crossings import along_track
+
+    got, owner, _, resid = along_track(crossings, rows)
+    k = crossings["pairs"][got]
+    speed = _speeds(crossings["t"][got], owner, rows)
+    fast = speed >= MIN_SPEED_PX_S
+    got, owner, k, resid, speed = got[fast], owner[fast], k[fast], resid[fast], speed[fast]
+    d = -resid / speed * 1e6 - lag.lag_at(k, speed)
+    rel, told = _from_anchors(d, owner, k >= ANCHOR_PAIRS)
+    pairs, lag_us = list(lag.pairs), list(lag.lag_us[:, 0])
+    used = 0
+    for kk in range(1, ANCHOR_PAIRS):
+        m = told & (k == kk)
+        if m.sum() < MIN_CORRECTED:
+            continue
+        new = max(float(lag.lag_at(kk, 1.0)[()]) + float(np.median(rel[m])), 0.0)
+        if kk in pairs:
+            lag_us[pairs.index(kk)] = new
+        else:
+            at = int(np.searchsorted(pairs, kk))
+            pairs.insert(at, kk)
+            lag_us.insert(at, new)
+        used += int(m.sum())
+    if not used:
+        return lag, np.zeros(0, np.int64)
+    from .calibration import PixelLag
+
+    return (PixelLag(pairs, [1.0], np.array(lag_us)[:, None], np.zeros((len(pairs), 1)),
+                     {**lag.meta, "track_consistent": used}), np.unique(owner[told]))
+
+
+def _from_anchors(d, owner, anchor):
+    """(d less its track's median over its anchors, whether the track has MIN_ANCHORS)."""
+    order = np.argsort(owner, kind="stable")
+    tid, start = np.unique(owner[order], return_index=True)
+    rel, told = np.zeros(len(d)), np.zeros(len(d), bool)
+    for rows in np.split(order, start[1:]):
+        a = rows[anchor[rows]]
+        if len(a) >= MIN_ANCHORS:
+            rel[rows] = d[rows] - np.median(d[a])
+            told[rows] = True
+    return rel, told
+
+
+def _speeds(t, owner, rows):
+    """Each time's track speed (px/s), linear between the track's `rows` (sorted by track,
+    then time)."""
+    out = np.zeros(len(t))
+    order = np.argsort(owner, kind="stable")
+    tid, start = np.unique(owner[order], return_index=True)
+    lo, hi = np.searchsorted(rows["track"], tid), np.searchsorted(rows["track"], tid, "right")
+    for at, a, b in zip(np.split(order, start[1:]), lo, hi):
+        r = rows[a:b]
+        out[at] = np.hypot(np.interp(t[at], r["t"], r["vx"]), np.interp(t[at], r["t"], r["vy"]))
+    return out

@@ -320,6 +320,9 @@ ESTIMATE = Params(
     Param("measure_lag", bool, True, "without a pixel_lag_file, measure the pixels' "
           "low-pass lag from the crossings' level profiles (evstar.level_lag; used only where "
           "its model explains them)"),
+    Param("lag_from_tracks", bool, True, "correct the measured lag of crossings of fewer "
+          "than 5 level pairs to agree with the brighter crossings along the same tracks "
+          "(evstar.level_lag.track_consistent; only where the lag is measured)"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),

@@ -92,3 +92,82 @@ def test_a_sensor_without_lowpass_is_left_as_it_was():
     run = sim.simulate(sim.paper_preset(8.0, magnitude=3.0, duration_s=0.4), seed=5)
     (_, off), (_, on) = _error(run, measure_lag=False), _error(run)
     np.testing.assert_array_equal(off, on)
+
+
+_TRUE_LAG_US = {1: 3100.0, 2: 3200.0, 3: 3100.0, 4: 2800.0, 5: 2400.0, 6: 2100.0, 7: 1700.0,
+                8: 1600.0, 9: 1400.0, 10: 1300.0}
+_ROW = np.dtype([("t", "f8"), ("track", "i8"), ("x", "f8"), ("y", "f8"), ("vx", "f8"),
+                 ("vy", "f8")])
+
+
+def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0):
+    """Straight tracks (rows every 10 ms, 0.5 s, 150–300 px/s in various directions) and
+    crossings of pixels along them, each timed its k's _TRUE_LAG_US after the star passed
+    the pixel (+ jitter); track i's crossings have pairs drawn from ks_of_track[i]."""
+    rng = np.random.default_rng(seed)
+    rows, cross = [], []
+    for tid, ks in enumerate(ks_of_track):
+        speed, ang = rng.uniform(150, 300), rng.uniform(0, 2 * np.pi)
+        v = speed * np.array([np.cos(ang), np.sin(ang)])
+        p0 = rng.uniform(100, 200, 2)
+        t = np.arange(0, 500_001, 10_000.0)
+        r = np.zeros(len(t), _ROW)
+        r["t"], r["track"] = t, tid
+        r["x"], r["y"] = p0[0] + v[0] * t * 1e-6, p0[1] + v[1] * t * 1e-6
+        r["vx"], r["vy"] = v
+        rows.append(r)
+        T = rng.uniform(20_000, 480_000, 400)       # the star passes the pixel at T
+        pix = np.round(p0 + v * T[:, None] * 1e-6 + rng.uniform(-1, 1, (len(T), 1))
+                       * np.array([-v[1], v[0]]) / speed)
+        # the pixel's own passage time: its centre projected on the motion
+        T = T + ((pix - (p0 + v * T[:, None] * 1e-6)) @ v) / speed ** 2 * 1e6
+        c = np.zeros(len(T), crossings.CROSSING_DTYPE)
+        c["x"], c["y"] = pix[:, 0], pix[:, 1]
+        c["pairs"] = rng.choice(ks, len(T))
+        c["t"] = T + np.vectorize(_TRUE_LAG_US.get)(c["pairs"]) + rng.normal(0, jitter_us, len(T))
+        cross.append(c)
+    return np.concatenate(rows), np.concatenate(cross)
+
+
+def _lag(over_us=0.0):
+    """The true lag table with k = 2–4 too long by `over_us`."""
+    from evstar.calibration import PixelLag
+
+    ks = np.arange(2, 11)
+    lag = np.array([_TRUE_LAG_US[k] + (over_us if k < 5 else 0.0) for k in ks])
+    return PixelLag(ks, [1.0], lag[:, None], np.zeros((len(ks), 1)), {"source": "test"})
+
+
+def test_tracks_correct_an_overestimated_faint_lag():
+    from evstar.level_lag import track_consistent
+
+    bright = [range(1, 11)] * 4
+    rows, cr = _tracks_and_crossings(bright + [range(2, 5)] * 3)
+    got, told = track_consistent(_lag(over_us=2000.0), cr, rows)
+    assert list(told) == [0, 1, 2, 3] and got.meta["source"] == "test"    # the bright ones
+    for k in range(1, 11):
+        assert abs(got.lag_at(k, 200.0) - _TRUE_LAG_US[k]) < 120, k
+
+
+def test_a_lag_the_tracks_agree_with_stays():
+    from evstar.level_lag import track_consistent
+
+    rows, cr = _tracks_and_crossings([range(2, 11)] * 4, seed=1)
+    got, _ = track_consistent(_lag(), cr, rows)
+    for k in range(2, 11):
+        assert abs(got.lag_at(k, 200.0) - _TRUE_LAG_US[k]) < 120, k
+
+
+def test_no_bright_crossings_no_correction():
+    """Tracks without crossings of >= 5 pairs have nothing to anchor to; too slow tracks tell
+    no time."""
+    from evstar.level_lag import track_consistent
+
+    lag = _lag(over_us=2000.0)
+    rows, cr = _tracks_and_crossings([range(2, 5)] * 5, seed=2)
+    got, told = track_consistent(lag, cr, rows)
+    assert got is lag and len(told) == 0
+    rows, cr = _tracks_and_crossings([range(2, 11)] * 5, seed=2)
+    rows["vx"] *= 0.1      # below MIN_SPEED_PX_S as the rows tell it
+    rows["vy"] *= 0.1
+    assert len(track_consistent(lag, cr, rows)[1]) == 0
