@@ -168,9 +168,11 @@ def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_wei
     (evstar.level_lag.track_consistent) refitted with the lag they agree on; the other
     tracks' rows as they were: a faint star's own crossings cannot check the correction,
     and its centroids, which carry the lag, weigh more in its fit."""
+    from .crossings import along_track
     from .level_lag import track_consistent
 
-    lag, anchored = track_consistent(lag, crossings, _by_track(refined))
+    assigned = along_track(crossings, _by_track(ests))[:2]
+    lag, anchored = track_consistent(lag, crossings, assigned, _by_track(refined))
     if not len(anchored):
         return refined
     keep = [est[np.isin(est["track"], anchored)] for est in ests]

@@ -138,7 +138,7 @@ MIN_CORRECTED = 50
 MIN_SPEED_PX_S = 50.0
 
 
-def track_consistent(lag, crossings, rows):
+def track_consistent(lag, crossings, assigned, rows):
     """`lag` (a PixelLag of one speed column, from the level profiles) with the lags of the
     faint crossings (k < ANCHOR_PAIRS) moved to agree with the bright ones along the
     tracks, and the ids of the tracks that told it (none: unchanged).
@@ -147,18 +147,22 @@ def track_consistent(lag, crossings, rows):
     crosses a pixel in a time near the pixel's time constant (EVK4 dark sky at 1–3 px a
     frame: k = 2 measured 5.3 against a true 3.2 ms), and those crossings are the many, so
     the fit leads the star. Along one track all crossings time one motion: a crossing's
-    lag seen from the refitted `rows` (evstar.smoothing estimates with vx, vy) is
-    −(along residual) / speed; less the lag used, its median over a track's anchoring
-    crossings is the track's own offset, and the median, over tracks that have anchors, of
-    the faint crossings' remainder per k is their lag's error."""
-    from .crossings import along_track
-
-    got, owner, _, resid = along_track(crossings, rows)
+    lag seen from the refitted `rows` (evstar.smoothing estimates with vx, vy, sorted by
+    track, then time) is −(along offset) / speed; less the lag used, its median over a
+    track's anchoring crossings is the track's own offset, and the median, over tracks that
+    have anchors, of the faint crossings' remainder per k is their lag's error.
+    assigned: (indices into `crossings`, their track ids), as the refit assigned them (a
+    fast star's raw crossings lie px behind its refitted rows)."""
+    got, owner = assigned
     k = crossings["pairs"][got]
-    speed = _speeds(crossings["t"][got], owner, rows)
+    t = crossings["t"][got]
+    q = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(np.float64)
+    p, v = _on_tracks(t, owner, rows)
+    speed = np.hypot(v[:, 0], v[:, 1])
     fast = speed >= MIN_SPEED_PX_S
-    got, owner, k, resid, speed = got[fast], owner[fast], k[fast], resid[fast], speed[fast]
-    d = -resid / speed * 1e6 - lag.lag_at(k, speed)
+    along = ((q - p) * v)[fast].sum(axis=1) / speed[fast]
+    owner, k, speed = owner[fast], k[fast], speed[fast]
+    d = -along / speed * 1e6 - lag.lag_at(k, speed)
     rel, told = _from_anchors(d, owner, k >= ANCHOR_PAIRS)
     pairs, lag_us = list(lag.pairs), list(lag.lag_us[:, 0])
     used = 0
@@ -195,14 +199,16 @@ def _from_anchors(d, owner, anchor):
     return rel, told
 
 
-def _speeds(t, owner, rows):
-    """Each time's track speed (px/s), linear between the track's `rows` (sorted by track,
-    then time)."""
-    out = np.zeros(len(t))
+def _on_tracks(t, owner, rows):
+    """Each time's (position (n, 2), velocity (n, 2)) on its track, linear between the
+    track's `rows`."""
+    p, v = np.zeros((len(t), 2)), np.zeros((len(t), 2))
     order = np.argsort(owner, kind="stable")
     tid, start = np.unique(owner[order], return_index=True)
     lo, hi = np.searchsorted(rows["track"], tid), np.searchsorted(rows["track"], tid, "right")
     for at, a, b in zip(np.split(order, start[1:]), lo, hi):
         r = rows[a:b]
-        out[at] = np.hypot(np.interp(t[at], r["t"], r["vx"]), np.interp(t[at], r["t"], r["vy"]))
-    return out
+        for j, f in enumerate("xy"):
+            p[at, j] = np.interp(t[at], r["t"], r[f])
+            v[at, j] = np.interp(t[at], r["t"], r["v" + f])
+    return p, v
