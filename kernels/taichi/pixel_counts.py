@@ -15,10 +15,13 @@ from .arrays import i32_1d, i64_1d, u16_1d, u8_1d
 
 
 @ti.kernel
-def pixel_flags(x: u16_1d, y: u16_1d, flags: u8_1d, width: ti.i32, out: u8_1d):
-    """out[e] = flags[y·width + x] of every event (reference: flags[y, x])."""
+def pixel_flags(x: u16_1d, y: u16_1d, bits: u8_1d, width: ti.i32, out: u8_1d):
+    """out[e] = bit k = y·width + x of the flags packed 8 a byte, little-endian
+    (np.packbits(flags, bitorder="little"); reference: flags[y, x]): a megapixel sensor's
+    flags in 115 kB, where its byte image's random reads missed the cache (~1.6x slower)."""
     for e in range(x.shape[0]):
-        out[e] = flags[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)]
+        k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
+        out[e] = (bits[k >> 3] >> ti.cast(k & 7, ti.u8)) & ti.u8(1)
 
 
 @functools.lru_cache(maxsize=None)

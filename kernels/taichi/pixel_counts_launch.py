@@ -47,11 +47,13 @@ def pixel_flags(ti, x, y, flags):
     """flags[y, x] (bool (height, width)) of every event (bool (n,))."""
     out = np.empty(len(x), np.uint8)
     arrays = launch.Arrays(ti)
-    flat = arrays.put(np.ascontiguousarray(flags, bool).view(np.uint8).reshape(-1))
+    bits = arrays.put(np.packbits(np.asarray(flags, bool).reshape(-1), bitorder="little"))
     with launch.RUNTIME_LOCK:
         for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
             e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
-            part = arrays.empty(e1 - e0, np.uint8)
-            _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), flat, flags.shape[1], part)
-            arrays.get(part, out[e0:e1])
+            # on the CPU the kernel writes into out's own (contiguous) slice
+            part = arrays.empty(e1 - e0, np.uint8) if arrays.on_device else out[e0:e1]
+            _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), bits, flags.shape[1], part)
+            if arrays.on_device:
+                arrays.get(part, out[e0:e1])
     return out.view(bool)
