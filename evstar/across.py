@@ -52,8 +52,7 @@ STORE_RADIUS_PX = 6
 def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel, none on
     a pixel `hot` flags (a bool image, or None)."""
-    from .events import gather
-    from .frames import on_pixels
+    from .frames import events_on_pixels
 
     if not len(centroids) or not len(events):
         return events.t[:0], events.x[:0], events.y[:0]
@@ -64,7 +63,7 @@ def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     near = dilate(near, radius_px)
     if hot is not None:
         near &= ~hot
-    return tuple(gather([events.t, events.x, events.y], np.flatnonzero(on_pixels(events, near))))
+    return events_on_pixels(events, near)[:3]
 
 
 def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):
