@@ -52,8 +52,7 @@ STORE_RADIUS_PX = 6
 def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel, none on
     a pixel `hot` flags (a bool image, or None)."""
-    from .events import gather
-    from .frames import on_pixels
+    from .frames import events_on_pixels
 
     if not len(centroids) or not len(events):
         return events.t[:0], events.x[:0], events.y[:0]
@@ -64,7 +63,7 @@ def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     near = dilate(near, radius_px)
     if hot is not None:
         near &= ~hot
-    return tuple(gather([events.t, events.x, events.y], np.flatnonzero(on_pixels(events, near))))
+    return events_on_pixels(events, near)[:3]
 
 
 def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):
@@ -182,7 +181,10 @@ def _cells(p, v, g, dt_us, cells_w, cells_h):
     cell = ((cy[:, None, None] + off[:, None]).clip(0, cells_h - 1) * cells_w
             + (cx[:, None, None] + off).clip(0, cells_w - 1)).reshape(-1)
     n_tracks = int(g.max()) + 1
-    key = np.unique(cell * n_tracks + np.repeat(g[r], 9))
+    # the distinct (cell, track) keys in order, by a presence table: no sort of the samples
+    present = np.zeros(cells_w * cells_h * n_tracks, bool)
+    present[cell * n_tracks + np.repeat(g[r], 9)] = True
+    key = np.flatnonzero(present)
     start = np.searchsorted(key // n_tracks, np.arange(cells_w * cells_h + 1))
     return start, key % n_tracks
 

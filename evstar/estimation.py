@@ -68,16 +68,9 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
 
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
-    from .events import gather
-    from .frames import on_pixels
+    from .frames import events_on_pixels, kept_pixels
 
-    # flatnonzero + take: several times faster than boolean indexing of these long arrays
-    kept = np.flatnonzero(keep)
-    near = np.zeros((events.height, events.width), bool)
-    near[tuple(gather([events.y, events.x], kept))] = True
-    # the pixel test of every event in one Taichi pass; keys of the chosen events only
-    sel = np.flatnonzero(on_pixels(events, dilate(near, radius_px)))
-    t, x, y, p = gather([events.t, events.x, events.y, events.p], sel)
+    t, x, y, p = events_on_pixels(events, dilate(kept_pixels(events, keep), radius_px))
     return t, pixel_keys(x, y, events.width), p
 
 

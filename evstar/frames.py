@@ -89,6 +89,26 @@ def images(events, keep=None):
     return pixel_counts(taichi_running(), events.x, events.y, events.width, events.height, keep)
 
 
+def kept_pixels(events, keep):
+    """(height, width) bool image: the pixels of the events `keep` (bool (n,)) selects."""
+    from evstar_kernels.taichi.pixel_counts_launch import marked_pixels
+
+    from .backends import taichi_running
+
+    return marked_pixels(taichi_running(), events.x, events.y, keep, events.width, events.height)
+
+
+def events_on_pixels(events, flags):
+    """(t, x, y, p) of the events at pixels flags (a (height, width) bool image) sets, in
+    order: one pass, no index array (a Taichi kernel wherever the run's kernels run)."""
+    from evstar_kernels.taichi.pixel_counts_launch import on_flagged_pixels
+
+    from .backends import taichi_running
+
+    return tuple(on_flagged_pixels(taichi_running(), events.t, events.x, events.y, events.p,
+                                   flags))
+
+
 def on_pixels(events, flags):
     """flags[y, x] of every event (bool (n,)), flags a (height, width) bool image."""
     from evstar_kernels.taichi.pixel_counts_launch import pixel_flags

@@ -8,7 +8,7 @@ the star-field scenes of bench_pipeline.py --fields itself, runs the pipeline tw
 (compilation, warm-up), then --repeats timed runs. Asserts identical outputs for every
 scene and compensation mode: keep mask, centroids (every field), before/after images,
 per-frame counts and metrics. Writes perf/results/ab_pipeline.json (+ .md; --out names another) and prints
-the table: per-stage and total medians, s.
+the table: per-stage and total medians (and ranges: min-max of the runs), s.
 
     python perf/ab_pipeline.py --before main [--repeats 5] [--stars 50,100] [--modes none,imu]
         [--changed pf]   (modes whose outputs are known to differ: reported, not asserted)
@@ -31,7 +31,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCENE = "--preset evk4 --stars {} --rate 10 --noise-hz 1 --duration 4"
 STAGES = ("pf_first_pass", "particle_filter", "compensate", "denoise", "extract", "estimate", "track")
 COLUMNS = ([("stars", "stars", ""), ("compensate_mode", "compensate", ""), ("stage", "stage", ""),
-            ("a_s", "A s", ".3f"), ("b_s", "B s", ".3f"), ("ratio", "B / A", ".2f")])
+            ("a_s", "A s", ".3f"), ("a_range", "A range", ""), ("b_s", "B s", ".3f"),
+            ("b_range", "B range", ""), ("ratio", "B / A", ".2f")])
 
 
 def _names():
@@ -117,10 +118,17 @@ def compare(v, stars, mode, repeats, changed=()):
             times[tag].append({**r.timings_s, "total": time.perf_counter() - t})
     rows = []
     for stage in (*STAGES, "total"):
-        a, b = (float(np.median([d.get(stage, 0.0) for d in times[t]])) for t in ("A", "B"))
-        rows.append({"stars": stars, "compensate_mode": mode, "stage": stage, "a_s": a, "b_s": b,
+        runs_s = {t: [d.get(stage, 0.0) for d in times[t]] for t in ("A", "B")}
+        a, b = (float(np.median(runs_s[t])) for t in ("A", "B"))
+        rows.append({"stars": stars, "compensate_mode": mode, "stage": stage, "a_s": a,
+                     "a_range": _range(runs_s["A"]), "b_s": b, "b_range": _range(runs_s["B"]),
                      "ratio": b / a if a else float("nan")})
     return rows
+
+
+def _range(runs_s):
+    """'min–max' of a stage's runs (s)."""
+    return f"{min(runs_s):.3f}–{max(runs_s):.3f}"
 
 
 def main():

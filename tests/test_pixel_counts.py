@@ -62,3 +62,26 @@ def test_pixel_flags_are_the_mask_at_each_event(monkeypatch, device_arrays):
     np.testing.assert_array_equal(got, flags_reference(ev.x, ev.y, flags))
     np.testing.assert_array_equal(frames.on_pixels(ev, flags), got)
     assert len(pixel_flags(backends.taichi_running(), ev.x[:0], ev.y[:0], flags)) == 0
+
+
+@pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
+@pytest.mark.parametrize("max_launch", [None, 700])
+@pytest.mark.parametrize("n, size", [(0, (5, 4)), (1, (1, 1)), (5000, (40, 30)), (20_000, (7, 3))])
+def test_kept_pixels_and_events_on_flagged_pixels_match_reference(monkeypatch, device_arrays,
+                                                                   max_launch, n, size):
+    from evstar_kernels.reference.pixels import marked_pixels, on_flagged_pixels
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    if max_launch:
+        monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", max_launch)
+    ev, keep = events(n + 1, n, *size)
+    marked = frames.kept_pixels(ev, keep)
+    assert marked.dtype == bool and marked.shape == (size[1], size[0])
+    np.testing.assert_array_equal(marked, marked_pixels(ev.x, ev.y, keep, *size))
+    flags = np.random.default_rng(n).random((size[1], size[0])) < 0.4
+    got = frames.events_on_pixels(ev, flags)
+    want = on_flagged_pixels([ev.t, ev.x, ev.y, ev.p], ev.x, ev.y, flags)
+    assert [a.dtype for a in got] == [np.int64, np.uint16, np.uint16, np.int8]
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    assert 0 < len(got[0]) < n or n < 10

@@ -19,6 +19,20 @@ def pixel_flags(x, y, flags):
     return np.asarray(flags, bool)[np.asarray(y, np.intp), np.asarray(x, np.intp)]
 
 
+def marked_pixels(x, y, keep, width, height):
+    """(height, width) bool image: True at the pixel of every event `keep` selects."""
+    out = np.zeros((height, width), bool)
+    keep = np.asarray(keep, bool)
+    out[np.asarray(y)[keep].astype(np.intp), np.asarray(x)[keep].astype(np.intp)] = True
+    return out
+
+
+def on_flagged_pixels(arrays, x, y, flags):
+    """[a[sel] for a in arrays], sel: the events at pixels flags[y, x] sets (in order)."""
+    sel = np.flatnonzero(pixel_flags(x, y, flags))
+    return [np.asarray(a)[sel] for a in arrays]
+
+
 def rounded_pixels(x, y, width, height):
     """(px, py uint16, inside bool) of float coordinates: the pixel i covering [i − ½, i + ½)
     and whether it lies on the width x height sensor (NaN never does); px = py = 0 where not."""

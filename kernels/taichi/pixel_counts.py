@@ -1,4 +1,5 @@
-"""Events per pixel, all and kept, in one pass; a per-pixel flag per event.
+"""Events per pixel, all and kept, in one pass; a per-pixel flag per event; the pixels of
+kept events; the events on flagged pixels.
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
@@ -11,14 +12,61 @@ import functools
 
 import taichi as ti
 
-from .arrays import i32_1d, i64_1d, u16_1d, u8_1d
+from .arrays import i8_1d, i32_1d, i64_1d, u16_1d, u8_1d
+
+
+@ti.func
+def _flag(bits: ti.template(), k: ti.i32):
+    """Bit k of flags packed 8 a byte, little-endian (np.packbits(..., bitorder="little"))."""
+    return (bits[k >> 3] >> ti.cast(k & 7, ti.u8)) & ti.u8(1)
 
 
 @ti.kernel
-def pixel_flags(x: u16_1d, y: u16_1d, flags: u8_1d, width: ti.i32, out: u8_1d):
-    """out[e] = flags[y·width + x] of every event (reference: flags[y, x])."""
+def pixel_flags(x: u16_1d, y: u16_1d, bits: u8_1d, width: ti.i32, out: u8_1d):
+    """out[e] = bit k = y·width + x of the flags packed 8 a byte, little-endian
+    (np.packbits(flags, bitorder="little"); reference: flags[y, x]): a megapixel sensor's
+    flags in 115 kB, where its byte image's random reads missed the cache (~1.6x slower)."""
     for e in range(x.shape[0]):
-        out[e] = flags[ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)]
+        out[e] = _flag(bits, ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32))
+
+
+@ti.kernel
+def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, bits: u8_1d, width: ti.i32,
+                      t_out: i64_1d, x_out: u16_1d, y_out: u16_1d, p_out: i8_1d) -> ti.i64:
+    """The events at flagged pixels (packed as pixel_flags's) copied, in order, to the
+    outputs' first n entries (outputs as long as the input); returns n (reference:
+    on_flagged_pixels). Serial and branch-free: every event is written at the next free
+    place, which only a flagged one takes (a branch on the flag mispredicted: ~2.5x slower;
+    a flag pass, its indices and their gathers: ~1.4x)."""
+    j = ti.i64(0)
+    ti.loop_config(serialize=True)
+    for e in range(x.shape[0]):
+        t_out[j] = t[e]
+        x_out[j] = x[e]
+        y_out[j] = y[e]
+        p_out[j] = p[e]
+        j += ti.cast(_flag(bits, ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)), ti.i64)
+    return j
+
+
+@functools.lru_cache(maxsize=None)
+def mark_pixels_kernel(serial):
+    """kernel(x, y, keep, width, flags): flags[y·width + x] = 1 at every event keep (0 or
+    1) selects (reference: marked_pixels). Serial on the CPU, branch-free (an OR of keep):
+    two threads' stores into one cache line of the flags contended (~2x slower); in
+    parallel only the selected events store (an OR's read and write would race)."""
+
+    @ti.kernel
+    def mark_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, flags: u8_1d):
+        ti.loop_config(serialize=serial)
+        for e in range(x.shape[0]):
+            k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
+            if ti.static(serial):
+                flags[k] = flags[k] | keep[e]
+            elif keep[e]:
+                flags[k] = ti.u8(1)
+
+    return mark_pixels
 
 
 @functools.lru_cache(maxsize=None)

@@ -1,9 +1,11 @@
 """Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events; with a keep
-mask the packed halves split, without it int32 counts) and of the per-event pixel flags."""
+mask the packed halves split, without it int32 counts), of the per-event pixel flags, the
+kept events' pixels and the events on flagged pixels."""
 import numpy as np
 
 from . import launch
-from .pixel_counts import count_all_kernel, count_pixels_kernel, pixel_flags as _pixel_flags
+from .pixel_counts import count_all_kernel, count_pixels_kernel, mark_pixels_kernel
+from .pixel_counts import on_flagged_pixels as _on_flagged, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
 
@@ -43,15 +45,63 @@ def _all_counts(ti, x, y, width, height):
     return every.reshape(height, width)
 
 
+def _pieces(n):
+    """(e0, e1) launches of at most MAX_LAUNCH_EVENTS events."""
+    step = launch.MAX_LAUNCH_EVENTS
+    return [(e0, min(e0 + step, n)) for e0 in range(0, n, step)]
+
+
+def _packed(arrays, flags):
+    """The (height, width) bool flags packed 8 a byte, as the kernels read them."""
+    return arrays.put(np.packbits(np.asarray(flags, bool).reshape(-1), bitorder="little"))
+
+
+def marked_pixels(ti, x, y, keep, width, height):
+    """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
+    every event `keep` (bool) selects."""
+    arrays = launch.Arrays(ti)
+    flags = arrays.put(np.zeros(width * height, np.uint8))
+    kernel = mark_pixels_kernel(not arrays.on_device)
+    keep = np.asarray(keep, bool).view(np.uint8)
+    with launch.RUNTIME_LOCK:
+        for e0, e1 in _pieces(len(x)):
+            kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(keep[e0:e1]), width,
+                   flags)
+    return (flags.to_numpy() if arrays.on_device else flags).view(bool).reshape(height, width)
+
+
+def on_flagged_pixels(ti, t, x, y, p, flags):
+    """reference.pixels.on_flagged_pixels of (t, x, y, p): (t int64, x, y uint16, p int8)
+    of the events at pixels flags[y, x] sets, in order. On a GPU by the flags per event
+    (pixel_flags) and numpy's gathers: the compaction kernel is serial."""
+    if launch.Arrays(ti).on_device:
+        sel = np.flatnonzero(pixel_flags(ti, x, y, flags))
+        return [np.asarray(a, d).take(sel) for a, d in
+                ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))]
+    arrays = launch.Arrays(ti)
+    bits, n = _packed(arrays, flags), 0
+    out = [np.empty(len(x), d) for d in (np.int64, np.uint16, np.uint16, np.int8)]
+    with launch.RUNTIME_LOCK:
+        for e0, e1 in _pieces(len(x)):
+            n += _on_flagged(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
+                               ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))),
+                             bits, flags.shape[1], *(o[n:] for o in out))
+    for o in out:   # to the selection's length in place (realloc: no copy, the tail freed)
+        o.resize(n, refcheck=False)
+    return out
+
+
 def pixel_flags(ti, x, y, flags):
     """flags[y, x] (bool (height, width)) of every event (bool (n,))."""
     out = np.empty(len(x), np.uint8)
     arrays = launch.Arrays(ti)
-    flat = arrays.put(np.ascontiguousarray(flags, bool).view(np.uint8).reshape(-1))
+    bits = _packed(arrays, flags)
     with launch.RUNTIME_LOCK:
         for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
             e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
-            part = arrays.empty(e1 - e0, np.uint8)
-            _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), flat, flags.shape[1], part)
-            arrays.get(part, out[e0:e1])
+            # on the CPU the kernel writes into out's own (contiguous) slice
+            part = arrays.empty(e1 - e0, np.uint8) if arrays.on_device else out[e0:e1]
+            _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), bits, flags.shape[1], part)
+            if arrays.on_device:
+                arrays.get(part, out[e0:e1])
     return out.view(bool)
