@@ -41,14 +41,10 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
 
 def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
               sensor="default"):
-    R0, up = sim.attitude_from_radec(*pointing, 0.0), np.array([0.0, 1.0, 0.0])
-    if motion == "sine":   # 1 Hz, peak rate rate_dps, 1 s
-        move, duration = sim.Sinusoid(rate_dps / (2 * np.pi), 1.0, axis=up, R0=R0), 1.0
-    else:
-        move, duration = sim.ConstantRate(rate_dps, axis=up, R0=R0), 0.5
-    stars = sim.hipparcos_field_along(cam, move, duration, mag_limit=6.5)
-    model = sim.sensor_model(sensor, noise_hz=noise_hz)
-    run = sim.simulate(sim.Scenario(cam, stars, move, duration, sensor=model), seed=seed)
+    duration = 1.0 if motion == "sine" else 0.5   # sine: 1 Hz, peak rate rate_dps, 1 s
+    scene = sim.field_scenario(cam, *pointing, rate_dps, duration, motion=motion, sensor=sensor,
+                               noise_hz=noise_hz)
+    run = sim.simulate(scene, seed=seed)
     rows = Pipeline(Config().replace(**(settings or {}))).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     ids = np.unique(star[star >= 0])

@@ -222,12 +222,9 @@ def test_no_star_of_a_dark_sky_field_moves_off():
     0.5-2.6 px off, move by up to 0.3)."""
     from evstar import accuracy
 
-    cam = sim.camera_preset("davis346", 16.0)
-    move = sim.ConstantRate(12.0, axis=np.array([0.0, 1.0, 0.0]),
-                            R0=sim.attitude_from_radec(83.8, -5.4, 0.0))
-    stars = sim.hipparcos_field_along(cam, move, 0.5, mag_limit=6.5)
-    run = sim.simulate(sim.Scenario(cam, stars, move, 0.5,
-                                    sensor=sim.sensor_model("dark-sky", noise_hz=1.5)), seed=61)
+    scene = sim.field_scenario(sim.camera_preset("davis346", 16.0), 83.8, -5.4, 12.0, 0.5,
+                               sensor="dark-sky", noise_hz=1.5)
+    run = sim.simulate(scene, seed=61)
     per_star = []
     for kernel in (0.0, 1.5):
         rows = Pipeline(Config().replace(**{"estimate.across_kernel_px": kernel})).run(

@@ -199,12 +199,9 @@ def test_fast_dark_sky_field_does_not_lead_its_stars():
     crossings correct it."""
     from evstar import accuracy
 
-    cam = sim.camera_preset("evk4", 16.0)
-    move = sim.ConstantRate(20.0, axis=np.array([0.0, 1.0, 0.0]),
-                            R0=sim.attitude_from_radec(253, -38, 0.0))
-    stars = sim.hipparcos_field_along(cam, move, 0.3, mag_limit=4.5)
-    r = sim.simulate(sim.Scenario(cam, stars, move, 0.3,
-                                  sensor=sim.sensor_model("dark-sky", noise_hz=0.1)), seed=95)
+    scene = sim.field_scenario(sim.camera_preset("evk4", 16.0), 253, -38, 20.0, 0.3,
+                               mag_limit=4.5, sensor="dark-sky", noise_hz=0.1)
+    r = sim.simulate(scene, seed=95)
     medians = []
     for on in (True, False):
         rows = evstar.Pipeline(evstar.Config().replace(**{"estimate.lag_from_tracks": on})) \

@@ -86,3 +86,17 @@ def test_field_along_a_slew_includes_the_stars_that_come_into_view():
     assert len(set(along.hip)) == len(along) and np.all(np.diff(along.magnitudes) >= 0)
     top = sim.hipparcos_field_along(cam, motion, 3.0, mag_limit=5.0, max_stars=5)
     assert np.array_equal(top.hip, along.hip[:5])
+
+
+def test_field_scenario_pans_or_swings_and_names_a_bad_motion():
+    from evstar import sim
+    from evstar.errors import ParameterError
+
+    cam = sim.camera_preset("davis346", 16.0)
+    pan = sim.field_scenario(cam, 83.8, -5.4, 8.0, 0.5)
+    sine = sim.field_scenario(cam, 83.8, -5.4, 8.0, 1.0, motion="sine", mag_limit=5.0)
+    assert 0 < len(sine.stars.magnitudes) < len(pan.stars.magnitudes)
+    assert sine.stars.magnitudes.max() <= 5.0 < pan.stars.magnitudes.max() <= 6.5
+    assert isinstance(pan.trajectory, sim.ConstantRate) and isinstance(sine.trajectory, sim.Sinusoid)
+    with pytest.raises(ParameterError, match="'spin'"):
+        sim.field_scenario(cam, 83.8, -5.4, 8.0, 0.5, motion="spin")
