@@ -131,8 +131,9 @@ def _fit_grid(D, k):
 ANCHOR_PAIRS = _DROP_BOTTOM_FROM
 #: a track anchors only with this many anchoring crossings
 MIN_ANCHORS = 10
-#: fewest anchored crossings of one k to correct its lag
-MIN_CORRECTED = 50
+#: fewest anchored crossings of one k to correct its lag (50 let a lone faint star correct
+#: its own from a few dozen: a magnitude-5 star at 20 °/s on a dark sky 0.104 -> 0.158 px)
+MIN_CORRECTED = 100
 #: slowest crossings measured (px/s): a lag is seen as an along offset of speed × lag, so
 #: slower ones tell the time little (0.3 px of pixel noise is 6 ms at 50 px/s)
 MIN_SPEED_PX_S = 50.0
