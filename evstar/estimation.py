@@ -115,13 +115,20 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
                                            "process_noise": e.process_noise_min})
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
+    lag_sigma = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         mine = _crossings_by_group(crossings, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag)
-        if lag is not None and e.pixel_lag_file is None and e.lag_from_tracks:
-            refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
-                                       e.along_weight, t0_us, lag)
+        if lag is not None:
+            from .crossings import along_track
+
+            assigned = along_track(crossings, _by_track(ests))[:2]
+            lag_sigma = {t: LAG_SIGMA_FRACTION * v for t, v in
+                         _track_lags(crossings, assigned, lag).items()}
+            if e.pixel_lag_file is None and e.lag_from_tracks:
+                refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
+                                           e.along_weight, t0_us, lag, assigned)
         ests = refined
     est = np.concatenate(ests)
     loose = out[centroids["track"] < 0]
@@ -141,11 +148,58 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     rows = rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
-    if near is None or sensor is None or not e.across_kernel_px:
-        return rows
-    from . import across
+    if near is not None and sensor is not None and e.across_kernel_px:
+        from . import across
 
-    return across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
+        rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
+    return rows if lag_sigma is None else with_lag_sigma(rows, lag_sigma)
+
+
+#: a measured or calibrated pixel lag is known to about this fraction of itself (the level
+#: profiles' lag was 20–60 % long at k = 2–4 on short passages before the tracks' check and
+#: within ~10 % at k >= 5; README). On the grid's 29 dark-sky rows the median error/σ went
+#: 1.41 -> 1.03 (a calibrated 2-D σ: 1.18); 0.2 overstated σ (0.66)
+LAG_SIGMA_FRACTION = 0.1
+
+
+def _track_lags(crossings, assigned, lag):
+    """{track id: its crossings' median lag (µs)} from the table `lag` (its slowest speed
+    column: the lag's scale, for the uncertainty)."""
+    got, owner = assigned
+    each = lag.lag_at(crossings["pairs"][got], lag.speed_px_s[0])
+    order = np.argsort(owner, kind="stable")
+    tid, start = np.unique(owner[order], return_index=True)
+    return {int(t): float(np.median(each[o])) for t, o in zip(tid, np.split(order, start[1:]))}
+
+
+def with_lag_sigma(rows, lag_sigma_us):
+    """`rows` with each tracked row's σ widened by its track's lag uncertainty (µs, by track
+    id) times its speed, along its motion: a lag's error moves every row of a track along
+    its motion by the same time, which the smoother's σ (pooled noise) does not hold."""
+    out = rows.copy()
+    i = np.flatnonzero(np.isin(rows["track"], list(lag_sigma_us)))
+    if not len(i):
+        return out
+    i = i[np.lexsort((rows["t"][i], rows["track"][i]))]
+    speed = _row_speeds(rows["track"][i], rows["t"][i].astype(np.float64), rows["x"][i],
+                        rows["y"][i])
+    sig_t = np.array([lag_sigma_us[int(t)] for t in rows["track"][i]])
+    along = speed * sig_t * 1e-6
+    # rows' σ is per axis (the RMS of x and y): an along error adds half its variance to each
+    out["sigma"][i] = np.sqrt(rows["sigma"][i] ** 2 + along ** 2 / 2)
+    return out
+
+
+def _row_speeds(track, t, x, y):
+    """Per row (sorted by track, then time) its track's speed (px/s) between its neighbours
+    in the track (one side at the ends; 0 for a row alone)."""
+    n = len(t)
+    idx = np.arange(n)
+    a = np.where(np.r_[False, track[1:] == track[:-1]], idx - 1, idx)
+    b = np.where(np.r_[track[:-1] == track[1:], False], idx + 1, idx)
+    dt = (t[b] - t[a]) * 1e-6
+    dist = np.hypot(x[b] - x[a], y[b] - y[a])
+    return np.divide(dist, dt, out=np.zeros(n), where=dt > 0)
 
 
 def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag):
@@ -156,15 +210,14 @@ def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag):
 
 
 def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_weight, t0_us,
-                     lag):
+                     lag, assigned):
     """The `refined` rows of the tracks that anchor the faint crossings' lag
     (evstar.level_lag.track_consistent) refitted with the lag they agree on; the other
     tracks' rows as they were: a faint star's own crossings cannot check the correction,
-    and its centroids, which carry the lag, weigh more in its fit."""
-    from .crossings import along_track
+    and its centroids, which carry the lag, weigh more in its fit. assigned: (crossings,
+    track ids) as the refit assigned them."""
     from .level_lag import track_consistent
 
-    assigned = along_track(crossings, _by_track(ests))[:2]
     lag, anchored = track_consistent(lag, crossings, assigned, _by_track(refined))
     if not len(anchored):
         return refined

@@ -209,3 +209,21 @@ def test_fast_dark_sky_field_does_not_lead_its_stars():
         star, err = accuracy.match(rows, r.truth.star_position)
         medians.append(np.median([err[star == i].mean() for i in np.unique(star[star >= 0])]))
     assert medians[0] < 0.25 < 0.5 < medians[1], medians
+
+
+def test_a_lag_s_uncertainty_widens_sigma_along_the_motion_by_speed():
+    """Rows of a track at 200 px/s, its lag known to 1 ms: 0.2 px along, so each axis's σ
+    (the RMS of x and y) gains 0.2²/2; a row of another track and untracked rows keep
+    theirs."""
+    from evstar.estimation import with_lag_sigma
+    from evstar.extract import CENTROID_DTYPE
+
+    rows = np.zeros(12, CENTROID_DTYPE)
+    rows["t"] = np.r_[np.arange(10) * 10_000, 0, 0]
+    rows["x"] = np.r_[np.arange(10) * 2.0, 5, 7]          # 2 px per 10 ms: 200 px/s
+    rows["track"] = np.r_[[3] * 10, 4, -1]
+    rows["sigma"] = 0.05
+    out = with_lag_sigma(rows[::-1], {3: 1000.0, 4: 1000.0})[::-1]
+    np.testing.assert_allclose(out["sigma"][:10], np.sqrt(0.05 ** 2 + 0.2 ** 2 / 2))
+    assert out["sigma"][10] == 0.05 and out["sigma"][11] == 0.05   # alone: no speed; untracked
+    np.testing.assert_array_equal(out["x"], rows["x"])
