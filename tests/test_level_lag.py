@@ -192,16 +192,21 @@ def test_a_fast_star_s_crossings_count_as_the_refit_assigned_them():
         assert abs(got.lag_at(k, 1200.0) - _TRUE_LAG_US[k]) < 120, k
 
 
-def test_fast_dark_sky_field_does_not_lead_its_stars():
-    """An EVK4 behind 16 mm panning at 20 °/s over a dark sky (11 px a frame): the level
-    profiles' lag of k = 2–4 is several ms too long there (pulses far shorter than the
-    pixels' time constant), and the fit led the stars by px; the tracks' own bright
-    crossings correct it."""
-    from evstar import accuracy
-
+@pytest.fixture(scope="module")
+def fast_dark_field():
+    """An EVK4 behind 16 mm panning at 20 °/s over a dark sky (11 px a frame), 0.3 s."""
     scene = sim.field_scenario(sim.camera_preset("evk4", 16.0), 253, -38, 20.0, 0.3,
                                mag_limit=4.5, sensor="dark-sky", noise_hz=0.1)
-    r = sim.simulate(scene, seed=95)
+    return sim.simulate(scene, seed=95)
+
+
+def test_fast_dark_sky_field_does_not_lead_its_stars(fast_dark_field):
+    """The level profiles' lag of k = 2–4 is several ms too long on a fast dark sky (pulses
+    far shorter than the pixels' time constant), and the fit led the stars by px; the
+    tracks' own bright crossings correct it."""
+    from evstar import accuracy
+
+    r = fast_dark_field
     medians = []
     for on in (True, False):
         rows = evstar.Pipeline(evstar.Config().replace(**{"estimate.lag_from_tracks": on})) \
@@ -209,6 +214,18 @@ def test_fast_dark_sky_field_does_not_lead_its_stars():
         star, err = accuracy.match(rows, r.truth.star_position)
         medians.append(np.median([err[star == i].mean() for i in np.unique(star[star >= 0])]))
     assert medians[0] < 0.25 < 0.5 < medians[1], medians
+
+
+def test_a_streamed_run_checks_the_lag_as_a_whole_run_does(fast_dark_field, tmp_path):
+    from evstar import io
+
+    io.write(tmp_path / "events.h5", fast_dark_field.events)
+    cfg = evstar.Config(chunk_frames=7)
+    whole = evstar.Pipeline(cfg).run(fast_dark_field.events).centroids
+    streamed = evstar.Pipeline(cfg).run_file(tmp_path / "events.h5", progress=False).centroids
+    assert len(whole) > 100
+    for f in ("t", "x", "y", "sigma", "track"):
+        np.testing.assert_array_equal(whole[f], streamed[f])
 
 
 def test_a_lag_s_uncertainty_widens_sigma_along_the_motion_by_speed():
