@@ -46,6 +46,15 @@ def write_results(path, rows, meta=None):
     return path
 
 
+def write_report(results_dir, name, rows, title, text, meta=None):
+    """A study's results: results_dir/name.json (write_results) and name.md, a Markdown
+    page of `title` over `text` (its table)."""
+    results_dir = pathlib.Path(results_dir)
+    results_dir.mkdir(exist_ok=True)
+    write_results(results_dir / f"{name}.json", rows, meta)
+    (results_dir / f"{name}.md").write_text(f"# {title}\n\n{text}\n")
+
+
 def table(rows, columns):
     """A Markdown table of `rows` (dicts) with `columns` = [(key, header, format)]."""
     head = "| " + " | ".join(h for _, h, _ in columns) + " |"

@@ -84,12 +84,10 @@ def markdown(rows):
 
 def main():
     rows = [run(*s) for s in SCENES]
-    RESULTS.mkdir(exist_ok=True)
-    profiling.write_results(RESULTS / "study_across.json", rows)
-    (RESULTS / "study_across.md").write_text(
-        "# A slow star's offset across its motion, and a per-track mean-shift\n\n"
-        + markdown(rows) + "\n")
-    print(markdown(rows))
+    text = markdown(rows)
+    profiling.write_report(RESULTS, "study_across", rows, "A slow star's offset across its "
+                           "motion, and a per-track mean-shift", text)
+    print(text)
 
 
 if __name__ == "__main__":

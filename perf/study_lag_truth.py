@@ -76,11 +76,9 @@ def main():
     ap.add_argument("--seed", type=int, default=93)
     seed = ap.parse_args().seed
     rows = [row for c in CAMERAS for row in run(*c, seed)]
-    RESULTS.mkdir(exist_ok=True)
-    profiling.write_results(RESULTS / "study_lag_truth.json", rows, {"seed": seed})
     text = profiling.table(rows, COLUMNS)
-    (RESULTS / "study_lag_truth.md").write_text(
-        f"# Measured pixel lag per k against each crossing's true lag (seed {seed})\n\n{text}\n")
+    profiling.write_report(RESULTS, "study_lag_truth", rows, "Measured pixel lag per k against "
+                           f"each crossing's true lag (seed {seed})", text, {"seed": seed})
     print(text)
 
 

@@ -47,11 +47,9 @@ def main(argv=None):
     args = ap.parse_args(argv)
     rows = [run(*s, int(seed), mm) for s in SCENES for seed in args.seeds.split(",")
             for mm in (None, 0.0)]
-    RESULTS.mkdir(exist_ok=True)
-    profiling.write_results(RESULTS / "study_mismatch.json", rows, {"seeds": args.seeds})
     text = profiling.table(rows, COLUMNS)
-    (RESULTS / "study_mismatch.md").write_text(
-        f"# Slow faint stars with and without the pixels' threshold mismatch\n\n{text}\n")
+    profiling.write_report(RESULTS, "study_mismatch", rows, "Slow faint stars with and without "
+                           "the pixels' threshold mismatch", text, {"seeds": args.seeds})
     print(text)
 
 

@@ -105,3 +105,19 @@ def test_esr_rewards_structure():
     blob = evstar.Events(np.arange(n), np.clip(rng.normal(30, 3, n), 0, w - 1).astype(int),
                          np.clip(rng.normal(20, 3, n), 0, h - 1).astype(int), np.ones(n), w, h)
     assert metrics.esr(blob) > 1.5 * metrics.esr(uniform)
+
+
+def test_write_report_writes_the_table_page_and_its_json(tmp_path):
+    import json
+
+    from evstar import profiling
+
+    rows = [{"k": 2, "lag": 3.21}]
+    text = profiling.table(rows, [("k", "k", ""), ("lag", "lag ms", ".1f")])
+    for _ in range(2):                           # a second run rewrites them
+        profiling.write_report(tmp_path / "results", "study_x", rows, "A study (seed 1)", text,
+                               {"seed": 1})
+    page = (tmp_path / "results" / "study_x.md").read_text()
+    assert page == "# A study (seed 1)\n\n| k | lag ms |\n|---|---|\n| 2 | 3.2 |\n"
+    doc = json.loads((tmp_path / "results" / "study_x.json").read_text())
+    assert doc["rows"] == rows and doc["meta"] == {"seed": 1}
