@@ -117,13 +117,14 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
     lag_sigma = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
-        mine = _crossings_by_group(crossings, ests)
+        from .crossings import along_track
+
+        every = along_track(crossings, _by_track(ests))
+        mine = _by_group(every, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag)
         if lag is not None:
-            from .crossings import along_track
-
-            assigned = along_track(crossings, _by_track(ests))[:2]
+            assigned = every[:2]
             lag_sigma = {t: LAG_SIGMA_FRACTION * v for t, v in
                          _track_lags(crossings, assigned, lag).items()}
             if e.pixel_lag_file is None and e.lag_from_tracks:
@@ -166,10 +167,10 @@ def _track_lags(crossings, assigned, lag):
     """{track id: its crossings' median lag (µs)} from the table `lag` (its slowest speed
     column: the lag's scale, for the uncertainty)."""
     got, owner = assigned
+    from .frames import groups
+
     each = lag.lag_at(crossings["pairs"][got], lag.speed_px_s[0])
-    order = np.argsort(owner, kind="stable")
-    tid, start = np.unique(owner[order], return_index=True)
-    return {int(t): float(np.median(each[o])) for t, o in zip(tid, np.split(order, start[1:]))}
+    return {int(t): float(np.median(each[o])) for t, o in zip(*groups(owner))}
 
 
 def with_lag_sigma(rows, lag_sigma_us):
@@ -312,17 +313,15 @@ def _only(centroids, ids):
     return out
 
 
-def _crossings_by_group(crossings, ests):
-    """Per group's smoothed rows, the crossings assigned to its tracks (along_track's
-    result, None to assign them in refine), each to its nearest track of all groups': a
-    crossing must not refine a star of one group when another's is nearer. The nearest of
-    one group's tracks is then that track too, as along_track of the group's own crossings
-    would find it (ties to the least id either way)."""
+def _by_group(every, ests):
+    """Per group's smoothed rows, the crossings assigned to its tracks, from `every`
+    (along_track of the crossings and all groups' rows), each to its nearest track of all
+    groups': a crossing must not refine a star of one group when another's is nearer. The
+    nearest of one group's tracks is then that track too, as along_track of the group's own
+    crossings would find it (ties to the least id either way)."""
     if len(ests) == 1:
-        return [None]
-    from .crossings import along_track
-
-    got, owner, u, resid = along_track(crossings, _by_track(ests))
+        return [every]
+    got, owner, u, resid = every
     parts = []
     for est in ests:
         m = np.isin(owner, np.unique(est["track"]))

@@ -45,6 +45,13 @@ def stable_order(key):
     return low[np.argsort((key[low] >> 16).astype(np.uint16), kind="stable")]
 
 
+def groups(ids):
+    """(distinct ids ascending, the indices of each, in their order)."""
+    order = stable_order(ids)
+    cut = np.flatnonzero(np.diff(ids[order])) + 1
+    return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
+
+
 def ranks(counts, starts=0):
     """s, s + 1, ..., s + c − 1 for each count c and start s, concatenated (one repeat):
     e.g. each member's place in its group, or (starts) its index in the sorted whole."""

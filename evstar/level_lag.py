@@ -189,10 +189,10 @@ def track_consistent(lag, crossings, assigned, rows):
 
 def _from_anchors(d, owner, anchor):
     """(d less its track's median over its anchors, whether the track has MIN_ANCHORS)."""
-    order = np.argsort(owner, kind="stable")
-    tid, start = np.unique(owner[order], return_index=True)
+    from .frames import groups
+
     rel, told = np.zeros(len(d)), np.zeros(len(d), bool)
-    for rows in np.split(order, start[1:]):
+    for rows in groups(owner)[1]:
         a = rows[anchor[rows]]
         if len(a) >= MIN_ANCHORS:
             rel[rows] = d[rows] - np.median(d[a])
@@ -203,11 +203,12 @@ def _from_anchors(d, owner, anchor):
 def _on_tracks(t, owner, rows):
     """Each time's (position (n, 2), velocity (n, 2)) on its track, linear between the
     track's `rows`."""
+    from .frames import groups
+
     p, v = np.zeros((len(t), 2)), np.zeros((len(t), 2))
-    order = np.argsort(owner, kind="stable")
-    tid, start = np.unique(owner[order], return_index=True)
+    tid, each = groups(owner)
     lo, hi = np.searchsorted(rows["track"], tid), np.searchsorted(rows["track"], tid, "right")
-    for at, a, b in zip(np.split(order, start[1:]), lo, hi):
+    for at, a, b in zip(each, lo, hi):
         r = rows[a:b]
         for j, f in enumerate("xy"):
             p[at, j] = np.interp(t[at], r["t"], r[f])

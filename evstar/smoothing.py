@@ -38,7 +38,7 @@ import numpy as np
 
 from . import kalman
 from .errors import ParameterError
-from .frames import stable_order
+from .frames import groups
 from .parameters import AUTO, ESTIMATE, SMOOTHER
 
 ESTIMATE_DTYPE = np.dtype([
@@ -242,8 +242,8 @@ class TrackSmoother:
         used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
-        tids, est_rows = _groups(est["track"])
-        mine = dict(zip(*_groups(owner)))
+        tids, est_rows = groups(est["track"])
+        mine = dict(zip(*groups(owner)))
         tracks = []
         for tid, rows in zip(tids, est_rows):
             m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
@@ -435,13 +435,6 @@ def _estimate_q_many(tracks, engine):
     for i, ll in zip(long, _ENGINES[engine][1](args, _Q_GRID)):
         q[i] = float(_Q_GRID[int(np.argmax(ll))])
     return q
-
-
-def _groups(ids):
-    """(distinct ids ascending, the indices of each, in their order)."""
-    order = stable_order(ids)
-    cut = np.flatnonzero(np.diff(ids[order])) + 1
-    return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
 
 def _track_rows(centroids):

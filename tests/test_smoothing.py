@@ -397,7 +397,8 @@ def test_crossings_go_to_the_group_of_their_nearest_track():
     """Tracks smoothed in two groups (with and without the prior): a crossing 1 px from
     track 0 and 2 px from track 1 refines track 0's group only."""
     from evstar.crossings import CROSSING_DTYPE
-    from evstar.estimation import _crossings_by_group
+    from evstar.crossings import along_track
+    from evstar.estimation import _by_group, _by_track
     from evstar.smoothing import ESTIMATE_DTYPE
 
     def rows(track, y):
@@ -408,11 +409,9 @@ def test_crossings_go_to_the_group_of_their_nearest_track():
     groups = [rows(0, 50.0), rows(1, 53.0)]
     c = np.zeros(3, CROSSING_DTYPE)
     c["t"], c["x"], c["y"] = [5_000, 10_000, 15_000], [15, 20, 25], [51, 53, 52]
-    mine = _crossings_by_group(c, groups)
+    mine = _by_group(along_track(c, _by_track(groups)), groups)
     assert mine[0][0].tolist() == [0] and mine[1][0].tolist() == [1, 2]
     # what refine would assign from the group's own crossings and tracks
-    from evstar.crossings import along_track
-
     for (got, *rest), group in zip(mine, groups):
         own = along_track(c[got], group)
         assert np.array_equal(got[own[0]], got)
