@@ -35,8 +35,7 @@ def _classical_lanes(ti, stream, dt_us, k, scratch, on_launch, support, keep):
     maps = scratch.array("maps", shape, make_maps)
     busy = np.zeros(threads, np.int32)
     n = len(t)
-    for a in range(0, n, launch.MAX_LAUNCH_EVENTS):
-        b = min(n, a + launch.MAX_LAUNCH_EVENTS)
+    for a, b in launch.pieces(n):
         # one range per thread: every range but the first replays ~rate·dt events
         cuts = np.unique(np.linspace(a, b, threads + 1).astype(np.int64))
         lb = _lookback(t, cuts[:-1], dt_us)

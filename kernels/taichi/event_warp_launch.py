@@ -14,8 +14,7 @@ def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, c
     n = len(t)
     out = [np.empty((n, 2)), np.empty(n, np.uint16), np.empty(n, np.uint16), np.empty(n, np.uint8)]
     track = [arrays.put(np.asarray(a, np.float64)) for a in (ref_q, node_t, node_q, node_phi)]
-    for a in range(0, n, launch.MAX_LAUNCH_EVENTS):
-        b = min(n, a + launch.MAX_LAUNCH_EVENTS)
+    for a, b in launch.pieces(n):
         ev = ([arrays.put(v[a:b]) for v in (t, x, y)]
               + [arrays.put(_starts(t[a:b], node_t)), arrays.put(np.asarray(ref_index[a:b], np.int32))])
         dev = [o[a:b] if not arrays.on_device else arrays.empty(o[a:b].shape, o.dtype)

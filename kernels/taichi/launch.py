@@ -44,6 +44,13 @@ class Arrays:
         out[...] = (dev if not self.on_device else dev.to_numpy())[skip:]
 
 
+def pieces(n, size=None):
+    """(start, stop) of consecutive launches over n events, each at most `size`
+    (MAX_LAUNCH_EVENTS) long."""
+    size = MAX_LAUNCH_EVENTS if size is None else size
+    return [(a, min(a + size, n)) for a in range(0, n, size)]
+
+
 def cpu_threads(ti):
     return max(1, int(ti.lang.impl.current_cfg().cpu_max_num_threads))
 

@@ -19,8 +19,7 @@ def pixel_counts(ti, x, y, width, height, keep=None):
     arrays = launch.Arrays(ti)
     kernel = count_pixels_kernel(not arrays.on_device)
     with launch.RUNTIME_LOCK:
-        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
-            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+        for e0, e1 in launch.pieces(len(x)):
             cells = arrays.put(np.zeros(size, np.int64))
             kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]),
                    arrays.put(np.asarray(keep[e0:e1], bool).view(np.uint8)), width, cells)
@@ -37,18 +36,11 @@ def _all_counts(ti, x, y, width, height):
     arrays = launch.Arrays(ti)
     kernel = count_all_kernel(not arrays.on_device)
     with launch.RUNTIME_LOCK:
-        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
-            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+        for e0, e1 in launch.pieces(len(x)):
             cells = arrays.put(np.zeros(width * height, np.int32))
             kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), width, cells)
             every += cells.to_numpy() if arrays.on_device else cells
     return every.reshape(height, width)
-
-
-def _pieces(n):
-    """(e0, e1) launches of at most MAX_LAUNCH_EVENTS events."""
-    step = launch.MAX_LAUNCH_EVENTS
-    return [(e0, min(e0 + step, n)) for e0 in range(0, n, step)]
 
 
 def _packed(arrays, flags):
@@ -64,7 +56,7 @@ def marked_pixels(ti, x, y, keep, width, height):
     kernel = mark_pixels_kernel(not arrays.on_device)
     keep = np.asarray(keep, bool).view(np.uint8)
     with launch.RUNTIME_LOCK:
-        for e0, e1 in _pieces(len(x)):
+        for e0, e1 in launch.pieces(len(x)):
             kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(keep[e0:e1]), width,
                    flags)
     return (flags.to_numpy() if arrays.on_device else flags).view(bool).reshape(height, width)
@@ -82,7 +74,7 @@ def on_flagged_pixels(ti, t, x, y, p, flags):
     bits, n = _packed(arrays, flags), 0
     out = [np.empty(len(x), d) for d in (np.int64, np.uint16, np.uint16, np.int8)]
     with launch.RUNTIME_LOCK:
-        for e0, e1 in _pieces(len(x)):
+        for e0, e1 in launch.pieces(len(x)):
             n += _on_flagged(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
                                ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))),
                              bits, flags.shape[1], *(o[n:] for o in out))
@@ -97,8 +89,7 @@ def pixel_flags(ti, x, y, flags):
     arrays = launch.Arrays(ti)
     bits = _packed(arrays, flags)
     with launch.RUNTIME_LOCK:
-        for e0 in range(0, len(x), launch.MAX_LAUNCH_EVENTS):
-            e1 = min(e0 + launch.MAX_LAUNCH_EVENTS, len(x))
+        for e0, e1 in launch.pieces(len(x)):
             # on the CPU the kernel writes into out's own (contiguous) slice
             part = arrays.empty(e1 - e0, np.uint8) if arrays.on_device else out[e0:e1]
             _pixel_flags(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), bits, flags.shape[1], part)
