@@ -31,6 +31,10 @@ from .frames import accumulated, frame_offsets, images, on_pixels
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
+from evstar_kernels.taichi.scratch import Scratch
+
+#: the frame filters' scratch: a run makes its filter anew, the planes and tables stay
+_SCRATCH = Scratch()
 
 
 @dataclass
@@ -75,10 +79,11 @@ class Pipeline:
 
     # -- stage factories ----------------------------------------------------------------
     def make_filter(self, t0_us, rate_hz):
-        """The configured denoiser with a fixed frame origin and background rate."""
+        """The configured denoiser with a fixed frame origin and background rate (its
+        scratch kept from run to run)."""
         from . import denoise
 
-        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz)
+        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz, scratch=_SCRATCH)
 
     def make_extractor(self, t0_us, compensated=False):
         """Compensated coordinates are positions at the frame mid-time, so their centroids
