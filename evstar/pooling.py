@@ -55,8 +55,7 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device).sharing(_SCRATCH)
-    rest = events[unused]
-    rest = rest[flt.mask(rest)]
+    rest = events[flt.kept_among(events, unused)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
     cents = long.make_extractor(t0_us).centroids(rest)
