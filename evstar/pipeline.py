@@ -31,6 +31,10 @@ from .frames import accumulated, frame_offsets, images, on_pixels
 from .imu import Imu
 from .parameters import AUTO
 from .tracking import Tracker
+from evstar_kernels.taichi.scratch import Scratch
+
+#: the frame filters' scratch: a run makes its filter anew, the planes and tables stay
+_SCRATCH = Scratch()
 
 
 @dataclass
@@ -75,10 +79,11 @@ class Pipeline:
 
     # -- stage factories ----------------------------------------------------------------
     def make_filter(self, t0_us, rate_hz):
-        """The configured denoiser with a fixed frame origin and background rate."""
+        """The configured denoiser with a fixed frame origin and background rate (its
+        scratch kept from run to run)."""
         from . import denoise
 
-        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz)
+        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz, scratch=_SCRATCH)
 
     def make_extractor(self, t0_us, compensated=False):
         """Compensated coordinates are positions at the frame mid-time, so their centroids
@@ -169,11 +174,11 @@ class Pipeline:
             keep_f &= ~(hot if whole else hot[comp.inside])   # = hot[idx]; a mask: faster
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        # whole: keep_f is the input's mask already (indices: ~2x a mask's selection of idx)
-        kept = None if whole else idx[np.flatnonzero(keep_f)]
+        # the kept events' indices into `events`, found once (whole: keep_f is the input's
+        # mask already; else indices: ~2x a mask's selection of idx)
+        kept = np.flatnonzero(keep_f) if whole else idx[np.flatnonzero(keep_f)]
         # uncompensated coordinates are the kept events' own pixels
-        xy = None if mode == "none" else \
-            comp.coordinates(np.flatnonzero(keep_f) if whole else kept)
+        xy = None if mode == "none" else comp.coordinates(kept)
         cents, members = self.make_extractor(t0_us, mode != "none").centroids_and_members(
             ev_f[keep_f], xy=xy)
         timings["extract"] = time.perf_counter() - t
@@ -187,7 +192,7 @@ class Pipeline:
             # dropped, and those it kept that no reported cluster holds (a faint star's
             # sparse events on a quiet sensor pass the filter but not DBSCAN)
             used = np.zeros(len(events), bool)
-            used[(np.flatnonzero(keep_f) if whole else kept)[members]] = True
+            used[kept[members]] = True
             cents = self._with_pooled(cents, events, used if hot is None else used | hot,
                                       t0_us, rate)
             timings["extract"] += time.perf_counter() - t
@@ -524,9 +529,9 @@ class _Summary:
             lo, bounds = frame_offsets(events.t, self.dt_us, self.t0)
             n = len(bounds) - 1
             for name, m in series.items():
-                # selected events per frame: those of the selected indices below each bound
-                at = bounds if m is None else np.searchsorted(np.flatnonzero(m), bounds)
-                counts = np.diff(at)
+                # selected events per frame: a count per frame's run (no index array)
+                counts = np.diff(bounds) if m is None else np.array(
+                    [np.count_nonzero(m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])], np.int64)
                 self.frames.setdefault(name, {}).update(zip(range(lo, lo + n), counts))
 
     def frame_counts(self):

@@ -27,6 +27,10 @@ from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
 from .frames import nearest_in_frame
 from .parameters import AUTO, MAX_DT_US
+from evstar_kernels.taichi.scratch import Scratch
+
+#: the pooled filter's scratch: a filter per call, the planes and tables kept between
+_SCRATCH = Scratch()
 
 
 def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
@@ -50,9 +54,8 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
     # third of MR-NDSEF's cost, as good here), among the unused events alone (above)
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
-                device=config.device)
-    rest = events[unused]
-    rest = rest[flt.mask(rest)]
+                device=config.device).sharing(_SCRATCH)
+    rest = events[flt.kept_among(events, unused)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
     cents = long.make_extractor(t0_us).centroids(rest)

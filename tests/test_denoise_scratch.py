@@ -151,3 +151,20 @@ def test_filters_keep_their_own_scratch_and_copies_start_empty():
         assert denoise._scratch_of(c) is not denoise._scratch_of(a)
         assert not denoise._scratch_of(c).arrays()
         np.testing.assert_array_equal(c.apply(ev), a.apply(ev))
+
+
+@pytest.mark.parametrize("schedule", SCHEDULES)
+def test_filters_sharing_a_scratch_reuse_its_arrays(schedule):
+    """A filter made per call (the pipeline's, per run) on a shared Scratch finds the
+    previous one's arrays, zeroed: the same masks and counts as its own scratch's."""
+    ev = make_events(29, 3000, 40, 30, max_step=40)
+    shared = Scratch()
+    for make in (lambda: filters(schedule)[0], lambda: filters(schedule)[1]):
+        first = make().sharing(shared)
+        keep = first.apply(ev)
+        held = {name: id(arr) for name, arr in shared.arrays().items()}
+        assert held and denoise._scratch_of(first) is shared
+        second = make().sharing(shared)
+        np.testing.assert_array_equal(second.apply(ev), keep)
+        np.testing.assert_array_equal(second.counts_, reference(second, ev)[1])
+        assert {name: id(arr) for name, arr in shared.arrays().items()} == held

@@ -257,3 +257,24 @@ def test_simulated_star_scene_matches_reference():
         ref, fast = denoise.MRNDSEF(backend="reference"), denoise.MRNDSEF(strategy=strategy)
         assert_same(ref, fast, ev)
         assert 0 < fast.n_kept_ < len(ev)
+
+
+@pytest.mark.parametrize("t_start", [0, 777])
+def test_kept_among_is_the_mask_of_the_selection(t_start):
+    """kept_among (the pooled look's: the selection's pixels, the stream's frame bounds)
+    keeps what mask() keeps of the selected events alone; without t0_us or a rate for auto
+    thresholds it takes that selection itself."""
+    ev = make_events(31, 30_000, 40, 30, max_step=10, t_start=t_start)
+    among = np.random.default_rng(31).random(len(ev)) < 0.7
+    among[-50:] = False                         # the selection ends before the stream
+    filters = [denoise.NDSEF(4_000, 4, "auto", rate_hz=50.0, t0_us=0),
+               denoise.MRNDSEF(3_000, (2, 4), (3, 6), t0_us=t_start),
+               denoise.NDSEF(4_000, 4, "auto", t0_us=0),              # rate measured
+               denoise.NDSEF(4_000, 4, 8),                            # no t0_us
+               denoise.NDSEF(4_000, 4, 8, t0_us=0, backend="reference")]
+    for flt in filters:
+        got = flt.kept_among(ev, among)
+        want = np.flatnonzero(among)[flt.mask(ev[among])]
+        np.testing.assert_array_equal(got, want)
+        assert 0 < len(got) < among.sum() and flt.n_events_ == among.sum()
+    assert len(denoise.NDSEF(4_000, 4, 3, t0_us=0).kept_among(ev, np.zeros(len(ev), bool))) == 0
