@@ -33,9 +33,6 @@ from .parameters import AUTO
 from .tracking import Tracker
 from evstar_kernels.taichi.scratch import Scratch
 
-#: the frame filters' scratch: a run makes its filter anew, the planes and tables stay
-_SCRATCH = Scratch()
-
 
 @dataclass
 class Result:
@@ -76,6 +73,9 @@ class Pipeline:
         from .estimation import pixel_lag
 
         pixel_lag(self.config.estimate.pixel_lag_file)   # a bad file fails here, before any work
+        # the filters' scratch: a run makes its filters anew, their planes and tables stay
+        # (one per pipeline: two pipelines in two threads must not share them)
+        self._scratch = {"frames": Scratch(), "pooled": Scratch()}
 
     # -- stage factories ----------------------------------------------------------------
     def make_filter(self, t0_us, rate_hz):
@@ -83,7 +83,8 @@ class Pipeline:
         scratch kept from run to run)."""
         from . import denoise
 
-        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz, scratch=_SCRATCH)
+        return denoise.from_config(self.config, t0_us=t0_us, rate_hz=rate_hz,
+                                   scratch=self._scratch["frames"])
 
     def make_extractor(self, t0_us, compensated=False):
         """Compensated coordinates are positions at the frame mid-time, so their centroids
@@ -207,7 +208,8 @@ class Pipeline:
         time order."""
         from .pooling import pooled_centroids
 
-        pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents)
+        pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents,
+                                  self._scratch["pooled"])
         if not len(pooled):
             return cents
         out = np.concatenate([cents, pooled])

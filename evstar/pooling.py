@@ -27,17 +27,14 @@ from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
 from .frames import nearest_in_frame
 from .parameters import AUTO, MAX_DT_US
-from evstar_kernels.taichi.scratch import Scratch
-
-#: the pooled filter's scratch: a filter per call, the planes and tables kept between
-_SCRATCH = Scratch()
 
 
-def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
+def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, scratch=None):
     """CENTROID_DTYPE rows (source "pooled") of the `unused` events (mask over `events`,
     the chunk's raw events: those no frame centroid used) in frames
     config.extract.pool_frames times config.dt_us long, aligned to t0_us, less those a
-    frame centroid (frame_centroids) already covers."""
+    frame centroid (frame_centroids) already covers. scratch: a Scratch its filter shares
+    (the caller's, kept between calls), None for its own."""
     from .pipeline import Pipeline
 
     k = config.extract.pool_frames
@@ -54,7 +51,9 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids):
     # third of MR-NDSEF's cost, as good here), among the unused events alone (above)
     flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
-                device=config.device).sharing(_SCRATCH)
+                device=config.device)
+    if scratch is not None:
+        flt.sharing(scratch)
     rest = events[flt.kept_among(events, unused)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
