@@ -53,13 +53,21 @@ class PixelLag:
     """τ (µs) by a crossing's number of level pairs (rows, `pairs`) and the star's image
     speed (columns, bin centres `speed_px_s`), with its σ (`se_us`; cells without crossings
     of their own are filled from their neighbours and carry σ 1e9). Between entries τ is
-    interpolated (linearly in k and in log speed); beyond them the nearest entry holds."""
+    interpolated (linearly in k and in log speed); beyond them the nearest entry holds.
+
+    A lag measured on the recording's own tracks (evstar.level_lag.track_consistent) also
+    holds how it grows with a crossing's outer half-width (CROSSING_DTYPE t_outer): τ per
+    (k, speed) is that of a crossing of width `width_ref_us` (a table of lag_us's shape),
+    and a crossing w µs wider lags `width_slope` (per row of `pairs`) · w more. Files hold
+    no width terms."""
 
     pairs: np.ndarray
     speed_px_s: np.ndarray
     lag_us: np.ndarray
     se_us: np.ndarray
     meta: dict = field(default_factory=dict)
+    width_slope: np.ndarray | None = None
+    width_ref_us: np.ndarray | None = None
 
     def __post_init__(self):
         self.pairs = np.asarray(self.pairs, np.int64)
@@ -87,8 +95,23 @@ class PixelLag:
         on its recording, or the one it was told), None where it had too few changes."""
         return self.meta.get("threshold_ratio")
 
-    def lag_at(self, pairs, speed_px_s):
-        """τ in µs for crossings of `pairs` level pairs by a star moving at `speed_px_s`."""
+    def lag_at(self, pairs, speed_px_s, width_us=None):
+        """τ in µs for crossings of `pairs` level pairs by a star moving at `speed_px_s`, and
+        of outer half-widths `width_us` (µs) where given and the table has width terms."""
+        tau = self._at(self.lag_us, pairs, speed_px_s)
+        if width_us is None or self.width_slope is None:
+            return tau
+        ref = self.width_at(pairs, speed_px_s)
+        slope = np.interp(np.asarray(pairs, np.float64), self.pairs, self.width_slope)
+        wider = np.asarray(width_us, np.float64) - ref
+        return np.maximum(tau + np.nan_to_num(slope * wider), 0.0)   # a low-pass only delays
+
+    def width_at(self, pairs, speed_px_s):
+        """The reference outer half-width (µs) of crossings of `pairs` at `speed_px_s`."""
+        return self._at(self.width_ref_us, pairs, speed_px_s)
+
+    def _at(self, L, pairs, speed_px_s):
+        """The table `L` (pairs × speeds) at (pairs, speed_px_s), interpolated as τ is."""
         fk = np.interp(np.asarray(pairs, np.float64), self.pairs, np.arange(len(self.pairs)))
         fs = np.interp(np.log(np.maximum(np.asarray(speed_px_s, np.float64), 1e-9)),
                        np.log(self.speed_px_s), np.arange(len(self.speed_px_s)))
@@ -96,7 +119,6 @@ class PixelLag:
         s0 = np.minimum(np.floor(fs).astype(np.int64), len(self.speed_px_s) - 1)
         k1, s1 = np.minimum(k0 + 1, len(self.pairs) - 1), np.minimum(s0 + 1, len(self.speed_px_s) - 1)
         wk, ws = fk - k0, fs - s0
-        L = self.lag_us
         return ((1 - wk) * ((1 - ws) * L[k0, s0] + ws * L[k0, s1])
                 + wk * ((1 - ws) * L[k1, s0] + ws * L[k1, s1]))
 

@@ -30,8 +30,10 @@ import numpy as np
 from .frames import ranks, stable_order
 from .parameters import AUTO
 
+#: t: the mean of the level pairs' midpoints (µs); t_spread: their std; t_outer: the deepest
+#: pair's half-width (outer_half_width)
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
-                           ("t_spread", "<f8")])
+                           ("t_spread", "<f8"), ("t_outer", "<f8")])
 
 
 def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
@@ -85,9 +87,8 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
         levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
         measured = _measured_ratio(on_before, off_after, levels, first_of_pixel(pixel))
         r = fallback_ratio if measured is None else measured
-    # pairs as without a refractory period: the profiles' always, the crossings' when it is 0
-    plain = _pair_counts(on_before, off_after, r, max_pairs) \
-        if profiles is not None or refractory_us <= 0 else None
+    # pairs as without a refractory period: the profiles' and the outer width's
+    plain = _pair_counts(on_before, off_after, r, max_pairs)
     if profiles is not None:
         _add_profiles(profiles, order, t, change, plain, r, on_before)
     if refractory_us > 0:
@@ -96,20 +97,23 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
                        else _refractory_pairs(order, t, *args, max_pairs))
         keep = k > 0
         change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
+        outer = outer_half_width(order, t, change, plain[keep], r, on_before[keep])
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
         sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(order, t, change, k, r, nb)
+        outer = outer_half_width(order, t, change, k, r, nb)
     pixel = pixel[keep]
     mean = sums / k
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
-    pixel, k, sq, mean = pixel[by_t], k[by_t], sq[by_t], mean[by_t]
+    pixel, k, sq, mean, outer = pixel[by_t], k[by_t], sq[by_t], mean[by_t], outer[by_t]
     t_c = t[order.take(change[by_t])].astype(np.float64)   # sq is about the change's time
     out = np.zeros(len(k), CROSSING_DTYPE)
     out["x"], out["y"] = pixel % width, pixel // width
     out["t"], out["pairs"] = mean, k
     out["t_spread"] = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
+    out["t_outer"] = outer
     return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
@@ -243,23 +247,42 @@ def level_midpoints(order, t, change, k, ratio, on_before):
     _pair_sums pairs them (their mean is its sum / k). A rising time below the run's first
     ON (on_before ON events precede c; _pair_counts allows DEPTH_REACH) is extrapolated
     from its first two."""
-    ts = lambda i: t[order[i]].astype(np.float64)   # gathered per level: few changes may ask
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
     on_before = np.asarray(on_before)
     for j in range(1, mids.shape[1] + 1):
         m = np.flatnonzero(k >= j)
-        c, nb = change[m], on_before[m]
-        x = j * ratio
-        j0 = int(np.floor(x + 1e-9))
-        f = x - j0
-        deep = x > nb + 1e-9                         # below the first ON: extrapolated
-        a, b = np.where(deep, c, c - j0), np.where(deep, c, c - j0 - 1)   # (c: any valid index)
-        rise = ts(a) if f < 1e-9 else ts(a) * (1 - f) + ts(b) * f
-        if deep.any():
-            first = c[deep] - nb[deep]               # the run's first ON
-            rise[deep] = ts(first) - (x - nb[deep]) * (ts(first + 1) - ts(first))
-        mids[m, j - 1] = 0.5 * (rise + ts(c + j))
+        mids[m, j - 1] = _midpoint(order, t, change[m], on_before[m], j, ratio)[0]
     return mids
+
+
+def outer_half_width(order, t, change, k, ratio, on_before):
+    """Per change, µs from its deepest pair's midpoint (level k) to that level's OFF event
+    (NaN where k is 0). A pixel's low-pass stretches its falling flank, and the more it
+    does, the later its midpoints: at one k the lag grows with this width alike for a
+    bright star's flank pixels and a faint star's own (EVK4 dark sky, README)."""
+    out = np.full(len(change), np.nan)
+    m = np.flatnonzero(np.asarray(k) > 0)
+    mid, fall = _midpoint(order, t, change[m], np.asarray(on_before)[m], np.asarray(k)[m], ratio)
+    out[m] = fall - mid
+    return out
+
+
+def _midpoint(order, t, c, nb, j, ratio):
+    """(midpoint, OFF time) of level pair j (a number, or one per change) of changes c
+    whose ON runs have nb events (see level_midpoints)."""
+    ts = lambda i: t[order[i]].astype(np.float64)   # gathered per level: few changes may ask
+    x = np.broadcast_to(np.asarray(j) * ratio, np.shape(c)).astype(np.float64)
+    j0 = np.floor(x + 1e-9).astype(np.int64)
+    f = x - j0
+    deep = x > nb + 1e-9                             # below the first ON: extrapolated
+    a, b = np.where(deep, c, c - j0), np.where(deep, c, c - j0 - 1)   # (c: any valid index)
+    whole = f < 1e-9
+    rise = np.where(whole, ts(a), ts(a) * (1 - f) + ts(np.where(whole, a, b)) * f)
+    if deep.any():
+        first = c[deep] - nb[deep]                   # the run's first ON
+        rise[deep] = ts(first) - (x[deep] - nb[deep]) * (ts(first + 1) - ts(first))
+    fall = ts(c + j)
+    return 0.5 * (rise + fall), fall
 
 
 def _add_profiles(profiles, order, t, change, k, ratio, on_before):

@@ -123,13 +123,12 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         mine = _by_group(every, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag)
+        if lag is not None and e.pixel_lag_file is None and e.lag_from_tracks:
+            lag, refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
+                                            e.along_weight, t0_us, lag, every[:2])
         if lag is not None:
-            assigned = every[:2]
             lag_sigma = {t: LAG_SIGMA_FRACTION * v for t, v in
-                         _track_lags(crossings, assigned, lag).items()}
-            if e.pixel_lag_file is None and e.lag_from_tracks:
-                refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
-                                           e.along_weight, t0_us, lag, assigned)
+                         _track_lags(crossings, every[:2], lag).items()}
         ests = refined
     est = np.concatenate(ests)
     loose = out[centroids["track"] < 0]
@@ -169,7 +168,7 @@ def _track_lags(crossings, assigned, lag):
     got, owner = assigned
     from .frames import groups
 
-    each = lag.lag_at(crossings["pairs"][got], lag.speed_px_s[0])
+    each = lag.lag_at(crossings["pairs"][got], lag.speed_px_s[0], crossings["t_outer"][got])
     return {int(t): float(np.median(each[o])) for t, o in zip(*groups(owner))}
 
 
@@ -212,23 +211,35 @@ def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag):
 
 def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_weight, t0_us,
                      lag, assigned):
-    """The `refined` rows of the tracks that anchor the faint crossings' lag
-    (evstar.level_lag.track_consistent) refitted with the lag they agree on; the other
-    tracks' rows as they were: a faint star's own crossings cannot check the correction,
-    and its centroids, which carry the lag, weigh more in its fit. assigned: (crossings,
-    track ids) as the refit assigned them."""
+    """(the lag the tracks agree on, the `refined` rows refitted with it), or (`lag`,
+    `refined`) where no track tells it (evstar.level_lag.track_consistent). The tracks that
+    told it are refitted with its table, which their own bright crossings pinned; the others
+    (faint stars, whose own crossings cannot check a lag) with its width terms too, which
+    carry the lag over to their wider crossings. assigned: (crossings, track ids) as the
+    refit assigned them."""
+    import dataclasses
+
     from .level_lag import track_consistent
 
-    lag, anchored = track_consistent(lag, crossings, assigned, _by_track(refined))
-    if not len(anchored):
-        return refined
-    keep = [est[np.isin(est["track"], anchored)] for est in ests]
-    again = _refined(smoother, keep, mine, groups, crossings, along_weight, t0_us, lag)
-    out = []
-    for old, new in zip(refined, again):
-        rows = np.concatenate([old[~np.isin(old["track"], anchored)], new])
-        out.append(rows[np.lexsort((rows["t"], rows["track"]))])
-    return out
+    lag, told = track_consistent(lag, crossings, assigned, _by_track(refined))
+    if not len(told):
+        return lag, refined
+    bright, faint = _split(ests, told)
+    bright = _refined(smoother, bright, mine, groups, crossings, along_weight, t0_us,
+                      dataclasses.replace(lag, width_slope=None))
+    faint = _refined(smoother, faint, mine, groups, crossings, along_weight, t0_us, lag)
+    return lag, [_in_order(np.concatenate([b, f])) for b, f in zip(bright, faint)]
+
+
+def _split(ests, ids):
+    """(per group, its rows of the tracks `ids`), (per group, its other rows)."""
+    mine = [np.isin(est["track"], ids) for est in ests]
+    return [e[m] for e, m in zip(ests, mine)], [e[~m] for e, m in zip(ests, mine)]
+
+
+def _in_order(rows):
+    """`rows` sorted by track, then time."""
+    return rows[np.lexsort((rows["t"], rows["track"]))]
 
 
 def _by_track(ests):

@@ -239,6 +239,7 @@ class TrackSmoother:
         t_got = crossings["t"][got]
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
+        width = crossings["t_outer"][got]
         used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
@@ -253,7 +254,7 @@ class TrackSmoother:
             m = _single_passes(m, t_got, q_got, turns, radius)
             t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, r_c = _lag_corrected(t_c, pairs[m], r_c, track, pixel_lag)
+                t_c, r_c = _lag_corrected(t_c, pairs[m], width[m], r_c, track, pixel_lag)
             full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
@@ -706,11 +707,11 @@ def _run_around(flags, i):
     return lo, hi
 
 
-def _lag_corrected(t_c, pairs, resid, track, pixel_lag):
-    """Crossing times moved back by the calibrated lag at each one's brightness (level pairs)
-    and the track's speed, and their along-track residuals moved with them."""
+def _lag_corrected(t_c, pairs, width, resid, track, pixel_lag):
+    """Crossing times moved back by the calibrated lag at each one's brightness (level pairs),
+    outer half-width and the track's speed, and their along-track residuals moved with them."""
     speed = np.hypot(np.interp(t_c, track["t"], track["vx"]), np.interp(t_c, track["t"], track["vy"]))
-    lag_us = pixel_lag.lag_at(pairs, speed)
+    lag_us = pixel_lag.lag_at(pairs, speed, width)
     return t_c - lag_us, resid + speed * lag_us * 1e-6
 
 

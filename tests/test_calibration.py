@@ -67,6 +67,19 @@ def test_a_constant_rate_cannot_be_calibrated():
         fit_pixel_lag(cr, tracks, lambda t, x, y: np.column_stack([np.full(len(t), 50.0), 0 * x]))
 
 
+def test_width_terms_add_to_the_table_and_files_hold_none(tmp_path):
+    table = dict(pairs=[2, 6], speed_px_s=[1.0], lag_us=[[3000.0], [1000.0]], se_us=[[0.0], [0.0]])
+    lag = PixelLag(**table, width_slope=np.array([0.5, 0.5]), width_ref_us=np.array([[4000.0], [6000.0]]))
+    k, w = np.array([2, 4, 6, 2]), np.array([5000.0, 5000.0, 2000.0, np.nan])
+    # k = 4 lies halfway: τ 2000, reference 5000; a crossing far narrower than its k's
+    # reference lags no less than nothing; one without a width lags its k's τ
+    np.testing.assert_allclose(lag.lag_at(k, 300.0, w), [3500.0, 2000.0, 0.0, 3000.0])
+    np.testing.assert_allclose(lag.lag_at(k, 300.0), [3000.0, 2000.0, 1000.0, 3000.0])
+    lag.save(tmp_path / "lag.json")
+    again = PixelLag.load(tmp_path / "lag.json")
+    np.testing.assert_allclose(again.lag_at(k, 300.0, w), lag.lag_at(k, 300.0))
+
+
 def test_file_round_trip_and_bad_files(tmp_path):
     lag = PixelLag([1, 2, 4], [50.0, 200.0], [[3000, 2000], [2000, 1500], [900, 800]],
                    [[10, 20], [10, 20], [10, 20]], {"note": "x"})

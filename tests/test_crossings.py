@@ -54,6 +54,7 @@ def test_one_synthetic_pixel_pairs_levels_outwards_from_the_polarity_change():
     # pairs (20, 50) and (10, 70): midpoints 35 and 40
     assert len(c) == 1 and c["pairs"][0] == 2 and c["t"][0] == pytest.approx(37.5)
     assert c["t_spread"][0] == pytest.approx(2.5)
+    assert c["t_outer"][0] == pytest.approx(70 - 40)     # the deepest pair (10, 70)
     one = pixel_crossings(t, np.zeros(5, int), np.zeros(5, int), p, max_pairs=1)
     assert one["t"][0] == pytest.approx(35.0)
 
@@ -149,9 +150,10 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                     mid = 0.5 * (rise + float(tt[b]))
                 d = mid - float(tt[i])             # squares about the change's time
                 s, sq, k = s + mid, sq + d * d, k + 1
+                outer = float(tt[b]) - mid          # the deepest pair's half-width
             if k:
                 spread = np.sqrt(max(sq / k - (s / k - float(tt[i])) ** 2, 0.0))
-                rows.append((px, py, s / k, k, spread))
+                rows.append((px, py, s / k, k, spread, outer))
     out = np.array(rows, CROSSING_DTYPE) if rows else np.zeros(0, CROSSING_DTYPE)
     return out[np.argsort(out["t"], kind="stable")]
 
@@ -173,6 +175,7 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
         np.testing.assert_array_equal(got[f], ref[f])
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
+    np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
 
 
 def test_the_pairs_follow_the_ratio_continuously_across_one():
@@ -200,6 +203,7 @@ def test_pixel_crossings_of_a_simulated_star_equal_the_reference(ratio):
     if ratio == 1.0:
         assert got.tobytes() == ref.tobytes()
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("engine", ["taichi", "numpy"])

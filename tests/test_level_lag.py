@@ -100,10 +100,13 @@ _ROW = np.dtype([("t", "f8"), ("track", "i8"), ("x", "f8"), ("y", "f8"), ("vx", 
                  ("vy", "f8")])
 
 
-def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0, speeds=(150, 300)):
+def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0, speeds=(150, 300), widths=None,
+                          slope=0.0):
     """Straight tracks (rows every 10 ms, 0.5 s, `speeds` px/s in various directions) and
     crossings of pixels along them, each timed its k's _TRUE_LAG_US after the star passed
-    the pixel (+ jitter); track i's crossings have pairs drawn from ks_of_track[i]."""
+    the pixel (+ jitter); track i's crossings have pairs drawn from ks_of_track[i]. widths:
+    per track, the mean outer half-width (µs; ± 1 ms) of its crossings, each of which then
+    lags `slope` µs more per µs it is wider than _REF_WIDTH_US."""
     rng = np.random.default_rng(seed)
     rows, cross = [], []
     for tid, ks in enumerate(ks_of_track):
@@ -125,6 +128,9 @@ def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0, speeds=(150, 300
         c["x"], c["y"] = pix[:, 0], pix[:, 1]
         c["pairs"] = rng.choice(ks, len(T))
         c["t"] = T + np.vectorize(_TRUE_LAG_US.get)(c["pairs"]) + rng.normal(0, jitter_us, len(T))
+        if widths is not None:
+            c["t_outer"] = rng.normal(widths[tid], 1000.0, len(T))
+            c["t"] += slope * (c["t_outer"] - _REF_WIDTH_US)
         cross.append(c)
     return np.concatenate(rows), np.concatenate(cross)
 
@@ -151,6 +157,30 @@ def test_tracks_correct_an_overestimated_faint_lag():
     assert list(told) == [0, 1, 2, 3] and got.meta["source"] == "test"    # the bright ones
     for k in range(1, 11):
         assert abs(got.lag_at(k, 200.0) - _TRUE_LAG_US[k]) < 120, k
+
+
+_REF_WIDTH_US = 5000.0
+
+
+def test_the_tracks_tell_how_the_lag_grows_with_a_crossing_s_width():
+    """Faint stars' crossings (k = 2–4 only, too few anchors) are wider than the bright
+    stars' flank crossings of the same k and lag more: the width slope the bright tracks
+    show carries their lag over."""
+    from evstar.level_lag import track_consistent
+
+    widths = [_REF_WIDTH_US] * 4 + [8000.0] * 3
+    rows, cr = _tracks_and_crossings([range(1, 11)] * 4 + [range(2, 5)] * 3, seed=4,
+                                     widths=widths, slope=0.3)
+    got, told = track_consistent(_lag(over_us=2000.0), cr, _assigned(cr, rows), rows)
+    assert list(told) == [0, 1, 2, 3]
+    assert np.all(np.abs(got.width_slope - 0.3) < 0.06), got.width_slope
+    faint = np.isin(_assigned(cr, rows)[1], [4, 5, 6])
+    c = cr[_assigned(cr, rows)[0][faint]]
+    true = np.vectorize(_TRUE_LAG_US.get)(c["pairs"]) + 0.3 * (c["t_outer"] - _REF_WIDTH_US)
+    err = got.lag_at(c["pairs"], 200.0, c["t_outer"]) - true
+    assert abs(np.median(err)) < 100 and np.median(np.abs(err)) < 150, np.median(err)
+    no_width = got.lag_at(c["pairs"], 200.0) - true       # the table alone: ~0.9 ms short
+    assert np.median(no_width) < -600
 
 
 def test_a_lag_the_tracks_agree_with_stays():
