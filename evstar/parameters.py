@@ -321,7 +321,8 @@ ESTIMATE = Params(
           "low-pass lag from the crossings' level profiles (evstar.level_lag; used only where "
           "its model explains them)"),
     Param("lag_from_tracks", bool, True, "correct the measured lag of crossings of fewer "
-          "than 5 level pairs to agree with the brighter crossings along the same tracks "
+          "than 5 level pairs to agree with the brighter crossings along the same tracks, "
+          "and carry it to faint stars by each crossing's outer width "
           "(evstar.level_lag.track_consistent; only where the lag is measured)"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
