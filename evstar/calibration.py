@@ -56,10 +56,10 @@ class PixelLag:
     interpolated (linearly in k and in log speed); beyond them the nearest entry holds.
 
     A lag measured on the recording's own tracks (evstar.level_lag.track_consistent) also
-    holds how it grows with a crossing's outer half-width (CROSSING_DTYPE t_outer): τ per
-    (k, speed) is that of a crossing of width `width_ref_us` (a table of lag_us's shape),
-    and a crossing w µs wider lags `width_slope` (per row of `pairs`) · w more. Files hold
-    no width terms."""
+    holds how it grows with a crossing's outer half-width (CROSSING_DTYPE t_outer): τ per k
+    is that of a crossing `width_ref_us` wide plus the time the star takes to move
+    `width_ref_px` (both per row of `pairs`), and a crossing w µs wider lags `width_slope`
+    (per row) · w more. Files hold no width terms."""
 
     pairs: np.ndarray
     speed_px_s: np.ndarray
@@ -68,6 +68,7 @@ class PixelLag:
     meta: dict = field(default_factory=dict)
     width_slope: np.ndarray | None = None
     width_ref_us: np.ndarray | None = None
+    width_ref_px: np.ndarray | None = None
 
     def __post_init__(self):
         self.pairs = np.asarray(self.pairs, np.int64)
@@ -107,8 +108,12 @@ class PixelLag:
         return np.maximum(tau + np.nan_to_num(slope * wider), 0.0)   # a low-pass only delays
 
     def width_at(self, pairs, speed_px_s):
-        """The reference outer half-width (µs) of crossings of `pairs` at `speed_px_s`."""
-        return self._at(self.width_ref_us, pairs, speed_px_s)
+        """The reference outer half-width (µs) of crossings of `pairs` at `speed_px_s`: a
+        passage's own part, which scales as 1 / speed, and the pixel's, which does not."""
+        k = np.asarray(pairs, np.float64)
+        px = np.interp(k, self.pairs, self.width_ref_px)
+        return (np.interp(k, self.pairs, self.width_ref_us)
+                + px / np.maximum(np.asarray(speed_px_s, np.float64), 1e-9) * 1e6)
 
     def _at(self, L, pairs, speed_px_s):
         """The table `L` (pairs × speeds) at (pairs, speed_px_s), interpolated as τ is."""

@@ -69,11 +69,14 @@ def test_a_constant_rate_cannot_be_calibrated():
 
 def test_width_terms_add_to_the_table_and_files_hold_none(tmp_path):
     table = dict(pairs=[2, 6], speed_px_s=[1.0], lag_us=[[3000.0], [1000.0]], se_us=[[0.0], [0.0]])
-    lag = PixelLag(**table, width_slope=np.array([0.5, 0.5]), width_ref_us=np.array([[4000.0], [6000.0]]))
+    # references 1000 µs + 0.9 px and 1500 µs + 1.35 px: 4000 and 6000 µs at 300 px/s
+    lag = PixelLag(**table, width_slope=np.array([0.5, 0.5]),
+                   width_ref_us=np.array([1000.0, 1500.0]), width_ref_px=np.array([0.9, 1.35]))
     k, w = np.array([2, 4, 6, 2]), np.array([5000.0, 5000.0, 2000.0, np.nan])
     # k = 4 lies halfway: τ 2000, reference 5000; a crossing far narrower than its k's
     # reference lags no less than nothing; one without a width lags its k's τ
     np.testing.assert_allclose(lag.lag_at(k, 300.0, w), [3500.0, 2000.0, 0.0, 3000.0])
+    np.testing.assert_allclose(lag.width_at(k[:3], 150.0), [7000.0, 8750.0, 10500.0])
     np.testing.assert_allclose(lag.lag_at(k, 300.0), [3000.0, 2000.0, 1000.0, 3000.0])
     lag.save(tmp_path / "lag.json")
     again = PixelLag.load(tmp_path / "lag.json")

@@ -105,8 +105,9 @@ def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0, speeds=(150, 300
     """Straight tracks (rows every 10 ms, 0.5 s, `speeds` px/s in various directions) and
     crossings of pixels along them, each timed its k's _TRUE_LAG_US after the star passed
     the pixel (+ jitter); track i's crossings have pairs drawn from ks_of_track[i]. widths:
-    per track, the mean outer half-width (µs; ± 1 ms) of its crossings, each of which then
-    lags `slope` µs more per µs it is wider than _REF_WIDTH_US."""
+    per track, the mean outer half-width (µs; ± 1 ms) of its crossings at 200 px/s (as
+    1 / speed at its own speed), each of which then lags `slope` µs more per µs it is wider
+    than _REF_WIDTH_US (likewise scaled)."""
     rng = np.random.default_rng(seed)
     rows, cross = [], []
     for tid, ks in enumerate(ks_of_track):
@@ -129,8 +130,9 @@ def _tracks_and_crossings(ks_of_track, seed=0, jitter_us=150.0, speeds=(150, 300
         c["pairs"] = rng.choice(ks, len(T))
         c["t"] = T + np.vectorize(_TRUE_LAG_US.get)(c["pairs"]) + rng.normal(0, jitter_us, len(T))
         if widths is not None:
-            c["t_outer"] = rng.normal(widths[tid], 1000.0, len(T))
-            c["t"] += slope * (c["t_outer"] - _REF_WIDTH_US)
+            scale = 200.0 / speed
+            c["t_outer"] = rng.normal(widths[tid], 1000.0, len(T)) * scale
+            c["t"] += slope * (c["t_outer"] - _REF_WIDTH_US * scale)
         cross.append(c)
     return np.concatenate(rows), np.concatenate(cross)
 
@@ -176,10 +178,13 @@ def test_the_tracks_tell_how_the_lag_grows_with_a_crossing_s_width():
     assert np.all(np.abs(got.width_slope - 0.3) < 0.06), got.width_slope
     faint = np.isin(_assigned(cr, rows)[1], [4, 5, 6])
     c = cr[_assigned(cr, rows)[0][faint]]
-    true = np.vectorize(_TRUE_LAG_US.get)(c["pairs"]) + 0.3 * (c["t_outer"] - _REF_WIDTH_US)
-    err = got.lag_at(c["pairs"], 200.0, c["t_outer"]) - true
+    speed = np.hypot(rows["vx"], rows["vy"])[np.searchsorted(rows["track"],
+                                                             _assigned(cr, rows)[1][faint])]
+    true = (np.vectorize(_TRUE_LAG_US.get)(c["pairs"])
+            + 0.3 * (c["t_outer"] - _REF_WIDTH_US * 200.0 / speed))
+    err = got.lag_at(c["pairs"], speed, c["t_outer"]) - true
     assert abs(np.median(err)) < 100 and np.median(np.abs(err)) < 150, np.median(err)
-    no_width = got.lag_at(c["pairs"], 200.0) - true       # the table alone: ~0.9 ms short
+    no_width = got.lag_at(c["pairs"], speed) - true       # the table alone: ~0.9 ms short
     assert np.median(no_width) < -600
 
 
