@@ -97,12 +97,11 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
                        else _refractory_pairs(order, t, *args, max_pairs))
         keep = k > 0
         change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
-        outer = outer_half_width(order, t, change, plain[keep], r, on_before[keep])
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
         sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(order, t, change, k, r, nb)
-        outer = outer_half_width(order, t, change, k, r, nb)
+    outer = outer_half_width(order, t, change, plain[keep], r, on_before[keep])
     pixel = pixel[keep]
     mean = sums / k
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
@@ -277,7 +276,8 @@ def _midpoint(order, t, c, nb, j, ratio):
     deep = x > nb + 1e-9                             # below the first ON: extrapolated
     a, b = np.where(deep, c, c - j0), np.where(deep, c, c - j0 - 1)   # (c: any valid index)
     whole = f < 1e-9
-    rise = np.where(whole, ts(a), ts(a) * (1 - f) + ts(np.where(whole, a, b)) * f)
+    at_a = ts(a)
+    rise = np.where(whole, at_a, at_a * (1 - f) + ts(np.where(whole, a, b)) * f)
     if deep.any():
         first = c[deep] - nb[deep]                   # the run's first ON
         rise[deep] = ts(first) - (x[deep] - nb[deep]) * (ts(first + 1) - ts(first))

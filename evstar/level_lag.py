@@ -251,9 +251,11 @@ def _width_slopes(rel, x, k, pairs):
     (a wider flank delays, and no more than it is wide). The slope falls with k (EVK4 dark
     sky at 20 °/s, true lags: 0.79 at k = 1, 0.45 at 5, 0.26 at 8), so each k with
     MIN_CORRECTED crossings has its own; the others the pooled one (0 when too few tell)."""
+    from .frames import groups
+
     y = rel.copy()
-    for kk in np.unique(k):
-        y[k == kk] -= np.median(y[k == kk])
+    for rows in groups(k)[1]:
+        y[rows] -= np.median(y[rows])
     keep = _within(x) & _within(y)        # a stray event's pair is wide and tells no lag
     x, y, k = x[keep], y[keep], k[keep]
     pooled = _slope(x, y)
