@@ -122,13 +122,14 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         every = along_track(crossings, _by_track(ests))
         mine = _by_group(every, ests)
         lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
-        refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag)
+        refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
+                           rate_hz)
         if lag is not None:     # the lag's scale as measured (or calibrated), per track
             lag_sigma = {t: LAG_SIGMA_FRACTION * v for t, v in
                          _track_lags(crossings, every[:2], lag).items()}
             if e.pixel_lag_file is None and e.lag_from_tracks:
                 refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
-                                           e.along_weight, t0_us, lag, every[:2])
+                                           e.along_weight, t0_us, lag, every[:2], rate_hz)
         ests = refined
     est = np.concatenate(ests)
     loose = out[centroids["track"] < 0]
@@ -202,15 +203,15 @@ def _row_speeds(track, t, x, y):
     return np.divide(dist, dt, out=np.zeros(n), where=dt > 0)
 
 
-def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag):
+def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag, background_hz):
     """Each group's smoothed rows refitted with its crossings (TrackSmoother.refine)."""
     return [smoother.refine(est, cents, crossings, prior, sig, along_weight, t0_us, lag,
-                            assigned)[0]
+                            assigned, background_hz)[0]
             for est, assigned, (cents, sig, prior) in zip(ests, mine, groups)]
 
 
 def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_weight, t0_us,
-                     lag, assigned):
+                     lag, assigned, background_hz):
     """The `refined` rows refitted with the lag the tracks agree on, as they were where no
     track tells it (evstar.level_lag.track_consistent). The tracks that told it are
     refitted with its table, which their own bright crossings pinned; the others (faint
@@ -228,8 +229,9 @@ def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_wei
         return refined
     bright, faint = _split(ests, told)
     bright = _refined(smoother, bright, mine, groups, crossings, along_weight, t0_us,
-                      dataclasses.replace(lag, width_slope=None))
-    faint = _refined(smoother, faint, mine, groups, crossings, along_weight, t0_us, lag)
+                      dataclasses.replace(lag, width_slope=None), background_hz)
+    faint = _refined(smoother, faint, mine, groups, crossings, along_weight, t0_us, lag,
+                     background_hz)
     return [_in_order(np.concatenate([b, f])) for b, f in zip(bright, faint)]
 
 

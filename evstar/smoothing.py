@@ -58,6 +58,10 @@ _MIN_STIFF_CENTROIDS = 10              # centroids a track needs for the stiff o
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
+MIN_FEW_CROSSINGS = 4                  # fewer or shorter (>= this many): the centroids weigh
+                                       # fully along the motion, the crossings add to them
+MAX_RUN_BACKGROUND = 0.1               # expected background events in a run beyond which a
+                                       # track's few crossings are left out
 LAG_MAX_SE_S = 0.2e-3                  # s: a pixel lag fitted less precisely is not applied
 #: per engine: (smoothed states of CVProblems, innovation log-likelihoods of tracks)
 _ENGINES = {
@@ -219,7 +223,7 @@ class TrackSmoother:
         return out
 
     def refine(self, est, centroids, crossings, velocity_prior=None, sigma=None, along_weight=0.1,
-               t0_us=None, pixel_lag=None, assigned=None):
+               t0_us=None, pixel_lag=None, assigned=None, background_hz=None):
         """`est` (from :meth:`smooth`) refitted track by track with pixel crossings
         (evstar.crossings.pixel_crossings of the events near the stars) as along-track
         measurements; see :func:`along_track_fit`. Frames of a track's life that had no row
@@ -240,6 +244,7 @@ class TrackSmoother:
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
         width = crossings["t_outer"][got]
+        along = (q_got * u).sum(1)                  # their positions along the motion
         used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
@@ -247,7 +252,7 @@ class TrackSmoother:
         mine = dict(zip(*groups(owner)))
         tracks = []
         for tid, rows in zip(tids, est_rows):
-            m = _multi_level(mine.get(tid, np.zeros(0, np.int64)), pairs)
+            m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz)
             track = est[rows]
             radius = _turn_radius(centroids, track)
             turns = _turns(track, radius)
@@ -457,8 +462,12 @@ def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_we
     (z_cent, σ: those of est's measured rows) keep their cross-track σ; along the motion
     their σ is divided by `along_weight` (a per-frame mean of a moving star's events is biased
     along the motion by its ON/OFF lobes and the pixels' lag; where no crossing is near, the
-    centroids still carry the track). σ_a is the robust spread (1.4826 MAD) of the crossings'
-    residuals from `est`; crossings beyond `gate_sigma` σ_a of their median are dropped.
+    centroids still carry the track). Crossings too few or too close together along the
+    motion to pin the velocity (_few; a slow star's) refit it only from MIN_FEW_CROSSINGS
+    on, with the centroids at full weight along the motion (TrackSmoother.refine passes
+    them only where their runs are clean: _trusted). σ_a is the robust spread (1.4826 MAD)
+    of the crossings' residuals from `est`; crossings beyond `gate_sigma` σ_a of their
+    median are dropped.
     crossings: (t µs, q (n, 2), u (n, 2), residual along u from the track (n,), as
     evstar.crossings.along_track gives them). The crossings of each `pool_us` are pooled into
     one measurement (the filter's cost is per step). Returns new rows (est's times, frames
@@ -491,9 +500,11 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     t_c, q, u, r = crossings[:4]
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
-    along = (q * u).sum(1) if len(t_c) else np.zeros(0)
-    if len(t_c) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX:
+    few = _few((q * u).sum(1))
+    if few and len(t_c) < MIN_FEW_CROSSINGS:
         return None
+    if few:      # the centroids carry the velocity, the crossings add where they fall
+        along_weight = 1.0
     med, s_a = _class_scatter(r, crossings[4] if len(crossings) > 4 else None, sigma_floor_px)
     ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
     t_c, q, u, s_a = t_c[ok], q[ok], u[ok], s_a[ok]
@@ -611,6 +622,28 @@ def _lag_fit(y, A, max_se_s):
     if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
         return 0.0
     return float(sol[4]) if np.sqrt(s2 / info) <= max_se_s else 0.0
+
+
+def _few(along):
+    """Are crossings at these positions along the motion (px) too few, or too close
+    together, to pin a track's velocity?"""
+    return len(along) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX
+
+
+def _trusted(m, pairs, width, along, background_hz=None):
+    """The crossings m of a track that its refit can trust (_multi_level); none where they
+    are _few and their runs likely hold a background event (background_hz × run >
+    MAX_RUN_BACKGROUND, or the background unknown: None): a few crossings cannot be screened by their own spread, and a
+    background event within a run splits or stretches it (a slow star's run lasts a large
+    part of a second: at 0.7–1.5 °/s on a 1.5 Hz background a third of the one-level
+    crossings lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run);
+    along: positions along the motion (px)."""
+    m = _multi_level(m, pairs)
+    if len(m) and _few(along[m]) and (
+            background_hz is None
+            or background_hz * 2e-6 * float(np.median(width[m])) > MAX_RUN_BACKGROUND):
+        return m[:0]
+    return m
 
 
 def _multi_level(m, pairs):

@@ -514,3 +514,54 @@ def test_a_wild_first_centroid_is_flagged_though_it_drags_its_neighbours_past_th
     rest = ~est["outlier"] & ~est["coasted"]
     err = np.hypot(*(np.column_stack([est["x"], est["y"]]) - line(est["t"] * 1e-6)).T)
     assert err[rest].max() < 0.5
+
+
+def test_a_few_crossings_are_trusted_only_where_their_runs_are_clean():
+    """A slow star's crossings, too few or too close together along the motion to pin a
+    velocity, are kept on a quiet sensor and left out where their runs (twice the outer
+    half-width) likely hold a background event; many crossings are kept either way (their
+    own spread screens them)."""
+    from evstar.smoothing import MAX_RUN_BACKGROUND, _trusted
+
+    width = np.full(40, 100_000.0)                       # runs of 0.2 s
+    busy, quiet = 1.0, 0.1                               # background events/pixel/s
+    assert busy * 0.2 > MAX_RUN_BACKGROUND > quiet * 0.2
+    pairs = np.full(40, 2)
+    close, far = np.linspace(0, 1.5, 40), np.linspace(0, 10, 40)   # px along the motion
+    few, many = np.arange(6), np.arange(40)
+    for rate in (busy, None):                            # None: the background unknown
+        assert len(_trusted(few, pairs, width, close, rate)) == 0
+    assert np.array_equal(_trusted(few, pairs, width, close, quiet), few)
+    assert np.array_equal(_trusted(many, pairs, width, far, busy), many)
+
+
+def test_a_slow_track_moves_onto_its_few_clean_crossings():
+    """A faint star at 10 px/s whose 15 centroids trail it by 0.3 px along the motion (the
+    lobes of a few events) and 6 crossings within 2 px of each other: on a quiet sensor the
+    refit moves the track onto the crossings; on a busy one it is left as it was."""
+    from evstar.crossings import CROSSING_DTYPE
+
+    rng = np.random.default_rng(21)
+
+    def slow(t):
+        return np.column_stack([100.3 + 10.0 * t, 50.5 + 0.0 * t])
+
+    frames = np.sort(rng.choice(np.arange(50), 15, replace=False))
+    cents = centroids(frames, slow, 0.2, rng, n_events=5)
+    cents["x"] -= 0.3                                    # the lobes' bias, along the motion
+    smoother = TrackSmoother(DT, coast_ends=False)
+    est = smoother.smooth(cents, t0_us=0)
+    c = np.zeros(6, CROSSING_DTYPE)
+    c["x"], c["y"] = [101, 101, 102, 102, 103, 103], [50, 51] * 3
+    c["t"] = np.round((c["x"] - 100.3) / 10.0 * 1e6).astype(np.int64)   # the star at the pixel
+    c["pairs"], c["t_outer"] = 2, 60_000                 # runs of 0.12 s
+    quiet, busy = 0.1, 1.5                               # background events/pixel/s
+
+    def along_err(rows):
+        return np.mean(rows["x"] - slow(rows["t"] * 1e-6)[:, 0])
+
+    assert along_err(est) < -0.2
+    rows, used = smoother.refine(est, cents, c, background_hz=quiet)
+    assert used == 6 and abs(along_err(rows)) < 0.1
+    rows, used = smoother.refine(est, cents, c, background_hz=busy)
+    assert used == 0 and np.array_equal(rows, est)
