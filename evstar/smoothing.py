@@ -635,7 +635,7 @@ def _trusted(m, pairs, width, along, background_hz=None):
     are _few and their runs likely hold a background event (background_hz × run >
     MAX_RUN_BACKGROUND, or the background unknown: None): a few crossings cannot be screened by their own spread, and a
     background event within a run splits or stretches it (a slow star's run lasts a large
-    part of a second: at 0.7–1.5 °/s on a 1.5 Hz background a third of the one-level
+    part of a second: at 0.7–1.5 °/s on a 1.5 Hz background 15 of 31 one-level
     crossings lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run);
     along: positions along the motion (px)."""
     m = _multi_level(m, pairs)
