@@ -142,8 +142,10 @@ def _ill_conditioned(seed):
 
 def test_smoothed_variances_stay_positive_on_ill_conditioned_tracks():
     """filterpy's P + G (Pˢ − P⁻) Gᵀ cancels every digit on such tracks (negative variances:
-    σ reported as 0 on the 50-star field); the Joseph-like form (kalman._rts) stays positive,
-    and equals filterpy's where that stays well conditioned."""
+    σ reported as 0 on the 50-star field; where its rounding comes out positive, the
+    variances of the first steps are off by orders of magnitude — with numpy 2.4 on one
+    seed of six); the Joseph-like form (kalman._rts) stays positive, and equals filterpy's
+    on the same track made well conditioned (every covariance's eigenvalues capped at 1 px²)."""
     failed = 0
     for seed in range(6):
         p = _ill_conditioned(seed)
@@ -151,9 +153,11 @@ def test_smoothed_variances_stay_positive_on_ill_conditioned_tracks():
         var, var_r = P[:, [0, 2], [0, 2]], Pr[:, [0, 2], [0, 2]]
         assert (var > 0).all()
         np.testing.assert_allclose(x[:, [0, 2]], xr[:, [0, 2]], atol=1e-6)
-        if (var_r > 0).all():
-            np.testing.assert_allclose(var, var_r, rtol=1e-3)
         failed += not (var_r > 0).all()
+        w, V = np.linalg.eigh(p.R)
+        tame = p._replace(R=np.einsum("nij,nj,nkj->nik", V, np.minimum(w, 1.0), V))
+        [(_, P)], [(_, Pr)] = kalman.cv_rts([tame]), kalman.cv_rts_filterpy([tame])
+        np.testing.assert_allclose(P[:, [0, 2], [0, 2]], Pr[:, [0, 2], [0, 2]], rtol=1e-3)
     assert failed >= 3            # the case is the ill-conditioned one
 
 
