@@ -1,10 +1,11 @@
 """Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events; with a keep
 mask the packed halves split, without it int32 counts), of the per-event pixel flags, the
-kept events' pixels and the events on flagged pixels."""
+kept events' pixels and the events on flagged pixels (in order, or by pixel)."""
 import numpy as np
 
-from . import launch
-from .pixel_counts import count_all_kernel, count_pixels_kernel, mark_pixels_kernel
+from . import launch, sorting_launch
+from .pixel_counts import count_all_kernel, count_pixels_kernel, keys_on_flagged_pixels
+from .pixel_counts import mark_pixels_kernel
 from .pixel_counts import on_flagged_pixels as _on_flagged, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
@@ -81,6 +82,34 @@ def on_flagged_pixels(ti, t, x, y, p, flags):
     for o in out:   # to the selection's length in place (realloc: no copy, the tail freed)
         o.resize(n, refcheck=False)
     return out
+
+
+def events_by_pixel(ti, t, x, y, p, flags):
+    """reference.pixels.events_by_pixel of time-sorted events (p 0 or 1): (t int64, pixel key
+    uint32, p int8) of those at pixels flags[y, x] sets, in the pixel-then-time order. The
+    times and polarities move through the sort as one value, 2t + p."""
+    key, tp = _keys_on_flagged(ti, t, x, y, p, flags)
+    key, tp = sorting_launch.sorted_by_key(ti, key, tp, flags.size)
+    return tp >> 1, key, (tp & 1).astype(np.int8)
+
+
+def _keys_on_flagged(ti, t, x, y, p, flags):
+    """(pixel keys, 2t + p) of the events at flagged pixels, in order."""
+    width = flags.shape[1]
+    if launch.Arrays(ti).on_device:
+        t, x, y, p = on_flagged_pixels(ti, t, x, y, p, flags)
+        return y.astype(np.uint32) * np.uint32(width) + x, t * 2 + p
+    arrays = launch.Arrays(ti)
+    bits, n = _packed(arrays, flags), 0
+    key, tp = np.empty(len(x), np.uint32), np.empty(len(x), np.int64)
+    with launch.RUNTIME_LOCK:
+        for e0, e1 in launch.pieces(len(x)):
+            n += keys_on_flagged_pixels(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
+                                          ((t, np.int64), (x, np.uint16), (y, np.uint16),
+                                           (p, np.int8))), bits, width, key[n:], tp[n:])
+    key.resize(n, refcheck=False)
+    tp.resize(n, refcheck=False)
+    return key, tp
 
 
 def pixel_flags(ti, x, y, flags):
