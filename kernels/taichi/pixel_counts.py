@@ -1,5 +1,5 @@
 """Events per pixel, all and kept, in one pass; a per-pixel flag per event; the pixels of
-kept events; the events on flagged pixels (or their pixel keys and packed times).
+kept events; the events on flagged pixels (or their pixels' ranks and packed times).
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
@@ -50,18 +50,22 @@ def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, bits: u8_1d, wi
 
 
 @ti.kernel
-def keys_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, bits: u8_1d,
-                           width: ti.i32, key_out: u32_1d, tp_out: i64_1d) -> ti.i64:
-    """The pixel keys y·width + x and 2t + p (p 0 or 1: one value for the sort to move) of
-    the events at flagged pixels, in order, to the outputs' first n entries; returns n
-    (reference: on_flagged_pixels). Serial and branch-free as on_flagged_pixels."""
+def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d,
+                          before: i32_1d, width: ti.i32, id_out: u32_1d, tp_out: i64_1d) -> ti.i64:
+    """Of the events at flagged pixels, in order, to the outputs' first n entries (returns
+    n): the pixel's id, its rank among the flagged pixels by key y·width + x, and 2t + p (p 0
+    or 1: one value for a sort to move). The flags come packed 32 a word, little-endian,
+    with the count of flags in the words before each (`before`): a rank is that count and
+    a popcount, from 230 kB of a megapixel sensor's tables where an int32 rank image would
+    miss the cache. Serial and branch-free as on_flagged_pixels."""
     j = ti.i64(0)
     ti.loop_config(serialize=True)
     for e in range(x.shape[0]):
         k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
-        key_out[j] = ti.cast(k, ti.u32)
+        w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
+        id_out[j] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)), ti.u32)
         tp_out[j] = t[e] * 2 + ti.cast(p[e], ti.i64)
-        j += ti.cast(_flag(bits, k), ti.i64)
+        j += ti.cast((w >> b) & 1, ti.i64)
     return j
 
 

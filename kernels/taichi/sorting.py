@@ -42,7 +42,7 @@ def sorted_values(key: u32_1d, value: i64_1d, start: i32_1d, out: i64_1d):
     """out: value in the stable order of key (value[np.argsort(key, kind="stable")]), moved
     by stable_order's passes (no permutation to gather through: that gather's random reads
     took longer than the sort). start (n_keys + 1, zeros on entry): on return, start[k] is
-    where key k's run ends in out."""
+    where key k's run ends in out (k < n_keys)."""
     ti.loop_config(serialize=True)
     for i in range(key.shape[0]):
         start[ti.cast(key[i], ti.i32) + 1] += 1

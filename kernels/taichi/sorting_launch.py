@@ -23,22 +23,19 @@ def stable_order(ti, key, n_keys):
     return order.to_numpy() if arrays.on_device else order   # no copy on the CPU
 
 
-def sorted_by_key(ti, key, value, n_keys):
-    """(key, value) in the stable order of uint32 keys below n_keys (int64 values)."""
+def counting_sort(ti, key, value, n_keys):
+    """(value in the stable order of uint32 keys below n_keys (int64 values), the count of
+    each key)."""
     key, value = np.ascontiguousarray(key, np.uint32), np.ascontiguousarray(value, np.int64)
     if not len(key):
-        return key, value
+        return value, np.zeros(n_keys, np.int64)
     if max(len(key), n_keys) >= _I32:
-        order = np.argsort(key, kind="stable")
-        return key[order], value[order]
+        return value[np.argsort(key, kind="stable")], np.bincount(key, minlength=n_keys)
     arrays = launch.Arrays(ti)
-    start = arrays.put(np.zeros(n_keys + 1, np.int32))
+    end = arrays.put(np.zeros(n_keys + 1, np.int32))
     out = arrays.empty(len(key), np.int64)
     with launch.RUNTIME_LOCK:
-        _sorted_values(arrays.put(key), arrays.put(value), start, out)
+        _sorted_values(arrays.put(key), arrays.put(value), end, out)
     if arrays.on_device:
-        start, out = start.to_numpy(), out.to_numpy()
-    # the sorted keys from the runs' ends: a repeat, no scatter of the keys
-    count = np.diff(start[:n_keys], prepend=0)
-    present = np.flatnonzero(count)
-    return np.repeat(present.astype(np.uint32), count[present]), out
+        end, out = end.to_numpy(), out.to_numpy()
+    return out, np.diff(end[:n_keys], prepend=0)
