@@ -259,10 +259,8 @@ def level_midpoints(ts, change, k, ratio, on_before):
     ON (on_before ON events precede c; _pair_counts allows DEPTH_REACH) is extrapolated
     from its first two."""
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
-    on_before = np.asarray(on_before)
-    for j in range(1, mids.shape[1] + 1):
-        m = np.flatnonzero(k >= j)
-        mids[m, j - 1] = _midpoint(ts, change[m], on_before[m], j, ratio)[0]
+    row, j = np.repeat(np.arange(len(k)), k), ranks(k, 1)      # all pairs at once
+    mids[row, j - 1] = _midpoint(ts, change[row], np.asarray(on_before)[row], j, ratio)[0]
     return mids
 
 
