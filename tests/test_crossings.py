@@ -630,6 +630,27 @@ def test_ON_strays_no_longer_raise_the_measured_threshold_ratio():
     assert _measured_ratio(nb2, na2, first=first) == pytest.approx(1.0, abs=0.03)
 
 
+@pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
+@pytest.mark.parametrize("n, n_pixels, cap", [(0, 1, 4096), (1, 1, 4096), (2, 1, 4096),
+                                              (50_000, 400, 4096), (50_000, 3, 4)])
+def test_the_change_kernels_equal_their_specification(monkeypatch, device_arrays, n,
+                                                      n_pixels, cap):
+    from evstar import crossings
+    from evstar_kernels.taichi import launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    monkeypatch.setattr(crossings, "_RUN_CAP", cap)               # long runs meet the cap
+    rng = np.random.default_rng(n + cap)
+    key = np.sort(rng.integers(0, n_pixels, n)).astype(np.uint32)
+    p = (rng.random(n) < 0.5).astype(np.int8) if n > 2 else np.array([1, 0][:n], np.int8)
+    t = np.arange(n)
+    ref = crossings._change_runs(t, key, p, "numpy")[1]
+    got = crossings._change_runs(t, key, p, "taichi")[1]
+    for g, r in zip(got, ref):
+        np.testing.assert_array_equal(g, r)
+    assert n < 3 or (len(ref[0]) > 100 and (cap > 4 or ref[1].max() == cap == ref[2].max()))
+
+
 def test_the_stray_kernel_equals_its_specification():
     from evstar.crossings import _change_runs, STRAY_GAP_FACTOR, by_pixel_then_time
     from evstar.crossings import without_strays

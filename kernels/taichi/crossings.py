@@ -40,6 +40,33 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 
 
 @ti.kernel
+def changes(key: u32_1d, p: any_1d, cap: ti.i32, change: i64_1d, on_before: i32_1d,
+            off_after: i32_1d) -> ti.i64:
+    """run_lengths of its changes only, in one serial pass over the runs: the first n
+    entries of the outputs (as long as half the events, or more) get each change's position
+    c, its ON and OFF run lengths (at most `cap`); returns n. On the CPU: no per-event
+    outputs to search for the changes."""
+    n = key.shape[0]
+    m = ti.i64(0)
+    start = ti.i64(0)            # the current run's first event
+    on_start = ti.i64(-1)        # the ON run's first event, where an OFF run of its pixel follows
+    ti.loop_config(serialize=True)
+    for i in range(n):
+        if i + 1 == n or key[i + 1] != key[i] or (p[i + 1] > 0) != (p[i] > 0):   # a run ends
+            if p[i] > 0:
+                on_start = ti.select(i + 1 < n and key[i + 1] == key[i], start, -1)
+            else:
+                if on_start >= 0:
+                    change[m] = start - 1
+                    on_before[m] = ti.cast(ti.min(start - 1 - on_start, cap), ti.i32)
+                    off_after[m] = ti.cast(ti.min(i + 1 - start, cap), ti.i32)
+                    m += 1
+                on_start = -1
+            start = i + 1
+    return m
+
+
+@ti.kernel
 def without_strays(ts: i64_1d, change: i64_1d, factor: ti.i64,
                    on_before: i32_1d, off_after: i32_1d):
     """Per change c = change[i] with ON events before it, in place: the ON run less its

@@ -4,7 +4,8 @@ import numpy as np
 
 from . import launch
 from .crossings import pair_sums as _pair_sums, refractory_pair_sums as _refractory_sums
-from .crossings import run_lengths as _run_lengths, without_strays as _without_strays
+from .crossings import changes as _changes_kernel, run_lengths as _run_lengths
+from .crossings import without_strays as _without_strays
 
 
 class LevelPairs:
@@ -18,15 +19,10 @@ class LevelPairs:
         ps = ps.view(np.uint8) if ps.dtype == bool else ps      # no bool arrays in Taichi kernels
         self.arrays = arrays = launch.Arrays(ti)
         self.ts = arrays.put(np.asarray(ts, np.int64))
-        n = len(ts)
-        on, off = arrays.empty(n, np.int32), arrays.empty(n, np.int32)
-        with launch.RUNTIME_LOCK:
-            _run_lengths(arrays.put(np.asarray(keys, np.uint32)), arrays.put(ps), int(cap), on, off)
-        on, off = (on, off) if not arrays.on_device else (on.to_numpy(), off.to_numpy())
         #: positions c in the order of every ON→OFF change (pixel-major, then time) and the
         #: ON run before / OFF run after each
-        self.change = np.flatnonzero(off)
-        self.on_before, self.off_after = on.take(self.change), off.take(self.change)
+        self.change, self.on_before, self.off_after = _changes(
+            arrays, arrays.put(np.asarray(keys, np.uint32)), arrays.put(ps), int(cap))
 
     def without_strays(self, change, on_before, off_after, factor):
         """(on_before, off_after) of the changes at positions `change` less their runs'
@@ -70,3 +66,23 @@ class LevelPairs:
         if arrays.on_device:
             pairs, sums, sq = pairs.to_numpy(), sums.to_numpy(), sq.to_numpy()
         return pairs.astype(np.int64), sums, sq
+
+
+def _changes(arrays, keys, ps, cap):
+    """(positions of the changes, their ON runs before, OFF runs after): on the CPU in one
+    serial pass over the runs, on a device from the parallel run lengths at every event."""
+    n = keys.shape[0]
+    if arrays.on_device:
+        on, off = arrays.empty(n, np.int32), arrays.empty(n, np.int32)
+        with launch.RUNTIME_LOCK:
+            _run_lengths(keys, ps, cap, on, off)
+        on, off = on.to_numpy(), off.to_numpy()
+        change = np.flatnonzero(off)
+        return change, on.take(change), off.take(change)
+    size = n // 2 + 1                         # a change is an ON and an OFF of its own
+    out = np.empty(size, np.int64), np.empty(size, np.int32), np.empty(size, np.int32)
+    with launch.RUNTIME_LOCK:
+        m = _changes_kernel(keys, ps, cap, *out)
+    for a in out:
+        a.resize(m, refcheck=False)
+    return out
