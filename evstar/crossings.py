@@ -115,17 +115,16 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
         change, k, nb = change[keep], plain[keep], on_before[keep]
         sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(ts, change, k, r, nb)
     outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
-    pixel = pixel[keep]
     mean = sums / k
+    t_c = ts[change].astype(np.float64)             # sq is about the change's time
+    spread = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
-    pixel, k, sq, mean, outer = pixel[by_t], k[by_t], sq[by_t], mean[by_t], outer[by_t]
-    t_c = ts[change[by_t]].astype(np.float64)   # sq is about the change's time
+    pixel = pixel[keep][by_t]
     out = np.zeros(len(k), CROSSING_DTYPE)
     out["x"], out["y"] = pixel % width, pixel // width
-    out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
-    out["t_outer"] = outer
+    out["t"], out["pairs"], out["t_spread"], out["t_outer"] = (mean[by_t], k[by_t],
+                                                               spread[by_t], outer[by_t])
     return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
