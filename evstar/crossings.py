@@ -83,7 +83,8 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
                      with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """pixel_crossings of events in the pixel-then-time order: their times ts (int64),
     pixel_keys and polarities. engine "taichi": the level pairs by Taichi kernels
-    (evstar_kernels.taichi.crossings); "numpy": their specification (the same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
+    (evstar_kernels.taichi.crossings); "numpy": their specification (the same bits).
+    threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
     runs: threshold_ratio_of). refractory_us: the pixels' refractory period; > 0 counts the
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the
     ratio: the one given, or the measured one — None where too few changes measure it and
@@ -278,7 +279,7 @@ def outer_half_width(ts, change, k, ratio, on_before):
 def _midpoint(ts, c, nb, j, ratio):
     """(midpoint, OFF time) of level pair j (a number, or one per change) of changes c
     whose ON runs have nb events (see level_midpoints)."""
-    at = lambda i: ts[i].astype(np.float64)   # gathered per level: few changes may ask
+    at = lambda i: ts[i].astype(np.float64)   # only the times asked for, as floats
     x = np.broadcast_to(np.asarray(j) * ratio, np.shape(c)).astype(np.float64)
     j0 = np.floor(x + 1e-9).astype(np.int64)
     f = x - j0

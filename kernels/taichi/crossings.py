@@ -42,10 +42,10 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 @ti.kernel
 def changes(key: u32_1d, p: any_1d, cap: ti.i32, change: i64_1d, on_before: i32_1d,
             off_after: i32_1d) -> ti.i64:
-    """run_lengths of its changes only, in one serial pass over the runs: the first n
-    entries of the outputs (as long as half the events, or more) get each change's position
-    c, its ON and OFF run lengths (at most `cap`); returns n. On the CPU: no per-event
-    outputs to search for the changes."""
+    """The changes and their run lengths (run_lengths's, at the changes only) in one serial
+    pass over the runs: the first n entries of the outputs (as long as half the events, or
+    more) get each change's position c and its ON and OFF run lengths (at most `cap`);
+    returns n. For the CPU: no per-event outputs to search for the changes afterwards."""
     n = key.shape[0]
     m = ti.i64(0)
     start = ti.i64(0)            # the current run's first event
