@@ -66,53 +66,66 @@ _RUN_CAP = 4096
 _MIN_RATIO_CHANGES = 20
 
 
-def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
-                  with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
-    """pixel_crossings of events given by their pixel_keys. engine "taichi": the level pairs
-    by Taichi kernels (evstar_kernels.taichi.crossings); "numpy": their specification (the
-    same bits). threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
+def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", **options):
+    """pixel_crossings of events given by their pixel_keys, in any order (options: those of
+    sorted_crossings)."""
+    return sorted_crossings(*by_pixel_then_time(t, key, p, engine), width, max_pairs, engine,
+                            **options)
+
+
+def by_pixel_then_time(t, key, p, engine="taichi"):
+    """(times int64, pixel keys, polarities) of events in the pixel-then-time order."""
+    order = _pixel_then_time(key, t, engine)
+    return np.asarray(t, np.int64)[order], np.asarray(key)[order], np.asarray(p)[order]
+
+
+def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
+                     with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
+    """pixel_crossings of events in the pixel-then-time order: their times ts (int64),
+    pixel_keys and polarities. engine "taichi": the level pairs by Taichi kernels
+    (evstar_kernels.taichi.crossings); "numpy": their specification (the same bits).
+    threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
     runs: threshold_ratio_of). refractory_us: the pixels' refractory period; > 0 counts the
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the
     ratio: the one given, or the measured one — None where too few changes measure it and
     fallback_ratio was used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
     of the crossings it still wants (pairs as without a refractory period)."""
-    order, kern, (change, on_before, off_after) = _change_runs(t, key, p, engine)
-    pixel = key[order.take(change)]
+    kern, (change, on_before, off_after) = _change_runs(ts, keys, ps, engine)
+    pixel = keys[change]
     on_before, off_after = (kern.without_strays(change, on_before, off_after, STRAY_GAP_FACTOR)
                             if kern is not None else
-                            without_strays(order, t, change, on_before, off_after))
+                            without_strays(ts, change, on_before, off_after))
     if threshold_ratio != AUTO:
         r = float(threshold_ratio)
     else:
-        levels = run_levels(order, t, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
+        levels = run_levels(ts, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
         measured = _measured_ratio(on_before, off_after, levels, first_of_pixel(pixel))
         r = fallback_ratio if measured is None else measured
     # pairs as without a refractory period: the profiles' and the outer width's
     plain = _pair_counts(on_before, off_after, r, max_pairs)
     if profiles is not None:
-        _add_profiles(profiles, order, t, change, plain, r, on_before)
+        _add_profiles(profiles, ts, change, plain, r, on_before)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
         k, sums, sq = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
-                       else _refractory_pairs(order, t, *args, max_pairs))
+                       else _refractory_pairs(ts, *args, max_pairs))
         keep = k > 0
         change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
-        sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(order, t, change, k, r, nb)
-    outer = outer_half_width(order, t, change, plain[keep], r, on_before[keep])
-    pixel = pixel[keep]
+        sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(ts, change, k, r, nb)
+    outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
     mean = sums / k
+    t_c = ts[change].astype(np.float64)             # sq is about the change's time
+    spread = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
     # sorted by time as columns: a gather of the packed rows would take as long as the sort
     by_t = np.argsort(mean, kind="stable")
-    pixel, k, sq, mean, outer = pixel[by_t], k[by_t], sq[by_t], mean[by_t], outer[by_t]
-    t_c = t[order.take(change[by_t])].astype(np.float64)   # sq is about the change's time
+    pixel = pixel[keep][by_t]
     out = np.zeros(len(k), CROSSING_DTYPE)
     out["x"], out["y"] = pixel % width, pixel // width
-    out["t"], out["pairs"] = mean, k
-    out["t_spread"] = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
-    out["t_outer"] = outer
+    out["t"], out["pairs"], out["t_spread"], out["t_outer"] = (mean[by_t], k[by_t],
+                                                               spread[by_t], outer[by_t])
     return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
@@ -124,7 +137,7 @@ def key_crossings(t, key, p, width, max_pairs=16, engine="taichi", threshold_rat
 STRAY_GAP_FACTOR = 5
 
 
-def without_strays(order, t, change, on_before, off_after):
+def without_strays(ts, change, on_before, off_after):
     """(on_before, off_after) less a stray outermost event: the ON run's first or the OFF
     run's last event, where its gap to its neighbour in the run exceeds STRAY_GAP_FACTOR times
     the largest gap between the passage's other events (from the ON run's second event to
@@ -133,7 +146,6 @@ def without_strays(order, t, change, on_before, off_after):
     nb, na = np.asarray(on_before), np.asarray(off_after)
     if not len(change):
         return nb, na
-    ts = t[order].astype(np.int64)
     gaps = np.append(np.diff(ts), 0)              # gaps[i]: event i to i + 1 (in the order)
     first, last = change - nb, change + na
     lo = np.where(nb >= 1, first + 1, first)
@@ -145,18 +157,17 @@ def without_strays(order, t, change, on_before, off_after):
     return nb - (has_on & (gaps[first] > limit)), na - off
 
 
-def _change_runs(t, key, p, engine):
-    """(the pixel-then-time order, the Taichi kernels' state or None, (positions of the
-    ON→OFF changes in the order, their ON runs before, OFF runs after))."""
-    order = _pixel_then_time(key, t, engine)
-    if engine == "taichi" and len(order):
+def _change_runs(ts, keys, ps, engine):
+    """(the Taichi kernels' state or None, (positions of the ON→OFF changes in the
+    pixel-then-time order, their ON runs before, OFF runs after)) of events in that order."""
+    if engine == "taichi" and len(ts):
         from evstar_kernels.taichi import crossings_launch
 
         from .backends import taichi_running
 
-        kern = crossings_launch.LevelPairs(taichi_running(), order, key, t, p, _RUN_CAP)
-        return order, kern, (kern.change, kern.on_before, kern.off_after)
-    return order, None, _runs(order, key, p)
+        kern = crossings_launch.LevelPairs(taichi_running(), ts, keys, ps, _RUN_CAP)
+        return kern, (kern.change, kern.on_before, kern.off_after)
+    return None, _runs(keys, ps)
 
 
 def threshold_ratio_of(on_before, off_after, levels=None, first=None):
@@ -210,10 +221,11 @@ def _pair_counts(on_before, off_after, ratio, max_pairs):
     return np.minimum(np.minimum(on_levels, off_after), max_pairs).astype(np.int64)
 
 
-def _runs(order, key, p):
-    """Per ON→OFF change of a pixel, in the order's (pixel-major, then time): its position c
-    in `order`, the ON events right before it and the OFF events right after it."""
-    key, pol = key[order], np.asarray(p)[order] > 0
+def _runs(keys, ps):
+    """Per ON→OFF change of a pixel, of events in the pixel-then-time order (their pixel
+    keys and polarities): its position c, the ON events right before it and the OFF events
+    right after it."""
+    key, pol = np.asarray(keys), np.asarray(ps) > 0
     # c: last ON before an OFF at the same pixel; its ON run ends at c, its OFF run follows
     change = np.flatnonzero((key[1:] == key[:-1]) & pol[:-1] & ~pol[1:])
     runs = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]) | (pol[1:] != pol[:-1]), True])
@@ -223,15 +235,15 @@ def _runs(order, key, p):
     return change, on_before, off_after
 
 
-def _pair_sums(order, t, change, k, ratio, on_before):
+def _pair_sums(ts, change, k, ratio, on_before):
     """Sums of the pair midpoints and of their squares about the change's own time (an
     hour's µs squared would round the spread to ~50 µs; the offsets of whole-µs midpoints
     square exactly, whatever the arithmetic contracts) per change (the kernel's
     specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
     ON steps before c, interpolated between the ON events around it where not whole
     (level_midpoints); summed in the order of j."""
-    mids = level_midpoints(order, t, change, k, ratio, on_before)
-    t_c = t[order[change]].astype(np.float64)
+    mids = level_midpoints(ts, change, k, ratio, on_before)
+    t_c = ts[change].astype(np.float64)
     sums, sq = np.zeros(len(change)), np.zeros(len(change))
     for j in range(mids.shape[1]):
         mid = np.where(k > j, mids[:, j], 0.0)
@@ -241,55 +253,53 @@ def _pair_sums(order, t, change, k, ratio, on_before):
     return sums, sq
 
 
-def level_midpoints(order, t, change, k, ratio, on_before):
+def level_midpoints(ts, change, k, ratio, on_before):
     """(n, max k) midpoint of each level pair j = 1..k of the changes (NaN beyond k), as
     _pair_sums pairs them (their mean is its sum / k). A rising time below the run's first
     ON (on_before ON events precede c; _pair_counts allows DEPTH_REACH) is extrapolated
     from its first two."""
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
-    on_before = np.asarray(on_before)
-    for j in range(1, mids.shape[1] + 1):
-        m = np.flatnonzero(k >= j)
-        mids[m, j - 1] = _midpoint(order, t, change[m], on_before[m], j, ratio)[0]
+    row, j = np.repeat(np.arange(len(k)), k), ranks(k, 1)      # all pairs at once
+    mids[row, j - 1] = _midpoint(ts, change[row], np.asarray(on_before)[row], j, ratio)[0]
     return mids
 
 
-def outer_half_width(order, t, change, k, ratio, on_before):
+def outer_half_width(ts, change, k, ratio, on_before):
     """Per change, µs from its deepest pair's midpoint (level k) to that level's OFF event
     (NaN where k is 0). A pixel's low-pass stretches its falling flank, and the more it
     does, the later its midpoints: at one k the lag grows with this width alike for a
     bright star's flank pixels and a faint star's own (EVK4 dark sky, README)."""
     out = np.full(len(change), np.nan)
     m = np.flatnonzero(np.asarray(k) > 0)
-    mid, fall = _midpoint(order, t, change[m], np.asarray(on_before)[m], np.asarray(k)[m], ratio)
+    mid, fall = _midpoint(ts, change[m], np.asarray(on_before)[m], np.asarray(k)[m], ratio)
     out[m] = fall - mid
     return out
 
 
-def _midpoint(order, t, c, nb, j, ratio):
+def _midpoint(ts, c, nb, j, ratio):
     """(midpoint, OFF time) of level pair j (a number, or one per change) of changes c
     whose ON runs have nb events (see level_midpoints)."""
-    ts = lambda i: t[order[i]].astype(np.float64)   # gathered per level: few changes may ask
+    at = lambda i: ts[i].astype(np.float64)   # only the times asked for, as floats
     x = np.broadcast_to(np.asarray(j) * ratio, np.shape(c)).astype(np.float64)
     j0 = np.floor(x + 1e-9).astype(np.int64)
     f = x - j0
     deep = x > nb + 1e-9                             # below the first ON: extrapolated
     a, b = np.where(deep, c, c - j0), np.where(deep, c, c - j0 - 1)   # (c: any valid index)
     whole = f < 1e-9
-    at_a = ts(a)
-    rise = np.where(whole, at_a, at_a * (1 - f) + ts(np.where(whole, a, b)) * f)
+    at_a = at(a)
+    rise = np.where(whole, at_a, at_a * (1 - f) + at(np.where(whole, a, b)) * f)
     if deep.any():
         first = c[deep] - nb[deep]                   # the run's first ON
-        rise[deep] = ts(first) - (x[deep] - nb[deep]) * (ts(first + 1) - ts(first))
-    fall = ts(c + j)
+        rise[deep] = at(first) - (x[deep] - nb[deep]) * (at(first + 1) - at(first))
+    fall = at(c + j)
     return 0.5 * (rise + fall), fall
 
 
-def _add_profiles(profiles, order, t, change, k, ratio, on_before):
+def _add_profiles(profiles, ts, change, k, ratio, on_before):
     """Give `profiles` the level midpoints of the changes it wants."""
     sel = profiles.wanted(k)
     if len(sel):
-        profiles.add(k[sel], level_midpoints(order, t, change[sel], k[sel], ratio, on_before[sel]))
+        profiles.add(k[sel], level_midpoints(ts, change[sel], k[sel], ratio, on_before[sel]))
 
 
 #: most reference levels one event may stand for: a gap within r/3 of the refractory period
@@ -308,14 +318,13 @@ def level_step(gap_us, refractory_us):
     return np.where(g > r, np.minimum(g / np.maximum(g - r, 1e-9), MAX_LEVEL_STEP), MAX_LEVEL_STEP)
 
 
-def run_levels(order, t, change, on_before, off_after, refractory_us):
+def run_levels(ts, change, on_before, off_after, refractory_us):
     """(a, b): the levels each change's ON run rose through in ON thresholds (up to its last
     ON) and its OFF run fell through in OFF thresholds: 1 for a run's first event and
     level_step for each later one; with no refractory period the events, on_before + 1 and
     off_after. The last ON's own gain while blind is left out: the slope falls to 0 at the
     peak, so its extrapolation from the last gap overstates it (the ratio came out 1–6 % high
     with it on ideal sensors with 0.3–1 ms refractory periods, within 0.6 % without)."""
-    ts = t[order]
     steps = np.r_[0.0, np.cumsum(level_step(np.diff(ts), refractory_us))]   # steps[i]: to event i
     c, nb, na = np.asarray(change), np.asarray(on_before), np.asarray(off_after)
     a = 1 + steps[c] - steps[c - nb]
@@ -333,17 +342,16 @@ def sensor_hints(events, quantile=1e-3, max_events=2_000_000):
     ON→OFF changes; None when too few changes tell (it would default to 1)."""
     t, x, y, p = (np.asarray(a)[:max_events] for a in (events.t, events.x, events.y, events.p))
     key = pixel_keys(x, y, events.width)
-    order = _pixel_then_time(key, t, engine="numpy")
-    k, ts, ps = key[order], t[order], p[order]
+    ts, k, ps = by_pixel_then_time(t, key, p, engine="numpy")
     same = (k[1:] == k[:-1]) & (ps[1:] == ps[:-1])
     gaps = np.diff(ts)[same]
     floor = float(np.quantile(gaps, quantile)) if len(gaps) else None
-    change, on_before, off_after = _runs(order, key, p)
-    on_before, off_after = without_strays(order, t, change, on_before, off_after)
-    return floor, _measured_ratio(on_before, off_after, first=first_of_pixel(key[order[change]]))
+    change, on_before, off_after = _runs(k, ps)
+    on_before, off_after = without_strays(ts, change, on_before, off_after)
+    return floor, _measured_ratio(on_before, off_after, first=first_of_pixel(k[change]))
 
 
-def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_us, max_pairs):
+def _refractory_pairs(ts, change, on_before, off_after, ratio, refractory_us, max_pairs):
     """Level pairs of a sensor with a refractory period (the kernel's specification): (pairs,
     sums of the midpoints, of their squares about c's time) per change c. Levels are counted down from the
     last ON (depth 0) in ON thresholds, each event's step from its gap (level_step): ON
@@ -352,10 +360,9 @@ def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_
     OFF j − 1. Pair j: OFF j and the rising time at its depth, interpolated between the ON
     events around it. Pairs run while an ON event is at least as deep, up to max_pairs;
     an OFF above the last ON is skipped."""
-    t = t[order]
     c, nb, na = np.asarray(change), np.asarray(on_before), np.asarray(off_after)
-    t_c = t[c].astype(np.float64)                   # the squares are about c's time
-    step = lambda a, b: level_step(t[a] - t[b], refractory_us)
+    t_c = ts[c].astype(np.float64)                  # the squares are about c's time
+    step = lambda a, b: level_step(ts[a] - ts[b], refractory_us)
     has = nb > 0
     m = np.zeros(len(c), np.int64)                  # ON event c − m: the deepest not below
     d_m = np.zeros(len(c))
@@ -379,9 +386,9 @@ def _refractory_pairs(order, t, change, on_before, off_after, ratio, refractory_
         beyond = alive & (m == nb) & (d_off > d_m + 1e-9)
         valid = alive & ~beyond & (d_off >= -1e-9)
         f = np.where(np.isfinite(d_next), (d_off - d_m) / np.where(np.isfinite(d_next), d_next - d_m, 1.0), 0.0)
-        late, early = t[c - m].astype(np.float64), t[np.maximum(c - m - 1, 0)].astype(np.float64)
+        late, early = ts[c - m].astype(np.float64), ts[np.maximum(c - m - 1, 0)].astype(np.float64)
         rise = np.where(f < 1e-9, late, late * (1 - f) + early * f)
-        mid = 0.5 * (rise + t[c + np.minimum(j, na)].astype(np.float64))
+        mid = 0.5 * (rise + ts[c + np.minimum(j, na)].astype(np.float64))
         sums[valid] += mid[valid]
         sq[valid] += (mid - t_c)[valid] ** 2
         k += valid

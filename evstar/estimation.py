@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import lobes
-from .crossings import CROSSING_DTYPE, dilate, key_crossings, pixel_keys
+from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
 from .parameters import AUTO
@@ -55,23 +55,23 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
-    the pixels' refractory period (evstar.crossings.key_crossings). with_ratio: return
+    the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
     if not keep.any():
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    return key_crossings(*_near_kept(events, keep, radius_px), events.width,
-                         threshold_ratio=threshold_ratio, with_ratio=with_ratio,
-                         refractory_us=refractory_us, profiles=profiles,
-                         fallback_ratio=fallback_ratio)
+    return sorted_crossings(*_near_kept(events, keep, radius_px), events.width,
+                            threshold_ratio=threshold_ratio, with_ratio=with_ratio,
+                            refractory_us=refractory_us, profiles=profiles,
+                            fallback_ratio=fallback_ratio)
 
 
 def _near_kept(events, keep, radius_px):
-    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event."""
-    from .frames import events_on_pixels, kept_pixels
+    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event, in the
+    pixel-then-time order."""
+    from .frames import events_by_pixel, kept_pixels
 
-    t, x, y, p = events_on_pixels(events, dilate(kept_pixels(events, keep), radius_px))
-    return t, pixel_keys(x, y, events.width), p
+    return events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -116,6 +116,17 @@ def events_on_pixels(events, flags):
                                    flags))
 
 
+def events_by_pixel(events, flags):
+    """(t, pixel key y·width + x (uint32), p) of the events (evstar.Events: time-sorted, p 0
+    or 1) at pixels flags (a (height, width) bool image) sets, in the pixel-then-time order
+    (Taichi kernels wherever the run's kernels run)."""
+    from evstar_kernels.taichi.pixel_counts_launch import events_by_pixel as by_pixel
+
+    from .backends import taichi_running
+
+    return by_pixel(taichi_running(), events.t, events.x, events.y, events.p, flags)
+
+
 def on_pixels(events, flags):
     """flags[y, x] of every event (bool (n,)), flags a (height, width) bool image."""
     from evstar_kernels.taichi.pixel_counts_launch import pixel_flags

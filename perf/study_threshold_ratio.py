@@ -46,9 +46,9 @@ SCENES = [
 def measure(scenario, seed=2):
     run = sim.simulate(scenario, seed=seed)
     res = Pipeline(Config()).run(run.events, run.imu, run.camera)
-    t, key, p = _near_kept(run.events, res.keep, Config().estimate.crossing_radius_px)
-    order, _, (change, on_before, off_after) = _change_runs(t, key, p, "numpy")
-    first = first_of_pixel(key[order[change]])
+    ts, keys, ps = _near_kept(run.events, res.keep, Config().estimate.crossing_radius_px)
+    _, (change, on_before, off_after) = _change_runs(ts, keys, ps, "numpy")
+    first = first_of_pixel(keys[change])
     return (float(first.mean()), threshold_ratio_of(on_before, off_after),
             threshold_ratio_of(on_before, off_after, first=first))
 

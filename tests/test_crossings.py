@@ -226,28 +226,28 @@ def test_a_slow_faint_stars_few_runs_still_measure_the_ratio():
     """2 °/s, magnitude 4.5, σ 1.3 px, ON 0.25 / OFF 0.15: ~25 changes with >= 3 levels on
     both flanks. Below 50 the ratio was taken as 1, and the positions led by 0.2-0.4 px."""
     from evstar import denoise
-    from evstar.crossings import _change_runs, key_crossings
+    from evstar.crossings import _change_runs, sorted_crossings
     from evstar.estimation import _near_kept
 
     sensor = sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15)
     run = sim.simulate(sim.paper_preset(2.0, magnitude=4.5, psf_sigma_px=1.3, sensor=sensor),
                        seed=21)
-    t, key, p = _near_kept(run.events, denoise.MRNDSEF().apply(run.events), 3)
-    _, _, (_, before, after) = _change_runs(t, key, p, "numpy")
+    ts, keys, ps = _near_kept(run.events, denoise.MRNDSEF().apply(run.events), 3)
+    _, (_, before, after) = _change_runs(ts, keys, ps, "numpy")
     assert 20 <= ((before >= 2) & (after >= 3)).sum() < 50
-    _, r = key_crossings(t, key, p, run.events.width, with_ratio=True)
+    _, r = sorted_crossings(ts, keys, ps, run.events.width, with_ratio=True)
     assert r == pytest.approx(0.6, abs=0.1)
 
 
 @pytest.mark.parametrize("on,off", [(0.15, 0.25), (0.25, 0.15), (0.2, 0.2)])
 def test_the_threshold_ratio_is_measured_from_the_runs(on, off):
-    from evstar.crossings import _pixel_then_time, _runs, pixel_keys, threshold_ratio_of
+    from evstar.crossings import _runs, by_pixel_then_time, pixel_keys, threshold_ratio_of
 
     sensor = sim.sensor_model("default", threshold_on=on, threshold_off=off)
     run = sim.simulate(sim.paper_preset(8.0, duration_s=0.3, sensor=sensor), seed=4)
     ev = run.events
-    key = pixel_keys(ev.x, ev.y, ev.width)
-    _, before, after = _runs(_pixel_then_time(key, ev.t), key, ev.p)
+    _, keys, ps = by_pixel_then_time(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p)
+    _, before, after = _runs(keys, ps)
     assert threshold_ratio_of(before, after) == pytest.approx(off / on, rel=0.12)
     assert threshold_ratio_of(before[:10], after[:10]) == 1.0          # too few: no claim
 
@@ -359,6 +359,24 @@ def test_the_counting_sort_kernel_equals_numpys_stable_sort(n_keys):
     assert np.array_equal(_pixel_then_time(key, t), _pixel_then_time(key, t, engine="numpy"))
     assert np.array_equal(_pixel_then_time(key, t), np.lexsort((t, key)))
     assert len(sorting_launch.stable_order(backends.taichi_running(), key[:0], n_keys)) == 0
+
+
+@pytest.mark.parametrize("device_arrays", [False, True])
+@pytest.mark.parametrize("n_keys", [1, 7, 70_000, 921_600])
+def test_the_counting_sort_of_values_equals_numpys_stable_sort(monkeypatch, device_arrays, n_keys):
+    from evstar import backends
+    from evstar_kernels.taichi import launch, sorting_launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    rng = np.random.default_rng(n_keys)
+    key = rng.integers(0, n_keys, 50_000).astype(np.uint32)
+    value = rng.integers(-2**62, 2**62, len(key))
+    got, count = sorting_launch.counting_sort(backends.taichi_running(), key, value, n_keys)
+    assert got.dtype == np.int64 and np.array_equal(got, value[np.argsort(key, kind="stable")])
+    assert np.array_equal(count, np.bincount(key, minlength=n_keys))
+    got, count = sorting_launch.counting_sort(backends.taichi_running(), key[:0], value[:0],
+                                              n_keys)
+    assert len(got) == 0 and np.array_equal(count, np.zeros(n_keys))
 
 
 # -- the Taichi level-pair kernel against its numpy specification: the same bits ----------
@@ -525,14 +543,14 @@ def test_the_ratio_of_a_sinusoid_whose_pixels_see_the_star_twice(on, off):
     """Simulated, ideal sensor: a 10°/1 Hz sinusoid passes its pixels back and forth (38 %
     of the changes are a pixel's second or later); charging only first passages the ½ gives
     the ratio within 1 %, where charging every passage was 1.5–2.5 % low."""
-    from evstar.crossings import _pixel_then_time, _runs, first_of_pixel, pixel_keys, threshold_ratio_of
+    from evstar.crossings import _runs, by_pixel_then_time, first_of_pixel, pixel_keys
+    from evstar.crossings import threshold_ratio_of
 
     sensor = sim.SensorSpec.ideal(threshold_on=on, threshold_off=off)
     ev = sim.simulate(sim.paper_sinusoid(magnitude=3.0, sensor=sensor, duration_s=0.6), seed=4).events
-    key = pixel_keys(ev.x, ev.y, ev.width)
-    order = _pixel_then_time(key, ev.t, "numpy")
-    change, before, after = _runs(order, key, ev.p)
-    first = first_of_pixel(key[order[change]])
+    _, keys, ps = by_pixel_then_time(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p, "numpy")
+    change, before, after = _runs(keys, ps)
+    first = first_of_pixel(keys[change])
     assert 0.5 < first.mean() < 0.8
     assert threshold_ratio_of(before, after, first=first) == pytest.approx(off / on, rel=0.01)
     assert threshold_ratio_of(before, after) / (off / on) < 0.99
@@ -596,33 +614,56 @@ def test_ON_strays_no_longer_raise_the_measured_threshold_ratio():
     """A leaking pixel fires ON events on its own (v2e's leak); one that joins a star's ON run
     made it one longer: the measured OFF/ON ratio came out high (1.07 on a 12 °/s star with a
     2 Hz leak, 0.96 without), which moved the crossings along the motion by ~0.1 px."""
-    from evstar.crossings import _change_runs, first_of_pixel, pixel_keys, _measured_ratio
-    from evstar.crossings import without_strays
+    from evstar.crossings import _change_runs, by_pixel_then_time, first_of_pixel, pixel_keys
+    from evstar.crossings import _measured_ratio, without_strays
 
     sensor = sim.sensor_model("default", leak_hz=2.0, noise_hz=0.0)
     run = sim.simulate(sim.paper_preset(12.0, magnitude=5.0, duration_s=0.5, sensor=sensor),
                        seed=51)
     ev = run.events
-    key = pixel_keys(ev.x, ev.y, ev.width)
-    order, _, (change, nb, na) = _change_runs(ev.t, key, ev.p, "numpy")
-    first = first_of_pixel(key[order[change]])
-    nb2, na2 = without_strays(order, ev.t, change, nb, na)
+    ts, keys, ps = by_pixel_then_time(ev.t, pixel_keys(ev.x, ev.y, ev.width), ev.p, "numpy")
+    _, (change, nb, na) = _change_runs(ts, keys, ps, "numpy")
+    first = first_of_pixel(keys[change])
+    nb2, na2 = without_strays(ts, change, nb, na)
     assert (nb2 < nb).sum() > 20                           # leak events left the ON runs
     assert _measured_ratio(nb, na, first=first) > 1.03
     assert _measured_ratio(nb2, na2, first=first) == pytest.approx(1.0, abs=0.03)
 
 
+@pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
+@pytest.mark.parametrize("n, n_pixels, cap", [(0, 1, 4096), (1, 1, 4096), (2, 1, 4096),
+                                              (50_000, 400, 4096), (50_000, 3, 4)])
+def test_the_change_kernels_equal_their_specification(monkeypatch, device_arrays, n,
+                                                      n_pixels, cap):
+    from evstar import crossings
+    from evstar_kernels.taichi import launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    monkeypatch.setattr(crossings, "_RUN_CAP", cap)               # long runs meet the cap
+    rng = np.random.default_rng(n + cap)
+    key = np.sort(rng.integers(0, n_pixels, n)).astype(np.uint32)
+    p = (rng.random(n) < 0.5).astype(np.int8) if n > 2 else np.array([1, 0][:n], np.int8)
+    t = np.arange(n)
+    ref = crossings._change_runs(t, key, p, "numpy")[1]
+    got = crossings._change_runs(t, key, p, "taichi")[1]
+    for g, r in zip(got, ref):
+        np.testing.assert_array_equal(g, r)
+    assert n < 3 or (len(ref[0]) > 100 and (cap > 4 or ref[1].max() == cap == ref[2].max()))
+
+
 def test_the_stray_kernel_equals_its_specification():
-    from evstar.crossings import _change_runs, STRAY_GAP_FACTOR, without_strays
+    from evstar.crossings import _change_runs, STRAY_GAP_FACTOR, by_pixel_then_time
+    from evstar.crossings import without_strays
 
     rng = np.random.default_rng(11)
     n = 50_000
     key = rng.integers(0, 400, n).astype(np.uint32)
     t = np.sort(rng.exponential(20.0, n).cumsum().astype(np.int64)) + 3_600_000_000
     p = (np.sin(t / 3e3 + key) + rng.normal(0, 0.8, n) > 0).astype(np.int8)
-    order, kern, (change, nb, na) = _change_runs(t, key, p, "taichi")
+    ts, keys, ps = by_pixel_then_time(t, key, p)
+    kern, (change, nb, na) = _change_runs(ts, keys, ps, "taichi")
     got = kern.without_strays(change, nb, na, STRAY_GAP_FACTOR)
-    ref = without_strays(order, t, change, nb, na)
+    ref = without_strays(ts, change, nb, na)
     assert (ref[0] < nb).sum() > 100 and (ref[1] < na).sum() > 100     # both sides trimmed
     np.testing.assert_array_equal(got[0], ref[0])
     np.testing.assert_array_equal(got[1], ref[1])

@@ -62,13 +62,13 @@ def test_level_midpoints_average_to_the_pair_sums():
     t = np.sort(rng.integers(0, 10**6, n))
     key = rng.integers(0, 50, n).astype(np.uint32)
     p = (rng.random(n) < 0.5).astype(np.int8)
-    order = np.lexsort((t, key))
-    change, nb, na = crossings._runs(order, key, p)
+    ts, keys, ps = crossings.by_pixel_then_time(t, key, p, "numpy")
+    change, nb, na = crossings._runs(keys, ps)
     for ratio in (1.0, 0.7, 1.6):
         k = crossings._pair_counts(nb, na, ratio, 16)
         m = k > 0
-        mids = crossings.level_midpoints(order, t, change[m], k[m], ratio, nb[m])
-        sums, _ = crossings._pair_sums(order, t, change[m], k[m], ratio, nb[m])
+        mids = crossings.level_midpoints(ts, change[m], k[m], ratio, nb[m])
+        sums, _ = crossings._pair_sums(ts, change[m], k[m], ratio, nb[m])
         np.testing.assert_allclose(np.nanmean(mids, axis=1), sums / k[m], rtol=0, atol=1e-6)
         assert np.all(np.isnan(mids) == (np.arange(mids.shape[1]) >= k[m][:, None]))
 

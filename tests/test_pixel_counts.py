@@ -85,3 +85,27 @@ def test_kept_pixels_and_events_on_flagged_pixels_match_reference(monkeypatch, d
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
     assert 0 < len(got[0]) < n or n < 10
+
+
+@pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
+@pytest.mark.parametrize("max_launch", [None, 700])
+@pytest.mark.parametrize("n, size", [(0, (5, 4)), (1, (1, 1)), (5000, (40, 30)),
+                                     (20_000, (1280, 720))])    # keys past 2¹⁶
+def test_events_by_pixel_match_reference(monkeypatch, device_arrays, max_launch, n, size):
+    from evstar_kernels.reference.pixels import events_by_pixel
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    if max_launch:
+        monkeypatch.setattr(launch, "MAX_LAUNCH_EVENTS", max_launch)
+    ev, _ = events(n + 2, n, *size)
+    rng = np.random.default_rng(n)
+    # repeated times an hour in: ties stay in input order
+    ev = Events(np.sort(rng.integers(0, n // 4 + 1, n)) + 3_600_000_000, ev.x, ev.y, ev.p,
+                *size)
+    flags = rng.random((size[1], size[0])) < 0.4
+    got = frames.events_by_pixel(ev, flags)
+    want = events_by_pixel(ev.t, ev.x, ev.y, ev.p, flags)
+    assert [a.dtype for a in got] == [np.int64, np.uint32, np.int8]
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+    assert 0 < len(got[0]) < n or n < 10

@@ -33,6 +33,16 @@ def on_flagged_pixels(arrays, x, y, flags):
     return [np.asarray(a)[sel] for a in arrays]
 
 
+def events_by_pixel(t, x, y, p, flags):
+    """(t, pixel key y·width + x (uint32), p) of the events at pixels flags[y, x] sets (a
+    (height, width) bool image), in the pixel-then-time order: time-sorted events stably
+    sorted by pixel."""
+    t, x, y, p = on_flagged_pixels([t, x, y, p], x, y, flags)
+    key = y.astype(np.uint32) * np.uint32(np.shape(flags)[1]) + x
+    order = np.argsort(key, kind="stable")
+    return t[order], key[order], p[order]
+
+
 def rounded_pixels(x, y, width, height):
     """(px, py uint16, inside bool) of float coordinates: the pixel i covering [i − ½, i + ½)
     and whether it lies on the width x height sensor (NaN never does); px = py = 0 where not."""

@@ -6,8 +6,8 @@ Specification: evstar.crossings.key_crossings with engine "numpy", which handles
 together, pair i = 1, 2, ... in turn; here one thread per change sums its pairs in the same
 order i = 1 .. k with the same operations (where the rising level falls on an ON event, an
 int64 sum of the two times, then × 0.5; else the interpolated rising time), so the floats
-are the same bits. The pair sums read the times through the pixel-then-time order: a sorted
-copy of them would cost more to gather than the few reads a change makes.
+are the same bits. The events come in the pixel-then-time order (times ts): a change's
+reads are its neighbours in memory, where reads through an order missed the cache each.
 """
 import taichi as ti
 
@@ -16,8 +16,7 @@ from .arrays import any_1d, f64_1d, i32_1d, i64_1d, u32_1d
 
 @ti.kernel
 def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_after: i32_1d):
-    """Events key, p (ON: p > 0) in the pixel-then-time order (gathered into it by the
-    caller: read through the order, these were most of the kernel's time). Where position c
+    """Events key, p (ON: p > 0) in the pixel-then-time order. Where position c
     is an ON followed by an OFF of its pixel: on_before[c], the ON events of its pixel right
     before it, and off_after[c] >= 1, the OFF events right after it (each at most `cap`);
     elsewhere 0, 0."""
@@ -41,32 +40,59 @@ def run_lengths(key: u32_1d, p: any_1d, cap: ti.i32, on_before: i32_1d, off_afte
 
 
 @ti.kernel
-def without_strays(order: i64_1d, t: i64_1d, change: i64_1d, factor: ti.i64,
+def changes(key: u32_1d, p: any_1d, cap: ti.i32, change: i64_1d, on_before: i32_1d,
+            off_after: i32_1d) -> ti.i64:
+    """The changes and their run lengths (run_lengths's, at the changes only) in one serial
+    pass over the runs: the first n entries of the outputs (as long as half the events, or
+    more) get each change's position c and its ON and OFF run lengths (at most `cap`);
+    returns n. For the CPU: no per-event outputs to search for the changes afterwards."""
+    n = key.shape[0]
+    m = ti.i64(0)
+    start = ti.i64(0)            # the current run's first event
+    on_start = ti.i64(-1)        # the ON run's first event, where an OFF run of its pixel follows
+    ti.loop_config(serialize=True)
+    for i in range(n):
+        if i + 1 == n or key[i + 1] != key[i] or (p[i + 1] > 0) != (p[i] > 0):   # a run ends
+            if p[i] > 0:
+                on_start = ti.select(i + 1 < n and key[i + 1] == key[i], start, -1)
+            else:
+                if on_start >= 0:
+                    change[m] = start - 1
+                    on_before[m] = ti.cast(ti.min(start - 1 - on_start, cap), ti.i32)
+                    off_after[m] = ti.cast(ti.min(i + 1 - start, cap), ti.i32)
+                    m += 1
+                on_start = -1
+            start = i + 1
+    return m
+
+
+@ti.kernel
+def without_strays(ts: i64_1d, change: i64_1d, factor: ti.i64,
                    on_before: i32_1d, off_after: i32_1d):
     """Per change c = change[i] with ON events before it, in place: the ON run less its
     first event, the OFF run less its last, where that event's gap to its neighbour in the
     run exceeds `factor` times the largest gap between the passage's other events (from the
     ON run's second event to the OFF run's second last; c's own gap always among them). The
     inside gaps are read from c's own outwards only until they clear both outer ones (a
-    star's passage: after one or two; the times are random reads through the order)."""
+    star's passage: after one or two)."""
     for i in range(change.shape[0]):
         c = change[i]
         nb, na = ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
         if nb >= 1:
             first, last = c - nb, c + na
-            g_on = t[order[first + 1]] - t[order[first]]
+            g_on = ts[first + 1] - ts[first]
             g_off = ti.i64(0)
             if na >= 2:
-                g_off = t[order[last]] - t[order[last - 1]]
+                g_off = ts[last] - ts[last - 1]
             lo, hi = first + 1, ti.select(na >= 2, last - 1, last)
-            inside = t[order[c + 1]] - t[order[c]]
+            inside = ts[c + 1] - ts[c]
             down, up = c - 1, c + 1          # the next inside gaps: down .. down + 1, up .. up + 1
             while factor * inside < ti.max(g_on, g_off) and (down >= lo or up < hi):
                 if down >= lo:
-                    inside = ti.max(inside, t[order[down + 1]] - t[order[down]])
+                    inside = ti.max(inside, ts[down + 1] - ts[down])
                     down -= 1
                 if up < hi:
-                    inside = ti.max(inside, t[order[up + 1]] - t[order[up]])
+                    inside = ti.max(inside, ts[up + 1] - ts[up])
                     up += 1
             if g_on > factor * inside:
                 on_before[i] -= 1
@@ -75,7 +101,7 @@ def without_strays(order: i64_1d, t: i64_1d, change: i64_1d, factor: ti.i64,
 
 
 @ti.kernel
-def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
+def pair_sums(ts: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
               ratio: ti.f64, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of
     their squares about c's time, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
@@ -85,7 +111,7 @@ def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before
     for i in range(change.shape[0]):
         c = change[i]
         nb = ti.cast(on_before[i], ti.i64)
-        t_c = ti.cast(t[order[c]], ti.f64)
+        t_c = ti.cast(ts[c], ti.f64)
         s = ti.f64(0.0)
         s2 = ti.f64(0.0)
         for j in range(1, pairs[i] + 1):
@@ -94,15 +120,15 @@ def pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, pairs: i32_1d, on_before
             f = x - j0
             mid = ti.f64(0.0)
             if x > nb + 1e-9:
-                first = ti.cast(t[order[c - nb]], ti.f64)
-                rise = first - (x - nb) * (ti.cast(t[order[c - nb + 1]], ti.f64) - first)
-                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
+                first = ti.cast(ts[c - nb], ti.f64)
+                rise = first - (x - nb) * (ti.cast(ts[c - nb + 1], ti.f64) - first)
+                mid = 0.5 * (rise + ti.cast(ts[c + j], ti.f64))
             elif f < 1e-9:
-                mid = 0.5 * ti.cast(t[order[c - j0]] + t[order[c + j]], ti.f64)
+                mid = 0.5 * ti.cast(ts[c - j0] + ts[c + j], ti.f64)
             else:
-                rise = (ti.cast(t[order[c - j0]], ti.f64) * (1 - f)
-                        + ti.cast(t[order[c - j0 - 1]], ti.f64) * f)
-                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
+                rise = (ti.cast(ts[c - j0], ti.f64) * (1 - f)
+                        + ti.cast(ts[c - j0 - 1], ti.f64) * f)
+                mid = 0.5 * (rise + ti.cast(ts[c + j], ti.f64))
             s += mid
             s2 += (mid - t_c) * (mid - t_c)
         sums[i] = s
@@ -119,7 +145,7 @@ def _level_step(gap, refractory, max_step):
 
 
 @ti.kernel
-def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i32_1d,
+def refractory_pair_sums(ts: i64_1d, change: i64_1d, on_before: i32_1d,
                          off_after: i32_1d, ratio: ti.f64, refractory: ti.f64, max_step: ti.f64,
                          max_pairs: ti.i32, pairs: i32_1d, sums: f64_1d, sq: f64_1d):
     """Per change c = change[i]: the level pairs of a sensor with a refractory period, their
@@ -129,13 +155,13 @@ def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i3
     back (has_next false past the run's first); OFF j lies d_off below."""
     for i in range(change.shape[0]):
         c, nb, na = change[i], ti.cast(on_before[i], ti.i64), ti.cast(off_after[i], ti.i64)
-        t_c = ti.cast(t[order[c]], ti.f64)
+        t_c = ti.cast(ts[c], ti.f64)
         m = ti.i64(0)
         d_m, d_next = ti.f64(0.0), ti.f64(0.0)
         has_next = nb > 0
         top = ti.f64(0.0)
         if has_next:
-            d_next = _level_step(ti.cast(t[order[c]] - t[order[c - 1]], ti.f64), refractory, max_step)
+            d_next = _level_step(ti.cast(ts[c] - ts[c - 1], ti.f64), refractory, max_step)
             top = d_next - 1
         d_off = ratio - top
         k = 0
@@ -145,23 +171,23 @@ def refractory_pair_sums(order: i64_1d, t: i64_1d, change: i64_1d, on_before: i3
         while alive:
             if j > 1:
                 d_off = d_off + ratio * _level_step(
-                    ti.cast(t[order[c + j]] - t[order[c + j - 1]], ti.f64), refractory, max_step)
+                    ti.cast(ts[c + j] - ts[c + j - 1], ti.f64), refractory, max_step)
             while has_next and d_next <= d_off + 1e-9:
                 m += 1
                 d_m = d_next
                 has_next = m < nb
                 if has_next:
-                    d_next = d_m + _level_step(ti.cast(t[order[c - m]] - t[order[c - m - 1]], ti.f64),
+                    d_next = d_m + _level_step(ti.cast(ts[c - m] - ts[c - m - 1], ti.f64),
                                                refractory, max_step)
             beyond = (m == nb) and (d_off > d_m + 1e-9)
             if not beyond and d_off >= -1e-9:
                 f = ti.f64(0.0)
                 if has_next:
                     f = (d_off - d_m) / (d_next - d_m)
-                rise = ti.cast(t[order[c - m]], ti.f64)
+                rise = ti.cast(ts[c - m], ti.f64)
                 if f >= 1e-9:
-                    rise = rise * (1 - f) + ti.cast(t[order[c - m - 1]], ti.f64) * f
-                mid = 0.5 * (rise + ti.cast(t[order[c + j]], ti.f64))
+                    rise = rise * (1 - f) + ti.cast(ts[c - m - 1], ti.f64) * f
+                mid = 0.5 * (rise + ti.cast(ts[c + j], ti.f64))
                 s += mid
                 s2 += (mid - t_c) * (mid - t_c)
                 k += 1

@@ -1,5 +1,5 @@
 """Events per pixel, all and kept, in one pass; a per-pixel flag per event; the pixels of
-kept events; the events on flagged pixels.
+kept events; the events on flagged pixels (or their pixels' ranks and packed times).
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
@@ -12,7 +12,7 @@ import functools
 
 import taichi as ti
 
-from .arrays import i8_1d, i32_1d, i64_1d, u16_1d, u8_1d
+from .arrays import i8_1d, i32_1d, i64_1d, u16_1d, u32_1d, u8_1d
 
 
 @ti.func
@@ -46,6 +46,26 @@ def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, bits: u8_1d, wi
         y_out[j] = y[e]
         p_out[j] = p[e]
         j += ti.cast(_flag(bits, ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)), ti.i64)
+    return j
+
+
+@ti.kernel
+def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d,
+                          before: i32_1d, width: ti.i32, id_out: u32_1d, tp_out: i64_1d) -> ti.i64:
+    """Of the events at flagged pixels, in order, to the outputs' first n entries (returns
+    n): the pixel's id, its rank among the flagged pixels by key y·width + x, and 2t + p (p 0
+    or 1: one value for a sort to move). The flags come packed 32 a word, little-endian,
+    with the count of flags in the words before each (`before`): a rank is that count and
+    a popcount, from 230 kB of a megapixel sensor's tables where an int32 rank image would
+    miss the cache. Serial and branch-free as on_flagged_pixels."""
+    j = ti.i64(0)
+    ti.loop_config(serialize=True)
+    for e in range(x.shape[0]):
+        k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
+        w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
+        id_out[j] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)), ti.u32)
+        tp_out[j] = t[e] * 2 + ti.cast(p[e], ti.i64)
+        j += ti.cast((w >> b) & 1, ti.i64)
     return j
 
 

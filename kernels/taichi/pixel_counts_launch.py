@@ -1,10 +1,11 @@
 """Launch of the pixel counts (launches of at most MAX_LAUNCH_EVENTS events; with a keep
 mask the packed halves split, without it int32 counts), of the per-event pixel flags, the
-kept events' pixels and the events on flagged pixels."""
+kept events' pixels and the events on flagged pixels (in order, or by pixel)."""
 import numpy as np
 
-from . import launch
-from .pixel_counts import count_all_kernel, count_pixels_kernel, mark_pixels_kernel
+from . import launch, sorting_launch
+from .pixel_counts import count_all_kernel, count_pixels_kernel, ids_on_flagged_pixels
+from .pixel_counts import mark_pixels_kernel
 from .pixel_counts import on_flagged_pixels as _on_flagged, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
@@ -81,6 +82,42 @@ def on_flagged_pixels(ti, t, x, y, p, flags):
     for o in out:   # to the selection's length in place (realloc: no copy, the tail freed)
         o.resize(n, refcheck=False)
     return out
+
+
+def events_by_pixel(ti, t, x, y, p, flags):
+    """reference.pixels.events_by_pixel of time-sorted events (p 0 or 1): (t int64, pixel key
+    uint32, p int8) of those at pixels flags[y, x] sets, in the pixel-then-time order. The
+    counting sort is by the flagged pixels' ranks (a table that fits the cache) and moves
+    the times and polarities as one value, 2t + p."""
+    pixels = np.flatnonzero(flags).astype(np.uint32)       # the flagged pixels' keys by rank
+    ids, tp = _flagged_ids(ti, t, x, y, p, flags)
+    tp, count = sorting_launch.counting_sort(ti, ids, tp, len(pixels))
+    p_out = (tp & 1).astype(np.int8)
+    tp >>= 1                                                 # in place: the times
+    return tp, np.repeat(pixels, count), p_out
+
+
+def _flagged_ids(ti, t, x, y, p, flags):
+    """(ranks of their pixels among the flagged, 2t + p) of the events at flagged pixels,
+    in order."""
+    width, flat = flags.shape[1], np.asarray(flags, bool).reshape(-1)
+    if launch.Arrays(ti).on_device:
+        t, x, y, p = on_flagged_pixels(ti, t, x, y, p, flags)
+        rank = np.cumsum(flat, dtype=np.int64) - 1
+        return rank[y.astype(np.int64) * width + x].astype(np.uint32), t * 2 + p
+    padded = np.zeros(-(-len(flat) // 32) * 32, bool)
+    padded[:len(flat)] = flat
+    words = np.packbits(padded, bitorder="little").view("<u4")
+    before = np.r_[0, np.cumsum(padded.reshape(-1, 32).sum(1))[:-1]].astype(np.int32)
+    ids, tp, n = np.empty(len(x), np.uint32), np.empty(len(x), np.int64), 0
+    with launch.RUNTIME_LOCK:
+        for e0, e1 in launch.pieces(len(x)):
+            n += ids_on_flagged_pixels(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
+                                         ((t, np.int64), (x, np.uint16), (y, np.uint16),
+                                          (p, np.int8))), words, before, width, ids[n:], tp[n:])
+    ids.resize(n, refcheck=False)
+    tp.resize(n, refcheck=False)
+    return ids, tp
 
 
 def pixel_flags(ti, x, y, flags):

@@ -35,3 +35,22 @@ def stable_order(key: u32_1d, start: i32_1d, order: i64_1d):
         k = start.shape[0] - 1 - j
         start[k] = start[k - 1]
     start[0] = 0
+
+
+@ti.kernel
+def sorted_values(key: u32_1d, value: i64_1d, start: i32_1d, out: i64_1d):
+    """out: value in the stable order of key (value[np.argsort(key, kind="stable")]), moved
+    by stable_order's passes (no permutation to gather through: that gather's random reads
+    took longer than the sort). start (n_keys + 1, zeros on entry): on return, start[k] is
+    where key k's run ends in out (k < n_keys)."""
+    ti.loop_config(serialize=True)
+    for i in range(key.shape[0]):
+        start[ti.cast(key[i], ti.i32) + 1] += 1
+    ti.loop_config(serialize=True)
+    for k in range(start.shape[0] - 1):
+        start[k + 1] += start[k]
+    ti.loop_config(serialize=True)
+    for i in range(key.shape[0]):
+        k = ti.cast(key[i], ti.i32)
+        out[start[k]] = value[i]
+        start[k] += 1
