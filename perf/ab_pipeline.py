@@ -143,12 +143,19 @@ def main():
     v = Versions(a.before)
     rows = [r for stars in map(int, a.stars.split(",")) for mode in a.modes.split(",")
             for r in compare(v, stars, mode, a.repeats, a.changed.split(","))]
+    report(v, rows, COLUMNS, a)
+
+
+def report(v, rows, columns, args):
+    """Check that A's and B's modules stayed apart, then write rows to
+    perf/results/<args.out>.json and .md (B's evstar.profiling) and print the table."""
     v.check()
     v.use("B")
     from evstar import profiling
-    text = profiling.table(rows, COLUMNS)
-    profiling.write_results(RESULTS / f"{a.out}.json", rows, vars(a))
-    (RESULTS / f"{a.out}.md").write_text(text + "\n")
+
+    text = profiling.table(rows, columns)
+    profiling.write_results(RESULTS / f"{args.out}.json", rows, vars(args))
+    (RESULTS / f"{args.out}.md").write_text(text + "\n")
     print(text)
 
 

@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from ab_pipeline import RESULTS, Versions, _range
+from ab_pipeline import Versions, _range, report
 
 SCENES = {"evk4 50 stars": "--preset evk4 --stars 50 --rate 10 --noise-hz 1 --duration 4",
           "evk4 50 stars, dark sky": ("--preset evk4 --stars 50 --rate 20 --noise-hz 0.1 "
@@ -98,14 +98,7 @@ def main():
     for name, scene in SCENES.items():
         calls = recorded_calls(v, scene)
         rows += [compare(v, name, calls, r, a.repeats) for r in REFRACTORY_US]
-    v.check()
-    v.use("B")
-    from evstar import profiling
-
-    text = profiling.table(rows, COLUMNS)
-    profiling.write_results(RESULTS / f"{a.out}.json", rows, vars(a))
-    (RESULTS / f"{a.out}.md").write_text(text + "\n")
-    print(text)
+    report(v, rows, COLUMNS, a)
 
 
 if __name__ == "__main__":
