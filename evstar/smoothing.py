@@ -639,11 +639,16 @@ def _trusted(m, pairs, width, along, background_hz=None):
     crossings lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run);
     along: positions along the motion (px)."""
     m = _multi_level(m, pairs)
-    if len(m) and _few(along[m]) and (
-            background_hz is None
-            or background_hz * 2e-6 * float(np.median(width[m])) > MAX_RUN_BACKGROUND):
+    if len(m) and _few(along[m]) and not _clean(width[m], background_hz):
         return m[:0]
     return m
+
+
+def _clean(width, background_hz):
+    """Do runs of these outer half-widths (µs) likely hold no background event? (unknown
+    background or widths: no)"""
+    expected = (background_hz if background_hz is not None else np.nan) * 2e-6 * np.median(width)
+    return bool(expected <= MAX_RUN_BACKGROUND)
 
 
 def _multi_level(m, pairs):
