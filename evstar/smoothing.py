@@ -632,12 +632,11 @@ def _few(along):
 
 def _trusted(m, pairs, width, along, background_hz=None):
     """The crossings m of a track that its refit can trust (_multi_level); none where they
-    are _few and their runs likely hold a background event (background_hz × run >
-    MAX_RUN_BACKGROUND, or the background unknown: None): a few crossings cannot be screened by their own spread, and a
+    are _few and not _clean: a few crossings cannot be screened by their own spread, and a
     background event within a run splits or stretches it (a slow star's run lasts a large
-    part of a second: at 0.7–1.5 °/s on a 1.5 Hz background 15 of 31 one-level
-    crossings lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run);
-    along: positions along the motion (px)."""
+    part of a second: at 0.7–1.5 °/s on a 1.5 Hz background 15 of 31 one-level crossings
+    lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run); along:
+    positions along the motion (px); background_hz: events/pixel/s, None: unknown."""
     m = _multi_level(m, pairs)
     if len(m) and _few(along[m]) and not _clean(width[m], background_hz):
         return m[:0]
@@ -645,8 +644,8 @@ def _trusted(m, pairs, width, along, background_hz=None):
 
 
 def _clean(width, background_hz):
-    """Do runs of these outer half-widths (µs) likely hold no background event? (unknown
-    background or widths: no)"""
+    """Do runs of these outer half-widths (µs) likely hold no background event, i.e.
+    background_hz × run ≤ MAX_RUN_BACKGROUND? (the background or widths unknown: no)"""
     expected = (background_hz if background_hz is not None else np.nan) * 2e-6 * np.median(width)
     return bool(expected <= MAX_RUN_BACKGROUND)
 
