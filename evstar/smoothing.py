@@ -646,8 +646,9 @@ def _trusted(m, pairs, width, along, background_hz=None):
 def _clean(width, background_hz):
     """Do runs of these outer half-widths (µs) likely hold no background event, i.e.
     background_hz × run ≤ MAX_RUN_BACKGROUND? (the background or widths unknown: no)"""
-    expected = (background_hz if background_hz is not None else np.nan) * 2e-6 * np.median(width)
-    return bool(expected <= MAX_RUN_BACKGROUND)
+    if background_hz is None:
+        return False
+    return bool(background_hz * 2e-6 * np.median(width) <= MAX_RUN_BACKGROUND)   # NaN: no
 
 
 def _multi_level(m, pairs):
