@@ -121,7 +121,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
         every = along_track(crossings, _by_track(ests))
         mine = _by_group(every, ests)
-        lag = pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
+        lag = _run_lag(e, measured_lag)
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
                            rate_hz)
         if lag is not None:     # the lag's scale as measured (or calibrated), per track
@@ -154,6 +154,18 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
     return rows if lag_sigma is None else with_lag_sigma(rows, lag_sigma)
+
+
+def _run_lag(e, measured_lag):
+    """The PixelLag the crossings move back by: the calibration file's, else the measured."""
+    return pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
+
+
+def largest_lag_us(e, measured_lag):
+    """The largest lag (µs) of the table the crossings move back by (estimate settings `e`);
+    0 where they move by none (no lag measured or calibrated, or no crossings estimator)."""
+    lag = _run_lag(e, measured_lag) if e.estimator == "crossings" else None
+    return 0.0 if lag is None else float(np.max(lag.lag_us))
 
 
 #: a measured or calibrated pixel lag is known to about this fraction of itself (the level

@@ -14,6 +14,18 @@ x the row's own σ (otherwise the row is not this rigid star: a blend, a satelli
 stays: averaging removes the wander, not the bias a track's rows share (a lobe's, a lag's,
 the pixels' threshold mismatch across the motion); on crowded fields the errors shrank by
 20–40 % where a σ from the averaging alone would have shrunk 2–4×.
+
+One shared bias the field does see: a time. A faint star's crossings are one level pair
+deep, and where pixels lag (a dark sky) their lag is the least known; on a Scorpius EVK4
+field on a 20 °/s sinusoid faint stars' rows trailed their stars by 2–4 ms, 3–6 px at the
+peak speed (rows no star matched: perf/study_false_rows.py). The bright stars fix R_f, so
+a track's rows that trail by L lie −v·L from the field's positions, v their velocity;
+where the speed varies (a turn), L is fitted per track (with a constant offset, which d_i
+shares) and, where significant, the rows move forward by v·L before the field's positions
+are taken. On a pan L is a constant offset, one with d_i: nothing moves. A lag's error is
+a fraction of the lag: no track moves by more than the largest lag the estimator
+corrected (none where it corrected none), nor where another star lies within
+NEIGHBOUR_PX.
 """
 from __future__ import annotations
 
@@ -29,11 +41,23 @@ MIN_ROWS = 5
 #: a row keeps its own position where the field's lies farther than this x its σ (on crowded
 #: fields, without this test blends' and lost tracks' rows moved by px; 3 and 4 alike)
 ACCEPT_SIGMA = 4.0
+#: a track's rows move by the time they trail the field where it exceeds this many standard
+#: errors (_lags)
+LAG_SIGNIFICANCE = 3.0
+#: ... and only where its speed varies by at least this (weighted RMS, px/µs: 0.2 px/ms
+#: moves a row by 0.2 px per ms of lag, a faint row's σ per 2 ms)
+MIN_SPEED_SPREAD = 2e-4
+#: ... and not where another track's row lies within this (px) in a frame: a close pair's
+#: rows are pulled by the other's events as the motion turns, which looks like a lag (at
+#: 5 °/s on a dark-sky EVK4 field, pairs 5-6 px apart showed 0.7-11 ms)
+NEIGHBOUR_PX = 8.0
 
 
-def refine(rows, camera, min_stars):
+def refine(rows, camera, min_stars, max_lag_us=0.0):
     """Rows (CENTROID_DTYPE, the estimator's) with their tracked stars' positions from the
-    field's rotations where those are better determined (see the module doc); a new array."""
+    field's rotations where those are better determined (see the module doc); a new array.
+    max_lag_us: the largest pixel lag the estimator corrected (µs); a track's rows move by
+    the time they trail the field only within it (0: none move)."""
     sel = np.flatnonzero((rows["track"] >= 0) & (rows["sigma"] > 0) & np.isfinite(rows["sigma"]))
     out = rows.copy()
     if len(sel) == 0:
@@ -54,19 +78,80 @@ def refine(rows, camera, min_stars):
     if np.count_nonzero(good) == 0:
         return out
     R = _chained_start(fi, ti, ray, w, len(frames))
+    R, d, pred, z = _fit(R, fi, ti, ray, w, sig, good, len(tracks))
+    # a track whose rows trail (or lead) the field by a time: its pixels' lag differs from
+    # the bright stars' (which fix R_f); where its speed varies, that time shows
+    v = _velocities(t, xy, ti)
+    front = pred[:, 2] > 0
+    resid = np.zeros_like(xy)
+    resid[front] = camera.project(pred[front]) - (xy + shift)[front]
+    lag = _lags(resid, v, ti, w * good * front, len(tracks))
+    lag[(np.abs(lag) > max_lag_us) | _crowded(fi, ti, xy, len(tracks))] = 0.0
+    # only where the lag takes rows beyond the field's acceptance: within it the field's
+    # positions serve, and a small L is as much the bright stars' own lag error as this one's
+    far = np.linalg.norm(v, axis=1) * np.abs(lag[ti]) > ACCEPT_SIGMA * rows["sigma"][sel]
+    lag[np.bincount(ti, far, len(tracks)) == 0] = 0.0
+    moved = lag[ti] != 0
+    if moved.any():
+        xy = xy + v * lag[ti][:, None]
+        R, d, pred, z = _fit(R, fi, ti, camera.unproject(xy + shift), w, sig, good, len(tracks))
+    agree = good & (pred[:, 2] > 0) & (z <= ACCEPT_SIGMA)
+    # a track most of whose rows disagree is no star of the field (a satellite, a lost track):
+    # it keeps its rows, unmoved
+    rigid = np.bincount(ti, agree, len(tracks)) >= 0.5 * np.bincount(ti, good, len(tracks))
+    use = agree & rigid[ti]
+    moved &= rigid[ti] & ~use
+    out["x"][sel[moved]], out["y"][sel[moved]] = xy[moved, 0], xy[moved, 1]
+    uv = camera.project(pred[use]) - shift[use]
+    out["x"][sel[use]], out["y"][sel[use]] = uv[:, 0], uv[:, 1]
+    return out
+
+
+def _fit(R, fi, ti, ray, w, sig, good, n_tracks):
+    """(R_f, d_i, predicted rays, residuals in σ) after ITERATIONS rounds of the alternating
+    Cauchy-weighted fit from rotations R."""
     wt = w * good
     for _ in range(ITERATIONS):
-        d = _directions(R, fi, ti, ray, wt, len(tracks))
-        R = _rotations(fi, ti, ray, d, wt, len(frames))
+        d = _directions(R, fi, ti, ray, wt, n_tracks)
+        R = _rotations(fi, ti, ray, d, wt, len(R))
         pred = np.einsum("nij,nj->ni", R[fi], d[ti])
         z = np.linalg.norm(pred - ray, axis=1) / sig
         wt = good * w / (1.0 + (z / CAUCHY_SIGMA) ** 2)
-    agree = good & (pred[:, 2] > 0) & (z <= ACCEPT_SIGMA)
-    # a track most of whose rows disagree is no star of the field (a satellite, a lost track)
-    rigid = np.bincount(ti, agree, len(tracks)) >= 0.5 * np.bincount(ti, good, len(tracks))
-    use = agree & rigid[ti]
-    uv = camera.project(pred[use]) - shift[use]
-    out["x"][sel[use]], out["y"][sel[use]] = uv[:, 0], uv[:, 1]
+    return R, d, pred, z
+
+
+def _lags(resid, v, ti, w, n_tracks):
+    """Per track, the time L (µs) its rows trail the field's positions, where it exceeds
+    LAG_SIGNIFICANCE standard errors (else 0): weighted least squares of the residuals
+    (field − row, px) as a + v·L, a constant offset a per track (its direction's share) and
+    v its rows' velocities (px/µs). Where a track's speed stays the same (a pan), a and v·L
+    are one: L's error is unbounded and nothing moves."""
+    sums = lambda q: np.bincount(ti, w * q, n_tracks)
+    n, sw = np.bincount(ti, w > 0, n_tracks), sums(np.ones(len(ti)))
+    mean = lambda q: np.divide(sums(q), sw, out=np.zeros(n_tracks), where=sw > 0)
+    vx, vy = v[:, 0] - mean(v[:, 0])[ti], v[:, 1] - mean(v[:, 1])[ti]
+    rx, ry = resid[:, 0] - mean(resid[:, 0])[ti], resid[:, 1] - mean(resid[:, 1])[ti]
+    spread = sums(vx * vx + vy * vy)                # the speed's weighted variation
+    ok = (spread > MIN_SPEED_SPREAD ** 2 * sw) & (n > MIN_ROWS)
+    lag = np.divide(sums(vx * rx + vy * ry), spread, out=np.zeros(n_tracks), where=ok)
+    chi2 = sums((rx - vx * lag[ti]) ** 2 + (ry - vy * lag[ti]) ** 2)
+    # 2 residuals per row; 3 unknowns per track
+    scale = np.divide(chi2, 2 * n - 3, out=np.full(n_tracks, np.inf), where=ok)
+    se = np.sqrt(np.divide(scale, spread, out=np.full(n_tracks, np.inf), where=ok))
+    return np.where(ok & (np.abs(lag) > LAG_SIGNIFICANCE * se), lag, 0.0)
+
+
+def _crowded(fi, ti, xy, n_tracks):
+    """Per track, does another track's row lie within NEIGHBOUR_PX of one of its rows in the
+    same frame? (Two tracks of one star, before and after a gap, never share a frame.)"""
+    from scipy.spatial import cKDTree
+
+    apart = 4.0 * NEIGHBOUR_PX + np.ptp(xy, axis=0).max(initial=0.0)   # frames never meet
+    pairs = cKDTree(np.column_stack([xy, fi * apart])).query_pairs(NEIGHBOUR_PX,
+                                                                  output_type="ndarray")
+    other = ti[pairs[:, 0]] != ti[pairs[:, 1]]
+    out = np.zeros(n_tracks, bool)
+    out[ti[pairs[other].reshape(-1)]] = True
     return out
 
 

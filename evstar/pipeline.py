@@ -285,14 +285,15 @@ class Pipeline:
         e = self.config.estimate
 
         def positions(cents):
+            lag = state.measured_lag()
             rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
-                                       state.sensor, state.measured_lag(), rate,
-                                       state.near_events())
+                                       state.sensor, lag, rate, state.near_events())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
 
-            return field.refine(rows, camera, e.field_min_stars)
+            return field.refine(rows, camera, e.field_min_stars,
+                                estimation.largest_lag_us(e, lag))
 
         return positions
 

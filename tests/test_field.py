@@ -29,13 +29,23 @@ def star_dirs(n, rng, cam=CAM):
     return cam.unproject(uv)
 
 
-def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000, cam=CAM):
+def sine_rotations(t_s, amplitude_deg=3.0, freq_hz=2.0):
+    """A 2 Hz sinusoid about y (peak 38 °/s, ~0.6 px/ms on the DAVIS346 at 16 mm): the speed
+    varies, as a star tracker's turn makes it."""
+    rv = np.stack([0 * t_s, amplitude_deg * np.sin(2 * np.pi * freq_hz * t_s), 0 * t_s], 1)
+    return Rotation.from_rotvec(np.radians(rv)).as_matrix()
+
+
+def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000, cam=CAM, rot=rotations, lag_us=None):
     """Rows of every star in every frame where it is in view: truth + AR(1) wander; and truth.
-    A row's time is its frame's middle ± up to spread_us (its events' mean time)."""
+    A row's time is its frame's middle ± up to spread_us (its events' mean time). lag_us: per
+    star, how long its rows trail it (where the star was that long before)."""
     rows, truth = [], []
+    lag_us = np.zeros(len(dirs)) if lag_us is None else lag_us
     for i, d in enumerate(dirs):
         t = np.arange(FRAMES) * 10_000 + 5_000 + rng.integers(-spread_us, spread_us + 1, FRAMES)
-        uv = cam.project(np.einsum("fij,j->fi", rotations(t / 1e6), d))
+        uv = cam.project(np.einsum("fij,j->fi", rot(t / 1e6), d))
+        late = cam.project(np.einsum("fij,j->fi", rot((t - lag_us[i]) / 1e6), d))
         e = np.zeros((FRAMES, 2))
         e[0] = rng.normal(0, sigma, 2)
         for f in range(1, FRAMES):
@@ -44,7 +54,7 @@ def rows_of(dirs, rng, sigma=0.2, rho=0.8, spread_us=3000, cam=CAM):
         r = np.zeros(inside.sum(), CENTROID_DTYPE)
         r["frame"], r["t"] = np.flatnonzero(inside), t[inside]
         r["track"], r["sigma"], r["source"] = i, sigma, "measured"
-        r["x"], r["y"] = (uv + e)[inside].T
+        r["x"], r["y"] = (late + e)[inside].T
         rows.append(r)
         truth.append(uv[inside])
     order = np.argsort(np.concatenate(rows)["frame"], kind="stable")
@@ -91,6 +101,63 @@ def test_wandering_tracks_are_pulled_onto_the_field(seed):
     np.testing.assert_array_equal(out["sigma"], rows["sigma"])
     for f in ("t", "track", "frame", "source"):
         np.testing.assert_array_equal(out[f], rows[f])
+
+
+def test_a_track_trailing_the_field_by_a_time_moves_onto_it_where_its_speed_varies():
+    rng = np.random.default_rng(6)
+    lag = np.zeros(12)
+    lag[[2, 7]] = 3000.0                 # two faint stars whose pixels lag 3 ms more
+    rows, truth = rows_of(star_dirs(12, rng), rng, sigma=0.1, rot=sine_rotations, lag_us=lag)
+    out = field.refine(rows, CAM, 4, max_lag_us=4000.0)
+    slow = np.isin(rows["track"], [2, 7])
+    assert err(rows[slow], truth[slow]).max() > 1.0          # ~0.6 px/ms x 3 ms at the peak
+    assert err(out[slow], truth[slow]).mean() < 0.1
+    assert err(out[~slow], truth[~slow]).mean() < 0.6 * err(rows[~slow], truth[~slow]).mean()
+    # a lag beyond the largest the estimator corrected, or none corrected: nothing moves
+    for bound in (2000.0, 0.0):
+        kept = field.refine(rows, CAM, 4, max_lag_us=bound)
+        assert err(kept[slow], truth[slow]).mean() > 0.5
+
+
+def test_a_close_pair_is_not_moved_by_a_lag():
+    rng = np.random.default_rng(9)
+    dirs = star_dirs(12, rng)
+    dirs[7] = CAM.unproject(CAM.project(dirs[2][None])[0][None] + [[5.0, 3.0]])[0]   # 6 px off
+    lag = np.zeros(12)
+    lag[[2, 7]] = 3000.0
+    rows, truth = rows_of(dirs, rng, sigma=0.1, rot=sine_rotations, lag_us=lag)
+    out = field.refine(rows, CAM, 4, max_lag_us=4000.0)
+    pair = np.isin(rows["track"], [2, 7])
+    assert err(out[pair], truth[pair]).mean() > 0.5
+
+
+def test_on_a_pan_a_lag_is_no_offset_and_nothing_moves():
+    rng = np.random.default_rng(7)
+    lag = np.zeros(12)
+    lag[[2, 7]] = 10_000.0
+    pan = lambda t_s: rotations(t_s, wobble_deg=0.0)
+    rows, truth = rows_of(star_dirs(12, rng), rng, sigma=0.1, lag_us=lag, spread_us=0, rot=pan)
+    slow = np.isin(rows["track"], [2, 7])
+    # the pan's speed is the same throughout: the lag is a constant offset of the star's
+    # direction, which the field cannot tell from where the star is; the rows stay behind
+    behind = err(rows[slow], truth[slow]).mean()       # 8 °/s: ~0.12 px/ms x 10 ms
+    assert behind > 1.0
+    out = field.refine(rows, CAM, 4, max_lag_us=20_000.0)
+    assert err(out[slow], truth[slow]).mean() > 0.9 * behind
+
+
+def test_lags_are_fitted_per_track_and_kept_only_where_significant():
+    rng = np.random.default_rng(8)
+    n = 50
+    ti = np.repeat([0, 1, 2], n)
+    v = np.column_stack([np.tile(np.sin(np.linspace(0, 6, n)), 3) * 1e-3, np.zeros(3 * n)])
+    v[2 * n:] = [1e-3, 0.0]                           # track 2: a pan
+    resid = v * np.repeat([2000.0, 0.0, 2000.0], n)[:, None] + rng.normal(0, 0.05, (3 * n, 2))
+    resid += [0.3, -0.2]                              # each track's constant offset
+    lag = field._lags(resid, v, ti, np.ones(3 * n), 3)
+    assert abs(lag[0] - 2000.0) < 100.0               # measured
+    assert lag[1] == 0.0                              # none there: not significant
+    assert lag[2] == 0.0                              # a pan's lag is an offset
 
 
 def test_a_target_that_is_no_star_keeps_its_rows():
