@@ -12,6 +12,7 @@ import functools
 
 import taichi as ti
 
+from . import slots
 from .arrays import i8_1d, i32_1d, i64_1d, u16_1d, u32_1d, u8_1d
 
 
@@ -41,8 +42,8 @@ def _pixel(x: ti.template(), y: ti.template(), e: ti.i32, width: ti.i32) -> ti.i
     return ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
 
 
-# The copies of the events at flagged pixels run in lanes (on the CPU one run of events per
-# thread, at spread-out iterations: launch.units): flagged_counts counts each lane's, the
+# The copies of the events at flagged pixels run in lanes (on the CPU runs of ~equal events,
+# 8 per thread, at spread-out iterations: launch.units): flagged_counts counts each lane's, the
 # host turns the counts into each lane's [start, stop) of the outputs, and the copy writes
 # every event at its lane's next free place, which only a flagged one takes (branch-free: a
 # branch on the flag mispredicted, ~2.5x slower). Past its last flagged event a lane writes
@@ -100,16 +101,19 @@ def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_
 
 @ti.kernel
 def mark_pixels_lanes(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, size: ti.i64,
-                      lane: i32_1d, lo: i32_1d, hi: i32_1d, planes: u8_1d):
-    """Lane i sets, in its own plane lane[i] (planes: size cells each), the pixel of every
-    event lo[i] .. hi[i] − 1 keep (0 or 1) selects, branch-free (an OR of keep); the host ORs
-    the planes (reference: marked_pixels). Two threads' stores into one plane's cache lines
-    contended (~2x slower than one thread)."""
+                      lo: i32_1d, hi: i32_1d, busy: i32_1d, planes: u8_1d):
+    """A busy iteration i claims a plane of its own (slots.claim; planes: size cells each)
+    and sets there the pixel of every event lo[i] .. hi[i] − 1 keep (0 or 1) selects,
+    branch-free (an OR of keep); the host ORs the planes (reference: marked_pixels). Two
+    threads' stores into one plane's cache lines contended (~2x slower than one thread)."""
     for i in range(lo.shape[0]):
-        base = ti.cast(lane[i], ti.i64) * size
-        for e in range(lo[i], hi[i]):
-            k = base + ti.cast(_pixel(x, y, e, width), ti.i64)
-            planes[k] = planes[k] | keep[e]
+        if lo[i] < hi[i]:
+            slot = slots.claim(busy, busy.shape[0])
+            base = ti.cast(slot, ti.i64) * size
+            for e in range(lo[i], hi[i]):
+                k = base + ti.cast(_pixel(x, y, e, width), ti.i64)
+                planes[k] = planes[k] | keep[e]
+            slots.release(busy, slot)
 
 
 @ti.kernel

@@ -9,6 +9,8 @@ from .pixel_counts import ids_on_flagged_pixels, mark_pixels, mark_pixels_lanes
 from .pixel_counts import on_flagged_pixels as _on_flagged, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
+#: runs of events per CPU thread in the lane loops
+RUNS = 8
 
 
 def pixel_counts(ti, x, y, width, height, keep=None):
@@ -70,7 +72,7 @@ def _lanes(ti, n):
 
 def marked_pixels(ti, x, y, keep, width, height):
     """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
-    every event `keep` (bool) selects. On the CPU a plane per thread's lane, ORed here."""
+    every event `keep` (bool) selects. On the CPU a plane per thread, ORed here."""
     arrays = launch.Arrays(ti)
     keep = np.asarray(keep, bool).view(np.uint8)
     size = width * height
@@ -85,18 +87,16 @@ def marked_pixels(ti, x, y, keep, width, height):
     planes = np.zeros(threads * size, np.uint8)
     with launch.RUNTIME_LOCK:
         for e0, e1 in launch.pieces(len(x)):
-            lane, lo, hi = _lanes(ti, e1 - e0)
             mark_pixels_lanes(*(np.ascontiguousarray(a[e0:e1]) for a in (x, y, keep)), width,
-                              size, lane, lo, hi, planes)
+                              size, *_lanes(ti, e1 - e0), np.zeros(threads, np.int32), planes)
     return np.bitwise_or.reduce(planes.reshape(threads, size)).view(bool).reshape(height, width)
 
 
 def _lanes(ti, n):
-    """(lane, lo, hi) int32 of a lane loop over n events: a run of ~equal events per CPU
-    thread, spread over the loop's iterations (launch.units), lane its number."""
+    """(lo, hi) int32 of a lane loop over n events: runs of ~equal events, 8 per CPU thread,
+    spread over the loop's iterations (launch.units)."""
     threads = launch.cpu_threads(ti)
-    cuts = np.unique(np.linspace(0, n, threads + 1).astype(np.int32))
-    return launch.units(cuts, threads, np.arange(len(cuts) - 1, dtype=np.int32))
+    return launch.units(np.unique(np.linspace(0, n, RUNS * threads + 1).astype(np.int32)), threads)
 
 
 def on_flagged_pixels(ti, t, x, y, p, flags):
@@ -146,7 +146,7 @@ def _copied(ti, events, flags, kernel, tables, dtypes):
     launches = []
     with launch.RUNTIME_LOCK:
         for e0, e1 in launch.pieces(len(events[0])):
-            _, lo, hi = _lanes(ti, e1 - e0)
+            lo, hi = _lanes(ti, e1 - e0)
             counts = np.zeros(len(lo), np.int64)
             flagged_counts(events[1][e0:e1], events[2][e0:e1], words, width, lo, hi, counts)
             launches.append((e0, e1, lo, hi, np.cumsum(counts)))
