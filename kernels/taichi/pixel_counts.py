@@ -6,7 +6,9 @@ both counts in one int64 — all events in the low 32 bits, the kept ones in the
 so an event is one add to one cell; a launch of at most 2³¹ − 1 events cannot carry from
 the low half into the high one. On the CPU the loop runs serially (Taichi then demotes
 the atomic adds: ~5 ns an event, where numpy's two bincounts took ~14 and contended
-atomics over two threads ~7); on a GPU it runs in parallel.
+atomics over two threads ~7); on a GPU it runs in parallel. The kept events' pixels and the
+copies of the events at flagged pixels run in lanes on the CPU (runs of events, each on
+one thread: below).
 """
 import functools
 
