@@ -62,14 +62,6 @@ def _words(flags):
     return words, before
 
 
-def _lanes(ti, n):
-    """(lo, hi) int32 of a lane loop over n events: a run of ~equal events per CPU thread,
-    spread over the loop's iterations (launch.units)."""
-    threads = launch.cpu_threads(ti)
-    cuts = np.unique(np.linspace(0, n, threads + 1).astype(np.int32))
-    return launch.units(cuts, threads)
-
-
 def marked_pixels(ti, x, y, keep, width, height):
     """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
     every event `keep` (bool) selects. On the CPU a plane per thread, ORed here."""
@@ -107,7 +99,7 @@ def on_flagged_pixels(ti, t, x, y, p, flags):
         sel = np.flatnonzero(pixel_flags(ti, x, y, flags))
         return [np.asarray(a, d).take(sel) for a, d in
                 ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))]
-    return _copied(ti, (t, x, y, p), flags, _on_flagged, (),
+    return _copied(ti, (t, x, y, p), flags.shape[1], _words(flags)[0], _on_flagged, (),
                    (np.int64, np.uint16, np.uint16, np.int8))
 
 
@@ -132,15 +124,16 @@ def _flagged_ids(ti, t, x, y, p, flags):
         t, x, y, p = on_flagged_pixels(ti, t, x, y, p, flags)
         rank = np.cumsum(flat, dtype=np.int64) - 1
         return rank[y.astype(np.int64) * width + x].astype(np.uint32), t * 2 + p
-    return tuple(_copied(ti, (t, x, y, p), flags, ids_on_flagged_pixels, (_words(flags)[1],),
-                         (np.uint32, np.int64)))
+    words, before = _words(flags)
+    return tuple(_copied(ti, (t, x, y, p), flags.shape[1], words, ids_on_flagged_pixels,
+                         (before,), (np.uint32, np.int64)))
 
 
-def _copied(ti, events, flags, kernel, tables, dtypes):
+def _copied(ti, events, width, words, kernel, tables, dtypes):
     """New arrays of `dtypes` that `kernel` (on_flagged_pixels or ids_on_flagged_pixels,
-    which take `tables` after the words) fills from the events (t, x, y, p) at pixels
-    flags[y, x] sets, in order: lanes count theirs, then copy them (the kernels' comment)."""
-    width, (words, _) = flags.shape[1], _words(flags)
+    which take `tables` after the words) fills from the events (t, x, y, p) at the pixels
+    the flags packed in `words` (_words) set, in order: lanes count theirs, then copy them
+    (the kernels' comment)."""
     events = [np.ascontiguousarray(a, d) for a, d in
               zip(events, (np.int64, np.uint16, np.uint16, np.int8))]
     launches = []
