@@ -6,12 +6,15 @@ both counts in one int64 — all events in the low 32 bits, the kept ones in the
 so an event is one add to one cell; a launch of at most 2³¹ − 1 events cannot carry from
 the low half into the high one. On the CPU the loop runs serially (Taichi then demotes
 the atomic adds: ~5 ns an event, where numpy's two bincounts took ~14 and contended
-atomics over two threads ~7); on a GPU it runs in parallel.
+atomics over two threads ~7); on a GPU it runs in parallel. The kept events' pixels and the
+copies of the events at flagged pixels run in lanes on the CPU (runs of events, each on
+one thread: below).
 """
 import functools
 
 import taichi as ti
 
+from . import slots
 from .arrays import i8_1d, i32_1d, i64_1d, u16_1d, u32_1d, u8_1d
 
 
@@ -30,63 +33,99 @@ def pixel_flags(x: u16_1d, y: u16_1d, bits: u8_1d, width: ti.i32, out: u8_1d):
         out[e] = _flag(bits, ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32))
 
 
+@ti.func
+def _word_flag(words: ti.template(), k: ti.i32) -> ti.u32:
+    """Bit k of flags packed 32 a word, little-endian (the same bits as _flag's bytes)."""
+    return (words[k >> 5] >> ti.cast(k & 31, ti.u32)) & ti.u32(1)
+
+
+@ti.func
+def _pixel(x: ti.template(), y: ti.template(), e: ti.i32, width: ti.i32) -> ti.i32:
+    return ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
+
+
+# The copies of the events at flagged pixels run in lanes (on the CPU runs of ~equal events,
+# 8 per thread, at spread-out iterations: launch.units): flagged_counts counts each lane's, the
+# host turns the counts into each lane's [start, stop) of the outputs, and the copy writes
+# every event at its lane's next free place, which only a flagged one takes (branch-free: a
+# branch on the flag mispredicted, ~2.5x slower). Past its last flagged event a lane writes
+# into a slack slot of its own (slack + lane), not into the next lane's first place.
+
+
 @ti.kernel
-def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, bits: u8_1d, width: ti.i32,
-                      t_out: i64_1d, x_out: u16_1d, y_out: u16_1d, p_out: i8_1d) -> ti.i64:
-    """The events at flagged pixels (packed as pixel_flags's) copied, in order, to the
-    outputs' first n entries (outputs as long as the input); returns n (reference:
-    on_flagged_pixels). Serial and branch-free: every event is written at the next free
-    place, which only a flagged one takes (a branch on the flag mispredicted: ~2.5x slower;
-    a flag pass, its indices and their gathers: ~1.4x)."""
-    j = ti.i64(0)
-    ti.loop_config(serialize=True)
-    for e in range(x.shape[0]):
-        t_out[j] = t[e]
-        x_out[j] = x[e]
-        y_out[j] = y[e]
-        p_out[j] = p[e]
-        j += ti.cast(_flag(bits, ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)), ti.i64)
-    return j
+def flagged_counts(x: u16_1d, y: u16_1d, words: u32_1d, width: ti.i32, lo: i32_1d,
+                   hi: i32_1d, counts: i64_1d):
+    """counts[i] = the events lo[i] .. hi[i] − 1 at flagged pixels (words: _word_flag's)."""
+    for i in range(lo.shape[0]):
+        n = ti.i64(0)
+        for e in range(lo[i], hi[i]):
+            n += ti.cast(_word_flag(words, _pixel(x, y, e, width)), ti.i64)
+        counts[i] = n
+
+
+@ti.kernel
+def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d, width: ti.i32,
+                      lo: i32_1d, hi: i32_1d, start: i64_1d, stop: i64_1d, slack: ti.i64,
+                      t_out: i64_1d, x_out: u16_1d, y_out: u16_1d, p_out: i8_1d):
+    """Lane i copies its events at flagged pixels, in order, to the outputs' start[i] ..
+    stop[i] − 1 (the comment above; reference: on_flagged_pixels)."""
+    for i in range(lo.shape[0]):
+        j, end = start[i], stop[i]
+        for e in range(lo[i], hi[i]):
+            w = ti.select(j < end, j, slack + i)
+            t_out[w] = t[e]
+            x_out[w] = x[e]
+            y_out[w] = y[e]
+            p_out[w] = p[e]
+            j += ti.cast(_word_flag(words, _pixel(x, y, e, width)), ti.i64)
 
 
 @ti.kernel
 def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d,
-                          before: i32_1d, width: ti.i32, id_out: u32_1d, tp_out: i64_1d) -> ti.i64:
-    """Of the events at flagged pixels, in order, to the outputs' first n entries (returns
-    n): the pixel's id, its rank among the flagged pixels by key y·width + x, and 2t + p (p 0
-    or 1: one value for a sort to move). The flags come packed 32 a word, little-endian,
-    with the count of flags in the words before each (`before`): a rank is that count and
-    a popcount, from 230 kB of a megapixel sensor's tables where an int32 rank image would
-    miss the cache. Serial and branch-free as on_flagged_pixels."""
-    j = ti.i64(0)
-    ti.loop_config(serialize=True)
+                          before: i32_1d, width: ti.i32, lo: i32_1d, hi: i32_1d, start: i64_1d,
+                          stop: i64_1d, slack: ti.i64, id_out: u32_1d, tp_out: i64_1d):
+    """Of the events at flagged pixels, lane by lane as on_flagged_pixels: the pixel's id,
+    its rank among the flagged pixels by key y·width + x, and 2t + p (p 0 or 1: one value
+    for a sort to move). `before` holds the count of flags in the words before each: a rank
+    is that count and a popcount, from 230 kB of a megapixel sensor's tables where an int32
+    rank image would miss the cache."""
+    for i in range(lo.shape[0]):
+        j, end = start[i], stop[i]
+        for e in range(lo[i], hi[i]):
+            k = _pixel(x, y, e, width)
+            w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
+            at = ti.select(j < end, j, slack + i)
+            id_out[at] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)),
+                                 ti.u32)
+            tp_out[at] = t[e] * 2 + ti.cast(p[e], ti.i64)
+            j += ti.cast((w >> b) & 1, ti.i64)
+
+
+@ti.kernel
+def mark_pixels_lanes(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, size: ti.i64,
+                      lo: i32_1d, hi: i32_1d, busy: i32_1d, planes: u8_1d):
+    """A busy iteration i claims a plane of its own (slots.claim; planes: size cells each)
+    and sets there the pixel of every event lo[i] .. hi[i] − 1 keep (0 or 1) selects,
+    branch-free (an OR of keep); the host ORs the planes (reference: marked_pixels). Two
+    threads' stores into one plane's cache lines contended (~2x slower than one thread)."""
+    for i in range(lo.shape[0]):
+        if lo[i] < hi[i]:
+            slot = slots.claim(busy, busy.shape[0])
+            base = ti.cast(slot, ti.i64) * size
+            for e in range(lo[i], hi[i]):
+                k = base + ti.cast(_pixel(x, y, e, width), ti.i64)
+                planes[k] = planes[k] | keep[e]
+            slots.release(busy, slot)
+
+
+@ti.kernel
+def mark_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, flags: u8_1d):
+    """flags[y·width + x] = 1 at every event keep selects, in parallel (a GPU's form; the
+    CPU's is mark_pixels_lanes): only the selected events store (an OR's read and write
+    would race)."""
     for e in range(x.shape[0]):
-        k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
-        w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
-        id_out[j] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)), ti.u32)
-        tp_out[j] = t[e] * 2 + ti.cast(p[e], ti.i64)
-        j += ti.cast((w >> b) & 1, ti.i64)
-    return j
-
-
-@functools.lru_cache(maxsize=None)
-def mark_pixels_kernel(serial):
-    """kernel(x, y, keep, width, flags): flags[y·width + x] = 1 at every event keep (0 or
-    1) selects (reference: marked_pixels). Serial on the CPU, branch-free (an OR of keep):
-    two threads' stores into one cache line of the flags contended (~2x slower); in
-    parallel only the selected events store (an OR's read and write would race)."""
-
-    @ti.kernel
-    def mark_pixels(x: u16_1d, y: u16_1d, keep: u8_1d, width: ti.i32, flags: u8_1d):
-        ti.loop_config(serialize=serial)
-        for e in range(x.shape[0]):
-            k = ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
-            if ti.static(serial):
-                flags[k] = flags[k] | keep[e]
-            elif keep[e]:
-                flags[k] = ti.u8(1)
-
-    return mark_pixels
+        if keep[e]:
+            flags[_pixel(x, y, e, width)] = ti.u8(1)
 
 
 @functools.lru_cache(maxsize=None)

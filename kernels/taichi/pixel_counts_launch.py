@@ -4,11 +4,13 @@ kept events' pixels and the events on flagged pixels (in order, or by pixel)."""
 import numpy as np
 
 from . import launch, sorting_launch
-from .pixel_counts import count_all_kernel, count_pixels_kernel, ids_on_flagged_pixels
-from .pixel_counts import mark_pixels_kernel
+from .pixel_counts import count_all_kernel, count_pixels_kernel, flagged_counts
+from .pixel_counts import ids_on_flagged_pixels, mark_pixels, mark_pixels_lanes
 from .pixel_counts import on_flagged_pixels as _on_flagged, pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
+#: runs of events per CPU thread in the lane loops
+RUNS = 8
 
 
 def pixel_counts(ti, x, y, width, height, keep=None):
@@ -49,39 +51,56 @@ def _packed(arrays, flags):
     return arrays.put(np.packbits(np.asarray(flags, bool).reshape(-1), bitorder="little"))
 
 
+def _words(flags):
+    """The flags packed 32 a word, little-endian (uint32), and the count of flags in the
+    words before each (int32)."""
+    flat = np.asarray(flags, bool).reshape(-1)
+    padded = np.zeros(-(-len(flat) // 32) * 32, bool)
+    padded[:len(flat)] = flat
+    words = np.packbits(padded, bitorder="little").view("<u4")
+    before = np.r_[0, np.cumsum(padded.reshape(-1, 32).sum(1))[:-1]].astype(np.int32)
+    return words, before
+
+
 def marked_pixels(ti, x, y, keep, width, height):
     """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
-    every event `keep` (bool) selects."""
+    every event `keep` (bool) selects. On the CPU a plane per thread, ORed here."""
     arrays = launch.Arrays(ti)
-    flags = arrays.put(np.zeros(width * height, np.uint8))
-    kernel = mark_pixels_kernel(not arrays.on_device)
     keep = np.asarray(keep, bool).view(np.uint8)
+    size = width * height
+    if arrays.on_device:
+        flags = arrays.put(np.zeros(size, np.uint8))
+        with launch.RUNTIME_LOCK:
+            for e0, e1 in launch.pieces(len(x)):
+                mark_pixels(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(keep[e0:e1]),
+                            width, flags)
+        return flags.to_numpy().view(bool).reshape(height, width)
+    threads = launch.cpu_threads(ti)
+    planes = np.zeros(threads * size, np.uint8)
     with launch.RUNTIME_LOCK:
         for e0, e1 in launch.pieces(len(x)):
-            kernel(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(keep[e0:e1]), width,
-                   flags)
-    return (flags.to_numpy() if arrays.on_device else flags).view(bool).reshape(height, width)
+            mark_pixels_lanes(*(np.ascontiguousarray(a[e0:e1]) for a in (x, y, keep)), width,
+                              size, *_lanes(ti, e1 - e0), np.zeros(threads, np.int32), planes)
+    return np.bitwise_or.reduce(planes.reshape(threads, size)).view(bool).reshape(height, width)
+
+
+def _lanes(ti, n):
+    """(lo, hi) int32 of a lane loop over n events: runs of ~equal events, 8 per CPU thread,
+    spread over the loop's iterations (launch.units)."""
+    threads = launch.cpu_threads(ti)
+    return launch.units(np.unique(np.linspace(0, n, RUNS * threads + 1).astype(np.int32)), threads)
 
 
 def on_flagged_pixels(ti, t, x, y, p, flags):
     """reference.pixels.on_flagged_pixels of (t, x, y, p): (t int64, x, y uint16, p int8)
     of the events at pixels flags[y, x] sets, in order. On a GPU by the flags per event
-    (pixel_flags) and numpy's gathers: the compaction kernel is serial."""
+    (pixel_flags) and numpy's gathers: the copy's lanes are runs of events."""
     if launch.Arrays(ti).on_device:
         sel = np.flatnonzero(pixel_flags(ti, x, y, flags))
         return [np.asarray(a, d).take(sel) for a, d in
                 ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))]
-    arrays = launch.Arrays(ti)
-    bits, n = _packed(arrays, flags), 0
-    out = [np.empty(len(x), d) for d in (np.int64, np.uint16, np.uint16, np.int8)]
-    with launch.RUNTIME_LOCK:
-        for e0, e1 in launch.pieces(len(x)):
-            n += _on_flagged(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
-                               ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))),
-                             bits, flags.shape[1], *(o[n:] for o in out))
-    for o in out:   # to the selection's length in place (realloc: no copy, the tail freed)
-        o.resize(n, refcheck=False)
-    return out
+    return _copied(ti, (t, x, y, p), flags.shape[1], _words(flags)[0], _on_flagged, (),
+                   (np.int64, np.uint16, np.uint16, np.int8))
 
 
 def events_by_pixel(ti, t, x, y, p, flags):
@@ -100,24 +119,42 @@ def events_by_pixel(ti, t, x, y, p, flags):
 def _flagged_ids(ti, t, x, y, p, flags):
     """(ranks of their pixels among the flagged, 2t + p) of the events at flagged pixels,
     in order."""
-    width, flat = flags.shape[1], np.asarray(flags, bool).reshape(-1)
     if launch.Arrays(ti).on_device:
+        width, flat = flags.shape[1], np.asarray(flags, bool).reshape(-1)
         t, x, y, p = on_flagged_pixels(ti, t, x, y, p, flags)
         rank = np.cumsum(flat, dtype=np.int64) - 1
         return rank[y.astype(np.int64) * width + x].astype(np.uint32), t * 2 + p
-    padded = np.zeros(-(-len(flat) // 32) * 32, bool)
-    padded[:len(flat)] = flat
-    words = np.packbits(padded, bitorder="little").view("<u4")
-    before = np.r_[0, np.cumsum(padded.reshape(-1, 32).sum(1))[:-1]].astype(np.int32)
-    ids, tp, n = np.empty(len(x), np.uint32), np.empty(len(x), np.int64), 0
+    words, before = _words(flags)
+    return tuple(_copied(ti, (t, x, y, p), flags.shape[1], words, ids_on_flagged_pixels,
+                         (before,), (np.uint32, np.int64)))
+
+
+def _copied(ti, events, width, words, kernel, tables, dtypes):
+    """New arrays of `dtypes` that `kernel` (on_flagged_pixels or ids_on_flagged_pixels,
+    which take `tables` after the words) fills from the events (t, x, y, p) at the pixels
+    the flags packed in `words` (_words) set, in order: lanes count theirs, then copy them
+    (the kernels' comment)."""
+    events = [np.ascontiguousarray(a, d) for a, d in
+              zip(events, (np.int64, np.uint16, np.uint16, np.int8))]
+    launches = []
     with launch.RUNTIME_LOCK:
-        for e0, e1 in launch.pieces(len(x)):
-            n += ids_on_flagged_pixels(*(np.ascontiguousarray(a[e0:e1], d) for a, d in
-                                         ((t, np.int64), (x, np.uint16), (y, np.uint16),
-                                          (p, np.int8))), words, before, width, ids[n:], tp[n:])
-    ids.resize(n, refcheck=False)
-    tp.resize(n, refcheck=False)
-    return ids, tp
+        for e0, e1 in launch.pieces(len(events[0])):
+            lo, hi = _lanes(ti, e1 - e0)
+            counts = np.zeros(len(lo), np.int64)
+            flagged_counts(events[1][e0:e1], events[2][e0:e1], words, width, lo, hi, counts)
+            launches.append((e0, e1, lo, hi, np.cumsum(counts)))
+        n = sum(int(stop[-1]) for *_, stop in launches)
+        # after the n copies, a slack slot per lane loop iteration
+        out = [np.empty(n + max([len(lo) for _, _, lo, _, _ in launches] or [0]), d)
+               for d in dtypes]
+        base = 0
+        for e0, e1, lo, hi, stop in launches:
+            kernel(*(a[e0:e1] for a in events), words, *tables, width, lo, hi,
+                   base + np.r_[0, stop[:-1]], base + stop, n, *out)
+            base += int(stop[-1])
+    for o in out:   # to the copies' length in place (realloc: no copy, the slack freed)
+        o.resize(n, refcheck=False)
+    return out
 
 
 def pixel_flags(ti, x, y, flags):
