@@ -21,11 +21,13 @@ field on a 20 °/s sinusoid faint stars' rows trailed their stars by 2–4 ms, 3
 peak speed (rows no star matched: perf/study_false_rows.py). The bright stars fix R_f, so
 a track's rows that trail by L lie −v·L from the field's positions, v their velocity;
 where the speed varies (a turn), L is fitted per track (with a constant offset, which d_i
-shares) and, where significant, the rows move forward by v·L before the field's positions
-are taken. On a pan L is a constant offset, one with d_i: nothing moves. A lag's error is
-a fraction of the lag: no track moves by more than the largest lag the estimator
-corrected (none where it corrected none), nor where another star lies within
-NEIGHBOUR_PX.
+shares) and, where significant, the rows move forward by v·L and the track's direction is
+fitted again (the rotations stay the field's: refitted with the moved tracks, they moved
+every star by 0.03 px median) before the field's positions are taken. On a pan L is a
+constant offset, one with d_i: nothing moves. A lag's error is a fraction of the lag: no
+track moves by more than the largest lag the estimator corrected (none where it corrected
+none), nor where another track's row lies within NEIGHBOUR_PX in half its frames, nor
+where no row would move beyond the field's acceptance.
 """
 from __future__ import annotations
 
@@ -47,9 +49,9 @@ LAG_SIGNIFICANCE = 3.0
 #: ... and only where its speed varies by at least this (weighted RMS, px/µs: 0.2 px/ms
 #: moves a row by 0.2 px per ms of lag, a faint row's σ per 2 ms)
 MIN_SPEED_SPREAD = 2e-4
-#: ... and not where another track's row lies within this (px) in a frame: a close pair's
-#: rows are pulled by the other's events as the motion turns, which looks like a lag (at
-#: 5 °/s on a dark-sky EVK4 field, pairs 5-6 px apart showed 0.7-11 ms)
+#: ... and not where another track's row lies within this (px) in half its frames: a close
+#: pair's rows are pulled by the other's events as the motion turns, which looks like a lag
+#: (at 5 °/s on a dark-sky EVK4 field, pairs 5-6 px apart showed 0.7-11 ms)
 NEIGHBOUR_PX = 8.0
 
 
@@ -92,9 +94,11 @@ def refine(rows, camera, min_stars, max_lag_us=0.0):
     far = np.linalg.norm(v, axis=1) * np.abs(lag[ti]) > ACCEPT_SIGMA * rows["sigma"][sel]
     lag[np.bincount(ti, far, len(tracks)) == 0] = 0.0
     moved = lag[ti] != 0
-    if moved.any():
+    if moved.any():   # the moved tracks' directions again; the rotations stay the field's
         xy = xy + v * lag[ti][:, None]
-        R, d, pred, z = _fit(R, fi, ti, camera.unproject(xy + shift), w, sig, good, len(tracks))
+        _, d, p2, z2 = _fit(R, fi, ti, camera.unproject(xy + shift), w, sig, good, len(tracks),
+                            rotations=False)
+        pred[moved], z[moved] = p2[moved], z2[moved]
     agree = good & (pred[:, 2] > 0) & (z <= ACCEPT_SIGMA)
     # a track most of whose rows disagree is no star of the field (a satellite, a lost track):
     # it keeps its rows, unmoved
@@ -107,13 +111,14 @@ def refine(rows, camera, min_stars, max_lag_us=0.0):
     return out
 
 
-def _fit(R, fi, ti, ray, w, sig, good, n_tracks):
+def _fit(R, fi, ti, ray, w, sig, good, n_tracks, rotations=True):
     """(R_f, d_i, predicted rays, residuals in σ) after ITERATIONS rounds of the alternating
-    Cauchy-weighted fit from rotations R."""
+    Cauchy-weighted fit from rotations R (rotations False: the directions alone, R kept)."""
     wt = w * good
     for _ in range(ITERATIONS):
         d = _directions(R, fi, ti, ray, wt, n_tracks)
-        R = _rotations(fi, ti, ray, d, wt, len(R))
+        if rotations:
+            R = _rotations(fi, ti, ray, d, wt, len(R))
         pred = np.einsum("nij,nj->ni", R[fi], d[ti])
         z = np.linalg.norm(pred - ray, axis=1) / sig
         wt = good * w / (1.0 + (z / CAUCHY_SIGMA) ** 2)
@@ -142,17 +147,17 @@ def _lags(resid, v, ti, w, n_tracks):
 
 
 def _crowded(fi, ti, xy, n_tracks):
-    """Per track, does another track's row lie within NEIGHBOUR_PX of one of its rows in the
-    same frame? (Two tracks of one star, before and after a gap, never share a frame.)"""
+    """Per track, does another track's row lie within NEIGHBOUR_PX of its own in at least
+    half its frames? (A close pair keeps its separation; a faint star's short second track,
+    or its track before and after a gap, shares few frames or none.)"""
     from scipy.spatial import cKDTree
 
     apart = 4.0 * NEIGHBOUR_PX + np.ptp(xy, axis=0).max(initial=0.0)   # frames never meet
     pairs = cKDTree(np.column_stack([xy, fi * apart])).query_pairs(NEIGHBOUR_PX,
                                                                   output_type="ndarray")
-    other = ti[pairs[:, 0]] != ti[pairs[:, 1]]
-    out = np.zeros(n_tracks, bool)
-    out[ti[pairs[other].reshape(-1)]] = True
-    return out
+    near = np.zeros(len(ti), bool)
+    near[pairs[ti[pairs[:, 0]] != ti[pairs[:, 1]]].reshape(-1)] = True
+    return np.bincount(ti, near, n_tracks) >= 0.5 * np.bincount(ti, minlength=n_tracks)
 
 
 def wahba_batch(B):
