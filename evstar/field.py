@@ -70,7 +70,8 @@ def refine(rows, camera, min_stars, max_lag_us=0.0):
     xy = np.stack([rows["x"][sel], rows["y"][sel]], axis=1)
     # rows of a frame refer to their own times (their events' mean): move each to the
     # frame's mean time along its track, so that one rotation holds for the frame's rows
-    shift = _velocities(t, xy, ti) * ((np.bincount(fi, t) / np.bincount(fi))[fi] - t)[:, None]
+    v = _velocities(t, xy, ti)
+    shift = v * ((np.bincount(fi, t) / np.bincount(fi))[fi] - t)[:, None]
     ray = camera.unproject(xy + shift)
     sig = rows["sigma"][sel] / camera.fx                     # px -> rad (near the axis)
     w = 1.0 / sig ** 2
@@ -81,19 +82,11 @@ def refine(rows, camera, min_stars, max_lag_us=0.0):
         return out
     R = _chained_start(fi, ti, ray, w, len(frames))
     R, d, pred, z = _fit(R, fi, ti, ray, w, sig, good, len(tracks))
-    # a track whose rows trail (or lead) the field by a time: its pixels' lag differs from
-    # the bright stars' (which fix R_f); where its speed varies, that time shows
-    v = _velocities(t, xy, ti)
-    front = pred[:, 2] > 0
-    resid = np.zeros_like(xy)
-    resid[front] = camera.project(pred[front]) - (xy + shift)[front]
-    lag = _lags(resid, v, ti, w * good * front, len(tracks))
-    lag[(np.abs(lag) > max_lag_us) | _crowded(fi, ti, xy, len(tracks))] = 0.0
-    # only where the lag takes rows beyond the field's acceptance: within it the field's
-    # positions serve, and a small L is as much the bright stars' own lag error as this one's
-    far = np.linalg.norm(v, axis=1) * np.abs(lag[ti]) > ACCEPT_SIGMA * rows["sigma"][sel]
-    lag[np.bincount(ti, far, len(tracks)) == 0] = 0.0
-    moved = lag[ti] != 0
+    moved = np.zeros(len(sel), bool)
+    if max_lag_us > 0:
+        lag = _track_lags(camera, pred, xy + shift, v, fi, ti, xy, w * good,
+                          rows["sigma"][sel], max_lag_us, len(tracks))
+        moved = lag[ti] != 0
     if moved.any():   # the moved tracks' directions again; the rotations stay the field's
         xy = xy + v * lag[ti][:, None]
         _, d, p2, z2 = _fit(R, fi, ti, camera.unproject(xy + shift), w, sig, good, len(tracks),
@@ -123,6 +116,23 @@ def _fit(R, fi, ti, ray, w, sig, good, n_tracks, rotations=True):
         z = np.linalg.norm(pred - ray, axis=1) / sig
         wt = good * w / (1.0 + (z / CAUCHY_SIGMA) ** 2)
     return R, d, pred, z
+
+
+def _track_lags(camera, pred, at, v, fi, ti, xy, w, sigma_px, max_lag_us, n_tracks):
+    """Per track, the time (µs) its rows `at` trail the field's rays `pred` (module doc):
+    _lags, within max_lag_us, without a close neighbour, and only where some row would
+    leave the field's acceptance (within it the field's positions serve, and a small L is
+    as much the bright stars' own lag error as this track's); 0 elsewhere."""
+    front = pred[:, 2] > 0
+    resid = np.zeros_like(at)
+    resid[front] = camera.project(pred[front]) - at[front]
+    lag = _lags(resid, v, ti, w * front, n_tracks)
+    lag[np.abs(lag) > max_lag_us] = 0.0
+    if lag.any():
+        lag[_crowded(fi, ti, xy, n_tracks)] = 0.0
+    far = np.linalg.norm(v, axis=1) * np.abs(lag[ti]) > ACCEPT_SIGMA * sigma_px
+    lag[np.bincount(ti, far, n_tracks) == 0] = 0.0
+    return lag
 
 
 def _lags(resid, v, ti, w, n_tracks):
