@@ -49,14 +49,14 @@ class Tracker:
         out = centroids.copy()
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])
-        xs, ys, track = out["x"], out["y"], out["track"]
+        xy, track = np.column_stack([out["x"], out["y"]])[order], out["track"]
         st = _Tracks(len(out))
         live = np.zeros(0, np.int64)  # the tracks that can still take a centroid, in creation order
         for f, a, b in zip(frames, starts, stops):
             rows = order[a:b]
             # frames only grow: a track past its gap never comes back
             live = live[f - st.last_f[live] <= self.max_gap + 1]
-            pts = np.column_stack([xs[rows], ys[rows]])
+            pts = xy[a:b]
             t, r = self._assign(st, live, pts, f)
             st.extend(live[t], f, pts[r])
             track[rows[r]] = live[t]             # a track's id is its index
@@ -74,10 +74,11 @@ class Tracker:
         if not len(live) or not len(pts):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         big = 1e9
+        n, last_f = st.n[live], st.last_f[live]
         pred = st.predict(live, f)
-        gates = np.where(st.n[live] > 1, self.gate_px, self.init_gate_px)
-        new = np.flatnonzero(st.n[live] == 1)
-        flow = live[(st.n[live] >= self.min_length) & (st.last_f[live] >= f - 1)]
+        gates = np.where(n > 1, self.gate_px, self.init_gate_px)
+        new = np.flatnonzero(n == 1)
+        flow = live[(n >= self.min_length) & (last_f >= f - 1)]
         guided = len(new) and (len(flow) or len(new) >= FLOW_NEIGHBOURS)
         if len(new) and len(flow):
             pred[new], gates[new] = _with_flow(st, live[new], flow, f, self.gate_px,
@@ -97,8 +98,16 @@ class Tracker:
 
 def _gated(pred, gates, pts, big):
     """Distances from each prediction to each point, `big` beyond the prediction's gate."""
-    d = np.linalg.norm(pred[:, None, :] - pts[None, :, :], axis=2)
+    d = _distances(pred, pts)
     return np.where(d <= np.reshape(gates, (-1, 1)), d, big)
+
+
+def _distances(a, b):
+    """(len(a), len(b)) distances between the points a and b ((n, 2) each): the bits of
+    np.linalg.norm over their differences (sqrt of dx² + dy², one add), without its cost."""
+    dx = a[:, 0, None] - b[None, :, 0]
+    dy = a[:, 1, None] - b[None, :, 1]
+    return np.sqrt(dx * dx + dy * dy)
 
 
 #: confirmed tracks whose velocities make a new track's flow
@@ -166,18 +175,19 @@ class _Tracks:
         return ids
 
     def extend(self, ids, f, pts):
-        self.prev_f[ids], self.prev_xy[ids] = self.last_f[ids], self.last_xy[ids]
+        self.prev_f[ids], self.prev_xy[ids] = self.last_f[ids], self.last_xy.take(ids, 0)
         self.last_f[ids], self.last_xy[ids] = f, pts
         self.n[ids] += 1
 
     def velocity(self, ids):
         """(n, 2) px per frame from each track's last two centroids (0 for one centroid)."""
-        return (self.last_xy[ids] - self.prev_xy[ids]) / (self.last_f[ids] - self.prev_f[ids])[:, None]
+        return ((self.last_xy.take(ids, 0) - self.prev_xy.take(ids, 0))
+                / (self.last_f[ids] - self.prev_f[ids])[:, None])
 
     def predict(self, ids, f):
         """(n, 2) positions at frame f: constant velocity from each track's last two
         centroids (per frame), else where it is."""
-        last, f_last = self.last_xy[ids], self.last_f[ids]
+        last, f_last = self.last_xy.take(ids, 0), self.last_f[ids]
         v = self.velocity(ids)
         return np.where((self.n[ids] > 1)[:, None], last + v * (f - f_last)[:, None], last)
 
