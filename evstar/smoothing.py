@@ -41,6 +41,9 @@ from .errors import ParameterError
 from .frames import groups
 from .parameters import AUTO, ESTIMATE, SMOOTHER
 
+# rows of (n, 2) and (n, 2, 2) arrays are gathered with take / compress (axis 0) on the hot
+# paths: the same values as a[index], which costs ~10x on them in numpy 2
+
 ESTIMATE_DTYPE = np.dtype([
     ("t", "<i8"), ("frame", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
     ("vx", "<f8"), ("vy", "<f8"), ("sigma_x", "<f8"), ("sigma_y", "<f8"),
@@ -244,7 +247,8 @@ class TrackSmoother:
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
         width = crossings["t_outer"][got]
-        along = (q_got * u).sum(1)                  # their positions along the motion
+        # their positions along the motion (the row sum's arithmetic but for a zero's sign)
+        along = q_got[:, 0] * u[:, 0] + q_got[:, 1] * u[:, 1]
         used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
@@ -264,7 +268,8 @@ class TrackSmoother:
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
-            tracks.append((full, z, s_cent, (t_c, q_got[m], u[m], r_c, pairs[m]), turns))
+            tracks.append((full, z, s_cent, (t_c, q_got.take(m, 0), u.take(m, 0), r_c, pairs[m]),
+                           turns))
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
         # a reversing track's centroids, their along-motion bias measured against the fit
@@ -507,7 +512,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
         along_weight = 1.0
     med, s_a = _class_scatter(r, crossings[4] if len(crossings) > 4 else None, sigma_floor_px)
     ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
-    t_c, q, u, s_a = t_c[ok], q[ok], u[ok], s_a[ok]
+    t_c, q, u, s_a = t_c[ok], q.take(ok, 0), u.take(ok, 0), s_a[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c, q, u, velocity_prior))
     t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
@@ -529,13 +534,13 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     sig[is_cent] = sigma
     order = np.argsort(t_all, kind="stable")
     t_s, m_s, c_s = t_all[order], is_meas[order], is_cent[order]
-    z_meas = z[order][m_s]
+    z_meas = z.take(order, 0).compress(m_s, 0)
     shift = yield from _displacement(velocity_prior, t_s, t_s[m_s], z_meas)
     resid = z_meas - shift[m_s]
     ts = (t_s - t_s[0]) * 1e-6
     cent = c_s[m_s]
     return _AlongTrack(est, len(ok), order, shift,
-                       kalman.CVProblem(ts, m_s, resid, R[order][m_s], None),
+                       kalman.CVProblem(ts, m_s, resid, R.take(order, 0).compress(m_s, 0), None),
                        (ts[c_s], resid[cent], sig[order][c_s]))
 
 
@@ -792,7 +797,7 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     t_est = est["t"].astype(np.float64)   # as np.interp converts it, once for its four calls
     pos = np.column_stack([np.interp(t_mean, t_est, est["x"]), np.interp(t_mean, t_est, est["y"])])
     speed = np.hypot(np.interp(t_c, t_est, est["vx"]), np.interp(t_c, t_est, est["vy"]))
-    p_in, u_in = pos[inv], u_mean[inv]
+    p_in, u_in = pos.take(inv, 0), u_mean.take(inv, 0)
     # the dot product column by column (its sum's arithmetic but for the sign of a zero,
     # which the bin sums below drop)
     along = ((q[:, 0] - p_in[:, 0]) * u_in[:, 0] + (q[:, 1] - p_in[:, 1]) * u_in[:, 1]
