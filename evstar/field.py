@@ -112,7 +112,7 @@ def _fit(R, fi, ti, ray, w, sig, good, n_tracks, rotations=True):
         d = _directions(R, fi, ti, ray, wt, n_tracks)
         if rotations:
             R = _rotations(fi, ti, ray, d, wt, len(R))
-        pred = np.einsum("nij,nj->ni", R[fi], d[ti])
+        pred = np.einsum("nij,nj->ni", R.take(fi, 0), d.take(ti, 0))
         z = np.linalg.norm(pred - ray, axis=1) / sig
         wt = good * w / (1.0 + (z / CAUCHY_SIGMA) ** 2)
     return R, d, pred, z
@@ -213,7 +213,7 @@ def _chained_start(fi, ti, ray, w, n_frames):
 
 def _directions(R, fi, ti, ray, wt, n_tracks):
     """d_i: the weighted mean of its rows' rays with their frames' rotations undone."""
-    back = np.einsum("nji,nj->ni", R[fi], ray)
+    back = np.einsum("nji,nj->ni", R.take(fi, 0), ray)
     s = np.stack([np.bincount(ti, wt * back[:, c], n_tracks) for c in range(3)], axis=1)
     norm = np.linalg.norm(s, axis=1, keepdims=True)
     return np.divide(s, norm, out=np.zeros_like(s), where=norm > 0)
@@ -221,8 +221,9 @@ def _directions(R, fi, ti, ray, wt, n_tracks):
 
 def _rotations(fi, ti, ray, d, wt, n_frames):
     """R_f: Wahba's problem of the frame's rows against their stars' directions."""
-    return wahba_batch(_per_frame(fi, wt[:, None, None] * ray[:, :, None] * d[ti][:, None, :],
-                                  n_frames))
+    # take: a[index]'s rows at a tenth of its cost on (n, 3) arrays
+    outer = wt[:, None, None] * ray[:, :, None] * d.take(ti, 0)[:, None, :]
+    return wahba_batch(_per_frame(fi, outer, n_frames))
 
 
 def _per_frame(fi, outer, n_frames):
