@@ -107,7 +107,7 @@ def kept_pixels(events, keep):
 
 def events_on_pixels(events, flags):
     """(t, x, y, p) of the events at pixels flags (a (height, width) bool image) sets, in
-    order: one pass, no index array (a Taichi kernel wherever the run's kernels run)."""
+    order (a Taichi kernel's flags, wherever the run's kernels run, and numpy's gathers)."""
     from evstar_kernels.taichi.pixel_counts_launch import on_flagged_pixels
 
     from .backends import taichi_running

@@ -1,5 +1,5 @@
 """Events per pixel, all and kept, in one pass; a per-pixel flag per event; the pixels of
-kept events; the events on flagged pixels (or their pixels' ranks and packed times).
+kept events; the events on flagged pixels' ranks and packed times.
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
@@ -7,8 +7,8 @@ so an event is one add to one cell; a launch of at most 2³¹ − 1 events canno
 the low half into the high one. On the CPU the loop runs serially (Taichi then demotes
 the atomic adds: ~5 ns an event, where numpy's two bincounts took ~14 and contended
 atomics over two threads ~7); on a GPU it runs in parallel. The kept events' pixels and the
-copies of the events at flagged pixels run in lanes on the CPU (runs of events, each on
-one thread: below).
+copies of the events at flagged pixels' ranks run in lanes on the CPU (runs of events,
+each on one thread: below).
 """
 import functools
 
@@ -44,10 +44,10 @@ def _pixel(x: ti.template(), y: ti.template(), e: ti.i32, width: ti.i32) -> ti.i
     return ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
 
 
-# The copies of the events at flagged pixels run in lanes (on the CPU runs of ~equal events,
-# 8 per thread, at spread-out iterations: launch.units): flagged_counts counts each lane's, the
-# host turns the counts into each lane's [start, stop) of the outputs, and the copy writes
-# every event at its lane's next free place, which only a flagged one takes (branch-free: a
+# The copies of the events at flagged pixels (their pixels' ranks) run in lanes (on the CPU
+# runs of ~equal events, 8 per thread, at spread-out iterations: launch.units):
+# flagged_counts counts each lane's, the host turns the counts into each lane's [start,
+# stop) of the outputs, and the copy writes every event at its lane's next free place, which only a flagged one takes (branch-free: a
 # branch on the flag mispredicted, ~2.5x slower). Past its last flagged event a lane writes
 # into a slack slot of its own (slack + lane), not into the next lane's first place.
 
@@ -64,27 +64,10 @@ def flagged_counts(x: u16_1d, y: u16_1d, words: u32_1d, width: ti.i32, lo: i32_1
 
 
 @ti.kernel
-def on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d, width: ti.i32,
-                      lo: i32_1d, hi: i32_1d, start: i64_1d, stop: i64_1d, slack: ti.i64,
-                      t_out: i64_1d, x_out: u16_1d, y_out: u16_1d, p_out: i8_1d):
-    """Lane i copies its events at flagged pixels, in order, to the outputs' start[i] ..
-    stop[i] − 1 (the comment above; reference: on_flagged_pixels)."""
-    for i in range(lo.shape[0]):
-        j, end = start[i], stop[i]
-        for e in range(lo[i], hi[i]):
-            w = ti.select(j < end, j, slack + i)
-            t_out[w] = t[e]
-            x_out[w] = x[e]
-            y_out[w] = y[e]
-            p_out[w] = p[e]
-            j += ti.cast(_word_flag(words, _pixel(x, y, e, width)), ti.i64)
-
-
-@ti.kernel
 def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d,
                           before: i32_1d, width: ti.i32, lo: i32_1d, hi: i32_1d, start: i64_1d,
                           stop: i64_1d, slack: ti.i64, id_out: u32_1d, tp_out: i64_1d):
-    """Of the events at flagged pixels, lane by lane as on_flagged_pixels: the pixel's id,
+    """Of the events at flagged pixels, lane by lane (the comment above): the pixel's id,
     its rank among the flagged pixels by key y·width + x, and 2t + p (p 0 or 1: one value
     for a sort to move). `before` holds the count of flags in the words before each: a rank
     is that count and a popcount, from 230 kB of a megapixel sensor's tables where an int32
