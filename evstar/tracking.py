@@ -99,7 +99,8 @@ class Tracker:
 def _gated(pred, gates, pts, big):
     """Distances from each prediction to each point, `big` beyond the prediction's gate."""
     d = _distances(pred, pts)
-    return np.where(d <= np.reshape(gates, (-1, 1)), d, big)
+    d[~(d <= np.reshape(gates, (-1, 1)))] = big
+    return d
 
 
 def _distances(a, b):
@@ -229,8 +230,8 @@ def _drop_short(out, min_length):
     out["track"][np.isin(out["track"], short)] = -1
     # renumber confirmed tracks 0, 1, 2 ... in order of appearance
     confirmed = out["track"] >= 0
-    _, first = np.unique(out["track"][confirmed], return_index=True)
-    old = out["track"][confirmed][np.sort(first)]
-    remap = {o: n for n, o in enumerate(old)}
-    out["track"][confirmed] = [remap[v] for v in out["track"][confirmed]]
+    _, first, which = np.unique(out["track"][confirmed], return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))   # each id's place by first appearance
+    out["track"][confirmed] = rank[which]
     return out
