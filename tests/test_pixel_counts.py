@@ -112,9 +112,9 @@ def test_events_by_pixel_match_reference(monkeypatch, device_arrays, max_launch,
 
 
 @pytest.mark.parametrize("runs", [1, 3, 700])     # 700 per thread: runs of 0-4 events
-def test_lanes_copy_and_mark_as_the_reference(monkeypatch, runs):
-    """The CPU lanes (runs of events, a slack slot each past its last flagged event) give
-    the reference's copies and marks whatever the runs, empty and one-event runs included."""
+def test_lanes_mark_as_the_reference(monkeypatch, runs):
+    """The CPU lanes (runs of events) give the reference's marks whatever the runs, empty
+    and one-event runs included; the copies of the events at flagged pixels as well."""
     from evstar_kernels.reference.pixels import events_by_pixel, marked_pixels, on_flagged_pixels
     from evstar_kernels.taichi import pixel_counts_launch
 

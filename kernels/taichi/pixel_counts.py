@@ -1,14 +1,13 @@
 """Events per pixel, all and kept, in one pass; a per-pixel flag per event; the pixels of
-kept events; the events on flagged pixels' ranks and packed times.
+kept events; the ranks of flagged pixels and packed times of their events.
 
 Specification: `evstar_kernels.reference.pixels.pixel_counts` (bit-exact). A cell packs
 both counts in one int64 — all events in the low 32 bits, the kept ones in the high 32 —
 so an event is one add to one cell; a launch of at most 2³¹ − 1 events cannot carry from
 the low half into the high one. On the CPU the loop runs serially (Taichi then demotes
 the atomic adds: ~5 ns an event, where numpy's two bincounts took ~14 and contended
-atomics over two threads ~7); on a GPU it runs in parallel. The kept events' pixels and the
-copies of the events at flagged pixels' ranks run in lanes on the CPU (runs of events,
-each on one thread: below).
+atomics over two threads ~7); on a GPU it runs in parallel. The kept events' pixels run in
+lanes on the CPU (runs of events, each on one thread: mark_pixels_lanes).
 """
 import functools
 
@@ -34,54 +33,25 @@ def pixel_flags(x: u16_1d, y: u16_1d, bits: u8_1d, width: ti.i32, out: u8_1d):
 
 
 @ti.func
-def _word_flag(words: ti.template(), k: ti.i32) -> ti.u32:
-    """Bit k of flags packed 32 a word, little-endian (the same bits as _flag's bytes)."""
-    return (words[k >> 5] >> ti.cast(k & 31, ti.u32)) & ti.u32(1)
-
-
-@ti.func
 def _pixel(x: ti.template(), y: ti.template(), e: ti.i32, width: ti.i32) -> ti.i32:
     return ti.cast(y[e], ti.i32) * width + ti.cast(x[e], ti.i32)
 
 
-# The copies of the events at flagged pixels (their pixels' ranks) run in lanes (on the CPU
-# runs of ~equal events, 8 per thread, at spread-out iterations: launch.units):
-# flagged_counts counts each lane's, the host turns the counts into each lane's [start,
-# stop) of the outputs, and the copy writes every event at its lane's next free place, which only a flagged one takes (branch-free: a
-# branch on the flag mispredicted, ~2.5x slower). Past its last flagged event a lane writes
-# into a slack slot of its own (slack + lane), not into the next lane's first place.
-
-
 @ti.kernel
-def flagged_counts(x: u16_1d, y: u16_1d, words: u32_1d, width: ti.i32, lo: i32_1d,
-                   hi: i32_1d, counts: i64_1d):
-    """counts[i] = the events lo[i] .. hi[i] − 1 at flagged pixels (words: _word_flag's)."""
-    for i in range(lo.shape[0]):
-        n = ti.i64(0)
-        for e in range(lo[i], hi[i]):
-            n += ti.cast(_word_flag(words, _pixel(x, y, e, width)), ti.i64)
-        counts[i] = n
-
-
-@ti.kernel
-def ids_on_flagged_pixels(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, words: u32_1d,
-                          before: i32_1d, width: ti.i32, lo: i32_1d, hi: i32_1d, start: i64_1d,
-                          stop: i64_1d, slack: ti.i64, id_out: u32_1d, tp_out: i64_1d):
-    """Of the events at flagged pixels, lane by lane (the comment above): the pixel's id,
-    its rank among the flagged pixels by key y·width + x, and 2t + p (p 0 or 1: one value
-    for a sort to move). `before` holds the count of flags in the words before each: a rank
-    is that count and a popcount, from 230 kB of a megapixel sensor's tables where an int32
-    rank image would miss the cache."""
-    for i in range(lo.shape[0]):
-        j, end = start[i], stop[i]
-        for e in range(lo[i], hi[i]):
-            k = _pixel(x, y, e, width)
-            w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
-            at = ti.select(j < end, j, slack + i)
-            id_out[at] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)),
-                                 ti.u32)
-            tp_out[at] = t[e] * 2 + ti.cast(p[e], ti.i64)
-            j += ti.cast((w >> b) & 1, ti.i64)
+def flagged_ids(t: i64_1d, x: u16_1d, y: u16_1d, p: i8_1d, at: i64_1d, words: u32_1d,
+                before: i32_1d, width: ti.i32, id_out: u32_1d, tp_out: i64_1d):
+    """Of the events at[j] (those at flagged pixels: pixel_flags, np.flatnonzero), in
+    parallel: the pixel's id, its rank among the flagged pixels by key y·width + x, and
+    2t + p (p 0 or 1: one value for a sort to move). `before` holds the count of flags in
+    the words before each: a rank is that count and a popcount, from 230 kB of a megapixel
+    sensor's tables where an int32 rank image would miss the cache. (A copy in lanes of
+    runs of events, each written at its lane's next free place, took ~1.3x as long.)"""
+    for j in range(at.shape[0]):
+        e = ti.cast(at[j], ti.i32)
+        k = _pixel(x, y, e, width)
+        w, b = words[k >> 5], ti.cast(k & 31, ti.u32)
+        id_out[j] = ti.cast(before[k >> 5] + ti.math.popcnt(w & ((ti.u32(1) << b) - 1)), ti.u32)
+        tp_out[j] = t[e] * 2 + ti.cast(p[e], ti.i64)
 
 
 @ti.kernel

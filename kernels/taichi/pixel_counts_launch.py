@@ -4,8 +4,8 @@ kept events' pixels and the events on flagged pixels (in order, or by pixel)."""
 import numpy as np
 
 from . import launch, sorting_launch
-from .pixel_counts import count_all_kernel, count_pixels_kernel, flagged_counts
-from .pixel_counts import ids_on_flagged_pixels, mark_pixels, mark_pixels_lanes
+from .pixel_counts import count_all_kernel, count_pixels_kernel
+from .pixel_counts import flagged_ids, mark_pixels, mark_pixels_lanes
 from .pixel_counts import pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
@@ -95,8 +95,8 @@ def on_flagged_pixels(ti, t, x, y, p, flags):
     """reference.pixels.on_flagged_pixels of (t, x, y, p): (t int64, x, y uint16, p int8)
     of the events at pixels flags[y, x] sets, in order: the flags per event (pixel_flags),
     np.flatnonzero and numpy's gathers (take: a bool mask's compress scans it once per
-    array). On the CPU a lane copy of the four arrays (_copied) took ~2x as long (EVK4 field
-    spans of 2-3 M events, half of them flagged, numpy 2.4)."""
+    array). On the CPU a copy in lanes of runs of events took ~2x as long (EVK4 field spans
+    of 2-3 M events, half of them flagged, numpy 2.4)."""
     sel = np.flatnonzero(pixel_flags(ti, x, y, flags))
     return [np.asarray(a, d).take(sel) for a, d in
             ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))]
@@ -110,50 +110,36 @@ def events_by_pixel(ti, t, x, y, p, flags):
     pixels = np.flatnonzero(flags).astype(np.uint32)       # the flagged pixels' keys by rank
     ids, tp = _flagged_ids(ti, t, x, y, p, flags)
     tp, count = sorting_launch.counting_sort(ti, ids, tp, len(pixels))
-    p_out = (tp & 1).astype(np.int8)
+    p_out = tp.astype(np.int8)                               # the low bit kept: p
+    p_out &= 1
     tp >>= 1                                                 # in place: the times
     return tp, np.repeat(pixels, count), p_out
 
 
 def _flagged_ids(ti, t, x, y, p, flags):
     """(ranks of their pixels among the flagged, 2t + p) of the events at flagged pixels,
-    in order."""
-    if launch.Arrays(ti).on_device:
-        width, flat = flags.shape[1], np.asarray(flags, bool).reshape(-1)
-        t, x, y, p = on_flagged_pixels(ti, t, x, y, p, flags)
-        rank = np.cumsum(flat, dtype=np.int64) - 1
-        return rank[y.astype(np.int64) * width + x].astype(np.uint32), t * 2 + p
-    words, before = _words(flags)
-    return tuple(_copied(ti, (t, x, y, p), flags.shape[1], words, ids_on_flagged_pixels,
-                         (before,), (np.uint32, np.int64)))
-
-
-def _copied(ti, events, width, words, kernel, tables, dtypes):
-    """New arrays of `dtypes` that `kernel` (ids_on_flagged_pixels, which takes `tables`
-    after the words) fills from the events (t, x, y, p) at the pixels the flags packed in
-    `words` (_words) set, in order: lanes count theirs, then copy them (the kernels'
-    comment)."""
-    events = [np.ascontiguousarray(a, d) for a, d in
-              zip(events, (np.int64, np.uint16, np.uint16, np.int8))]
-    launches = []
+    in order: the flags per event, np.flatnonzero, then the flagged_ids kernel at those."""
+    at = np.flatnonzero(pixel_flags(ti, x, y, flags))
+    ids, tp = np.empty(len(at), np.uint32), np.empty(len(at), np.int64)
+    arrays = launch.Arrays(ti)
+    words, before = (arrays.put(a) for a in _words(flags))
+    launches = launch.pieces(len(x))
+    cuts = np.searchsorted(at, [e0 for e0, _ in launches] + [len(x)])
     with launch.RUNTIME_LOCK:
-        for e0, e1 in launch.pieces(len(events[0])):
-            lo, hi = _lanes(ti, e1 - e0)
-            counts = np.zeros(len(lo), np.int64)
-            flagged_counts(events[1][e0:e1], events[2][e0:e1], words, width, lo, hi, counts)
-            launches.append((e0, e1, lo, hi, np.cumsum(counts)))
-        n = sum(int(stop[-1]) for *_, stop in launches)
-        # after the n copies, a slack slot per lane loop iteration
-        out = [np.empty(n + max([len(lo) for _, _, lo, _, _ in launches] or [0]), d)
-               for d in dtypes]
-        base = 0
-        for e0, e1, lo, hi, stop in launches:
-            kernel(*(a[e0:e1] for a in events), words, *tables, width, lo, hi,
-                   base + np.r_[0, stop[:-1]], base + stop, n, *out)
-            base += int(stop[-1])
-    for o in out:   # to the copies' length in place (realloc: no copy, the slack freed)
-        o.resize(n, refcheck=False)
-    return out
+        for (e0, e1), a0, a1 in zip(launches, cuts[:-1], cuts[1:]):
+            if a0 == a1:
+                continue
+            # on the CPU the kernel writes into the outputs' own (contiguous) slices
+            out = ((arrays.empty(a1 - a0, np.uint32), arrays.empty(a1 - a0, np.int64))
+                   if arrays.on_device else (ids[a0:a1], tp[a0:a1]))
+            flagged_ids(*(arrays.put(np.asarray(a[e0:e1], d)) for a, d in
+                          ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))),
+                        arrays.put(at[a0:a1] - e0 if e0 else at[a0:a1]), words, before,
+                        flags.shape[1], *out)
+            if arrays.on_device:
+                arrays.get(out[0], ids[a0:a1])
+                arrays.get(out[1], tp[a0:a1])
+    return ids, tp
 
 
 def pixel_flags(ti, x, y, flags):
