@@ -505,7 +505,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     t_c, q, u, r = crossings[:4]
     # too few crossings, or all within a pixel or two along the motion, do not pin the
     # track's velocity: the centroids alone then (a short or nearly static track)
-    few = _few((q * u).sum(1))
+    few = _few(q[:, 0] * u[:, 0] + q[:, 1] * u[:, 1])   # along the motion (refine's arithmetic)
     if few and len(t_c) < MIN_FEW_CROSSINGS:
         return None
     if few:      # the centroids carry the velocity, the crossings add where they fall
