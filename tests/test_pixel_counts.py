@@ -109,21 +109,3 @@ def test_events_by_pixel_match_reference(monkeypatch, device_arrays, max_launch,
     for g, w in zip(got, want):
         np.testing.assert_array_equal(g, w)
     assert 0 < len(got[0]) < n or n < 10
-
-
-@pytest.mark.parametrize("runs", [1, 3, 700])     # 700 per thread: runs of 0-4 events
-def test_lanes_mark_as_the_reference(monkeypatch, runs):
-    """The CPU lanes (runs of events) give the reference's marks whatever the runs, empty
-    and one-event runs included; the copies of the events at flagged pixels as well."""
-    from evstar_kernels.reference.pixels import events_by_pixel, marked_pixels, on_flagged_pixels
-    from evstar_kernels.taichi import pixel_counts_launch
-
-    monkeypatch.setattr(pixel_counts_launch, "RUNS", runs)
-    ev, keep = events(7, 3001, 40, 30)
-    flags = np.random.default_rng(7).random((30, 40)) < 0.2
-    np.testing.assert_array_equal(frames.kept_pixels(ev, keep), marked_pixels(ev.x, ev.y, keep, 40, 30))
-    for got, want in ((frames.events_on_pixels(ev, flags),
-                       on_flagged_pixels([ev.t, ev.x, ev.y, ev.p], ev.x, ev.y, flags)),
-                      (frames.events_by_pixel(ev, flags), events_by_pixel(ev.t, ev.x, ev.y, ev.p, flags))):
-        for g, w in zip(got, want):
-            np.testing.assert_array_equal(g, w)

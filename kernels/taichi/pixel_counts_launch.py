@@ -5,12 +5,10 @@ import numpy as np
 
 from . import launch, sorting_launch
 from .pixel_counts import count_all_kernel, count_pixels_kernel
-from .pixel_counts import flagged_ids, mark_pixels, mark_pixels_lanes
+from .pixel_counts import flagged_ids, mark_pixels
 from .pixel_counts import pixel_flags as _pixel_flags
 
 _LOW = (1 << 32) - 1
-#: runs of events per CPU thread in the lane loops
-RUNS = 8
 
 
 def pixel_counts(ti, x, y, width, height, keep=None):
@@ -64,31 +62,23 @@ def _words(flags):
 
 def marked_pixels(ti, x, y, keep, width, height):
     """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
-    every event `keep` (bool) selects. On the CPU a plane per thread, ORed here."""
+    every event `keep` (bool) selects (mark_pixels at those events)."""
     arrays = launch.Arrays(ti)
-    keep = np.asarray(keep, bool).view(np.uint8)
-    size = width * height
-    if arrays.on_device:
-        flags = arrays.put(np.zeros(size, np.uint8))
-        with launch.RUNTIME_LOCK:
-            for e0, e1 in launch.pieces(len(x)):
-                mark_pixels(arrays.put(x[e0:e1]), arrays.put(y[e0:e1]), arrays.put(keep[e0:e1]),
-                            width, flags)
-        return flags.to_numpy().view(bool).reshape(height, width)
-    threads = launch.cpu_threads(ti)
-    planes = np.zeros(threads * size, np.uint8)
+    flags = arrays.put(np.zeros(width * height, np.uint8))
     with launch.RUNTIME_LOCK:
-        for e0, e1 in launch.pieces(len(x)):
-            mark_pixels_lanes(*(np.ascontiguousarray(a[e0:e1]) for a in (x, y, keep)), width,
-                              size, *_lanes(ti, e1 - e0), np.zeros(threads, np.int32), planes)
-    return np.bitwise_or.reduce(planes.reshape(threads, size)).view(bool).reshape(height, width)
+        for e0, e1, at in _launches_at(np.flatnonzero(keep), len(x)):
+            mark_pixels(*(arrays.put(np.asarray(a[e0:e1], np.uint16)) for a in (x, y)),
+                        arrays.put(at), width, flags)
+    return (flags.to_numpy() if arrays.on_device else flags).view(bool).reshape(height, width)
 
 
-def _lanes(ti, n):
-    """(lo, hi) int32 of a lane loop over n events: runs of ~equal events, 8 per CPU thread,
-    spread over the loop's iterations (launch.units)."""
-    threads = launch.cpu_threads(ti)
-    return launch.units(np.unique(np.linspace(0, n, RUNS * threads + 1).astype(np.int32)), threads)
+def _launches_at(at, n):
+    """(e0, e1, the indices `at` (ascending) within events e0 .. e1 − 1, less e0) of each
+    launch over n events (launch.pieces) that holds some."""
+    pieces = launch.pieces(n)
+    cuts = np.searchsorted(at, [e0 for e0, _ in pieces] + [n])
+    return [(e0, e1, at[a0:a1] - e0 if e0 else at[a0:a1])
+            for (e0, e1), a0, a1 in zip(pieces, cuts[:-1], cuts[1:]) if a0 < a1]
 
 
 def on_flagged_pixels(ti, t, x, y, p, flags):
@@ -123,22 +113,20 @@ def _flagged_ids(ti, t, x, y, p, flags):
     ids, tp = np.empty(len(at), np.uint32), np.empty(len(at), np.int64)
     arrays = launch.Arrays(ti)
     words, before = (arrays.put(a) for a in _words(flags))
-    launches = launch.pieces(len(x))
-    cuts = np.searchsorted(at, [e0 for e0, _ in launches] + [len(x)])
+    a0 = 0
     with launch.RUNTIME_LOCK:
-        for (e0, e1), a0, a1 in zip(launches, cuts[:-1], cuts[1:]):
-            if a0 == a1:
-                continue
+        for e0, e1, at_e in _launches_at(at, len(x)):
+            a1 = a0 + len(at_e)
             # on the CPU the kernel writes into the outputs' own (contiguous) slices
             out = ((arrays.empty(a1 - a0, np.uint32), arrays.empty(a1 - a0, np.int64))
                    if arrays.on_device else (ids[a0:a1], tp[a0:a1]))
             flagged_ids(*(arrays.put(np.asarray(a[e0:e1], d)) for a, d in
                           ((t, np.int64), (x, np.uint16), (y, np.uint16), (p, np.int8))),
-                        arrays.put(at[a0:a1] - e0 if e0 else at[a0:a1]), words, before,
-                        flags.shape[1], *out)
+                        arrays.put(at_e), words, before, flags.shape[1], *out)
             if arrays.on_device:
                 arrays.get(out[0], ids[a0:a1])
                 arrays.get(out[1], tp[a0:a1])
+            a0 = a1
     return ids, tp
 
 
