@@ -13,17 +13,24 @@ import taichi as ti
 from .arrays import i32_1d, i64_1d, u32_1d
 
 
+@ti.func
+def _run_starts(key: ti.template(), start: ti.template()):
+    """start[k] (zeros on entry, n_keys + 1 long): where key k's run begins in the stable
+    order — the keys' histogram shifted by one, then its prefix sum."""
+    ti.loop_config(serialize=True)
+    for i in range(key.shape[0]):
+        start[ti.cast(key[i], ti.i32) + 1] += 1
+    ti.loop_config(serialize=True)
+    for k in range(start.shape[0] - 1):
+        start[k + 1] += start[k]
+
+
 @ti.kernel
 def stable_order(key: u32_1d, start: i32_1d, order: i64_1d):
     """order: the stable sorting permutation of key; start (n_keys + 1, zeros on entry):
     on return, start[k] is where key k's run begins in order."""
     n = key.shape[0]
-    ti.loop_config(serialize=True)
-    for i in range(n):
-        start[ti.cast(key[i], ti.i32) + 1] += 1
-    ti.loop_config(serialize=True)
-    for k in range(start.shape[0] - 1):
-        start[k + 1] += start[k]
+    _run_starts(key, start)
     ti.loop_config(serialize=True)
     for i in range(n):
         k = ti.cast(key[i], ti.i32)
@@ -43,12 +50,7 @@ def sorted_values(key: u32_1d, value: i64_1d, start: i32_1d, out: i64_1d):
     by stable_order's passes (no permutation to gather through: that gather's random reads
     took longer than the sort). start (n_keys + 1, zeros on entry): on return, start[k] is
     where key k's run ends in out (k < n_keys)."""
-    ti.loop_config(serialize=True)
-    for i in range(key.shape[0]):
-        start[ti.cast(key[i], ti.i32) + 1] += 1
-    ti.loop_config(serialize=True)
-    for k in range(start.shape[0] - 1):
-        start[k + 1] += start[k]
+    _run_starts(key, start)
     ti.loop_config(serialize=True)
     for i in range(key.shape[0]):
         k = ti.cast(key[i], ti.i32)
