@@ -84,7 +84,12 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "silent": lambda: sim.sensor_model("default", noise_hz=0.0, hot_pixels=0),
            # the fourteenth session's held-out part: a 1 Hz leak, a 0.05 threshold mismatch
            "leak": lambda: sim.sensor_model("default", leak_hz=1.0),
-           "mismatch": lambda: sim.sensor_model("default", threshold_mismatch=0.05)}
+           "mismatch": lambda: sim.sensor_model("default", threshold_mismatch=0.05),
+           # the twenty-second session's held-out part: 30 % of events lost, slow pixels
+           # (1 ms refractory, 150 µs jitter), star-light shot noise
+           "dropout": lambda: sim.sensor_model("default", dropout=0.3),
+           "slow-pixel": lambda: sim.sensor_model("default", refractory_us=1000.0, jitter_us=150.0),
+           "shot": lambda: sim.sensor_model("default", shot_noise_hz=2.0)}
 
 
 def dev_grid():
@@ -192,17 +197,37 @@ def fresh14_grid():
                                     (3, 4.0, 1.1, "mismatch", "none")))
 
 
+def fresh22_grid():
+    """Inputs no session had tried, run once when the twenty-second session began (seed 57):
+    stars moving across the pixel grid's diagonals (direction given in degrees from x),
+    lost events, slow pixels, shot noise, the EVK4's small pixels."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (8, 4.0, 1.1, "default", "none", {"direction": 35}),
+            (3, 4.5, 1.3, "default", "none", {"direction": 60}),
+            ("sine", 4.0, 1.0, "default", "imu", {"direction": 30}),
+            (15, 4.0, 1.0, "dark-sky", "none", {"direction": 45}),
+            (12, 4.0, 1.2, "dropout", "none", {}),
+            (5, 3.5, 1.0, "slow-pixel", "none", {}),
+            (10, 4.5, 1.2, "shot", "none", {}),
+            (6, 5.0, 0.9, "default", "none", {"camera": "evk4"})):
+        yield dict(set="fresh-22", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=57, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
-         "fresh-14": fresh14_grid}
+         "fresh-14": fresh14_grid, "fresh-22": fresh22_grid}
 
 
 def scenario(s):
     sensor = SENSORS[s["sensor"]]()
+    # the star moves at `direction` degrees from x: a turntable axis in the image plane
+    phi = np.radians(s.get("direction", 0.0))
+    opts = dict(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"],
+                axis=(np.sin(phi), -np.cos(phi), 0.0), camera=s.get("camera", "dvxplorer-lite"))
     if s["motion"] == "sine":
-        return sim.paper_sinusoid(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"])
-    return sim.paper_preset(float(s["motion"]), magnitude=s["mag"], sensor=sensor,
-                            psf_sigma_px=s["psf"])
+        return sim.paper_sinusoid(**opts)
+    return sim.paper_preset(float(s["motion"]), **opts)
 
 
 def scores(rows, truth, frames_t, cam, n_frames):
@@ -277,7 +302,9 @@ def markdown(rows):
              " crossings, lag not measured | crossings: median error/σ, share within 2.45 σ |")
     lines = [head, "|" + "---|" * (12 + len(ESTIMATORS))]
     for r in rows:
-        cells = [r["set"], str(r["motion"]), str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
+        motion = (str(r["motion"]) + (f", {r['direction']}° from x" if r.get("direction") else "")
+                  + (f", {r['camera']}" if r.get("camera") else ""))
+        cells = [r["set"], motion, str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
                  f"{r['events_per_frame']:.0f}", f"{r['bound_px']:.3f}"]
         for e in ESTIMATORS + ("refractory", "calibrated", "no_lag"):
             m = r.get(e)
@@ -308,7 +335,7 @@ def plot(rows, path):
             ax.scatter([r["bound_px"] for r in sel], [r[name]["mean"] for r in sel],
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
-                               "fresh-10": "v", "fresh-11": "P", "fresh-14": "X"}.get(part, "o"))
+                               "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",

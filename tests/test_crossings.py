@@ -83,14 +83,20 @@ def test_frames_without_centroids_but_with_crossings_get_positions():
     assert err.max() < 0.1
 
 
-@pytest.mark.parametrize("rate,mag,psf", [(4.0, 3.0, 1.0), (12.0, 5.0, 0.8), (8.0, 4.0, 1.3)])
-def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf):
+@pytest.mark.parametrize("rate,mag,psf,direction", [(4.0, 3.0, 1.0, 0), (12.0, 5.0, 0.8, 0),
+                                                    (8.0, 4.0, 1.3, 0), (8.0, 4.0, 1.1, 35),
+                                                    (4.0, 4.0, 1.2, 60)])
+def test_positions_beat_the_single_frame_bound_on_a_small_grid(rate, mag, psf, direction):
     """σ_PSF/√N is the best one frame of N events can do; pooled along the track with the
-    crossings, the default estimator must do better than that (and than the per-frame mean)."""
+    crossings, the default estimator must do better than that (and than the per-frame mean),
+    also where the star crosses the pixel grid diagonally (`direction` degrees from x)."""
     from evstar import Config, Pipeline, accuracy
 
-    run = sim.simulate(sim.paper_preset(rate, magnitude=mag, psf_sigma_px=psf, duration_s=0.3),
-                       seed=11)
+    phi = np.radians(direction)
+    run = sim.simulate(sim.paper_preset(rate, magnitude=mag, psf_sigma_px=psf, duration_s=0.3,
+                                        axis=(np.sin(phi), -np.cos(phi), 0.0)), seed=11)
+    v = np.diff(run.truth.star_position(np.array([100_000, 200_000])).reshape(2, -1)[:, :2], axis=0)[0]
+    assert np.degrees(np.arctan2(abs(v[1]), abs(v[0]))) == pytest.approx(direction, abs=1.0)
     n_per_frame = (run.truth.labels >= 0).sum() / 30
     bound = psf / np.sqrt(n_per_frame)
     errors = {}

@@ -68,18 +68,21 @@ def camera_preset(name, focal_length_mm=DEFAULT_FOCAL_LENGTH_MM):
 
 
 def paper_preset(rate_dps, *, duration_s=0.5, magnitude=3.0, camera="dvxplorer-lite",
-                 focal_length_mm=DEFAULT_FOCAL_LENGTH_MM, sensor=None, **scenario_options):
+                 focal_length_mm=DEFAULT_FOCAL_LENGTH_MM, sensor=None, axis=None,
+                 **scenario_options):
     """The paper's turntable run: a magnitude-3-equivalent star, constant `rate_dps`.
 
     The star crosses the image centre at mid-duration, so a 0.5 s stream at 20 °/s spans
-    ±5° (±57 px on the default camera). Keyword options override Scenario fields.
+    ±5° (±57 px on the default camera). axis: the turntable's axis in the camera frame
+    (the camera's up, −y, where None: the star moves along x). Keyword options override
+    Scenario fields.
     """
-    from .motion import ConstantRate
+    from .motion import UP, ConstantRate
     from .scene import Scenario
     from .targets import star_at_pixel
 
     cam = camera_preset(camera, focal_length_mm) if isinstance(camera, str) else camera
-    motion = ConstantRate(rate_dps)
+    motion = ConstantRate(rate_dps, UP if axis is None else axis)
     mid = motion.rotation(duration_s / 2)[0]
     stars = star_at_pixel(cam, mid, (cam.cx, cam.cy), magnitude)
     return Scenario(cam, stars, motion, duration_s, sensor=sensor or SensorSpec(), **scenario_options)
@@ -87,14 +90,15 @@ def paper_preset(rate_dps, *, duration_s=0.5, magnitude=3.0, camera="dvxplorer-l
 
 def paper_sinusoid(amplitude_deg=10.0, freq_hz=1.0, *, duration_s=1.0, magnitude=3.0,
                    camera="dvxplorer-lite", focal_length_mm=DEFAULT_FOCAL_LENGTH_MM, sensor=None,
-                   **scenario_options):
-    """The paper's sinusoidal run (10° amplitude, 1 Hz): the star swings through the centre."""
-    from .motion import Sinusoid
+                   axis=None, **scenario_options):
+    """The paper's sinusoidal run (10° amplitude, 1 Hz): the star swings through the centre
+    (about `axis` as in paper_preset)."""
+    from .motion import UP, Sinusoid
     from .scene import Scenario
     from .targets import star_at_pixel
 
     cam = camera_preset(camera, focal_length_mm) if isinstance(camera, str) else camera
-    motion = Sinusoid(amplitude_deg, freq_hz)
+    motion = Sinusoid(amplitude_deg, freq_hz, UP if axis is None else axis)
     stars = star_at_pixel(cam, motion.rotation(0.0)[0], (cam.cx, cam.cy), magnitude)
     return Scenario(cam, stars, motion, duration_s, sensor=sensor or SensorSpec(), **scenario_options)
 
