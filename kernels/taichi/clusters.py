@@ -343,14 +343,17 @@ def certain_peaks(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, 
     per pixel pair."""
     top = -1
     vmax = ti.f64(0.0)
+    r0, r1, q0, q1 = h, -1, w, -1  # C's bounding box
     for r in range(h):  # classes; C's highest (the first in row-major order)
         for q in range(w):
             j = r * w + q
             cls = max_class(img, k, b, w, h, r, q, rtol)
             tmp[b + j] = ti.cast(cls, ti.f64)
-            if cls > 0 and img[k, b + j] > vmax:
-                vmax = img[k, b + j]
-                top = j
+            if cls > 0:
+                r0, r1, q0, q1 = ti.min(r0, r), ti.max(r1, r), ti.min(q0, q), ti.max(q1, q)
+                if img[k, b + j] > vmax:
+                    vmax = img[k, b + j]
+                    top = j
     n_top = 0
     far = 0
     for rj in range(h):  # T: C within rtol of the highest; is any of C 2 px from one?
@@ -358,10 +361,10 @@ def certain_peaks(img: ti.template(), k: ti.i32, tmp: ti.template(), b: ti.i32, 
             j = rj * w + qj
             if tmp[b + j] > 0 and img[k, b + j] >= vmax * (1 - rtol):
                 n_top += 1
-                for ri in range(h):
-                    for qi in range(w):
-                        if tmp[b + ri * w + qi] > 0:
-                            far = ti.max(far, far_apart(ri, qi, rj, qj))
+                # on the pixel grid, 2 px apart (squared distance >= 4) is outside the
+                # 3 x 3 block around j: some of C is iff C's box leaves that block
+                if r0 < rj - 1 or r1 > rj + 1 or q0 < qj - 1 or q1 > qj + 1:
+                    far = 1
     status = UNSURE
     second = -1
     if far == 0:
