@@ -87,10 +87,12 @@ def fit_lag(profiles):
     """(k values, lag µs per k, R², ρ) of the geometric model fitted to `profiles` ({k:
     (median demeaned profile, count)}), or None when fewer than two profiles have >= 3
     levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays)."""
-    # a low-pass delays a dimmer level more: every profile rises with depth (a sensor without
-    # one has profiles of jitter and refractory effects, some falling, whose fit can still
-    # pass the R² gate)
-    if any(D[-1] <= D[0] for k, (D, n) in profiles.items() if k >= 2):
+    # a low-pass delays a dimmer level more: every profile rises with depth over the levels
+    # that shape the fit (a sensor without one has profiles of jitter and refractory
+    # effects, some falling, whose fit can still pass the R² gate; the deepest level of a
+    # long profile, left out of the shape, may fall: a background event of a fast field
+    # paired there)
+    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in profiles.items() if k >= 2):
         return None
     shaped = {k: v for k, v in profiles.items() if _levels(k) >= 3}
     deep = {k: v for k, v in shaped.items() if k >= _DROP_BOTTOM_FROM}

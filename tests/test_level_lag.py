@@ -45,6 +45,19 @@ def test_a_profile_falling_with_depth_is_no_lowpass():
     assert fit_lag(prof) is None
 
 
+def test_a_long_profile_s_deepest_level_does_not_decide():
+    """The deepest level of a profile of >= 5 levels is left out of the shape; a background
+    event paired there (a fast dark-sky field at 1.5 Hz: one k of 32 crossings whose
+    deepest midpoint came 12 ms early) must not veto the lag of all the others. A level
+    that shapes the fit still does."""
+    prof = _profiles(1.3, 1500.0, ks=range(4, 12), noise_us=5.0)
+    D, n = prof[11]
+    prof[11] = (np.r_[D[:-1], D[0] - 10_000.0], 32)
+    assert fit_lag(prof) is not None
+    prof[11] = (np.r_[D[:-2], D[0] - 10_000.0, D[-1]], 32)
+    assert fit_lag(prof) is None
+
+
 def test_profiles_keep_at_most_their_cap_per_k():
     prof = LevelProfiles()
     k = np.array([1, 2, 3] * (MAX_PROFILES + 10))
