@@ -175,13 +175,14 @@ class Pipeline:
             keep_f &= ~(hot if whole else hot[comp.inside])   # = hot[idx]; a mask: faster
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        # the kept events' indices into `events`, found once (whole: keep_f is the input's
-        # mask already; else indices: ~2x a mask's selection of idx)
-        kept = np.flatnonzero(keep_f) if whole else idx[np.flatnonzero(keep_f)]
+        # the kept events' indices into ev_f and into `events`, found once (whole: the
+        # same; else indices: ~2x a mask's selection of idx)
+        kept_f = np.flatnonzero(keep_f)
+        kept = kept_f if whole else idx[kept_f]
         # uncompensated coordinates are the kept events' own pixels
         xy = None if mode == "none" else comp.coordinates(kept)
         cents, members = self.make_extractor(t0_us, mode != "none").centroids_and_members(
-            ev_f[keep_f], xy=xy)
+            ev_f.at_sorted(kept_f), xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = keep_f
         if not whole:
