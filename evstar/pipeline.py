@@ -199,7 +199,7 @@ class Pipeline:
                                       t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
-            state.add_chunk(events, keep, cents)
+            state.add_chunk(events, kept, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
@@ -438,10 +438,10 @@ class _RunState:
 
             self.profiles = LevelProfiles()
 
-    def add_chunk(self, events, keep, centroids):
-        """Gather a chunk's crossings (estimator crossings) and the events near its
-        `centroids` (evstar.across; time-ordered, as the extractor gives them), span by
-        span."""
+    def add_chunk(self, events, kept, centroids):
+        """Gather a chunk's crossings (estimator crossings) of its `kept` events (ascending
+        indices) and the events near its `centroids` (evstar.across; time-ordered, as the
+        extractor gives them), span by span."""
         from .across import near_centroids
         from .estimation import chunk_crossings
 
@@ -454,20 +454,22 @@ class _RunState:
         # each span's centroids: one search, not a scan of all of them per span
         cuts = np.searchsorted(centroids["t"],
                                self.t0_us + np.arange(f0, f0 + len(bounds)) * self.span_us)
+        kept_cuts = np.searchsorted(kept, bounds)   # each span's kept events, likewise
         for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
             if across:
                 self._near.append(near_centroids(events[a:b], centroids[cuts[k]:cuts[k + 1]],
                                                  self.hot))
             if not with_crossings:
                 continue
+            mine = kept[kept_cuts[k]:kept_cuts[k + 1]] - a
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, r = chunk_crossings(
-                    events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
+                    events[a:b], mine, e.crossing_radius_px, with_ratio=True,
                     refractory_us=e.refractory_us, profiles=self.profiles,
                     fallback_ratio=self.fallback_ratio)
                 self.threshold_ratio = self.fallback_ratio if r is None else r
             else:
-                crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
+                crossings = chunk_crossings(events[a:b], mine, e.crossing_radius_px,
                                             self.threshold_ratio, refractory_us=e.refractory_us,
                                             profiles=self.profiles)
             self._crossings.append(crossings)

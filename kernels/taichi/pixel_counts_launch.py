@@ -65,11 +65,14 @@ def _words(packed):
 
 def marked_pixels(ti, x, y, keep, width, height):
     """reference.pixels.marked_pixels: a (height, width) bool image, True at the pixel of
-    every event `keep` (bool) selects (mark_pixels at those events)."""
+    every event `keep` (bool) selects (mark_pixels at those events); `keep` may also be
+    their ascending indices (np.flatnonzero of the mask, where the caller has them)."""
+    keep = np.asarray(keep)
     arrays = launch.Arrays(ti)
     flags = arrays.put(np.zeros(width * height, np.uint8))
     with launch.RUNTIME_LOCK:
-        for e0, e1, at in _launches_at(np.flatnonzero(keep), len(x)):
+        for e0, e1, at in _launches_at(np.flatnonzero(keep) if keep.dtype == bool else keep,
+                                       len(x)):
             mark_pixels(*(arrays.put(np.asarray(a[e0:e1], np.uint16)) for a in (x, y)),
                         arrays.put(at), width, flags)
     return (flags.to_numpy() if arrays.on_device else flags).view(bool).reshape(height, width)
