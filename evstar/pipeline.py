@@ -192,24 +192,26 @@ class Pipeline:
             t = time.perf_counter()
             # the pooled look takes every event no frame centroid used: those the filter
             # dropped, and those it kept that no reported cluster holds (a faint star's
-            # sparse events on a quiet sensor pass the filter but not DBSCAN)
-            used = np.zeros(len(events), bool)
-            used[kept[members]] = True
-            cents = self._with_pooled(cents, events, used if hot is None else used | hot,
-                                      t0_us, rate)
+            # sparse events on a quiet sensor pass the filter but not DBSCAN): marked from
+            # the dropped ones (nearly every kept event is a member: a few to unmark)
+            unused = ~keep
+            unused[kept[~members]] = True
+            if hot is not None:
+                unused &= ~hot
+            cents = self._with_pooled(cents, events, unused, t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
             state.add_chunk(events, kept, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
-    def _with_pooled(self, cents, events, used, t0_us, rate):
+    def _with_pooled(self, cents, events, unused, t0_us, rate):
         """The frame centroids and the pooled ones of the events neither in a frame
-        centroid's cluster nor on a hot pixel (`used`: those that are; evstar.pooling), in
-        time order."""
+        centroid's cluster nor on a hot pixel (`unused`: a mask of those; evstar.pooling),
+        in time order."""
         from .pooling import pooled_centroids
 
-        pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents,
+        pooled = pooled_centroids(self.config, events, unused, t0_us, rate, cents,
                                   self._scratch["pooled"])
         if not len(pooled):
             return cents
