@@ -52,7 +52,8 @@ STORE_RADIUS_PX = 6
 def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     """(t, x, y) of the events within `radius_px` (square) of a centroid's pixel, none on
     a pixel `hot` flags (a bool image, or None)."""
-    from .frames import events_on_pixels
+    from .events import gather
+    from .frames import on_pixels
 
     if not len(centroids) or not len(events):
         return events.t[:0], events.x[:0], events.y[:0]
@@ -63,7 +64,8 @@ def near_centroids(events, centroids, hot=None, radius_px=STORE_RADIUS_PX):
     near = dilate(near, radius_px)
     if hot is not None:
         near &= ~hot
-    return events_on_pixels(events, near)[:3]
+    # their polarities are not gathered: the histograms do not need them
+    return tuple(gather([events.t, events.x, events.y], np.flatnonzero(on_pixels(events, near))))
 
 
 def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):

@@ -53,11 +53,15 @@ _LAG_FILES = {}
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
                     refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
-    drops a faint star's flank events, which the level pairs need. threshold_ratio: the
+    drops a faint star's flank events, which the level pairs need. keep: bool per event, or
+    the kept events' ascending indices (frames.kept_indices). threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
-    if not keep.any():
+    from .frames import kept_indices
+
+    keep = kept_indices(keep)
+    if not len(keep):
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return sorted_crossings(*_near_kept(events, keep, radius_px), events.width,
@@ -67,8 +71,8 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
 
 
 def _near_kept(events, keep, radius_px):
-    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event, in the
-    pixel-then-time order."""
+    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep: as
+    chunk_crossings takes it), in the pixel-then-time order."""
     from .frames import events_by_pixel, kept_pixels
 
     return events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))

@@ -195,15 +195,21 @@ class Events:
             mask = np.asarray(index)                   # the four arrays (~3x a mask each)
             if mask.shape != self.t.shape:
                 raise IndexError(f"boolean index of shape {mask.shape} for {len(self)} events")
-            index = np.flatnonzero(mask)
+            return self.at_sorted(np.flatnonzero(mask))
         if isinstance(index, slice):
-            sel = {k: getattr(self, k)[index] for k in ("t", "x", "y", "p")}     # views
-        else:   # take: ~20 % quicker than fancy indexing of these long arrays
-            keys = ("t", "x", "y", "p")
-            sel = dict(zip(keys, gather([getattr(self, k) for k in keys], np.asarray(index))))
-        if not ordered and len(sel["t"]) > 1 and np.any(np.diff(sel["t"]) < 0):
+            return Events._trusted(self.t[index], self.x[index], self.y[index], self.p[index],
+                                   self.width, self.height)                   # views
+        sel = self.at_sorted(np.asarray(index))
+        if len(sel) > 1 and np.any(np.diff(sel.t) < 0):
             raise DataError("an index array must keep events in time order")
-        return Events._trusted(sel["t"], sel["x"], sel["y"], sel["p"], self.width, self.height)
+        return sel
+
+    def at_sorted(self, index):
+        """The events at the ascending indices `index` (np.flatnonzero of a mask the caller
+        has found anyway): events[mask] without finding them again, nor checking the order.
+        take: ~20 % quicker than fancy indexing of these long arrays."""
+        t, x, y, p = gather([self.t, self.x, self.y, self.p], index)
+        return Events._trusted(t, x, y, p, self.width, self.height)
 
     def time_window(self, t_start_us, t_stop_us):
         """Events with t_start_us <= t < t_stop_us (views of the arrays, no copy)."""

@@ -97,12 +97,20 @@ def images(events, keep=None):
 
 
 def kept_pixels(events, keep):
-    """(height, width) bool image: the pixels of the events `keep` (bool (n,)) selects."""
+    """(height, width) bool image: the pixels of the events `keep` (bool (n,)) selects, or
+    of the events at the ascending indices `keep` (kept_indices)."""
     from evstar_kernels.taichi.pixel_counts_launch import marked_pixels
 
     from .backends import taichi_running
 
     return marked_pixels(taichi_running(), events.x, events.y, keep, events.width, events.height)
+
+
+def kept_indices(keep):
+    """The ascending indices of the events a keep mask (bool) selects; indices as they are
+    (a caller that has them spares a pass over the mask)."""
+    keep = np.asarray(keep)
+    return np.flatnonzero(keep) if keep.dtype == bool else keep
 
 
 def events_on_pixels(events, flags):

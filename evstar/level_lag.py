@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frames import stable_order
+
 #: fewest crossings with k pairs for a profile of k
 MIN_PROFILES = 10
 #: crossings per k a run keeps for the fit (the median profile of more tells no more)
@@ -47,9 +49,15 @@ class LevelProfiles:
         """Indices into `k` (pairs per crossing) of the crossings still wanted: per k >= 2,
         the first up to MAX_PROFILES less those held."""
         k = np.asarray(k)
-        parts = [np.flatnonzero(k == kk)[: MAX_PROFILES - self._count(kk)]
-                 for kk in np.unique(k[k >= 2]) if self._count(kk) < MAX_PROFILES]
-        return np.sort(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+        per_k = np.bincount(k) if len(k) else np.zeros(0, np.int64)      # k >= 0
+        take = {kk: min(int(per_k[kk]), MAX_PROFILES - self._count(kk))
+                for kk in range(2, len(per_k))}
+        take = {kk: n for kk, n in take.items() if n > 0}
+        if not take:
+            return np.zeros(0, np.int64)
+        # each k's crossings in their order, by one stable sort (not a scan of all per k)
+        order, first = stable_order(k), np.cumsum(per_k) - per_k
+        return np.sort(np.concatenate([order[first[kk]:first[kk] + n] for kk, n in take.items()]))
 
     def add(self, k, mids):
         """k (n,) pairs and mids (n, max k) level midpoints (µs; beyond k ignored) of

@@ -175,13 +175,14 @@ class Pipeline:
             keep_f &= ~(hot if whole else hot[comp.inside])   # = hot[idx]; a mask: faster
         timings["denoise"] = time.perf_counter() - t
         t = time.perf_counter()
-        # the kept events' indices into `events`, found once (whole: keep_f is the input's
-        # mask already; else indices: ~2x a mask's selection of idx)
-        kept = np.flatnonzero(keep_f) if whole else idx[np.flatnonzero(keep_f)]
+        # the kept events' indices into ev_f and into `events`, found once (whole: the
+        # same; else indices: ~2x a mask's selection of idx)
+        kept_f = np.flatnonzero(keep_f)
+        kept = kept_f if whole else idx[kept_f]
         # uncompensated coordinates are the kept events' own pixels
         xy = None if mode == "none" else comp.coordinates(kept)
         cents, members = self.make_extractor(t0_us, mode != "none").centroids_and_members(
-            ev_f[keep_f], xy=xy)
+            ev_f.at_sorted(kept_f), xy=xy)
         timings["extract"] = time.perf_counter() - t
         keep = keep_f
         if not whole:
@@ -191,24 +192,26 @@ class Pipeline:
             t = time.perf_counter()
             # the pooled look takes every event no frame centroid used: those the filter
             # dropped, and those it kept that no reported cluster holds (a faint star's
-            # sparse events on a quiet sensor pass the filter but not DBSCAN)
-            used = np.zeros(len(events), bool)
-            used[kept[members]] = True
-            cents = self._with_pooled(cents, events, used if hot is None else used | hot,
-                                      t0_us, rate)
+            # sparse events on a quiet sensor pass the filter but not DBSCAN): marked from
+            # the dropped ones (nearly every kept event is a member: a few to unmark)
+            unused = ~keep
+            unused[kept[~members]] = True
+            if hot is not None:
+                unused &= ~hot
+            cents = self._with_pooled(cents, events, unused, t0_us, rate)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
-            state.add_chunk(events, keep, cents)
+            state.add_chunk(events, kept, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
-    def _with_pooled(self, cents, events, used, t0_us, rate):
+    def _with_pooled(self, cents, events, unused, t0_us, rate):
         """The frame centroids and the pooled ones of the events neither in a frame
-        centroid's cluster nor on a hot pixel (`used`: those that are; evstar.pooling), in
-        time order."""
+        centroid's cluster nor on a hot pixel (`unused`: a mask of those; evstar.pooling),
+        in time order."""
         from .pooling import pooled_centroids
 
-        pooled = pooled_centroids(self.config, events, ~used, t0_us, rate, cents,
+        pooled = pooled_centroids(self.config, events, unused, t0_us, rate, cents,
                                   self._scratch["pooled"])
         if not len(pooled):
             return cents
@@ -437,10 +440,10 @@ class _RunState:
 
             self.profiles = LevelProfiles()
 
-    def add_chunk(self, events, keep, centroids):
-        """Gather a chunk's crossings (estimator crossings) and the events near its
-        `centroids` (evstar.across; time-ordered, as the extractor gives them), span by
-        span."""
+    def add_chunk(self, events, kept, centroids):
+        """Gather a chunk's crossings (estimator crossings) of its `kept` events (ascending
+        indices) and the events near its `centroids` (evstar.across; time-ordered, as the
+        extractor gives them), span by span."""
         from .across import near_centroids
         from .estimation import chunk_crossings
 
@@ -453,20 +456,22 @@ class _RunState:
         # each span's centroids: one search, not a scan of all of them per span
         cuts = np.searchsorted(centroids["t"],
                                self.t0_us + np.arange(f0, f0 + len(bounds)) * self.span_us)
+        kept_cuts = np.searchsorted(kept, bounds)   # each span's kept events, likewise
         for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
             if across:
                 self._near.append(near_centroids(events[a:b], centroids[cuts[k]:cuts[k + 1]],
                                                  self.hot))
             if not with_crossings:
                 continue
+            mine = kept[kept_cuts[k]:kept_cuts[k + 1]] - a
             if self.threshold_ratio is None:   # the first span: the calibration window
                 crossings, r = chunk_crossings(
-                    events[a:b], keep[a:b], e.crossing_radius_px, with_ratio=True,
+                    events[a:b], mine, e.crossing_radius_px, with_ratio=True,
                     refractory_us=e.refractory_us, profiles=self.profiles,
                     fallback_ratio=self.fallback_ratio)
                 self.threshold_ratio = self.fallback_ratio if r is None else r
             else:
-                crossings = chunk_crossings(events[a:b], keep[a:b], e.crossing_radius_px,
+                crossings = chunk_crossings(events[a:b], mine, e.crossing_radius_px,
                                             self.threshold_ratio, refractory_us=e.refractory_us,
                                             profiles=self.profiles)
             self._crossings.append(crossings)

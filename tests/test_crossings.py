@@ -75,6 +75,8 @@ def test_frames_without_centroids_but_with_crossings_get_positions():
     linked = res.centroids[res.centroids["track"] >= 0]
     gap = (linked["frame"] >= 10) & (linked["frame"] < 20)   # 100 ms without centroids
     crossings = estimation.chunk_crossings(run.events, res.keep, 3.0)
+    by_index = estimation.chunk_crossings(run.events, np.flatnonzero(res.keep), 3.0)
+    assert by_index.tobytes() == crossings.tobytes()      # the kept events' indices alike
     rows = estimation.estimate(linked[~gap], cfg.replace(**{"estimate.estimator": "crossings"}),
                                int(run.events.t[0]), crossings)
     in_gap = (rows["frame"] >= 10) & (rows["frame"] < 20)

@@ -39,6 +39,9 @@ def test_time_window_and_mask_keep_order():
     assert len(w) == np.count_nonzero((ev.t >= 20_000) & (ev.t < 40_000))
     m = ev.x > 30
     assert ev[m] == Events(ev.t[m], ev.x[m], ev.y[m], ev.p[m], 64, 48)
+    assert ev.at_sorted(np.flatnonzero(m)) == ev[m] == ev[np.flatnonzero(m)]
+    with pytest.raises(DataError, match="time order"):
+        ev[np.flatnonzero(m)[::-1]]
 
 
 def test_concatenate_requires_time_order_and_same_sensor():

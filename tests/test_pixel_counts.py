@@ -78,6 +78,8 @@ def test_kept_pixels_and_events_on_flagged_pixels_match_reference(monkeypatch, d
     marked = frames.kept_pixels(ev, keep)
     assert marked.dtype == bool and marked.shape == (size[1], size[0])
     np.testing.assert_array_equal(marked, marked_pixels(ev.x, ev.y, keep, *size))
+    # the kept events' indices, where the caller has them, mark the same pixels
+    np.testing.assert_array_equal(frames.kept_pixels(ev, frames.kept_indices(keep)), marked)
     flags = np.random.default_rng(n).random((size[1], size[0])) < 0.4
     got = frames.events_on_pixels(ev, flags)
     want = on_flagged_pixels([ev.t, ev.x, ev.y, ev.p], ev.x, ev.y, flags)

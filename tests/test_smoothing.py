@@ -148,6 +148,26 @@ def test_process_noise_estimate_recovers_a_random_acceleration():
     assert flat < 10.0     # noise alone: ~0
 
 
+def test_a_smoother_estimates_q_once_per_tracks_data(monkeypatch):
+    """The refit asks again for most tracks' q with the same centroid data: a smoother's
+    memo answers those, with the q the likelihoods give (a track's are its data's alone)."""
+    from evstar import smoothing
+
+    rng = np.random.default_rng(4)
+    tracks = [(np.arange(n) * 0.01, np.cumsum(rng.normal(0, 0.3, (n, 2)), 0), np.full(n, 0.1))
+              for n in (3, 20, 40, 60)]
+    want = [smoothing._estimate_q_many([t], "taichi")[0] for t in tracks]
+    asked = []
+    loglik = smoothing._ENGINES["taichi"][1]
+    monkeypatch.setitem(smoothing._ENGINES, "taichi", (smoothing._ENGINES["taichi"][0],
+                        lambda ts, grid: asked.append(len(ts)) or loglik(ts, grid)))
+    memo = {}
+    assert smoothing._estimate_q_many(tracks[:3], "taichi", memo) == want[:3]
+    assert smoothing._estimate_q_many(tracks[::-1], "taichi", memo) == want[::-1]
+    assert asked == [2, 1]          # too short a track is never asked; the others once each
+    assert want[2] > 0
+
+
 def test_imu_prior_gives_the_image_velocity_of_a_simulated_star():
     run = sim.simulate(sim.paper_preset(8.0, duration_s=0.2), seed=1)
     t = np.linspace(run.events.t[0] + 20_000, run.events.t[-1] - 20_000, 5).astype(np.int64)
@@ -565,3 +585,20 @@ def test_a_slow_track_moves_onto_its_few_clean_crossings():
     assert used == 6 and abs(along_err(rows)) < 0.1
     rows, used = smoother.refine(est, cents, c, background_hz=busy)
     assert used == 0 and np.array_equal(rows, est)
+
+
+def test_the_quick_median_is_numpys_bit_for_bit():
+    from evstar.smoothing import _median
+
+    rng = np.random.default_rng(8)
+    for trial in range(3000):
+        n = int(rng.integers(1, 60))
+        a = rng.normal(0, 2, n)
+        if trial % 3 == 0:
+            a = np.round(a)                                  # ties and zeros
+        if trial % 5 == 0:
+            a[rng.random(n) < 0.5] = -0.0                    # the sign of a zero
+        if trial % 7 == 0:
+            a[rng.integers(0, n)] = np.nan
+        want = np.median(a)
+        assert type(_median(a)) is type(want) and _median(a).tobytes() == want.tobytes(), a
