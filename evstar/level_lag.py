@@ -32,6 +32,11 @@ MIN_PROFILES = 10
 MAX_PROFILES = 500
 #: least fraction of the profiles' variance the geometric lag must explain to be used
 MIN_R2 = 0.99
+#: profiles with less than this share of the fullest one's crossings neither veto a lag
+#: (falling with depth) nor shape it: on a fast dark-sky field a k of a few dozen crossings
+#: (28 of 11 pairs beside 500s) fell where a background event was paired in it, and its
+#: shape took R² below MIN_R2 (their lag is still read off the shared fit)
+FILLED_SHARE = 0.1
 #: profiles with at least this many levels drop their deepest from the shape fit
 _DROP_BOTTOM_FROM = 5
 #: ρ's grid: C·γ from 0.1 to 0.9 (contrast thresholds of DVS pixels are ~0.1–0.5)
@@ -95,14 +100,16 @@ def fit_lag(profiles):
     """(k values, lag µs per k, R², ρ) of the geometric model fitted to `profiles` ({k:
     (median demeaned profile, count)}), or None when fewer than two profiles have >= 3
     levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays)."""
-    # a low-pass delays a dimmer level more: every profile rises with depth over the levels
-    # that shape the fit (a sensor without one has profiles of jitter and refractory
+    # a low-pass delays a dimmer level more: every well-filled profile rises with depth over
+    # the levels that shape the fit (a sensor without one has profiles of jitter and refractory
     # effects, some falling, whose fit can still pass the R² gate; the deepest level of a
     # long profile, left out of the shape, may fall: a background event of a fast field
     # paired there)
-    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in profiles.items() if k >= 2):
+    fullest = max((n for D, n in profiles.values()), default=0)
+    filled = {k: (D, n) for k, (D, n) in profiles.items() if n >= FILLED_SHARE * fullest}
+    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in filled.items() if k >= 2):
         return None
-    shaped = {k: v for k, v in profiles.items() if _levels(k) >= 3}
+    shaped = {k: v for k, v in filled.items() if _levels(k) >= 3}
     deep = {k: v for k, v in shaped.items() if k >= _DROP_BOTTOM_FROM}
     shape = deep if len(deep) >= 2 else shaped
     if len(shape) < 2:

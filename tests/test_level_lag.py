@@ -58,6 +58,21 @@ def test_a_long_profile_s_deepest_level_does_not_decide():
     assert fit_lag(prof) is None
 
 
+def test_a_sparse_profile_neither_vetoes_nor_shapes_the_lag():
+    """A k of a few crossings beside well-filled ones (a fast dark-sky field: 28 of 11
+    pairs beside 500s, falling where a background event was paired) leaves the lag as the
+    others give it; as full as them, it vetoes."""
+    prof = _profiles(1.3, 1500.0, ks=range(4, 11), noise_us=5.0, n=500)
+    want = fit_lag(prof)
+    odd = np.r_[np.linspace(600.0, 900.0, 9), 200.0, -8000.0]
+    prof[11] = (odd - odd.mean(), 28)
+    got = fit_lag(prof)
+    assert got is not None and got[3] == want[3] and got[2] == pytest.approx(want[2])
+    np.testing.assert_allclose(got[1][:-1], want[1])
+    prof[11] = (odd - odd.mean(), 500)
+    assert fit_lag(prof) is None
+
+
 def test_profiles_keep_at_most_their_cap_per_k():
     prof = LevelProfiles()
     k = np.array([1, 2, 3] * (MAX_PROFILES + 10))
