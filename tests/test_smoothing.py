@@ -585,20 +585,3 @@ def test_a_slow_track_moves_onto_its_few_clean_crossings():
     assert used == 6 and abs(along_err(rows)) < 0.1
     rows, used = smoother.refine(est, cents, c, background_hz=busy)
     assert used == 0 and np.array_equal(rows, est)
-
-
-def test_the_quick_median_is_numpys_bit_for_bit():
-    from evstar.smoothing import _median
-
-    rng = np.random.default_rng(8)
-    for trial in range(3000):
-        n = int(rng.integers(1, 60))
-        a = rng.normal(0, 2, n)
-        if trial % 3 == 0:
-            a = np.round(a)                                  # ties and zeros
-        if trial % 5 == 0:
-            a[rng.random(n) < 0.5] = -0.0                    # the sign of a zero
-        if trial % 7 == 0:
-            a[rng.integers(0, n)] = np.nan
-        want = np.median(a)
-        assert type(_median(a)) is type(want) and _median(a).tobytes() == want.tobytes(), a
