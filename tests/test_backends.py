@@ -65,7 +65,11 @@ def broken() -> ti.i32:
 try:
     broken()
 except Exception as e:
-    print(type(e).__name__, str(e))
+    print(type(e).__name__, str(e), flush=True)
+# Taichi can crash tearing down after a failed compile (taichi#6362; once in CI, rc -11,
+# after this message was printed): leave without its teardown.
+import os
+os._exit(0)
 """
 
 
