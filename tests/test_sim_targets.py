@@ -100,3 +100,22 @@ def test_field_scenario_pans_or_swings_and_names_a_bad_motion():
     assert isinstance(pan.trajectory, sim.ConstantRate) and isinstance(sine.trajectory, sim.Sinusoid)
     with pytest.raises(ParameterError, match="'spin'"):
         sim.field_scenario(cam, 83.8, -5.4, 8.0, 0.5, motion="spin")
+
+
+def test_a_field_rolling_about_the_boresight_turns_its_stars_about_the_centre():
+    from evstar import sim
+    from evstar.errors import ParameterError
+
+    cam = sim.camera_preset("davis346", 16.0)
+    roll = sim.field_scenario(cam, 83.8, -5.4, 10.0, 0.5, axis=(0.0, 0.0, 1.0))
+    R0, R1 = roll.trajectory.rotation(np.array([0.0, 0.4]))      # 0.4 s: 4° about the centre
+    p0, p1 = (cam.project(roll.stars.directions @ R.T) for R in (R0, R1))
+    c = np.array([cam.cx, cam.cy])
+    seen = (np.abs(p0 - c) < c).all(axis=1)
+    r0, r1 = np.hypot(*(p0[seen] - c).T), np.hypot(*(p1[seen] - c).T)
+    turn = np.degrees(np.arctan2(*(p1[seen] - c).T[::-1]) - np.arctan2(*(p0[seen] - c).T[::-1]))
+    far = r0 > 40
+    assert seen.sum() >= 10 and np.allclose(r0, r1, atol=0.05)
+    assert np.allclose(np.abs((turn[far] + 180) % 360 - 180), 4.0, atol=0.05)
+    with pytest.raises(ParameterError, match="axis"):
+        sim.field_scenario(cam, 83.8, -5.4, 8.0, 0.5, axis=(0.0, 0.0, 0.0))

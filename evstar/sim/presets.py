@@ -104,22 +104,23 @@ def paper_sinusoid(amplitude_deg=10.0, freq_hz=1.0, *, duration_s=1.0, magnitude
 
 
 def field_scenario(camera, ra_deg, dec_deg, rate_dps, duration_s, *, motion="pan",
-                   mag_limit=6.5, sensor="default", noise_hz=None):
+                   mag_limit=6.5, sensor="default", noise_hz=None, axis=(0.0, 1.0, 0.0)):
     """A Hipparcos field (to `mag_limit`) seen by `camera` starting at (RA, Dec): "pan", a
-    constant `rate_dps` about the image's up axis, or "sine", a 1 Hz sinusoid about it with
-    `rate_dps` as its peak rate. sensor: a sensor_model name; noise_hz its background rate
-    (its own where None)."""
+    constant `rate_dps` about `axis` (camera frame; default the image's up axis, (0, 0, 1)
+    rolls about the boresight), or "sine", a 1 Hz sinusoid about it with `rate_dps` as its
+    peak rate. sensor: a sensor_model name; noise_hz its background rate (its own where
+    None)."""
     import numpy as np
 
     from .motion import ConstantRate, Sinusoid, attitude_from_radec
     from .scene import Scenario
     from .targets import hipparcos_field_along
 
-    R0, up = attitude_from_radec(ra_deg, dec_deg, 0.0), np.array([0.0, 1.0, 0.0])
+    R0 = attitude_from_radec(ra_deg, dec_deg, 0.0)
     if motion == "sine":
-        move = Sinusoid(rate_dps / (2 * np.pi), 1.0, axis=up, R0=R0)
+        move = Sinusoid(rate_dps / (2 * np.pi), 1.0, axis=axis, R0=R0)
     elif motion == "pan":
-        move = ConstantRate(rate_dps, axis=up, R0=R0)
+        move = ConstantRate(rate_dps, axis=axis, R0=R0)
     else:
         raise ParameterError(f"field motion must be 'pan' or 'sine', got {motion!r}")
     stars = hipparcos_field_along(camera, move, duration_s, mag_limit=mag_limit)
