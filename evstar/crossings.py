@@ -31,9 +31,10 @@ from .frames import ranks, stable_order
 from .parameters import AUTO
 
 #: t: the mean of the level pairs' midpoints (µs); t_spread: their std; t_outer: the deepest
-#: pair's half-width (outer_half_width)
+#: pair's half-width (outer_half_width); t_half: the pairs' RMS half-width (OFF time less
+#: midpoint, µs)
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
-                           ("t_spread", "<f8"), ("t_outer", "<f8")])
+                           ("t_spread", "<f8"), ("t_outer", "<f8"), ("t_half", "<f8")])
 
 
 def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
@@ -107,14 +108,15 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
         _add_profiles(profiles, ts, change, plain, r, on_before)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
-        k, sums, sq = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
-                       else _refractory_pairs(ts, *args, max_pairs))
+        k, sums, sq, h2 = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
+                           else _refractory_pairs(ts, *args, max_pairs))
         keep = k > 0
-        change, k, sums, sq = change[keep], k[keep], sums[keep], sq[keep]
+        change, k, sums, sq, h2 = change[keep], k[keep], sums[keep], sq[keep], h2[keep]
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
-        sums, sq = kern.sums(change, k, r, nb) if kern is not None else _pair_sums(ts, change, k, r, nb)
+        sums, sq, h2 = (kern.sums(change, k, r, nb) if kern is not None
+                        else _pair_sums(ts, change, k, r, nb))
     outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
     mean = sums / k
     t_c = ts[change].astype(np.float64)             # sq is about the change's time
@@ -126,6 +128,7 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
     out["x"], out["y"] = pixel % width, pixel // width
     out["t"], out["pairs"], out["t_spread"], out["t_outer"] = (mean[by_t], k[by_t],
                                                                spread[by_t], outer[by_t])
+    out["t_half"] = np.sqrt(h2[by_t] / k[by_t])
     return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
@@ -236,21 +239,23 @@ def _runs(keys, ps):
 
 
 def _pair_sums(ts, change, k, ratio, on_before):
-    """Sums of the pair midpoints and of their squares about the change's own time (an
-    hour's µs squared would round the spread to ~50 µs; the offsets of whole-µs midpoints
-    square exactly, whatever the arithmetic contracts) per change (the kernel's
-    specification): pair j is the j-th OFF after c and the rising time at its level, j·ratio
-    ON steps before c, interpolated between the ON events around it where not whole
-    (level_midpoints); summed in the order of j."""
-    mids = level_midpoints(ts, change, k, ratio, on_before)
+    """Sums of the pair midpoints, of their squares about the change's own time (an hour's
+    µs squared would round the spread to ~50 µs; the offsets of whole-µs midpoints square
+    exactly, whatever the arithmetic contracts) and of the pairs' squared half-widths (OFF
+    time less midpoint) per change (the kernel's specification): pair j is the j-th OFF after
+    c and the rising time at its level, j·ratio ON steps before c, interpolated between the
+    ON events around it where not whole (level_midpoints); summed in the order of j."""
+    mids, falls = _level_pairs(ts, change, k, ratio, on_before)
     t_c = ts[change].astype(np.float64)
-    sums, sq = np.zeros(len(change)), np.zeros(len(change))
+    sums, sq, h2 = np.zeros(len(change)), np.zeros(len(change)), np.zeros(len(change))
     for j in range(mids.shape[1]):
         mid = np.where(k > j, mids[:, j], 0.0)
         d = np.where(k > j, mid - t_c, 0.0)
+        half = np.where(k > j, falls[:, j] - mid, 0.0)
         sums += mid
         sq += d * d
-    return sums, sq
+        h2 += half * half
+    return sums, sq, h2
 
 
 def level_midpoints(ts, change, k, ratio, on_before):
@@ -258,10 +263,17 @@ def level_midpoints(ts, change, k, ratio, on_before):
     _pair_sums pairs them (their mean is its sum / k). A rising time below the run's first
     ON (on_before ON events precede c; _pair_counts allows DEPTH_REACH) is extrapolated
     from its first two."""
+    return _level_pairs(ts, change, k, ratio, on_before)[0]
+
+
+def _level_pairs(ts, change, k, ratio, on_before):
+    """(midpoints, OFF times): (n, max k) each, of level pairs j = 1..k (NaN beyond k)."""
     mids = np.full((len(change), int(k.max(initial=0))), np.nan)
+    falls = mids.copy()
     row, j = np.repeat(np.arange(len(k)), k), ranks(k, 1)      # all pairs at once
-    mids[row, j - 1] = _midpoint(ts, change[row], np.asarray(on_before)[row], j, ratio)[0]
-    return mids
+    mids[row, j - 1], falls[row, j - 1] = _midpoint(ts, change[row], np.asarray(on_before)[row],
+                                                    j, ratio)
+    return mids, falls
 
 
 def outer_half_width(ts, change, k, ratio, on_before):
@@ -359,7 +371,7 @@ def _refractory_pairs(ts, change, on_before, off_after, ratio, refractory_us, ma
     release re-armed at (its step less 1 above the last ON), OFF j one step · ratio below
     OFF j − 1. Pair j: OFF j and the rising time at its depth, interpolated between the ON
     events around it. Pairs run while an ON event is at least as deep, up to max_pairs;
-    an OFF above the last ON is skipped."""
+    an OFF above the last ON is skipped. Also the sums of the pairs' squared half-widths."""
     c, nb, na = np.asarray(change), np.asarray(on_before), np.asarray(off_after)
     t_c = ts[c].astype(np.float64)                  # the squares are about c's time
     step = lambda a, b: level_step(ts[a] - ts[b], refractory_us)
@@ -369,7 +381,7 @@ def _refractory_pairs(ts, change, on_before, off_after, ratio, refractory_us, ma
     d_next = np.where(has, step(c, np.where(has, c - 1, c)), np.inf)
     d_off = ratio - np.where(has, d_next - 1, 0.0)
     k = np.zeros(len(c), np.int64)
-    sums, sq = np.zeros(len(c)), np.zeros(len(c))
+    sums, sq, h2 = np.zeros(len(c)), np.zeros(len(c)), np.zeros(len(c))
     alive = na >= 1
     for j in range(1, int(na.max(initial=0)) + 1):
         if j > 1:
@@ -388,12 +400,15 @@ def _refractory_pairs(ts, change, on_before, off_after, ratio, refractory_us, ma
         f = np.where(np.isfinite(d_next), (d_off - d_m) / np.where(np.isfinite(d_next), d_next - d_m, 1.0), 0.0)
         late, early = ts[c - m].astype(np.float64), ts[np.maximum(c - m - 1, 0)].astype(np.float64)
         rise = np.where(f < 1e-9, late, late * (1 - f) + early * f)
-        mid = 0.5 * (rise + ts[c + np.minimum(j, na)].astype(np.float64))
+        fall = ts[c + np.minimum(j, na)].astype(np.float64)
+        mid = 0.5 * (rise + fall)
+        half = fall - mid
         sums[valid] += mid[valid]
         sq[valid] += (mid - t_c)[valid] ** 2
+        h2[valid] += (half * half)[valid]
         k += valid
         alive &= ~beyond & (j < na) & (k < max_pairs)
-    return k, sums, sq
+    return k, sums, sq, h2
 
 
 def _pixel_then_time(key, t, engine="taichi"):

@@ -25,7 +25,7 @@ from .parameters import AUTO
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
-                  "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends")
+                  "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends", "speed_change")
 
 
 def pixel_lag(path):

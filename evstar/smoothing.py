@@ -103,7 +103,7 @@ class TrackSmoother:
     def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
                  coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
                  outlier_sigma=4.0, coast_ends=ESTIMATE["coast_ends"].default,
-                 engine=SMOOTHER["engine"].default):
+                 speed_change=ESTIMATE["speed_change"].default, engine=SMOOTHER["engine"].default):
         from .frames import check_dt
 
         self.dt_us = check_dt(dt_us)
@@ -115,6 +115,7 @@ class TrackSmoother:
         self.min_events = ESTIMATE.check("min_events", min_events)
         self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
         self.coast_ends = ESTIMATE.check("coast_ends", coast_ends)
+        self.speed_change = ESTIMATE.check("speed_change", speed_change)
         self.engine = SMOOTHER.check("engine", engine)
         # the q estimated for each track's centroid data (_estimate_q_many): refine asks
         # again for the same data of most tracks (~25 % of the estimate stage's kernel time)
@@ -251,6 +252,7 @@ class TrackSmoother:
         q_got = np.column_stack([crossings["x"][got], crossings["y"][got]]).astype(float)
         pairs = crossings["pairs"][got]             # level pairs of each assigned crossing
         width = crossings["t_outer"][got]
+        half = crossings["t_half"][got]             # their pairs' RMS half-width
         # their positions along the motion (the row sum's arithmetic but for a zero's sign)
         along = q_got[:, 0] * u[:, 0] + q_got[:, 1] * u[:, 1]
         used = 0
@@ -268,6 +270,8 @@ class TrackSmoother:
             t_c, r_c = t_got[m], resid[m]
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
                 t_c, r_c = _lag_corrected(t_c, pairs[m], width[m], r_c, track, pixel_lag)
+            if self.speed_change and len(t_c):
+                t_c, r_c = _speed_change_corrected(t_c, half[m], u.take(m, 0), r_c, track, turns)
             full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
@@ -763,6 +767,34 @@ def _run_around(flags, i):
     lo = breaks[breaks < i].max(initial=-1) + 1
     hi = breaks[breaks > i].min(initial=len(flags)) - 1
     return lo, hi
+
+
+def _speed_change_corrected(t_c, h, u, resid, track, turns):
+    """Crossing times moved to when the star passed each pixel where its speed changes, and
+    their along-track residuals with them. A level pair's flanks are where the star was
+    equally far before and past the pixel, so it passed the pixel when its position along
+    the motion was the mean of its positions at the two flank times: the flanks' mean time
+    only at a constant speed (slowing down, the star reaches the far flank late; on a 1 Hz
+    sinusoid at 60 px/s that put a field's stars 0.1–0.25 px off). The track's smoothed
+    rows give that position (an offset of theirs cancels) and when it was reached; a
+    crossing's flanks are ± h, its pairs' RMS half-width. Only where the star keeps its
+    direction and half its speed over the passage, within the track's rows and outside its
+    turns' time (there the crossings are not passages: _single_passes)."""
+    if len(track) < 3:
+        return t_c, resid
+    ts = track["t"].astype(np.float64)
+    at = lambda t, f: np.interp(t, ts, track[f])
+    along = lambda t: at(t, "x") * u[:, 0] + at(t, "y") * u[:, 1]
+    speed = lambda t: at(t, "vx") * u[:, 0] + at(t, "vy") * u[:, 1]
+    v = speed(t_c)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        shift = (0.5 * (along(t_c - h) + along(t_c + h)) - along(t_c)) / v * 1e6     # µs
+    ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1])
+          & (np.minimum(speed(t_c - h) * np.sign(v), speed(t_c + h) * np.sign(v)) >= 0.5 * np.abs(v)))
+    for t_lo, t_hi, _, _ in turns:
+        ok &= (t_c + h < t_lo) | (t_c - h > t_hi)
+    shift = np.where(ok, shift, 0.0)
+    return t_c + shift, resid - v * shift * 1e-6
 
 
 def _lag_corrected(t_c, pairs, width, resid, track, pixel_lag):

@@ -55,6 +55,7 @@ def test_one_synthetic_pixel_pairs_levels_outwards_from_the_polarity_change():
     assert len(c) == 1 and c["pairs"][0] == 2 and c["t"][0] == pytest.approx(37.5)
     assert c["t_spread"][0] == pytest.approx(2.5)
     assert c["t_outer"][0] == pytest.approx(70 - 40)     # the deepest pair (10, 70)
+    assert c["t_half"][0] == pytest.approx(np.sqrt((15 ** 2 + 30 ** 2) / 2))   # RMS of both
     one = pixel_crossings(t, np.zeros(5, int), np.zeros(5, int), p, max_pairs=1)
     assert one["t"][0] == pytest.approx(35.0)
 
@@ -124,7 +125,7 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
         for i in range(len(tt) - 1):
             if not (on[i] and not on[i + 1]):
                 continue
-            s = sq = 0.0
+            s = sq = h2 = 0.0
             k = 0
             first, last = i, i + 1              # the ON run's first event, the OFF run's last
             while first > 0 and on[first - 1]:
@@ -159,9 +160,10 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                 d = mid - float(tt[i])             # squares about the change's time
                 s, sq, k = s + mid, sq + d * d, k + 1
                 outer = float(tt[b]) - mid          # the deepest pair's half-width
+                h2 += outer * outer
             if k:
                 spread = np.sqrt(max(sq / k - (s / k - float(tt[i])) ** 2, 0.0))
-                rows.append((px, py, s / k, k, spread, outer))
+                rows.append((px, py, s / k, k, spread, outer, np.sqrt(h2 / k)))
     out = np.array(rows, CROSSING_DTYPE) if rows else np.zeros(0, CROSSING_DTYPE)
     return out[np.argsort(out["t"], kind="stable")]
 
@@ -184,6 +186,7 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
     np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-9)
 
 
 def test_the_pairs_follow_the_ratio_continuously_across_one():
@@ -212,6 +215,7 @@ def test_pixel_crossings_of_a_simulated_star_equal_the_reference(ratio):
         assert got.tobytes() == ref.tobytes()
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("engine", ["taichi", "numpy"])
@@ -409,6 +413,7 @@ def assert_same_crossings(t, key, p, width, max_pairs, ratio=1.0):
     # the spread's squares are about each change's time: no rounding of t² (an hour's µs:
     # tens of µs before); the mean's own rounding there (~5e-7 µs) is left
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-2)
+    np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-5)   # the same
     return ref
 
 
@@ -510,6 +515,7 @@ def test_refractory_pairs_kernel_equals_its_specification():
         # divisions under Taichi's fast math: the last bits of the sums
         np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-6)
         np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-2)
+        np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-6)
 
 
 def test_a_vanishing_refractory_period_is_the_plain_pairing():

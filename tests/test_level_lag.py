@@ -96,7 +96,7 @@ def test_level_midpoints_average_to_the_pair_sums():
         k = crossings._pair_counts(nb, na, ratio, 16)
         m = k > 0
         mids = crossings.level_midpoints(ts, change[m], k[m], ratio, nb[m])
-        sums, _ = crossings._pair_sums(ts, change[m], k[m], ratio, nb[m])
+        sums = crossings._pair_sums(ts, change[m], k[m], ratio, nb[m])[0]
         np.testing.assert_allclose(np.nanmean(mids, axis=1), sums / k[m], rtol=0, atol=1e-6)
         assert np.all(np.isnan(mids) == (np.arange(mids.shape[1]) >= k[m][:, None]))
 

@@ -585,3 +585,31 @@ def test_a_slow_track_moves_onto_its_few_clean_crossings():
     assert used == 6 and abs(along_err(rows)) < 0.1
     rows, used = smoother.refine(est, cents, c, background_hz=busy)
     assert used == 0 and np.array_equal(rows, est)
+
+
+def test_a_crossing_on_a_changing_speed_is_moved_to_when_the_star_passed_its_pixel():
+    """A level pair's flanks are where the star was d before and d past the pixel; slowing
+    down, it reaches the far flank late, so the flanks' mean time is after its passage.
+    Exact kinematics on x = 50 + 40·sin(2πt): the corrected times are ≥ 7× closer."""
+    from scipy.optimize import brentq
+
+    from evstar.smoothing import _speed_change_corrected, _turns
+
+    track = _reversing_track()
+    x = lambda t: 50 + 40 * np.sin(2 * np.pi * t * 1e-6)
+    d, q = 3.0, np.array([60.0, 70.0, 80.0, 84.0])
+    when = lambda level: np.array([brentq(lambda t: x(t) - v, 0, 250_000) for v in level])
+    t0, t1, t2 = when(q), when(q - d), when(q + d)
+    t_c, width = 0.5 * (t1 + t2), 0.5 * (t2 - t1)
+    u = np.tile([1.0, 0.0], (len(q), 1))
+    fixed, resid = _speed_change_corrected(t_c, width, u, np.zeros(len(q)), track,
+                                           _turns(track, 3.0))
+    assert np.all(t_c > t0)                                 # slowing down: the mean is late
+    assert np.all(np.abs(fixed - t0)[:3] < 0.15 * np.abs(t_c - t0)[:3])
+    assert fixed[3] == t_c[3]          # its flanks reach into the turn's time (x >= 84): kept
+    np.testing.assert_allclose(resid, -np.interp(t_c, track["t"], track["vx"]) * (fixed - t_c) * 1e-6)
+    # at a constant speed nothing moves
+    steady = track.copy()
+    steady["x"], steady["vx"] = 50 + 40.0 * steady["t"] * 1e-6, 40.0
+    same, _ = _speed_change_corrected(t_c, width, u, np.zeros(len(q)), steady, [])
+    np.testing.assert_allclose(same, t_c, atol=1e-6)

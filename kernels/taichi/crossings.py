@@ -102,9 +102,10 @@ def without_strays(ts: i64_1d, change: i64_1d, factor: ti.i64,
 
 @ti.kernel
 def pair_sums(ts: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
-              ratio: ti.f64, sums: f64_1d, sq: f64_1d):
-    """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints and of
-    their squares about c's time, pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
+              ratio: ti.f64, sums: f64_1d, sq: f64_1d, h2: f64_1d):
+    """Per change c = change[i] with pairs[i] = k > 0: the sums of its pair midpoints, of
+    their squares about c's time and of the pairs' squared half-widths (OFF time less
+    midpoint), pair j = 1 .. k in turn. Pair j: the j-th OFF after c (level j·C_off below
     c's) and the rising time at the same level, j·ratio ON steps before c (ratio =
     C_off / C_on), interpolated between ON events where that is not whole, extrapolated from
     the run's first two ON events (on_before[i] precede c) where it lies below the first."""
@@ -114,6 +115,7 @@ def pair_sums(ts: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
         t_c = ti.cast(ts[c], ti.f64)
         s = ti.f64(0.0)
         s2 = ti.f64(0.0)
+        w2 = ti.f64(0.0)
         for j in range(1, pairs[i] + 1):
             x = j * ratio
             j0 = ti.cast(ti.floor(x + 1e-9), ti.i64)
@@ -129,10 +131,13 @@ def pair_sums(ts: i64_1d, change: i64_1d, pairs: i32_1d, on_before: i32_1d,
                 rise = (ti.cast(ts[c - j0], ti.f64) * (1 - f)
                         + ti.cast(ts[c - j0 - 1], ti.f64) * f)
                 mid = 0.5 * (rise + ti.cast(ts[c + j], ti.f64))
+            half = ti.cast(ts[c + j], ti.f64) - mid
             s += mid
             s2 += (mid - t_c) * (mid - t_c)
+            w2 += half * half
         sums[i] = s
         sq[i] = s2
+        h2[i] = w2
 
 
 @ti.func
@@ -147,9 +152,11 @@ def _level_step(gap, refractory, max_step):
 @ti.kernel
 def refractory_pair_sums(ts: i64_1d, change: i64_1d, on_before: i32_1d,
                          off_after: i32_1d, ratio: ti.f64, refractory: ti.f64, max_step: ti.f64,
-                         max_pairs: ti.i32, pairs: i32_1d, sums: f64_1d, sq: f64_1d):
+                         max_pairs: ti.i32, pairs: i32_1d, sums: f64_1d, sq: f64_1d,
+                         h2: f64_1d):
     """Per change c = change[i]: the level pairs of a sensor with a refractory period, their
-    count and the sums of their midpoints and of their squares about c's time (specification:
+    count and the sums of their midpoints, of their squares about c's time and of their
+    squared half-widths (specification:
     evstar.crossings._refractory_pairs, one change per thread with the same operations).
     ON event c − m lies d_m levels below the last ON; d_next is the depth of the next one
     back (has_next false past the run's first); OFF j lies d_off below."""
@@ -165,7 +172,7 @@ def refractory_pair_sums(ts: i64_1d, change: i64_1d, on_before: i32_1d,
             top = d_next - 1
         d_off = ratio - top
         k = 0
-        s, s2 = ti.f64(0.0), ti.f64(0.0)
+        s, s2, w2 = ti.f64(0.0), ti.f64(0.0), ti.f64(0.0)
         alive = na >= 1
         j = ti.i64(1)
         while alive:
@@ -187,12 +194,16 @@ def refractory_pair_sums(ts: i64_1d, change: i64_1d, on_before: i32_1d,
                 rise = ti.cast(ts[c - m], ti.f64)
                 if f >= 1e-9:
                     rise = rise * (1 - f) + ti.cast(ts[c - m - 1], ti.f64) * f
-                mid = 0.5 * (rise + ti.cast(ts[c + j], ti.f64))
+                fall = ti.cast(ts[c + j], ti.f64)
+                mid = 0.5 * (rise + fall)
+                half = fall - mid
                 s += mid
                 s2 += (mid - t_c) * (mid - t_c)
+                w2 += half * half
                 k += 1
             alive = (not beyond) and j < na and k < max_pairs
             j += 1
         pairs[i] = k
         sums[i] = s
         sq[i] = s2
+        h2[i] = w2

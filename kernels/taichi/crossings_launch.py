@@ -36,36 +36,37 @@ class LevelPairs:
         return (on, off) if not arrays.on_device else (on.to_numpy(), off.to_numpy())
 
     def sums(self, change, pairs, ratio, on_before):
-        """(sums of pair midpoints, of their squares) of the changes at positions `change`
-        with `pairs` pairs each (> 0) and `on_before` ON events before each."""
+        """(sums of pair midpoints, of their squares, of their squared half-widths) of the
+        changes at positions `change` with `pairs` pairs each (> 0) and `on_before` ON events
+        before each."""
         arrays = self.arrays
-        sums, sq = arrays.empty(len(change), np.float64), arrays.empty(len(change), np.float64)
+        sums, sq, h2 = (arrays.empty(len(change), np.float64) for _ in range(3))
         if len(change):
             with launch.RUNTIME_LOCK:
                 _pair_sums(self.ts, arrays.put(np.asarray(change, np.int64)),
                            arrays.put(np.asarray(pairs, np.int32)),
-                           arrays.put(np.asarray(on_before, np.int32)), float(ratio), sums, sq)
+                           arrays.put(np.asarray(on_before, np.int32)), float(ratio), sums, sq, h2)
         if arrays.on_device:
-            sums, sq = sums.to_numpy(), sq.to_numpy()
-        return sums, sq
+            sums, sq, h2 = sums.to_numpy(), sq.to_numpy(), h2.to_numpy()
+        return sums, sq, h2
 
     def refractory_sums(self, change, on_before, off_after, ratio, refractory_us, max_step,
                         max_pairs):
-        """(pairs, sums of pair midpoints, of their squares) of the changes at positions
-        `change`, of a sensor with a refractory period."""
+        """(pairs, sums of pair midpoints, of their squares, of their squared half-widths) of
+        the changes at positions `change`, of a sensor with a refractory period."""
         arrays, n = self.arrays, len(change)
         pairs = arrays.empty(n, np.int32)
-        sums, sq = arrays.empty(n, np.float64), arrays.empty(n, np.float64)
+        sums, sq, h2 = (arrays.empty(n, np.float64) for _ in range(3))
         if n:
             with launch.RUNTIME_LOCK:
                 _refractory_sums(self.ts, arrays.put(np.asarray(change, np.int64)),
                                  arrays.put(np.asarray(on_before, np.int32)),
                                  arrays.put(np.asarray(off_after, np.int32)), float(ratio),
                                  float(refractory_us), float(max_step), int(max_pairs), pairs,
-                                 sums, sq)
+                                 sums, sq, h2)
         if arrays.on_device:
-            pairs, sums, sq = pairs.to_numpy(), sums.to_numpy(), sq.to_numpy()
-        return pairs.astype(np.int64), sums, sq
+            pairs, sums, sq, h2 = pairs.to_numpy(), sums.to_numpy(), sq.to_numpy(), h2.to_numpy()
+        return pairs.astype(np.int64), sums, sq, h2
 
 
 def _changes(arrays, keys, ps, cap):
