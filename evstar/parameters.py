@@ -324,9 +324,9 @@ ESTIMATE = Params(
           "than 5 level pairs to agree with the brighter crossings along the same tracks, "
           "and carry it to faint stars by each crossing's outer width "
           "(evstar.level_lag.track_consistent; only where the lag is measured)"),
-    Param("speed_change", bool, True, "move each pixel crossing to when the star passed "
-          "its pixel where the track speeds up or slows down (a level pair's flanks are "
-          "equally far from the pixel, not equally long before and after)"),
+    Param("speed_change", bool, True, "with an IMU velocity prior, move each pixel crossing "
+          "to when the star passed its pixel where the track speeds up or slows down (a level "
+          "pair's flanks are equally far from the pixel, not equally long before and after)"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),
