@@ -589,7 +589,8 @@ def test_a_slow_track_moves_onto_its_few_clean_crossings():
 
 def test_a_crossing_on_a_changing_speed_is_moved_to_when_the_star_passed_its_pixel():
     """A level pair's flanks are where the star was d before and d past the pixel; slowing
-    down, it reaches the far flank late, so the flanks' mean time is after its passage.
+    down, it reaches the far flank late, so the flanks' mean time is after its passage. No
+    flank lies farther along than the star reaches across its crossed pixels.
     Exact kinematics on x = 50 + 40·sin(2πt): the corrected times are ≥ 7× closer."""
     from scipy.optimize import brentq
 
@@ -602,7 +603,9 @@ def test_a_crossing_on_a_changing_speed_is_moved_to_when_the_star_passed_its_pix
     t0, t1, t2 = when(q), when(q - d), when(q + d)
     t_c, width = 0.5 * (t1 + t2), 0.5 * (t2 - t1)
     u = np.tile([1.0, 0.0], (len(q), 1))
-    fixed, resid = _speed_change_corrected(t_c, width, u, np.zeros(len(q)), track,
+    # the pixels: one 3 px off the track (the star's reach: no flank lies farther along)
+    pix = np.column_stack([q, [20.0, 20.0, 23.0, 20.0]])
+    fixed, resid = _speed_change_corrected(t_c, width, pix, u, np.zeros(len(q)), track,
                                            _turns(track, 3.0))
     assert np.all(t_c > t0)                                 # slowing down: the mean is late
     assert np.all(np.abs(fixed - t0)[:3] < 0.15 * np.abs(t_c - t0)[:3])
@@ -611,8 +614,12 @@ def test_a_crossing_on_a_changing_speed_is_moved_to_when_the_star_passed_its_pix
     # at a constant speed nothing moves
     steady = track.copy()
     steady["x"], steady["vx"] = 50 + 40.0 * steady["t"] * 1e-6, 40.0
-    same, _ = _speed_change_corrected(t_c, width, u, np.zeros(len(q)), steady, [])
+    same, _ = _speed_change_corrected(t_c, width, pix, u, np.zeros(len(q)), steady, [])
     np.testing.assert_allclose(same, t_c, atol=1e-6)
+    # pixels all on the track: flanks within 0.5 px, far less than the pairs' 3 px
+    near, _ = _speed_change_corrected(t_c, width, np.column_stack([q, np.full(4, 20.0)]), u,
+                                      np.zeros(len(q)), track, _turns(track, 3.0))
+    assert np.all(np.abs(near - t_c)[:3] < 0.1 * np.abs(fixed - t_c)[:3])
 
 
 def test_on_a_sinusoid_with_imu_the_speed_change_correction_brings_the_star_closer():
