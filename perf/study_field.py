@@ -12,7 +12,7 @@ matched rows' error over their σ (centroids.csv's `sigma`, per axis): for an ho
 median is 1.18 and 95 % lie within 2.45.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
-        [--motion pan|sine] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default] [--name field]
+        [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default] [--name field]
         [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
@@ -46,7 +46,7 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
 
 def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
               sensor="default", axis=AXES["up"]):
-    duration = 1.0 if motion == "sine" else 0.5   # sine: 1 Hz, peak rate rate_dps, 1 s
+    duration = 0.5 if motion == "pan" else 1.0   # sine: 1 Hz, peak rate rate_dps; slew: rest to rest
     scene = sim.field_scenario(cam, *pointing, rate_dps, duration, motion=motion, sensor=sensor,
                                noise_hz=noise_hz, axis=axis)
     run = sim.simulate(scene, seed=seed)
@@ -98,8 +98,9 @@ def main(argv=None):
     ap.add_argument("--camera", default="davis346:16", help="evstar.sim camera preset:focal mm")
     ap.add_argument("--pointing", default="83.8,-5.4",
                     help="RA,Dec (°) at the start (default: Orion's belt and sword)")
-    ap.add_argument("--motion", choices=("pan", "sine"), default="pan",
-                    help="pan: constant rate, 0.5 s; sine: 1 Hz with the rate as its peak, 1 s")
+    ap.add_argument("--motion", choices=("pan", "sine", "slew"), default="pan",
+                    help="pan: constant rate, 0.5 s; sine: 1 Hz with the rate as its peak, 1 s; "
+                    "slew: rest to rest in 1 s, the rate its peak")
     ap.add_argument("--rates", default="2,8", help="comma-separated (peak) rates, °/s")
     ap.add_argument("--sensor", default="default", help="evstar.sim.sensor_model name")
     ap.add_argument("--axis", default="up",

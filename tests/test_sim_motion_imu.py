@@ -35,6 +35,7 @@ TRAJECTORIES = {
     "sinusoid": sim.Sinusoid(10.0, 1.0, phase_deg=30.0),
     "sampled": sim.SampledTrajectory(np.linspace(0, 1, 11), Rotation.from_rotvec(
         np.outer(np.linspace(0, 1, 11) ** 2, [0.1, 0.4, -0.2])).as_matrix()),
+    "slew": sim.Slew(20.0, 1.0, axis=(0.0, 1.0, 0.2), R0=R_TILT),
     "function": sim.FunctionTrajectory(lambda t: Rotation.from_rotvec(
         np.outer(np.sin(3 * t), [0.2, -0.1, 0.05])).as_matrix()),
 }
@@ -47,7 +48,7 @@ def test_rates_match_the_attitude_derivative(name):
         assert traj.omega([t])[0] == pytest.approx(numeric_omega(traj, t), abs=1e-6)
 
 
-@pytest.mark.parametrize("name", ["constant", "sinusoid", "sampled"])
+@pytest.mark.parametrize("name", ["constant", "sinusoid", "sampled", "slew"])
 def test_integrating_the_rate_reproduces_the_attitude(name):
     traj = TRAJECTORIES[name]
     t = np.linspace(0, 1, 2001)
@@ -66,6 +67,16 @@ def test_sinusoid_angle_and_rate():
     assert np.degrees(np.linalg.norm(Rotation.from_matrix(traj.rotation([0.25])[0]).as_rotvec())) \
         == pytest.approx(10.0)
     assert np.linalg.norm(traj.omega([0.0])[0]) == pytest.approx(math.radians(10.0) * 2 * math.pi)
+
+
+def test_a_slew_goes_rest_to_rest_peaking_midway():
+    traj = sim.Slew(20.0, 1.0)
+    rate = np.degrees(np.linalg.norm(traj.omega([0.0, 0.25, 0.5, 0.75, 1.0, 1.5]), axis=1))
+    np.testing.assert_allclose(rate, [0, 10, 20, 10, 0, 0], atol=1e-9)
+    turned = np.degrees(np.linalg.norm(Rotation.from_matrix(traj.rotation([1.0, 2.0])).as_rotvec(), axis=1))
+    np.testing.assert_allclose(turned, [10.0, 10.0])           # ½ · 20 °/s · 1 s, then at rest
+    accel = np.degrees(traj.omega_dot([0.2, 0.8]) @ traj.axis)     # along the turn axis
+    np.testing.assert_allclose(accel, [40.0, -40.0])
 
 
 def test_attitude_from_radec_points_the_optical_axis_with_north_up():

@@ -161,6 +161,43 @@ class Sinusoid(AxisRotation):
                 f"axis={self.axis.tolist()}, phase_deg={self.phase_deg})")
 
 
+class Slew(AxisRotation):
+    """A rest-to-rest slew about `axis`: constant acceleration to `peak_rate_dps` at
+    `duration_s` / 2, constant deceleration back to rest at `duration_s` (held at rest
+    after)."""
+
+    def __init__(self, peak_rate_dps, duration_s, axis=UP, R0=None):
+        for name, v in (("peak_rate_dps", peak_rate_dps), ("duration_s", duration_s)):
+            if not math.isfinite(v):
+                raise ParameterError(f"{name} must be finite, got {v!r}")
+        if duration_s <= 0:
+            raise ParameterError(f"duration_s must be > 0, got {duration_s!r}")
+        super().__init__(axis, R0)
+        self.peak_rate_dps, self.duration_s = float(peak_rate_dps), float(duration_s)
+        self._w, self._half = math.radians(peak_rate_dps), 0.5 * float(duration_s)
+        self._alpha = self._w / self._half
+
+    def _phase(self, t_s):
+        """(time since the slew's middle, clipped to ± half its duration)."""
+        return np.clip(np.asarray(t_s, np.float64), 0.0, self.duration_s) - self._half
+
+    def angle(self, t_s):
+        d = self._phase(t_s)
+        # θ at the middle is α·half²/2; from there ω·d less α·d²/2 on either side (d < 0 before)
+        return self._alpha * self._half ** 2 / 2 + self._w * d - 0.5 * self._alpha * d * np.abs(d)
+
+    def angle_rate(self, t_s):
+        return self._w - self._alpha * np.abs(self._phase(t_s))
+
+    def angle_accel(self, t_s):
+        t = np.asarray(t_s, np.float64)
+        return np.where((t > 0) & (t < self.duration_s), -self._alpha * np.sign(self._phase(t)), 0.0)
+
+    def __repr__(self):
+        return (f"Slew(peak_rate_dps={self.peak_rate_dps}, duration_s={self.duration_s}, "
+                f"axis={self.axis.tolist()})")
+
+
 class SampledTrajectory(Trajectory):
     """A user-supplied attitude table R_cw(t_i), interpolated by slerp.
 

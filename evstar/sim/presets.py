@@ -107,12 +107,13 @@ def field_scenario(camera, ra_deg, dec_deg, rate_dps, duration_s, *, motion="pan
                    mag_limit=6.5, sensor="default", noise_hz=None, axis=(0.0, 1.0, 0.0)):
     """A Hipparcos field (to `mag_limit`) seen by `camera` starting at (RA, Dec): "pan", a
     constant `rate_dps` about `axis` (camera frame; default the image's up axis, (0, 0, 1)
-    rolls about the boresight), or "sine", a 1 Hz sinusoid about it with `rate_dps` as its
-    peak rate. sensor: a sensor_model name; noise_hz its background rate (its own where
-    None)."""
+    rolls about the boresight), "sine", a 1 Hz sinusoid about it with `rate_dps` as its
+    peak rate, or "slew", rest to rest over `duration_s` peaking at `rate_dps` midway (constant
+    acceleration, then deceleration). sensor: a sensor_model name; noise_hz its background
+    rate (its own where None)."""
     import numpy as np
 
-    from .motion import ConstantRate, Sinusoid, attitude_from_radec
+    from .motion import ConstantRate, Sinusoid, Slew, attitude_from_radec
     from .scene import Scenario
     from .targets import hipparcos_field_along
 
@@ -121,8 +122,10 @@ def field_scenario(camera, ra_deg, dec_deg, rate_dps, duration_s, *, motion="pan
         move = Sinusoid(rate_dps / (2 * np.pi), 1.0, axis=axis, R0=R0)
     elif motion == "pan":
         move = ConstantRate(rate_dps, axis=axis, R0=R0)
+    elif motion == "slew":
+        move = Slew(rate_dps, duration_s, axis=axis, R0=R0)
     else:
-        raise ParameterError(f"field motion must be 'pan' or 'sine', got {motion!r}")
+        raise ParameterError(f"field motion must be 'pan', 'sine' or 'slew', got {motion!r}")
     stars = hipparcos_field_along(camera, move, duration_s, mag_limit=mag_limit)
     model = sensor_model(sensor) if noise_hz is None else sensor_model(sensor, noise_hz=noise_hz)
     return Scenario(camera, stars, move, duration_s, sensor=model)
