@@ -4,6 +4,7 @@ their speed and their centroids' events, with each group's signed error along th
 
     python perf/study_false_rows.py [--camera evk4:16] [--pointing 253,-38] [--motion sine]
         [--rate 20] [--sensor dark-sky] [--noise 1.5] [--seed 93] [--name false_rows]
+        [--set motion.compensate=imu]
 
 Writes perf/results/study_<name>.json and .md; prints the tables. Found by the
 twenty-first session on the Scorpius EVK4 dark-sky 20 °/s sinusoid: the false rows are
@@ -18,6 +19,7 @@ import pathlib
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, profiling, sim
+from study_field import setting_value
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 SPEEDS = (0, 200, 400, 600, 800, 1000, np.inf)            # px/s
@@ -34,7 +36,9 @@ def rows_and_truth(a):
     scene = sim.field_scenario(cam, ra, dec, a.rate, 1.0 if a.motion == "sine" else 0.5,
                                motion=a.motion, sensor=a.sensor, noise_hz=a.noise)
     run = sim.simulate(scene, seed=a.seed)
-    return Pipeline(Config()).run(run.events, run.imu, run.camera).centroids, run.truth
+    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in a.set)}
+    return (Pipeline(Config().replace(**settings)).run(run.events, run.imu, run.camera).centroids,
+            run.truth)
 
 
 def signed_along(rows, truth):
@@ -74,6 +78,8 @@ def main():
     ap.add_argument("--noise", type=float, default=1.5)
     ap.add_argument("--seed", type=int, default=93)
     ap.add_argument("--name", default="false_rows")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a Config setting, e.g. motion.compensate=imu (repeatable)")
     a = ap.parse_args()
     rows, truth = rows_and_truth(a)
     star, _ = accuracy.match(rows, truth.star_position)
@@ -87,7 +93,7 @@ def main():
             + "\n\n(events rows: those faster than 800 px/s)")
     profiling.write_report(RESULTS, f"study_{a.name}", out, "False rows by speed and brightness "
                            f"({a.camera} {a.pointing} {a.motion} {a.rate:g} °/s, {a.sensor}, "
-                           f"{a.noise:g} Hz, seed {a.seed})", text, vars(a))
+                           f"{a.noise:g} Hz, seed {a.seed}{''.join(', ' + kv for kv in a.set)})", text, vars(a))
     print(text)
 
 
