@@ -358,8 +358,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.set and not args.name:
         ap.error("--set needs --name (the default results are the default configuration's)")
-    from study_field import setting_value
-    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+    from study_field import settings_of
+    settings = settings_of(args.set)
     if args.plot_only:
         plot(json.loads((RESULTS / "study_accuracy.json").read_text()), RESULTS / "study_accuracy.png")
         return

@@ -19,7 +19,7 @@ import pathlib
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, profiling, sim
-from study_field import setting_value
+from study_field import settings_of
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 SPEEDS = (0, 200, 400, 600, 800, 1000, np.inf)            # px/s
@@ -36,9 +36,8 @@ def rows_and_truth(a):
     scene = sim.field_scenario(cam, ra, dec, a.rate, 1.0 if a.motion == "sine" else 0.5,
                                motion=a.motion, sensor=a.sensor, noise_hz=a.noise)
     run = sim.simulate(scene, seed=a.seed)
-    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in a.set)}
-    return (Pipeline(Config().replace(**settings)).run(run.events, run.imu, run.camera).centroids,
-            run.truth)
+    return (Pipeline(Config().replace(**settings_of(a.set))).run(run.events, run.imu, run.camera)
+            .centroids, run.truth)
 
 
 def signed_along(rows, truth):

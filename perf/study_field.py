@@ -92,6 +92,11 @@ def setting_value(text):
         return text
 
 
+def settings_of(pairs):
+    """Config settings from --set KEY=VALUE texts (values: setting_value)."""
+    return {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in pairs)}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="61,62", help="comma-separated simulator seeds")
@@ -109,7 +114,7 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
     args = ap.parse_args(argv)
-    settings = {k: setting_value(v) for k, v in (kv.split("=", 1) for kv in args.set)}
+    settings = settings_of(args.set)
     seeds = [int(s) for s in args.seeds.split(",")]
     name, focal = args.camera.split(":")
     cam = sim.camera_preset(name, float(focal))
