@@ -783,8 +783,7 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
     motion's direction at each, lag_us: the pixel lag already taken off). Only where the
     star keeps its direction and its speed within a factor 1.5 over the passage, within
     the track's rows and outside its turns' time (there the crossings are not passages:
-    _single_passes).
-    refine calls this only with a velocity prior: without one, a slow faint star's smoothed
+    _single_passes). refine calls this only with a velocity prior: without one, a slow faint star's smoothed
     speed wanders by ±25 % on a constant-rate slew, and following that bend moved its
     crossings by noise (0.13 → 0.17 px)."""
     ts = track["t"].astype(np.float64)
@@ -802,13 +801,13 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
     # was mostly that stretch)
     reach = np.abs((q[:, 0] - at(t_c, "x")) * u[:, 1] - (q[:, 1] - at(t_c, "y")) * u[:, 0]).max() + 0.5
     with np.errstate(divide="ignore", invalid="ignore"):
-        h = np.minimum(h, reach / np.abs(v) * 1e6)
+        passage = reach / np.abs(v) * 1e6                 # µs the star takes to cross its reach
+        h = np.minimum(h, passage)
         shift = (0.5 * (along(t_c - h) + along(t_c + h)) - along(t_c)) / v * 1e6     # µs
-    # where the pixel lags longer than the star takes to cross its reach, the pairs time
-    # the pixel's response, not the flanks (a fast dark-sky sinusoid on an EVK4: 0.30 px
-    # without the correction, 0.31 with it there too)
-    ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1])
-          & (lag_us <= reach / np.abs(v) * 1e6))
+    # where the pixel lags longer than that passage, the pairs time the pixel's response,
+    # not the flanks (a fast dark-sky sinusoid on an EVK4: 0.30 px without the correction,
+    # 0.31 with it there too)
+    ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1]) & (lag_us <= passage))
     for side in (speed(t_c - h) / v, speed(t_c + h) / v):
         ok &= (side >= 0.5) & (side <= 1.5)
     for t_lo, t_hi, _, _ in turns:
