@@ -754,13 +754,28 @@ def _debiased(track, fitted, along_weight):
     calm = (w < 1.0) & (s_cent < _IGNORED_SIGMA)
     bias = np.zeros(len(z))
     if calm.sum() >= _MIN_BIAS_ROWS and np.ptp(speed[calm]) > 0:
-        b, a = np.polyfit(speed[calm], off[calm], 1)
-        bias = a + b * speed
+        bias = _speed_bias(speed[calm], off[calm], speed)
     return (full, z - bias[:, None] * u, s_cent, crossings, turns), w
 
 
 #: fewest centroids outside a track's turns that measure its centroids' along bias
 _MIN_BIAS_ROWS = 5
+#: t statistic a bias's speed term needs (else the bias is the offsets' median)
+_BIAS_SLOPE_T = 3.0
+
+
+def _speed_bias(s, off, speed):
+    """The along offsets `off` at speeds `s` as a + b·speed at `speed`, where b is
+    significant (|b| ≥ _BIAS_SLOPE_T standard errors); else their median. A turn's speeds
+    lie below the fitted ones: a line through a narrow range of noisy speeds, extended to
+    them, moved a small sinusoid's centroids by up to 9 px."""
+    b, a = np.polyfit(s, off, 1)
+    dof = len(s) - 2
+    sxx = np.sum((s - s.mean()) ** 2)
+    se = np.sqrt(np.sum((off - a - b * s) ** 2) / max(dof, 1) / sxx) if dof > 0 else np.inf
+    if abs(b) >= _BIAS_SLOPE_T * se:
+        return a + b * speed
+    return np.full(len(speed), float(np.median(off)))
 
 
 def _run_around(flags, i):

@@ -4,7 +4,9 @@ Each track predicts its next position with a constant-velocity model (from its l
 centroids); centroids of a frame are assigned to tracks by minimum total distance
 (Hungarian, scipy) within a gate. A track survives up to ``max_gap`` frames without a
 centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
-start new tracks, so stars entering the field get fresh ids.
+start new tracks, so stars entering the field get fresh ids. A track that begins where
+another ended continues it (_join): at a turn a star can give two centroids in a frame,
+or, slow, none for longer than max_gap frames.
 
 A new track (one centroid) has no velocity of its own. Stars are fixed on the sky, so
 they all move with the camera's rotation: once confirmed tracks exist, a new track moves
@@ -201,27 +203,72 @@ class _Tracks:
 def _join(out, tracks, gate_px, max_gap):
     """Relabel a track that starts where another just ended as that one (in place): a star
     that stops and turns back (a slew's turnaround) can give two centroids in one frame,
-    one of which goes on alone and ends its track while the other starts a new one. B joins
-    A when B's first frame is at most one frame before, or max_gap + 1 after, A's last one
-    and B's first centroid lies within gate_px of A's last; the nearest A wins."""
-    ends = {}
+    one of which goes on alone and ends its track while the other starts a new one; or
+    none for several frames, too slow to fire its pixels. B joins A when B's first centroid
+    lies within gate_px of A's last and B's first frame is at most one frame before A's
+    last one or after it by at most max_gap + 1 frames, or by up to _SLOW_GAPS times that
+    where A ended or B began so slowly that it could not have left the gate in the gap (a
+    star turning); the nearest A wins."""
+    ends, speeds = {}, _EndSpeeds(out)
+    normal, slow = max_gap + 1, _SLOW_GAPS * (max_gap + 1)
     for tr in sorted(tracks, key=lambda tr: tr["frames"][0]):
         first = tr["frames"][0]
         # an end too far behind this track is so for every later one (first frames only grow)
-        ends = {k: a for k, a in ends.items() if first - a["frames"][-1] <= max_gap + 1}
+        ends = {k: a for k, a in ends.items() if first - a["frames"][-1] <= slow}
         best, best_d = None, gate_px
         for a in ends.values():
-            if first - a["frames"][-1] < -1 or a["frames"][0] >= first:
+            gap = first - a["frames"][-1]
+            if gap < -1 or a["frames"][0] >= first:
                 continue
             d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
-            if d <= best_d:
-                best, best_d = a, d
+            if d > best_d or (gap > normal and speeds.slower(a["ids"][-1], tr["id"]) * gap > gate_px):
+                continue
+            best, best_d = a, d
         if best is None:
+            tr["ids"] = [tr["id"]]
             ends[tr["id"]] = tr
             continue
         out["track"][out["track"] == tr["id"]] = best["id"]
         best["frames"] += tr["frames"]
         best["xy"] += tr["xy"]
+        best["ids"].append(tr["id"])
+
+
+#: a slow track's gap (_join) in units of max_gap + 1 frames at most: a star slowing to a
+#: turn on a 0.5°, 1 Hz sinusoid (DVXplorer Lite, 8 mm) gave no centroid for 8 frames
+_SLOW_GAPS = 4
+#: centroids at a track's end whose least-squares line gives its speed there: one faint
+#: centroid at a turn was 1.3 px off
+_END_CENTROIDS = 4
+
+
+class _EndSpeeds:
+    """Speeds (px per frame) at tracks' ends, from the centroids in `out` (track = id as
+    linked, before any join), computed when first asked (most runs join nothing slowly)."""
+
+    def __init__(self, out):
+        # the ids as linked: _join relabels `out` as it goes
+        self.out, self.track, self.order = out, out["track"].copy(), None
+
+    def slower(self, a, b):
+        """min(speed at track a's end, speed at track b's start); inf where neither is
+        known (tracks of one centroid)."""
+        if self.order is None:
+            self.order = np.lexsort((self.out["frame"], self.track))
+            self.ids, self.starts = np.unique(self.track[self.order], return_index=True)
+        return min(self._speed(a, -1), self._speed(b, 0))
+
+    def _speed(self, track, end):
+        i = int(np.searchsorted(self.ids, track))
+        hi = self.starts[i + 1] if i + 1 < len(self.starts) else len(self.order)
+        rows = self.order[self.starts[i]:hi]
+        rows = rows[-_END_CENTROIDS:] if end else rows[:_END_CENTROIDS]
+        f = self.out["frame"][rows].astype(float)
+        if len(rows) < 2 or np.ptp(f) == 0:
+            return np.inf
+        vx = np.polyfit(f, self.out["x"][rows], 1)[0]
+        vy = np.polyfit(f, self.out["y"][rows], 1)[0]
+        return float(np.hypot(vx, vy))
 
 
 def _drop_short(out, min_length):

@@ -638,3 +638,19 @@ def test_on_a_sinusoid_with_imu_the_speed_change_correction_brings_the_star_clos
             err[mode, on] = (e[star >= 0].mean(), rows["x"].tobytes())
     assert err["imu", True][0] < 0.9 * err["imu", False][0]
     assert err["none", True][1] == err["none", False][1]
+
+
+def test_a_bias_line_through_noisy_offsets_of_a_narrow_speed_range_is_not_extended():
+    """Offsets of one constant bias, noisy, at speeds 95–108 px/s: a fitted line's chance
+    slope extended to a turn's speeds would move the centroids there by ~1 px; the
+    median is used. A clear speed term is kept and extended."""
+    from evstar.smoothing import _speed_bias
+
+    rng = np.random.default_rng(3)
+    s = rng.uniform(95, 108, 50)
+    off = -0.2 + rng.normal(0, 0.15, 50)
+    off[:10] += 0.25 * (s[:10] > 104)       # a chance tilt at the fast end
+    at_turn = _speed_bias(s, off, np.array([0.0, 5.0]))
+    assert np.all(np.abs(at_turn - np.median(off)) < 1e-12)
+    clear = -0.05 - 2e-3 * s + rng.normal(0, 0.002, 50)
+    np.testing.assert_allclose(_speed_bias(s, clear, np.array([0.0])), [-0.05], atol=0.02)

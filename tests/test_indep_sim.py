@@ -1,0 +1,115 @@
+"""The independent event simulator of perf/indep_sim.py (used by perf/study_indep.py)."""
+import math
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "perf"))
+import indep_sim as S  # noqa: E402
+
+QUIET = dict(noise_hz=0.0, hot_pixels=0, jitter_us=0.0)
+
+
+@pytest.mark.parametrize("pixel", ["ideal", "lowpass"])
+def test_static_star_without_noise_gives_no_events(pixel):
+    scene = S.Scene(64, 48, 100.0, [(30.3, 20.7)], [3.0], S.Linear(0.0), S.Moffat(2.5, 3.0), 0.1)
+    run = S.simulate(scene, S.Sensor(pixel=pixel, **QUIET), seed=1)
+    assert len(run.events) == 0
+    assert np.allclose(run.truth([0, 50_000]), [[[30.3, 20.7]]] * 2)
+
+
+def test_moving_star_fires_on_ahead_and_off_behind():
+    direction = 30.0
+    scene = S.Scene(96, 64, 200.0, [(30.0, 25.0)], [3.0], S.Linear(8.0, direction),
+                    S.Gaussian(1.0), 0.2)
+    run = S.simulate(scene, S.Sensor(pixel="ideal", **QUIET), seed=2)
+    ev = run.events
+    assert len(ev) > 500 and np.all(run.labels == 0)
+    assert np.all(np.diff(ev.t) >= 0)
+    xy = run.truth(ev.t)[:, 0]
+    u = np.array([math.cos(math.radians(direction)), math.sin(math.radians(direction))])
+    along = (ev.x - xy[:, 0]) * u[0] + (ev.y - xy[:, 1]) * u[1]
+    on, off = along[ev.p == 1], along[ev.p == 0]
+    assert on.mean() > 0.7 and off.mean() < -0.7
+    assert np.mean(on > 0) > 0.9 and np.mean(off < 0) > 0.9
+    # equal thresholds and a star that comes and goes: as many ON as OFF events, roughly
+    assert abs(len(on) - len(off)) < 0.2 * len(ev)
+
+
+def test_lowpass_step_is_the_exponential():
+    f_c = 150.0
+    a = 2 * math.pi * f_c
+    # a unit step of the input at t = 0, uneven steps: exact at every step's end
+    h = np.random.default_rng(0).uniform(20e-6, 300e-6, 60)
+    v, t = 0.0, 0.0
+    for hk in h:
+        v = S.lowpass_step(v, 1.0, 1.0, hk, f_c)
+        t += hk
+        assert v == pytest.approx(1 - math.exp(-a * t), abs=1e-12)
+    # a ramp L = k t from rest: V = k (t − 1/a) + k/a e^(−a t)
+    k, v, t = 3.0, 0.0, 0.0
+    for hk in h:
+        v = S.lowpass_step(v, k * t, k * (t + hk), hk, f_c)
+        t += hk
+    assert v == pytest.approx(k * (t - 1 / a) + k / a * math.exp(-a * t), abs=1e-12)
+    # a sensor whose cutoff does not depend on intensity
+    assert S.Sensor(f_min_hz=f_c, f_max_hz=f_c).cutoff_hz(np.array([0.0, 1.0, 1e4])) == \
+        pytest.approx([f_c] * 3)
+
+
+def test_lowpass_pixel_fires_at_the_exponential_crossings():
+    """One pixel whose log intensity steps up by 1 at t = 0, cutoff fixed: ON events where
+    1 − e^(−a t) crosses n·C (refractory 0), each at its interpolated time."""
+    f_c, C, h = 100.0, 0.2, 100e-6
+    a = 2 * math.pi * f_c
+    ref, blind, pending = np.zeros(1), np.full(1, -np.inf), np.zeros(1, bool)
+    c = np.full(1, C)
+    out = ([], [], [], [])
+    v0 = np.zeros(1)
+    for k in range(400):
+        v1 = S.lowpass_step(v0, np.ones(1), np.ones(1), h, f_c)
+        S._fire(np.zeros(1, np.int64), k * h, (k + 1) * h, v0, v1, ref, blind, pending, c, c,
+                0.0, *out, np.zeros(1, np.int64))
+        v0 = v1
+    t = np.concatenate(out[0])
+    assert len(t) == 4 and np.all(np.concatenate(out[2]) == 1)
+    expected = -np.log(1 - C * np.arange(1, 5)) / a
+    assert np.allclose(t, expected, atol=3e-6)
+
+
+def test_refractory_period_drops_events_and_resets_the_reference():
+    """A steep rise fires once per threshold with no refractory period; with one longer than
+    the whole rise, only the first event remains and the reference ends at the top."""
+    ramp = dict(v0=np.zeros(1), v1=np.full(1, 1.05))
+    for R, n in ((0.0, 5), (1e-3, 1)):
+        ref, blind, pending = np.zeros(1), np.full(1, -np.inf), np.zeros(1, bool)
+        out = ([], [], [], [])
+        c = np.full(1, 0.2)
+        S._fire(np.zeros(1, np.int64), 0.0, 1e-4, ramp["v0"], ramp["v1"], ref, blind, pending,
+                c, c, R, *out, np.zeros(1, np.int64))
+        assert len(np.concatenate(out[0])) == n
+        if R:   # still blind at the step's end: reset pending, then at the level of its end
+            assert pending[0]
+            flat = np.full(1, 1.05)
+            S._fire(np.zeros(1, np.int64), 1e-4, 2e-3, flat, flat, ref, blind, pending, c, c, R,
+                    *out, np.zeros(1, np.int64))
+            assert not pending[0] and ref[0] == pytest.approx(1.05)
+
+
+def test_background_noise_counts_match_the_poisson_rate():
+    rate, T, w, h = 5.0, 1.0, 64, 48
+    scene = S.Scene(w, h, 100.0, [], [], S.Linear(0.0), S.Gaussian(1.0), T)
+    run = S.simulate(scene, S.Sensor(noise_hz=rate, hot_pixels=0), seed=3)
+    n = len(run.events)
+    expected = rate * T * w * h
+    # Poisson and the log-normal spread of the rates: sd ~ 250 events here
+    assert abs(n - expected) < 0.05 * expected
+    assert np.mean(run.events.p) == pytest.approx(0.6, abs=0.02)
+    assert np.all(run.labels == -1) and np.all(np.diff(run.events.t) >= 0)
+    # hot pixels: single pixels at 100–1000 Hz on top of the background
+    hot = S.simulate(scene, S.Sensor(noise_hz=0.0, hot_pixels=3), seed=4).events
+    counts = np.bincount(hot.y.astype(int) * w + hot.x, minlength=w * h)
+    busy = np.sort(counts)[::-1]
+    assert busy[3] == 0 and np.all((busy[:3] > 70) & (busy[:3] < 1100))
