@@ -241,7 +241,7 @@ class Pipeline:
         acc = _Summary(events.width, events.height, self.config.dt_us, t0, images=False)
         acc.add(events, keep, truth, 0)
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
-                              self._estimator(state, t0, imu, camera, filter_result, span, rate),
+                              *self._estimator(state, t0, imu, camera, filter_result, span, rate),
                               span_us=span)
         result.keep, result.compensation = keep, comp
         result.images = functools.partial(images, events, keep)   # a Result stays picklable
@@ -277,11 +277,12 @@ class Pipeline:
         return hold_ends(imu, span[0], span[1], self.config.motion.extrapolate_us)
 
     def _estimator(self, state, t0, imu, camera, filter_result, span, rate):
-        """linked centroids -> star positions (evstar.estimation), with the run's crossings
-        and, when the run compensates with the IMU, the gyro's image velocity as the motion
-        prior (an IMU that only came along in the file is not trusted with that); span: the
-        recording's (first, last) event µs, None when it has none; rate: the measured
-        background rate (events/pixel/s)."""
+        """(linked centroids -> star positions (evstar.estimation), the motion prior): with
+        the run's crossings and, when the run compensates with the IMU, the gyro's image
+        velocity as the motion prior (an IMU that only came along in the file is not
+        trusted with that; the tracker joins tracks with it too); span: the recording's
+        (first, last) event µs, None when it has none; rate: the measured background rate
+        (events/pixel/s)."""
         from . import estimation
 
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
@@ -298,13 +299,13 @@ class Pipeline:
             return field.refine(rows, camera, e.field_min_stars,
                                 estimation.largest_lag_us(e, lag))
 
-        return positions
+        return positions, prior
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None,
-                span_us=None):
+                prior=None, span_us=None):
         stats = acc.stats
         t = time.perf_counter()
-        cents = self.make_tracker().link(centroids)
+        cents = self.make_tracker().link(centroids, prior)
         timings["track"] = time.perf_counter() - t
         if estimator is not None:
             t = time.perf_counter()
@@ -373,8 +374,8 @@ class Pipeline:
         if mode == "pf":
             filter_result, timings["particle_filter"] = self._particle_filter(_cat(parts), imu, camera)
         return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
-                            self._estimator(state, t0, imu, camera, filter_result, first_last,
-                                            rate),
+                            *self._estimator(state, t0, imu, camera, filter_result, first_last,
+                                             rate),
                             span_us=first_last)
 
 

@@ -38,10 +38,13 @@ class Tracker:
         self.init_gate_px = float(T.check("init_gate_px", init_gate_px))
         self.max_gap, self.min_length = T.check("max_gap", max_gap), T.check("min_length", min_length)
 
-    def link(self, centroids):
+    def link(self, centroids, velocity_prior=None):
         """Return a copy of `centroids` with the ``track`` field filled (time-sorted input).
 
         Tracks shorter than ``min_length`` centroids get track = -1 (unconfirmed).
+        velocity_prior: the gyro's image velocity, (t_us, x, y) -> (n, 2) px/s
+        (evstar.smoothing.imu_velocity_prior), where the run has one: a track then continues
+        another across a longer gap where it begins where the gyro says the star went.
         """
         fields = getattr(getattr(centroids, "dtype", None), "names", None) or ()
         if not isinstance(centroids, np.ndarray) or not set(_NEEDED) <= set(fields):
@@ -68,7 +71,7 @@ class Tracker:
                 born = st.start(f, pts[new])
                 track[rows[new]] = born
                 live = np.concatenate([live, born])
-        _join(out, st.as_dicts(), self.gate_px, self.max_gap)
+        _join(out, st.as_dicts(), self.gate_px, self.max_gap, velocity_prior)
         return _drop_short(out, self.min_length)
 
     def _assign(self, st, live, pts, f):
@@ -200,16 +203,17 @@ class _Tracks:
                  "xy": [self.first_xy[i], self.last_xy[i]]} for i in range(self.m)]
 
 
-def _join(out, tracks, gate_px, max_gap):
+def _join(out, tracks, gate_px, max_gap, velocity_prior=None):
     """Relabel a track that starts where another just ended as that one (in place): a star
     that stops and turns back (a slew's turnaround) can give two centroids in one frame,
     one of which goes on alone and ends its track while the other starts a new one; or
-    none for several frames, too slow to fire its pixels. B joins A when B's first centroid
-    lies within gate_px of A's last and B's first frame is at most one frame before A's
-    last one or after it by at most max_gap + 1 frames, or by up to _SLOW_GAPS times that
-    where A ended or B began so slowly that it could not have left the gate in the gap (a
-    star turning); the nearest A wins."""
-    ends, speeds = {}, _EndSpeeds(out)
+    none for several frames, too slow (or, faint, too fast) to fire its pixels. B joins A
+    when B's first centroid lies within gate_px of A's last and B's first frame is at most
+    one frame before A's last one or after it by at most max_gap + 1 frames; or by up to
+    _SLOW_GAPS times that where A ended or B began so slowly that it could not have left
+    the gate in the gap (a star turning), or, with a velocity prior, where B's first
+    centroid lies within gate_px of where the prior carries A's last; the nearest A wins."""
+    ends, at_ends = {}, _Ends(out)
     normal, slow = max_gap + 1, _SLOW_GAPS * (max_gap + 1)
     for tr in sorted(tracks, key=lambda tr: tr["frames"][0]):
         first = tr["frames"][0]
@@ -220,10 +224,14 @@ def _join(out, tracks, gate_px, max_gap):
             gap = first - a["frames"][-1]
             if gap < -1 or a["frames"][0] >= first:
                 continue
-            d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
-            if d > best_d or (gap > normal and speeds.slower(a["ids"][-1], tr["id"]) * gap > gate_px):
-                continue
-            best, best_d = a, d
+            if gap > normal and velocity_prior is not None:
+                d = at_ends.carried(velocity_prior, a["ids"][-1], tr["id"])
+            else:
+                d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
+                if gap > normal and d <= best_d and at_ends.slower(a["ids"][-1], tr["id"]) * gap > gate_px:
+                    continue
+            if d <= best_d:
+                best, best_d = a, d
         if best is None:
             tr["ids"] = [tr["id"]]
             ends[tr["id"]] = tr
@@ -242,9 +250,14 @@ _SLOW_GAPS = 4
 _END_CENTROIDS = 4
 
 
-class _EndSpeeds:
-    """Speeds (px per frame) at tracks' ends, from the centroids in `out` (track = id as
-    linked, before any join), computed when first asked (most runs join nothing slowly)."""
+#: steps of the velocity prior between a track's end and another's start (_Ends.carried)
+_CARRY_STEPS = 8
+
+
+class _Ends:
+    """Tracks' end rows in `out` (track = id as linked, before any join): the speed (px per
+    frame) at an end, and where a velocity prior carries a track's last centroid; the rows
+    sorted when first asked (most runs join nothing across a long gap)."""
 
     def __init__(self, out):
         # the ids as linked: _join relabels `out` as it goes
@@ -253,16 +266,30 @@ class _EndSpeeds:
     def slower(self, a, b):
         """min(speed at track a's end, speed at track b's start); inf where neither is
         known (tracks of one centroid)."""
-        if self.order is None:
-            self.order = np.lexsort((self.out["frame"], self.track))
-            self.ids, self.starts = np.unique(self.track[self.order], return_index=True)
-        return min(self._speed(a, -1), self._speed(b, 0))
+        return min(self._speed(self._rows(a)[-_END_CENTROIDS:]),
+                   self._speed(self._rows(b)[:_END_CENTROIDS]))
 
-    def _speed(self, track, end):
-        i = int(np.searchsorted(self.ids, track))
-        hi = self.starts[i + 1] if i + 1 < len(self.starts) else len(self.order)
-        rows = self.order[self.starts[i]:hi]
-        rows = rows[-_END_CENTROIDS:] if end else rows[:_END_CENTROIDS]
+    def carried(self, prior, a, b):
+        """Distance (px) of track b's first centroid from track a's last carried by the
+        velocity prior to b's time (its velocity taken along the straight way between)."""
+        i, j = self._rows(a)[-1], self._rows(b)[0]
+        o = self.out
+        t0, t1 = float(o["t"][i]), float(o["t"][j])
+        s = (np.arange(_CARRY_STEPS) + 0.5) / _CARRY_STEPS
+        v = prior(t0 + s * (t1 - t0), o["x"][i] + s * (o["x"][j] - o["x"][i]),
+                  o["y"][i] + s * (o["y"][j] - o["y"][i]))
+        shift = v.mean(axis=0) * (t1 - t0) * 1e-6
+        return float(np.hypot(o["x"][j] - o["x"][i] - shift[0], o["y"][j] - o["y"][i] - shift[1]))
+
+    def _rows(self, track):
+        if self.order is None:
+            self.order = np.lexsort((self.out["t"], self.track))
+            self.ids, self.starts = np.unique(self.track[self.order], return_index=True)
+        k = int(np.searchsorted(self.ids, track))
+        hi = self.starts[k + 1] if k + 1 < len(self.starts) else len(self.order)
+        return self.order[self.starts[k]:hi]
+
+    def _speed(self, rows):
         f = self.out["frame"][rows].astype(float)
         if len(rows) < 2 or np.ptp(f) == 0:
             return np.inf

@@ -57,3 +57,34 @@ def test_even_a_slow_track_is_not_joined_beyond_the_slow_gap_limit():
     gap = _SLOW_GAPS * 4 + 2                      # max_gap 3: 4 frames a unit
     linked = Tracker(max_gap=3).link(centroids(_turn_with_silence(gap, speed_px=0.05)))
     assert len(set(linked["track"])) == 2
+
+
+def _constant_prior(vx_px_s):
+    return lambda t_us, x, y: np.column_stack([np.full(len(t_us), vx_px_s), np.zeros(len(t_us))])
+
+
+def test_with_the_gyro_a_fast_star_silent_for_longer_than_max_gap_stays_one_track():
+    # 2 px per frame (200 px/s), unseen for 9 frames: 18 px on, beyond any gate; the gyro's
+    # image velocity says where it went
+    rows = [(f, 10.0 + 2 * f) for f in range(20)] + [(f, 10.0 + 2 * f) for f in range(29, 49)]
+    assert len(set(Tracker(max_gap=3).link(centroids(rows))["track"])) == 2
+    linked = Tracker(max_gap=3).link(centroids(rows), velocity_prior=_constant_prior(200.0))
+    assert set(linked["track"]) == {0}
+    # a prior that sends the star the other way joins nothing
+    wrong = Tracker(max_gap=3).link(centroids(rows), velocity_prior=_constant_prior(-200.0))
+    assert len(set(wrong["track"])) == 2
+
+
+def test_a_slow_sinusoid_keeps_one_track_through_its_turns_without_an_imu():
+    """0.5° at 1 Hz on the paper's camera (±5.7 px, ≤ 0.35 px a frame): the star gives no
+    centroid for ~8 frames at each turn. Before the slow join its track split there and
+    both halves were extrapolated through the turn (rows 2 px off, two per frame)."""
+    from evstar import Config, Pipeline, accuracy, sim
+
+    run = sim.simulate(sim.paper_sinusoid(0.5, 1.0, duration_s=1.0, magnitude=3), seed=6)
+    rows = Pipeline(Config()).run(run.events, None, run.camera).centroids
+    tracked = rows[rows["track"] >= 0]
+    assert set(tracked["track"]) == {0}
+    assert len(np.unique(tracked["frame"])) == len(tracked)          # one row a frame
+    star, err = accuracy.match(tracked, run.truth.star_position)
+    assert (star == 0).all() and err.max() < 0.8
