@@ -16,8 +16,9 @@ equal (0.2/0.2) and unequal (0.2/0.3) ON/OFF thresholds; 0.1–5 Hz of backgroun
 without hot pixels; the DAVIS346 (346x260, f 280 px), a VGA (640x480, f 540) and an HD
 (1280x720, f 1100) sensor; 1 s recordings (0.5 s at 20 °/s).
 
-Each scene runs evstar's default pipeline (no IMU, default Config: the "crossings"
-estimator) and the same with estimate.estimator = "mean". Per scene and estimator: mean /
+Each scene runs evstar's default pipeline (default Config: the "crossings" estimator; no
+IMU, or with `--imu` the scene's gyro and motion.compensate "imu") and the same with
+estimate.estimator = "mean". Per scene and estimator: mean /
 median / max error (px) of the rows matched to a star (within 3 px, at the row's own
 time), the fraction of 10 ms frames with a position (the lowest over the stars), false rows
 (matching no star) per 100 frames, the signed mean error along the motion (+ = ahead of the
@@ -173,13 +174,13 @@ def scores(rows, scene, truth, frames_t, n_frames):
                               for s in range(len(scene.mags))]}
 
 
-def run_scene(i, spec, duration_scale=1.0):
+def run_scene(i, spec, duration_scale=1.0, imu=False):
     scene, sensor = scene_of(i, spec, duration_scale)
     t = time.perf_counter()
-    run = S.simulate(scene, sensor, seed=i)
+    run = S.simulate(scene, sensor, seed=i, imu=imu)
     sim_s = time.perf_counter() - t
     ev = run.events
-    cfg = Config()
+    cfg = Config().replace(**{"motion.compensate": "imu" if imu else "none"})
     t0 = int(ev.t[0])
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
@@ -196,7 +197,7 @@ def run_scene(i, spec, duration_scale=1.0):
     for name in ESTIMATORS:
         c = cfg if name == "default" else cfg.replace(**{"estimate.estimator": name})
         t = time.perf_counter()
-        res = Pipeline(c).run(ev, None, run.camera)
+        res = Pipeline(c).run(ev, run.imu, run.camera)
         out[name] = {**scores(res.centroids, scene, run.truth, frames_t, n_frames),
                      "run_s": time.perf_counter() - t}
     return out
@@ -233,6 +234,8 @@ def main(argv=None):
     ap.add_argument("--scenes", help="comma-separated scene numbers (1-based) to run")
     ap.add_argument("--only", choices=list(SUBSETS), help="a subset of the grid")
     ap.add_argument("--quick", action="store_true", help="recordings shortened to 0.3 s")
+    ap.add_argument("--imu", action="store_true", help="the scenes' gyro too, and the "
+                    "pipeline compensating with it (motion.compensate imu)")
     ap.add_argument("--name", help="results: study_indep_NAME.* (e.g. an older evstar on "
                     "PYTHONPATH, side by side)")
     args = ap.parse_args(argv)
@@ -244,14 +247,14 @@ def main(argv=None):
     rows = []
     for i in pick:
         scale = 1.0 if not args.quick else 0.3 / GRID[i][-1]
-        r = run_scene(i, GRID[i], scale)
+        r = run_scene(i, GRID[i], scale, args.imu)
         d = r["default"]
         print(f"scene {i + 1}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
         rows.append(r)
     subset = "".join(f"_{v}" for v in (args.only, "scenes-" + args.scenes.replace(",", "-")
                                        if args.scenes else None, "quick" if args.quick else None,
-                                       args.name) if v)
+                                       "imu" if args.imu else None, args.name) if v)
     name = "study_indep" + subset
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
