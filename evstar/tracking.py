@@ -211,7 +211,7 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
     when B's first centroid lies within gate_px of A's last and B's first frame is at most
     one frame before A's last one or after it by at most max_gap + 1 frames; or by up to
     _SLOW_GAPS times that where A ended or B began so slowly that it could not have left
-    the gate in the gap (a star turning) or, with a velocity prior instead, where the
+    the gate in the gap (a star turning); failing those, with a velocity prior, where the
     means of A's last and B's first _END_CENTROIDS centroids, carried by the prior to B's
     first time, lie within gate_px × _CARRY_GATE (A and B of min_length centroids at least:
     confirmed pieces of a star's track, not noise); the nearest A wins."""
@@ -226,14 +226,12 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
             gap = first - a["frames"][-1]
             if gap < -1 or a["frames"][0] >= first:
                 continue
-            if gap > normal and velocity_prior is not None:
-                far.append(a)      # carried by the prior, all at once below
-                continue
             d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
-            if gap > normal and d <= best_d and at_ends.slower(a["ids"][-1], tr["id"]) * gap > gate_px:
-                continue
-            if d <= best_d:
+            if d <= best_d and (gap <= normal or
+                                at_ends.slower(a["ids"][-1], tr["id"]) * gap <= gate_px):
                 best, best_d = a, d
+            elif gap > normal and velocity_prior is not None:
+                far.append(a)      # carried by the prior, all at once below
         # short tracks (most are noise; a crowded field has thousands) are carried nowhere
         if far and best is None and at_ends.count(tr["id"]) >= min_length:
             far = [a for a in far if at_ends.count(a["ids"][-1]) >= min_length]

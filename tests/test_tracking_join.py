@@ -43,6 +43,15 @@ def test_a_slow_star_silent_at_its_turn_for_longer_than_max_gap_stays_one_track(
     assert set(linked["track"]) == {0}
 
 
+def test_a_slow_faint_star_s_short_pieces_join_with_a_gyro_too():
+    # pieces of 2 centroids (a faint star at 1 °/s), 9 frames apart: too short to be
+    # carried by the gyro (min_length 3), still joined as slow (the IMU run once lost them)
+    rows = [(f, 50.0 + 0.05 * f) for start in range(0, 60, 11) for f in (start, start + 1)]
+    for prior in (None, _constant_prior(5.0)):
+        linked = Tracker(max_gap=3).link(centroids(rows), velocity_prior=prior)
+        assert set(linked["track"]) == {0}
+
+
 def test_a_fast_track_is_not_joined_across_a_long_gap():
     # a star at 2 px per frame would be 18 px on after 9 frames: a track beginning where
     # it ended is another object
