@@ -225,8 +225,9 @@ def scenario(s):
     phi = np.radians(s.get("direction", 0.0))
     opts = dict(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"],
                 axis=(np.sin(phi), -np.cos(phi), 0.0), camera=s.get("camera", "dvxplorer-lite"))
-    if s["motion"] == "sine":
-        return sim.paper_sinusoid(**opts)
+    if s["motion"] == "sine":   # the paper's 10°, 1 Hz unless the scene says otherwise
+        return sim.paper_sinusoid(s.get("amplitude", 10.0), duration_s=s.get("duration", 1.0),
+                                  **opts)
     return sim.paper_preset(float(s["motion"]), **opts)
 
 

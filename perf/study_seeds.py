@@ -3,7 +3,7 @@ its one seed (the default crossings estimator; mean / max error px, frames with 
 false rows per 100 frames).
 
     python perf/study_seeds.py [--motion 1] [--mag 4] [--psf 1.5] [--sensor default]
-        [--comp none] [--seeds 7-14] [--refractory-us 0]
+        [--comp none] [--seeds 7-14] [--refractory-us 0] [--amplitude 10 --duration 1]   (--motion sine)
 
 Writes perf/results/study_seeds_<scene>.json and .md (e.g. study_seeds_1dps_mag4_psf1.5_default_none).
 """
@@ -42,6 +42,9 @@ def main():
     ap.add_argument("--psf", type=float, default=1.5)
     ap.add_argument("--sensor", default="default", choices=sorted(sa.SENSORS))
     ap.add_argument("--comp", default="none", choices=("none", "imu"))
+    ap.add_argument("--amplitude", type=float, default=10.0,
+                    help="the sinusoid's amplitude, ° (1 Hz; with --motion sine)")
+    ap.add_argument("--duration", type=float, default=1.0, help="the sinusoid's span, s")
     ap.add_argument("--seeds", default="7-14", help="first-last")
     ap.add_argument("--refractory-us", type=float, default=0.0,
                     help="tell the estimator the sensor's refractory period (the simulator's: 100)")
@@ -49,10 +52,13 @@ def main():
     first, last = (int(v) for v in a.seeds.split("-"))
     motion = a.motion if a.motion == "sine" else float(a.motion)
     rows = [run_seed(dict(motion=motion, mag=a.mag, psf=a.psf, sensor=a.sensor, comp=a.comp,
-                          seed=seed, refractory_us=a.refractory_us))
+                          seed=seed, refractory_us=a.refractory_us, amplitude=a.amplitude,
+                          duration=a.duration))
             for seed in range(first, last + 1)]
     text = profiling.table(rows, COLUMNS)
-    name = f"study_seeds_{a.motion}{'' if a.motion == 'sine' else 'dps'}_mag{a.mag:g}_psf{a.psf:g}_{a.sensor}_{a.comp}"
+    motion_name = (f"sine{a.amplitude:g}deg{a.duration:g}s" if (a.amplitude, a.duration) != (10.0, 1.0)
+                   else "sine") if a.motion == "sine" else f"{a.motion}dps"
+    name = f"study_seeds_{motion_name}_mag{a.mag:g}_psf{a.psf:g}_{a.sensor}_{a.comp}"
     name += f"_refractory{a.refractory_us:g}" if a.refractory_us else ""
     profiling.write_results(RESULTS / f"{name}.json", rows, vars(a))
     (RESULTS / f"{name}.md").write_text(f"# {vars(a)}\n\n{text}\n")
