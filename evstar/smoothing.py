@@ -772,7 +772,7 @@ def _speed_bias(s, off, speed):
     b, a = np.polyfit(s, off, 1)
     dof = len(s) - 2
     sxx = np.sum((s - s.mean()) ** 2)
-    se = np.sqrt(np.sum((off - a - b * s) ** 2) / max(dof, 1) / sxx) if dof > 0 else np.inf
+    se = np.sqrt(np.sum((off - a - b * s) ** 2) / dof / sxx) if dof > 0 else np.inf
     if abs(b) >= _BIAS_SLOPE_T * se:
         return a + b * speed
     return np.full(len(speed), float(np.median(off)))

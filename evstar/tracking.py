@@ -21,6 +21,8 @@ once stars are confirmed.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -226,7 +228,8 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
             gap = first - a["frames"][-1]
             if gap < -1 or a["frames"][0] >= first:
                 continue
-            d = float(np.linalg.norm(tr["xy"][0] - a["xy"][-1]))
+            dx, dy = tr["xy"][0] - a["xy"][-1]
+            d = math.sqrt(dx * dx + dy * dy)       # np.linalg.norm's bits (_distances)
             if d <= best_d and (gap <= normal or
                                 at_ends.slower(a["ids"][-1], tr["id"]) * gap <= gate_px):
                 best, best_d = a, d
@@ -286,7 +289,10 @@ class _Ends:
         """Distances (px) at track b's first time between the mean of its first
         _END_CENTROIDS centroids and that of each of tracks `ends`' last ones, every
         centroid carried there by the velocity prior (its velocity taken along the straight
-        way between, _CARRY_STEPS points), in one call of the prior."""
+        way between, _CARRY_STEPS points), in one call of the prior (its answer checked as
+        everywhere)."""
+        from .smoothing import prior_velocity
+
         o = self.out
         rows_b = self._rows(b)[:_END_CENTROIDS]
         t_ref = float(o["t"][rows_b[0]])
@@ -296,33 +302,39 @@ class _Ends:
         s = ((np.arange(_CARRY_STEPS) + 0.5) / _CARRY_STEPS)[None, :]
         # the straight way: toward b's first centroid (b's own rows: where they are)
         xj, yj = o["x"][rows_b[0]], o["y"][rows_b[0]]
-        v = prior((t0 + s * (t_ref - t0)).ravel(), (x0 + s * (xj - x0)).ravel(),
-                  (y0 + s * (yj - y0)).ravel())
+        v = prior_velocity(prior, (t0 + s * (t_ref - t0)).ravel(), (x0 + s * (xj - x0)).ravel(),
+                           (y0 + s * (yj - y0)).ravel())
         shift = v.reshape(len(i), _CARRY_STEPS, 2).mean(axis=1) * ((t_ref - t0) * 1e-6)
         at = np.column_stack([x0[:, 0], y0[:, 0]]) + shift
-        bounds = np.cumsum([len(r) for r in rows])[:-1]
-        means = np.array([p.mean(axis=0) for p in np.split(at, bounds)])
+        sizes = np.array([len(r) for r in rows])
+        means = np.add.reduceat(at, np.r_[0, np.cumsum(sizes)[:-1]], axis=0) / sizes[:, None]
         return np.hypot(*(means[:-1] - means[-1]).T)
 
     def count(self, track):
         """Centroids of a track as linked."""
-        return len(self._rows(track))
+        self._sort()
+        return int(self.bounds[track, 1] - self.bounds[track, 0])
 
     def _rows(self, track):
+        self._sort()
+        return self.order[self.bounds[track, 0]:self.bounds[track, 1]]
+
+    def _sort(self):
+        """The rows by track, then time, and each id's (first, stop) in that order (ids
+        are the linker's: 0 .. max, some absent where _drop_short's input has none)."""
         if self.order is None:
             self.order = np.lexsort((self.out["t"], self.track))
-            self.ids, self.starts = np.unique(self.track[self.order], return_index=True)
-        k = int(np.searchsorted(self.ids, track))
-        hi = self.starts[k + 1] if k + 1 < len(self.starts) else len(self.order)
-        return self.order[self.starts[k]:hi]
+            ids, starts, counts = np.unique(self.track[self.order], return_index=True,
+                                            return_counts=True)
+            self.bounds = np.zeros((ids.max(initial=-1) + 1, 2), np.int64)
+            self.bounds[ids] = np.column_stack([starts, starts + counts])
 
     def _speed(self, rows):
         f = self.out["frame"][rows].astype(float)
         if len(rows) < 2 or np.ptp(f) == 0:
             return np.inf
-        vx = np.polyfit(f, self.out["x"][rows], 1)[0]
-        vy = np.polyfit(f, self.out["y"][rows], 1)[0]
-        return float(np.hypot(vx, vy))
+        v = np.polyfit(f, np.column_stack([self.out["x"][rows], self.out["y"][rows]]), 1)[0]
+        return float(np.hypot(*v))
 
 
 def _drop_short(out, min_length):
