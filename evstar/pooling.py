@@ -64,7 +64,9 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
         "extract.min_cluster_size": _min_size(e, flt.rate_hz_, config.dt_us * k,
                                               events.width * events.height)}))
     cents = _merged(long.make_extractor(t0_us).centroids(rest), config.track.gate_px)
-    cents["frame"] = (cents["t"] - t0_us) // config.dt_us
+    # one frame for a long frame's clusters, its middle: they are simultaneous, and in
+    # consecutive frames the tracker chained two stars' clusters into one jump
+    cents["frame"] = (cents["t"] - t0_us) // (config.dt_us * k) * k + k // 2
     cents["source"] = "pooled"
     cents = cents[~_seen(cents, frame_centroids, config.track.gate_px)]
     return cents[_supported(cents, frame_centroids, config.track.gate_px, config.dt_us * k)]
