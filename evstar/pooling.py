@@ -6,11 +6,7 @@ no frame centroid used are filtered again among themselves (NDSEF at ``denoise.r
 whatever the frame filter) in frames ``extract.pool_frames`` (k) times as long (its
 threshold for that length: the noise per frame grows k-fold, but so does the star's count,
 and a slow star stays compact), and those it keeps are clustered in the long frames; a
-cluster needs more events than the measured background puts in a DBSCAN disk of a long
-frame but about once a second over the sensor (_min_size), clusters of one long frame
-within ``track.gate_px`` are one (_merged), and one with no other centroid near it within
-2.5 long frames is dropped (_supported: a star pools again, a clump of noise does not).
-"Not used" are the events the
+cluster needs k - 1 times the frame clusters' smallest size. "Not used" are the events the
 frame filter dropped and those it kept that no reported cluster holds: on a quiet sensor
 (no background, so every event passes the filter) a wide faint star's events fail DBSCAN
 alone, and a look at the filter's rejects found nothing (1.5 °/s, magnitude 4.5, σ 1.8 px,
@@ -26,16 +22,11 @@ estimator drops pooled centroids no track took (noise that once pooled into a cl
 from __future__ import annotations
 
 import numpy as np
-from evstar_kernels.reference.denoise import disk_area, poisson_thresholds
 
 from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
-from .frames import FRAME_GAP, nearest_in_frame
+from .frames import nearest_in_frame
 from .parameters import AUTO, MAX_DT_US
-
-#: background-only DBSCAN disks over the whole sensor per second that hold the smallest
-#: pooled cluster (_supported and the tracker's min_length then ask for more of them)
-_FALSE_CLUSTERS_PER_S = 1.0
 
 
 def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, scratch=None):
@@ -49,10 +40,16 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     k = config.extract.pool_frames
     if k <= 1 or config.dt_us * k > MAX_DT_US or not unused.any():
         return np.zeros(0, CENTROID_DTYPE)
-    d, e = config.denoise, config.extract
+    e = config.extract
+    # a pooled cluster must hold (k - 1) frames' worth of the smallest cluster: a weaker one
+    # is as often a noise clump (or a bright star's stray flank) as a faint star
+    min_size = (k - 1) * (e.min_cluster_size or e.min_samples)
+    long = Pipeline(config.replace(dt_us=config.dt_us * k,
+                                   **{"extract.min_cluster_size": min_size}))
+    d = config.denoise
     # one density test, NDSEF at denoise.radius with its threshold for the long frame (a
     # third of MR-NDSEF's cost, as good here), among the unused events alone (above)
-    flt = NDSEF(config.dt_us * k, d.radius, AUTO, alpha=d.alpha,
+    flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device)
     if scratch is not None:
@@ -60,83 +57,10 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     rest = events[flt.kept_among(events, unused)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
-    long = Pipeline(config.replace(dt_us=config.dt_us * k, **{
-        "extract.min_cluster_size": _min_size(e, flt.rate_hz_, config.dt_us * k,
-                                              events.width * events.height)}))
-    cents = _merged(long.make_extractor(t0_us).centroids(rest), config.track.gate_px)
-    # one frame for a long frame's clusters, its middle: they are simultaneous, and in
-    # consecutive frames the tracker chained two stars' clusters into one jump
-    cents["frame"] = (cents["t"] - t0_us) // (config.dt_us * k) * k + k // 2
+    cents = long.make_extractor(t0_us).centroids(rest)
+    cents["frame"] = (cents["t"] - t0_us) // config.dt_us
     cents["source"] = "pooled"
-    cents = cents[~_seen(cents, frame_centroids, config.track.gate_px)]
-    return cents[_supported(cents, frame_centroids, config.track.gate_px, config.dt_us * k)]
-
-
-def _min_size(extract, rate_hz, long_us, sensor_px):
-    """The smallest pooled cluster: more events than the background puts in a DBSCAN disk
-    (radius extract.eps) of a long frame, the measured rate's Poisson count at the false-alarm
-    probability that makes _FALSE_CLUSTERS_PER_S such disks over the sensor each second;
-    never fewer than a frame cluster. A fixed size fits one background only: (k - 1) frame
-    clusters (15 events) lost stars of 2-3 events a frame at 1 Hz of background, and half of
-    that let noise clumps into the tracks at 5 Hz."""
-    area = disk_area(extract.eps)
-    alpha = min(0.5, _FALSE_CLUSTERS_PER_S * area * long_us * 1e-6 / sensor_px)
-    noise = int(poisson_thresholds(rate_hz, long_us, [extract.eps], alpha)[0])
-    return max(extract.min_cluster_size or extract.min_samples, noise)
-
-
-def _merged(cents, radius):
-    """Clusters of one long frame within `radius` of each other merged into one (their
-    members' means, an event-weighted spread): a faint star's few events can fall into two
-    DBSCAN clusters, whose halves would start a second track beside it (a 3 °/s star's two
-    pooled halves, 4.6 px apart, pulled its track 3 px off). A close pair's split halves
-    stay apart."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    xyf = np.column_stack([cents["x"], cents["y"], cents["frame"] * FRAME_GAP])
-    pairs = cKDTree(xyf).query_pairs(radius, output_type="ndarray") if len(cents) > 1 else []
-    if len(pairs):   # a split's halves are two stars (Extractor.split_valley): kept apart
-        pairs = pairs[~(cents["split"][pairs[:, 0]] & cents["split"][pairs[:, 1]])]
-    if not len(pairs):
-        return cents
-    n = len(cents)
-    links = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, group = connected_components(links, directed=False)
-    w = cents["n_events"].astype(float)
-    total = np.bincount(group, w)
-
-    def mean(v):
-        return np.bincount(group, w * v) / total
-
-    out = cents[np.unique(group, return_index=True)[1]]
-    out["x"], out["y"] = mean(cents["x"]), mean(cents["y"])
-    out["t"] = np.rint(mean(cents["t"].astype(float))).astype(np.int64)
-    dx, dy = cents["x"] - out["x"][group], cents["y"] - out["y"][group]
-    out["spread"] = np.sqrt(mean(cents["spread"] ** 2 + dx * dx + dy * dy))
-    out["n_events"] = np.bincount(group, cents["n_events"])
-    out["n_on"] = np.bincount(group, cents["n_on"])
-    out["border"] = np.bincount(group, cents["border"]) > 0
-    return out[np.lexsort((out["x"], out["t"]))]
-
-
-def _supported(pooled, frame_centroids, radius, long_us):
-    """Per pooled centroid: whether another centroid (pooled, or of a frame) lies within
-    `radius` px in x and in y and 2.5 long frames in time. A star's events pool again in the
-    next long frame; a clump of noise does not (two of 9 events, 20 px from a slow star,
-    started tracks that took its centroids)."""
-    from scipy.spatial import cKDTree
-
-    if not len(pooled):
-        return np.zeros(0, bool)
-    scale = radius / (2.5 * long_us)
-
-    def pts(c):
-        return np.column_stack([c["x"], c["y"], c["t"] * scale])
-
-    every = cKDTree(np.concatenate([pts(pooled), pts(frame_centroids)]))
-    return every.query_ball_point(pts(pooled), radius, p=np.inf, return_length=True) >= 2
+    return cents[~_seen(cents, frame_centroids, config.track.gate_px)]
 
 
 def _seen(pooled, frame_centroids, radius):

@@ -37,10 +37,7 @@ def slow_roll():
 @pytest.fixture(scope="module")
 def centroids(slow_roll):
     run = slow_roll
-    # without the pipeline's pooled look (extract.pool_frames 1): with it, this roll's
-    # faint stars pool into tracks enough for its frames to identify
-    return {comp: Pipeline(Config().replace(**{"motion.compensate": comp,
-                                               "extract.pool_frames": 1})).run(
+    return {comp: Pipeline(Config().replace(**{"motion.compensate": comp})).run(
         run.events, run.imu, run.camera).centroids for comp in ("none", "imu")}
 
 
