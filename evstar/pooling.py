@@ -6,7 +6,10 @@ no frame centroid used are filtered again among themselves (NDSEF at ``denoise.r
 whatever the frame filter) in frames ``extract.pool_frames`` (k) times as long (its
 threshold for that length: the noise per frame grows k-fold, but so does the star's count,
 and a slow star stays compact), and those it keeps are clustered in the long frames; a
-cluster needs k - 1 times the frame clusters' smallest size. "Not used" are the events the
+cluster needs k - 1 times the frame clusters' smallest size, or, where neither a frame
+centroid nor such a cluster lies near, more events than the measured background puts in a
+DBSCAN disk of a long frame but about once a second over the sensor (_faint: stars of 2-3
+events a frame). "Not used" are the events the
 frame filter dropped and those it kept that no reported cluster holds: on a quiet sensor
 (no background, so every event passes the filter) a wide faint star's events fail DBSCAN
 alone, and a look at the filter's rejects found nothing (1.5 °/s, magnitude 4.5, σ 1.8 px,
@@ -14,7 +17,8 @@ no noise: 32 % of frames, 1.6 px). The used events are left out of the density t
 they let the background along a bright star's path pass, which pooled into a false track
 beside the star (10 Hz of background, a sinusoid: 12-14 false rows per 100 frames). A pooled
 centroid's ``t`` is its members' mean time (where a linearly moving star was at its
-position), its ``frame`` the frame of that time and its ``source`` "pooled". One within
+position), its ``frame`` the frame of that time (a _faint one's: its long frame's middle)
+and its ``source`` "pooled". One within
 ``track.gate_px`` of a frame centroid of its own frame is dropped (the tracker would see two
 candidates for one star); the tracker links the rest with the frame centroids, and the
 estimator drops pooled centroids no track took (noise that once pooled into a cluster).
@@ -22,11 +26,17 @@ estimator drops pooled centroids no track took (noise that once pooled into a cl
 from __future__ import annotations
 
 import numpy as np
+from evstar_kernels.reference.denoise import disk_area, poisson_thresholds
 
 from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
-from .frames import nearest_in_frame
+from .frames import FRAME_GAP, nearest_in_frame
+from .lobes import PURITY
 from .parameters import AUTO, MAX_DT_US
+
+#: background-only DBSCAN disks over the whole sensor per second that hold the smallest
+#: pooled cluster (the tracker's min_length then asks for more of them in a row)
+_FALSE_CLUSTERS_PER_S = 1.0
 
 
 def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, scratch=None):
@@ -40,16 +50,10 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     k = config.extract.pool_frames
     if k <= 1 or config.dt_us * k > MAX_DT_US or not unused.any():
         return np.zeros(0, CENTROID_DTYPE)
-    e = config.extract
-    # a pooled cluster must hold (k - 1) frames' worth of the smallest cluster: a weaker one
-    # is as often a noise clump (or a bright star's stray flank) as a faint star
-    min_size = (k - 1) * (e.min_cluster_size or e.min_samples)
-    long = Pipeline(config.replace(dt_us=config.dt_us * k,
-                                   **{"extract.min_cluster_size": min_size}))
-    d = config.denoise
+    d, e = config.denoise, config.extract
     # one density test, NDSEF at denoise.radius with its threshold for the long frame (a
     # third of MR-NDSEF's cost, as good here), among the unused events alone (above)
-    flt = NDSEF(long.config.dt_us, d.radius, AUTO, alpha=d.alpha,
+    flt = NDSEF(config.dt_us * k, d.radius, AUTO, alpha=d.alpha,
                 rate_hz=d.rate_hz if d.rate_hz is not None else rate_hz, t0_us=t0_us,
                 device=config.device)
     if scratch is not None:
@@ -57,10 +61,105 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     rest = events[flt.kept_among(events, unused)]
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
-    cents = long.make_extractor(t0_us).centroids(rest)
+    long_us = config.dt_us * k
+    # a pooled cluster holds (k - 1) frames' worth of the smallest cluster: a weaker one
+    # is as often a noise clump (or a bright star's stray flank) as a faint star
+    strict = (k - 1) * (e.min_cluster_size or e.min_samples)
+    cents = _clusters(config, rest, t0_us, strict)
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
+    small = _min_size(e, flt.rate_hz_, long_us, events.width * events.height)
+    if small < strict:   # ... unless it lies where nothing else was seen (_faint)
+        faint = _faint(_clusters(config, rest, t0_us, small), strict, k, long_us,
+                       np.concatenate([cents, frame_centroids]), 2 * config.track.gate_px)
+        cents = np.concatenate([cents, faint])
+        cents = cents[np.lexsort((cents["x"], cents["t"]))]
     cents["source"] = "pooled"
     return cents[~_seen(cents, frame_centroids, config.track.gate_px)]
+
+
+def _clusters(config, events, t0_us, min_size):
+    """Centroids of `events` clustered in frames extract.pool_frames times as long, clusters
+    of fewer than min_size events left out."""
+    from .pipeline import Pipeline
+
+    long = Pipeline(config.replace(dt_us=config.dt_us * config.extract.pool_frames,
+                                   **{"extract.min_cluster_size": min_size}))
+    return long.make_extractor(t0_us).centroids(events)
+
+
+def _faint(cents, strict, k, long_us, seen, radius):
+    """The clusters of fewer than `strict` events (`cents`: a long extraction down to the
+    background's _min_size) that a faint star alone explains: none of `seen` (the frame
+    and the strict pooled centroids) within `radius` px in x and y and one long frame, so
+    no track of a star already seen changes. Clusters of one long frame within radius / 2
+    are one (_merged); OFF events alone are what a fast star leaves behind on slow
+    (dark-sky) pixels (38 such clusters on a 20 °/s field, none a star; over a long frame
+    a slow star shows both lobes); each takes its long frame's middle frame (simultaneous:
+    in consecutive frames the tracker chained two stars' clusters into one 20 px jump)."""
+    from scipy.spatial import cKDTree
+
+    cents = cents[cents["n_events"] < strict]
+    if len(cents) and len(seen):
+        scale = radius / long_us
+
+        def box(c):
+            return np.column_stack([c["x"], c["y"], c["t"] * scale])
+
+        near = cKDTree(box(seen)).query(box(cents), p=np.inf, distance_upper_bound=radius)[0]
+        cents = cents[~np.isfinite(near)]
+    cents = _merged(cents, radius / 2)
+    cents = cents[cents["n_on"] > (1 - PURITY) * cents["n_events"]]
+    cents["frame"] = cents["frame"] * k + k // 2     # long frame -> its middle frame
+    return cents
+
+
+def _min_size(extract, rate_hz, long_us, sensor_px):
+    """The smallest pooled cluster: more events than the background puts in a DBSCAN disk
+    (radius extract.eps) of a long frame, the measured rate's Poisson count at the false-alarm
+    probability that makes _FALSE_CLUSTERS_PER_S such disks over the sensor each second;
+    never fewer than a frame cluster. The fixed (k - 1) frame clusters (15 events) lose stars
+    of 2-3 events a frame at 1 Hz of background; half of that lets noise clumps into the
+    tracks at 5 Hz."""
+    area = disk_area(extract.eps)
+    alpha = min(0.5, _FALSE_CLUSTERS_PER_S * area * long_us * 1e-6 / sensor_px)
+    noise = int(poisson_thresholds(rate_hz, long_us, [extract.eps], alpha)[0])
+    return max(extract.min_cluster_size or extract.min_samples, noise)
+
+
+def _merged(cents, radius):
+    """Clusters of one long frame within `radius` of each other merged into one (their
+    members' means, an event-weighted spread): a faint star's few events can fall into two
+    DBSCAN clusters, whose halves would start a second track beside it (a 3 °/s star's two
+    pooled halves, 4.6 px apart, pulled its track 3 px off). A close pair's split halves
+    stay apart."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    xyf = np.column_stack([cents["x"], cents["y"], cents["frame"] * FRAME_GAP])
+    pairs = cKDTree(xyf).query_pairs(radius, output_type="ndarray") if len(cents) > 1 else []
+    if len(pairs):   # a split's halves are two stars (Extractor.split_valley): kept apart
+        pairs = pairs[~(cents["split"][pairs[:, 0]] & cents["split"][pairs[:, 1]])]
+    if not len(pairs):
+        return cents
+    n = len(cents)
+    links = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, group = connected_components(links, directed=False)
+    w = cents["n_events"].astype(float)
+    total = np.bincount(group, w)
+
+    def mean(v):
+        return np.bincount(group, w * v) / total
+
+    out = cents[np.unique(group, return_index=True)[1]]
+    out["x"], out["y"] = mean(cents["x"]), mean(cents["y"])
+    out["t"] = np.rint(mean(cents["t"].astype(float))).astype(np.int64)
+    dx, dy = cents["x"] - out["x"][group], cents["y"] - out["y"][group]
+    out["spread"] = np.sqrt(mean(cents["spread"] ** 2 + dx * dx + dy * dy))
+    out["n_events"] = np.bincount(group, cents["n_events"])
+    out["n_on"] = np.bincount(group, cents["n_on"])
+    out["border"] = np.bincount(group, cents["border"]) > 0
+    return out[np.lexsort((out["x"], out["t"]))]
 
 
 def _seen(pooled, frame_centroids, radius):

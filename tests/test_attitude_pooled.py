@@ -162,15 +162,17 @@ def test_while_lost_a_failed_frame_search_is_retried_the_next_frame(solver):
     assert first[100.0][0] > 40_000 and first[100.0][1] == "pooled ok"   # the frame closing 50 ms
 
 
-def test_the_demo_star_field_uses_the_pooled_events(tmp_path, capsys):
-    """`evstar demo`'s star field at 0.2 °/s: its frames hold too few tracks to identify, its
-    events pooled do."""
+def test_the_demo_star_field_has_an_attitude_within_60_ms(tmp_path, capsys):
+    """`evstar demo`'s star field at 0.2 °/s: with its faint stars pooled into tracks (14 of
+    them) its frames identify at 56 ms; before (11 tracks) they could not, its events pooled
+    at 50 ms did."""
     import argparse
 
     from evstar.cli import demo
 
     demo._field(tmp_path, argparse.Namespace(rate=0.2, seed=1, device="cpu"))
-    assert "first fix at 50 ms" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert int(out.split("first fix at ")[1].split(" ms")[0]) <= 60
     rows = read_attitude(tmp_path / "attitude.csv")
     assert len(rows) >= 40 and rows["status"][0] == "fix"
 
