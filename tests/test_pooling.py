@@ -7,7 +7,7 @@ from evstar.errors import ParameterError
 from evstar.estimation import estimate
 from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
-from evstar.pooling import _FALSE_CLUSTERS_PER_S, _faint, _merged, _min_size, _seen
+from evstar.pooling import _FALSE_CLUSTERS_PER_S, _faint, _merged, _min_size, _seen, lone
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -103,6 +103,18 @@ def test_a_faint_cluster_counts_only_where_nothing_else_was_seen():
     # it already); the last lies within 12 px of a frame centroid
     assert out["x"].tolist() == [100.0]
     assert out["frame"].tolist() == [1 * 4 + 2]   # its long frame's middle frame
+
+
+def test_a_lone_pooled_centroid_is_dropped_and_a_repeated_one_kept():
+    rows = _pooled([10.0, 18.0, 80.0, 200.0, 209.0], [10.0, 14.0, 80.0, 50.0, 52.0],
+                   [0, 2, 1, 3, 0], [12] * 5, t=[20_000, 100_000, 60_000, 140_000, 230_000])
+    rows["source"] = ["pooled"] * 4 + ["measured"]
+    # the first two repeat 80 ms and 9 px apart (a faint star moving); the fourth has a frame
+    # centroid 90 ms later, 9.2 px off; the third has nothing within 12 px and 2.5 long
+    # frames (100 ms); a frame centroid is never lone
+    assert lone(rows, Config()).tolist() == [False, False, True, False, False]
+    rows["t"][4] += 20_000                          # 110 ms: beyond 2.5 long frames
+    assert lone(rows, Config()).tolist() == [False, False, True, True, False]
 
 
 def test_a_fast_star_s_trails_on_slow_pixels_pool_into_nothing():
