@@ -303,11 +303,11 @@ class Pipeline:
 
     def _finish(self, centroids, timings, n_events, truth, acc, filter_result, estimator=None,
                 prior=None, span_us=None):
-        from .pooling import lone
+        from .pooling import kept
 
         stats = acc.stats
         t = time.perf_counter()
-        cents = self.make_tracker().link(centroids[~lone(centroids, self.config)], prior)
+        cents = self.make_tracker().link(centroids[kept(centroids, self.config)], prior)
         timings["track"] = time.perf_counter() - t
         if estimator is not None:
             t = time.perf_counter()

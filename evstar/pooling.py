@@ -69,8 +69,7 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
     small = _min_size(e, flt.rate_hz_, long_us, events.width * events.height)
     if small < strict:   # ... unless it lies where nothing else was seen (_faint)
-        faint = _faint(_clusters(config, rest, t0_us, small), strict, k, long_us,
-                       np.concatenate([cents, frame_centroids]), 2 * config.track.gate_px)
+        faint = _faint(_clusters(config, rest, t0_us, small), strict, k, config.track.gate_px)
         cents = np.concatenate([cents, faint])
         cents = cents[np.lexsort((cents["x"], cents["t"]))]
     cents["source"] = "pooled"
@@ -87,49 +86,48 @@ def _clusters(config, events, t0_us, min_size):
     return long.make_extractor(t0_us).centroids(events)
 
 
-def _faint(cents, strict, k, long_us, seen, radius):
+def _faint(cents, strict, k, radius):
     """The clusters of fewer than `strict` events (`cents`: a long extraction down to the
-    background's _min_size) that a faint star alone explains: none of `seen` (the frame
-    and the strict pooled centroids) within `radius` px in x and y and one long frame, so
-    no track of a star already seen changes. Clusters of one long frame within radius / 2
-    are one (_merged); OFF events alone are what a fast star leaves behind on slow
-    (dark-sky) pixels (38 such clusters on a 20 °/s field, none a star; over a long frame
-    a slow star shows both lobes); each takes its long frame's middle frame (simultaneous:
-    in consecutive frames the tracker chained two stars' clusters into one 20 px jump)."""
-    from scipy.spatial import cKDTree
-
-    cents = cents[cents["n_events"] < strict]
-    if len(cents) and len(seen):
-        scale = radius / long_us
-
-        def box(c):
-            return np.column_stack([c["x"], c["y"], c["t"] * scale])
-
-        near = cKDTree(box(seen)).query(box(cents), p=np.inf, distance_upper_bound=radius)[0]
-        cents = cents[~np.isfinite(near)]
-    cents = _merged(cents, radius / 2)
+    background's _min_size), those of one long frame within `radius` merged (_merged), OFF
+    events alone dropped: they are what a fast star leaves behind on slow (dark-sky) pixels
+    (38 such clusters on a 20 °/s field, none a star; over a long frame a slow star shows
+    both lobes). Each takes its long frame's middle frame (simultaneous: in consecutive
+    frames the tracker chained two stars' clusters into one 20 px jump). Which of them a
+    faint star alone explains is decided on the whole run (kept)."""
+    cents = _merged(cents[cents["n_events"] < strict], radius)
     cents = cents[cents["n_on"] > (1 - PURITY) * cents["n_events"]]
     cents["frame"] = cents["frame"] * k + k // 2     # long frame -> its middle frame
     return cents
 
 
-def lone(centroids, config):
-    """Per row of a whole run's centroids: a pooled one with no other centroid (pooled, or
-    of a frame) within 2·track.gate_px in x and in y and 2.5 long frames in time. A star's
-    events pool again, a clump of noise does not (noise clusters of 9 events 20 px from a
-    slow star started tracks that took its centroids: 18 false rows per 100 frames). On the
-    whole run: a streamed chunk's edge would cut a neighbour off."""
+def kept(centroids, config):
+    """Per row of a whole run's centroids, whether the tracker gets it: every frame
+    centroid; a pooled one unless it is lone, no other centroid (pooled, or of a frame)
+    within 2·track.gate_px in x and in y and 2.5 long frames (a star's events pool again,
+    a clump of noise does not: noise clusters of 9 events 20 px from a slow star started
+    tracks that took its centroids, 18 false rows per 100 frames), or _faint and a star
+    seen there explains it: a frame centroid or a pooled one of the usual size within
+    2·gate_px and one long frame (so a star already seen keeps its track: its faint
+    clusters had moved a 1 °/s faint star's rows by 0.1 px and undone the calibrated
+    threshold ratio's gain). On the whole run: a streamed chunk's edge would cut a
+    neighbour off."""
     from scipy.spatial import cKDTree
 
-    out = np.zeros(len(centroids), bool)
+    out = np.ones(len(centroids), bool)
     pooled = centroids["source"] == "pooled"
     if not pooled.any():
         return out
-    radius = 2 * config.track.gate_px
-    scale = radius / (2.5 * config.dt_us * config.extract.pool_frames)
-    box = np.column_stack([centroids["x"], centroids["y"], centroids["t"] * scale])
-    n = cKDTree(box).query_ball_point(box[pooled], radius, p=np.inf, return_length=True)
-    out[pooled] = n < 2
+    e, radius = config.extract, 2 * config.track.gate_px
+    long_us = config.dt_us * e.pool_frames
+    box = np.column_stack([centroids["x"], centroids["y"], centroids["t"] * (radius / long_us)])
+    wide = box * [1, 1, 1 / 2.5]
+    n = cKDTree(wide).query_ball_point(wide[pooled], radius, p=np.inf, return_length=True)
+    out[pooled] = n >= 2
+    strict = (e.pool_frames - 1) * (e.min_cluster_size or e.min_samples)
+    faint = pooled & (centroids["n_events"] < strict)
+    if faint.any() and (~faint).any():
+        near = cKDTree(box[~faint]).query(box[faint], p=np.inf, distance_upper_bound=radius)[0]
+        out[faint] &= ~np.isfinite(near)
     return out
 
 

@@ -7,7 +7,7 @@ from evstar.errors import ParameterError
 from evstar.estimation import estimate
 from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
-from evstar.pooling import _FALSE_CLUSTERS_PER_S, _faint, _merged, _min_size, _seen, lone
+from evstar.pooling import _FALSE_CLUSTERS_PER_S, _faint, _merged, _min_size, _seen, kept
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -78,7 +78,8 @@ def _pooled(x, y, frame, n, t=None, split=False):
 
 
 def test_a_faint_star_s_two_pooled_halves_of_one_long_frame_are_merged():
-    rows = _pooled([10.0, 14.0, 10.0, 40.0], [10.0, 10.0, 10.0, 10.0], [0, 0, 1, 1], [10, 30, 12, 12])
+    rows = _pooled([10.0, 14.0, 10.0, 40.0], [10.0, 10.0, 10.0, 10.0], [0, 0, 1, 1],
+                   [10, 30, 12, 12])
     out = _merged(rows, 6.0)
     assert len(out) == 3                       # frame 0's two, 4 px apart, are one
     one = out[out["frame"] == 0][0]
@@ -90,31 +91,30 @@ def test_a_faint_star_s_two_pooled_halves_of_one_long_frame_are_merged():
     assert len(_merged(halves, 6.0)) == 2      # a close pair's split halves stay apart
 
 
-def test_a_faint_cluster_counts_only_where_nothing_else_was_seen():
-    # long frames of 40 ms (k = 4): clusters in long frames 0, 1, 2, 3
+def test_faint_clusters_are_merged_trails_dropped_and_each_in_its_long_frame_s_middle():
+    # long frames of 40 ms (k = 4): clusters in long frames 0, 1, 2, 3, 1
     cents = _pooled([10.0, 100.0, 200.0, 300.0, 50.0], [10.0, 10.0, 10.0, 10.0, 90.0],
                     [0, 1, 2, 3, 1], [8, 8, 8, 20, 8])
     cents["n_on"][2] = 1                          # OFF events alone: a fast star's trail
-    seen = np.zeros(2, CENTROID_DTYPE)            # a frame centroid 5 px from the first, in
-    seen["x"], seen["y"] = (15.0, 50.0), (10.0, 99.0)   # its long frame; one 9 px from the last
-    seen["t"] = (25_000, 60_000)
-    out = _faint(cents, 15, 4, 40_000, seen, 12.0)
-    # kept: the second (nothing near); the fourth is a strict-sized cluster (the caller has
-    # it already); the last lies within 12 px of a frame centroid
-    assert out["x"].tolist() == [100.0]
-    assert out["frame"].tolist() == [1 * 4 + 2]   # its long frame's middle frame
+    out = _faint(cents, 15, 4, 6.0)
+    # the fourth is of the usual size (the strict look has it); each of the rest in its
+    # long frame's middle frame
+    assert dict(zip(out["x"].tolist(), out["frame"].tolist())) == {10.0: 2, 100.0: 6, 50.0: 6}
 
 
-def test_a_lone_pooled_centroid_is_dropped_and_a_repeated_one_kept():
-    rows = _pooled([10.0, 18.0, 80.0, 200.0, 209.0], [10.0, 14.0, 80.0, 50.0, 52.0],
-                   [0, 2, 1, 3, 0], [12] * 5, t=[20_000, 100_000, 60_000, 140_000, 230_000])
-    rows["source"] = ["pooled"] * 4 + ["measured"]
-    # the first two repeat 80 ms and 9 px apart (a faint star moving); the fourth has a frame
-    # centroid 90 ms later, 9.2 px off; the third has nothing within 12 px and 2.5 long
-    # frames (100 ms); a frame centroid is never lone
-    assert lone(rows, Config()).tolist() == [False, False, True, False, False]
-    rows["t"][4] += 20_000                          # 110 ms: beyond 2.5 long frames
-    assert lone(rows, Config()).tolist() == [False, False, True, True, False]
+def test_the_tracker_gets_no_lone_pooled_centroid_and_no_faint_one_a_seen_star_explains():
+    rows = _pooled([10.0, 18.0, 80.0, 200.0, 209.0, 300.0, 305.0],
+                   [10.0, 14.0, 80.0, 50.0, 52.0, 300.0, 300.0], [0] * 7,
+                   [8, 8, 20, 20, 20, 8, 20],
+                   t=[20_000, 100_000, 60_000, 140_000, 230_000, 20_000, 30_000])
+    rows["source"] = ["pooled"] * 4 + ["measured", "pooled", "measured"]
+    # the first two (faint) repeat 80 ms and 9 px apart (a faint star moving); the fourth
+    # has a frame centroid 90 ms later, 9.2 px off; the third has nothing within 12 px and
+    # 2.5 long frames (100 ms); the sixth (faint) lies 5 px from a frame centroid of its
+    # long frame: that star explains it; frame centroids always go
+    assert kept(rows, Config()).tolist() == [True, True, False, True, True, False, True]
+    rows["t"][4] += 20_000                        # 110 ms: beyond 2.5 long frames
+    assert kept(rows, Config()).tolist() == [True, True, False, False, True, False, True]
 
 
 def test_a_fast_star_s_trails_on_slow_pixels_pool_into_nothing():
