@@ -119,7 +119,12 @@ class Pipeline:
         return self._hot_pixels(accumulated(self._calibration_window(events, t0_us)))
 
     def _calibration_window(self, events, t0_us):
-        """The events of the first chunk_frames frames."""
+        """The events of the first chunk_frames frames. A run's first kernels count them, on
+        whatever Taichi runs on (frames.images): Taichi is started on the run's device here,
+        else it started on the CPU and a cuda run's filters could not switch to the GPU."""
+        from .backends import taichi
+
+        taichi(self.config.device)
         return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
 
     @staticmethod

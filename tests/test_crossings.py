@@ -374,6 +374,19 @@ def test_the_counting_sort_kernel_equals_numpys_stable_sort(n_keys):
 
 
 @pytest.mark.parametrize("device_arrays", [False, True])
+def test_the_counting_sort_of_no_key_is_empty_on_the_gpu_data_path(monkeypatch, device_arrays):
+    # a GPU run's pooled look sorted no key: Taichi has no empty ndarray, and it failed
+    from evstar import backends
+    from evstar_kernels.taichi import launch, sorting_launch
+
+    monkeypatch.setattr(launch, "DEVICE_ARRAYS", device_arrays)
+    ti = backends.taichi_running()
+    assert len(sorting_launch.stable_order(ti, np.zeros(0, np.uint32), 7)) == 0
+    value, counts = sorting_launch.counting_sort(ti, np.zeros(0, np.uint32), np.zeros(0, np.int64), 7)
+    assert len(value) == 0 and counts.tolist() == [0] * 7
+
+
+@pytest.mark.parametrize("device_arrays", [False, True])
 @pytest.mark.parametrize("n_keys", [1, 7, 70_000, 921_600])
 def test_the_counting_sort_of_values_equals_numpys_stable_sort(monkeypatch, device_arrays, n_keys):
     from evstar import backends

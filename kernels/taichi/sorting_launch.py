@@ -12,14 +12,15 @@ _I32 = 1 << 31
 def stable_order(ti, key, n_keys):
     """np.argsort(key, kind="stable") of uint32 keys below n_keys (int64 permutation)."""
     key = np.ascontiguousarray(key, np.uint32)
+    if not len(key):   # no kernel: a device array cannot be empty (a GPU run failed here)
+        return np.zeros(0, np.int64)
     arrays = launch.Arrays(ti)
     if max(len(key), n_keys) >= _I32:
         return np.argsort(key, kind="stable")
     start = arrays.put(np.zeros(n_keys + 1, np.int32))
     order = arrays.empty(len(key), np.int64)
-    if len(key):
-        with launch.RUNTIME_LOCK:
-            _stable_order(arrays.put(key), start, order)
+    with launch.RUNTIME_LOCK:
+        _stable_order(arrays.put(key), start, order)
     return order.to_numpy() if arrays.on_device else order   # no copy on the CPU
 
 
