@@ -62,9 +62,7 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
     long_us = config.dt_us * k
-    # a pooled cluster holds (k - 1) frames' worth of the smallest cluster: a weaker one
-    # is as often a noise clump (or a bright star's stray flank) as a faint star
-    strict = (k - 1) * (e.min_cluster_size or e.min_samples)
+    strict = _strict_size(e)
     cents = _clusters(config, rest, t0_us, strict)
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
     small = _min_size(e, flt.rate_hz_, long_us, events.width * events.height)
@@ -123,12 +121,18 @@ def kept(centroids, config):
     wide = box * [1, 1, 1 / 2.5]
     n = cKDTree(wide).query_ball_point(wide[pooled], radius, p=np.inf, return_length=True)
     out[pooled] = n >= 2
-    strict = (e.pool_frames - 1) * (e.min_cluster_size or e.min_samples)
-    faint = pooled & (centroids["n_events"] < strict)
+    faint = pooled & (centroids["n_events"] < _strict_size(e))
     if faint.any() and (~faint).any():
         near = cKDTree(box[~faint]).query(box[faint], p=np.inf, distance_upper_bound=radius)[0]
         out[faint] &= ~np.isfinite(near)
     return out
+
+
+def _strict_size(extract):
+    """A pooled cluster's usual size: (pool_frames - 1) frames' worth of the smallest frame
+    cluster (a weaker one is as often a noise clump, or a bright star's stray flank, as a
+    faint star; _faint takes those only where no star was seen)."""
+    return (extract.pool_frames - 1) * (extract.min_cluster_size or extract.min_samples)
 
 
 def _min_size(extract, rate_hz, long_us, sensor_px):
