@@ -7,7 +7,8 @@ from evstar.errors import ParameterError
 from evstar.estimation import estimate
 from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
-from evstar.pooling import _FALSE_CLUSTERS_PER_S, _faint, _merged, _min_size, _seen, kept
+from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _PAIR_LONG_FRAMES, _faint, _lobes_joined,
+                            _merged, _min_size, _seen, kept)
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -100,6 +101,47 @@ def test_faint_clusters_are_merged_trails_dropped_and_each_in_its_long_frame_s_m
     # the fourth is of the usual size (the strict look has it); each of the rest in its
     # long frame's middle frame
     assert dict(zip(out["x"].tolist(), out["frame"].tolist())) == {10.0: 2, 100.0: 6, 50.0: 6}
+
+
+def _lobes(x, frame, n_on, n=10):
+    rows = _pooled(x, [50.0] * len(x), frame, [n] * len(x))
+    rows["n_on"] = n_on
+    return rows
+
+
+def test_a_slow_wide_star_s_lone_lobes_of_neighbouring_long_frames_are_joined_at_their_midpoint():
+    # a star at x = 100 moving +x: ON lobes ~3 px ahead, OFF lobes ~3 px behind; an ON lobe
+    # of long frame 2 and an OFF lobe of long frame 3, 6 px apart, are one star
+    rows = _lobes([103.0, 97.0], [2, 3], [10, 1])
+    out = _lobes_joined(rows, 8.0)
+    assert len(out) == 1 and out["x"][0] == pytest.approx(100.0)
+    assert out["t"][0] == (rows["t"][0] + rows["t"][1]) // 2
+    # counted as its larger lobe (still a faint cluster for kept), of mixed polarity
+    assert out["n_events"][0] == 10 and out["n_on"][0] == round(10 * 11 / 20)
+    # ... and no more an OFF-only cluster that _faint drops
+    assert len(_faint(rows, 15, 4, 6.0, 8.0)) == 1 and len(_faint(rows, 15, 4, 6.0)) == 1
+    assert _faint(rows, 15, 4, 6.0)["x"][0] == 103.0      # without joining: the lone ON lobe
+    # too far apart, two long frames apart, or both of one polarity: left alone
+    assert len(_lobes_joined(_lobes([103.0, 94.5], [2, 3], [10, 1]), 8.0)) == 2
+    assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 4], [10, 1]), 8.0)) == 2
+    assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 3], [10, 10]), 8.0)) == 2
+
+
+def test_a_lone_on_lobe_moves_by_the_half_gap_of_its_star_s_nearest_joined_pair():
+    # the pair (ON lobe of long frame 2, OFF of 3) measures the lobes' half-gap, 3 px along
+    # -x; the star's lone ON lobes 4 and _PAIR_LONG_FRAMES long frames later move by it, one
+    # a long frame beyond that does not
+    w = _PAIR_LONG_FRAMES
+    rows = _lobes([103.0, 97.0, 103.4, 103.8, 104.0], [2, 3, 6, 2 + w, 3 + w], [10, 1, 10, 10, 10])
+    out = _lobes_joined(rows, 8.0)
+    assert out["x"].tolist() == pytest.approx([100.0, 100.4, 100.8, 104.0])
+
+
+def test_a_slow_faint_star_with_a_wide_psf_is_not_tracked_by_its_leading_lobe():
+    # σ 2.5 px, 1 °/s, magnitude 4: its lobes ~6 px apart, often one a long frame; before
+    # the lone lobes were joined (and moved) 80 % of frames at 0.51 px
+    det, err, _ = coverage(4, seed=3, magnitude=4.0, psf_sigma_px=2.5, duration_s=1.0)
+    assert det >= 0.85 and err < 0.47
 
 
 def test_the_tracker_gets_no_lone_pooled_centroid_and_no_faint_one_a_seen_star_explains():
