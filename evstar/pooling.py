@@ -40,6 +40,8 @@ _FALSE_CLUSTERS_PER_S = 1.0
 #: long frames (each way) within which a joined pair's lobe geometry moves a lone ON lobe:
 #: a slow star's direction holds that long (200 ms at the default 40 ms)
 _PAIR_LONG_FRAMES = 5
+#: the fewest events of a faint cluster, however quiet the sensor (two make no spread)
+_MIN_FAINT_EVENTS = 3
 
 
 def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, scratch=None):
@@ -80,11 +82,13 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
 
 def _clusters(config, events, t0_us, min_size):
     """Centroids of `events` clustered in frames extract.pool_frames times as long, clusters
-    of fewer than min_size events left out."""
+    of fewer than min_size events left out (and, where that is below extract.min_samples,
+    DBSCAN's core points need min_size too: a cluster of 4 has no core point of 5)."""
     from .pipeline import Pipeline
 
+    extra = {"extract.min_samples": min_size} if min_size < config.extract.min_samples else {}
     long = Pipeline(config.replace(dt_us=config.dt_us * config.extract.pool_frames,
-                                   **{"extract.min_cluster_size": min_size}))
+                                   **{"extract.min_cluster_size": min_size, **extra}))
     return long.make_extractor(t0_us).centroids(events)
 
 
@@ -216,13 +220,15 @@ def _min_size(extract, rate_hz, long_us, sensor_px):
     """The smallest pooled cluster: more events than the background puts in a DBSCAN disk
     (radius extract.eps) of a long frame, the measured rate's Poisson count at the false-alarm
     probability that makes _FALSE_CLUSTERS_PER_S such disks over the sensor each second;
-    never fewer than a frame cluster. The fixed (k - 1) frame clusters (15 events) lose stars
-    of 2-3 events a frame at 1 Hz of background; half of that lets noise clumps into the
-    tracks at 5 Hz."""
+    never fewer than _MIN_FAINT_EVENTS. The fixed (k - 1) frame clusters (15 events) lose
+    stars of 2-3 events a frame at 1 Hz of background; half of that lets noise clumps into
+    the tracks at 5 Hz. On a quiet sensor the count falls below a frame cluster's
+    min_samples (4 at 0.1 Hz on a DAVIS346), which had kept stars of 1-1.5 events a frame
+    out (a 1.4 event/frame star at 0.1 Hz: no frame, now 23 % of them)."""
     area = disk_area(extract.eps)
     alpha = min(0.5, _FALSE_CLUSTERS_PER_S * area * long_us * 1e-6 / sensor_px)
     noise = int(poisson_thresholds(rate_hz, long_us, [extract.eps], alpha)[0])
-    return max(extract.min_cluster_size or extract.min_samples, noise)
+    return max(_MIN_FAINT_EVENTS, noise)
 
 
 def _merged(cents, radius):

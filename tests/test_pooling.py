@@ -7,8 +7,8 @@ from evstar.errors import ParameterError
 from evstar.estimation import estimate
 from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
-from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _PAIR_LONG_FRAMES, _faint, _lobes_joined,
-                            _merged, _min_size, _seen, kept)
+from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _MIN_FAINT_EVENTS, _PAIR_LONG_FRAMES, _faint,
+                            _lobes_joined, _merged, _min_size, _seen, kept)
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -53,14 +53,16 @@ def test_the_pooled_size_is_improbable_for_the_background_alone(rate_hz):
     e = Config().extract
     long_us, sensor_px = 40_000, 346 * 260
     n = _min_size(e, rate_hz, long_us, sensor_px)
-    assert n >= e.min_samples
+    assert n >= _MIN_FAINT_EVENTS
     disks_per_s = sensor_px / disk_area(e.eps) / (long_us * 1e-6)
     mu = rate_hz * long_us * 1e-6 * disk_area(e.eps)
     # n events of background in one eps disk: at most _FALSE_CLUSTERS_PER_S a second over
     # the sensor; one fewer would let more through (unless the floor holds it)
     assert poisson.sf(n - 1, mu) * disks_per_s <= _FALSE_CLUSTERS_PER_S
-    if n > e.min_samples:
+    if n > _MIN_FAINT_EVENTS:
         assert poisson.sf(n - 2, mu) * disks_per_s > _FALSE_CLUSTERS_PER_S
+    else:   # the floor, on a quiet sensor: below a frame cluster's min_samples
+        assert rate_hz < 0.5 and n < e.min_samples
 
 
 def test_the_pooled_size_grows_with_the_background_and_the_sensor():
@@ -177,6 +179,16 @@ def test_a_quiet_sensor_s_faint_wide_star_is_pooled_from_the_events_dbscan_left_
     det, err, cents = coverage(4, seed=21, rate_dps=1.5, sensor=quiet, psf_sigma_px=1.8)
     assert (cents["source"] == "pooled").any()
     assert det >= 0.95 and err < 0.5
+
+
+def test_a_quiet_sensor_s_faintest_stars_are_found_below_a_frame_cluster_s_size():
+    # 0.1 Hz of background: four events in a DBSCAN disk of a 40 ms frame are noise about
+    # once in 6 s over the sensor; a magnitude-6.6 star (1.2 events a frame) gives four or
+    # five, which min_samples (5) kept out in every frame
+    quiet = sim.sensor_model("default", noise_hz=0.1)
+    det, err, cents = coverage(4, seed=3, magnitude=6.6, sensor=quiet, duration_s=1.0)
+    assert (cents["source"] == "pooled").any()
+    assert det >= 0.9 and err < 0.5
 
 
 def test_a_noisy_sensor_s_background_along_a_star_s_path_pools_into_no_false_track():
