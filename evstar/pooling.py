@@ -42,6 +42,12 @@ _FALSE_CLUSTERS_PER_S = 1.0
 _PAIR_LONG_FRAMES = 5
 #: the fewest events of a faint cluster, however quiet the sensor (two make no spread)
 _MIN_FAINT_EVENTS = 3
+#: a faint slow star's lone lobe lies √(π/2)·σ_PSF off the star and its events spread
+#: √(1 + 2 − π/2)·σ (across: σ; along: the u·G(u) profile's): offset ≈ 1.05 × spread
+_LOBE_OFFSET_PER_SPREAD = float(np.sqrt(np.pi / 2) / np.sqrt(3 - np.pi / 2))
+#: ... and a pair's half-gap must reach this share of the offset its lobes' spreads predict
+#: (pairs of one slow star: 0.78-1.8; the pieces of a 2 °/s star: 0.4-0.5)
+_LOBE_GAP_SHARE = 0.6
 
 
 def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, scratch=None):
@@ -115,9 +121,11 @@ def _lobes_joined(cents, gap_px):
     were its track, 3 px ahead), and so few events a long frame that one lobe is often
     seen a long frame before or after the other. Each ON-only cluster and its mutual
     nearest OFF-only one of the same or a neighbouring long frame, closer than gap_px
-    (extract.lobe_gap_px, as the frame extractor joins a frame's lobes), become one
-    centroid at the midpoint of the two (the lobes lie symmetric about the star: their
-    thresholds set how many events each has, not where) and their mean time."""
+    (extract.lobe_gap_px, as the frame extractor joins a frame's lobes) but not closer than
+    lobes of their width lie (_LOBE_GAP_SHARE), become one centroid at the midpoint of the
+    two (the lobes lie symmetric about the star: their thresholds set how many events each
+    has, not where) and their mean time; lone ON lobes near such a pair move by its
+    half-gap (_lone_lobes_moved)."""
     from scipy.spatial import cKDTree
 
     share = cents["n_on"] / np.maximum(cents["n_events"], 1)
@@ -134,8 +142,13 @@ def _lobes_joined(cents, gap_px):
     a, b = on[found], off[j[found]]
     mutual = i[j[found]] == found
     a, b = a[mutual], b[mutual]
-    close = ((np.hypot(cents["x"][a] - cents["x"][b], cents["y"][a] - cents["y"][b]) < gap_px)
-             & (np.abs(cents["frame"][a] - cents["frame"][b]) <= 1))
+    half = np.hypot(cents["x"][a] - cents["x"][b], cents["y"][a] - cents["y"][b]) / 2
+    # two lobes lie about their offset from the star apart on each side: a closer ON / OFF
+    # pair is no slow star's lobes (a moving star's smeared pieces: joined, a 2 °/s σ 1.8 px
+    # star's one such pair moved it 0.30 -> 0.64 px)
+    lobe = _LOBE_OFFSET_PER_SPREAD * (cents["spread"][a] + cents["spread"][b]) / 2
+    close = ((half < gap_px / 2) & (np.abs(cents["frame"][a] - cents["frame"][b]) <= 1)
+             & (half >= _LOBE_GAP_SHARE * lobe))
     a, b = a[close], b[close]
     if not len(a):
         return cents
@@ -143,7 +156,7 @@ def _lobes_joined(cents, gap_px):
     for key in ("x", "y"):
         out[key][a] = (cents[key][a] + cents[key][b]) / 2
     out["t"][a] = (cents["t"][a] + cents["t"][b]) // 2
-    half = np.hypot(cents["x"][a] - cents["x"][b], cents["y"][a] - cents["y"][b]) / 2
+    half = half[close]
     out["spread"][a] = np.sqrt((cents["spread"][a] ** 2 + cents["spread"][b] ** 2) / 2 + half ** 2)
     # counted as its larger lobe: a pair is still a faint cluster (kept takes it only where no
     # star seen explains it), its σ the larger lobe's; its polarity share that of both

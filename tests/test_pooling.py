@@ -123,8 +123,15 @@ def test_a_slow_wide_star_s_lone_lobes_of_neighbouring_long_frames_are_joined_at
     # ... and no more an OFF-only cluster that _faint drops
     assert len(_faint(rows, 15, 4, 6.0, 8.0)) == 1 and len(_faint(rows, 15, 4, 6.0)) == 1
     assert _faint(rows, 15, 4, 6.0)["x"][0] == 103.0      # without joining: the lone ON lobe
-    # too far apart, two long frames apart, or both of one polarity: left alone
+    # too far apart, too close for lobes of their width (each ~1.05 x its spread off the
+    # star: spreads of 4 px put lobes ~8.4 px apart, and a half-gap of 3 px is under 0.8 of
+    # that offset; of 3 px, not), two long frames apart, or both of one polarity: left alone
     assert len(_lobes_joined(_lobes([103.0, 94.5], [2, 3], [10, 1]), 8.0)) == 2
+    wide = _lobes([103.0, 97.0], [2, 3], [10, 1])
+    wide["spread"] = 4.0
+    assert len(_lobes_joined(wide, 8.0)) == 2
+    wide["spread"] = 3.0
+    assert len(_lobes_joined(wide, 8.0)) == 1
     assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 4], [10, 1]), 8.0)) == 2
     assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 3], [10, 10]), 8.0)) == 2
 
