@@ -7,8 +7,9 @@ from evstar.errors import ParameterError
 from evstar.estimation import estimate
 from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
-from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _MIN_FAINT_EVENTS, _PAIR_LONG_FRAMES, _faint,
-                            _lobes_joined, _merged, _min_size, _seen, kept)
+from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _LOBE_GAP_SHARE, _LOBE_OFFSET_PER_SPREAD,
+                            _MIN_FAINT_EVENTS, _PAIR_LONG_FRAMES, _faint, _lobes_joined,
+                            _merged, _min_size, _seen, kept)
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -124,16 +125,25 @@ def test_a_slow_wide_star_s_lone_lobes_of_neighbouring_long_frames_are_joined_at
     assert len(_faint(rows, 15, 4, 6.0, 8.0)) == 1 and len(_faint(rows, 15, 4, 6.0)) == 1
     assert _faint(rows, 15, 4, 6.0)["x"][0] == 103.0      # without joining: the lone ON lobe
     # too far apart, too close for lobes of their width (each ~1.05 x its spread off the
-    # star: spreads of 4 px put lobes ~8.4 px apart, and a half-gap of 3 px is under 0.8 of
-    # that offset; of 3 px, not), two long frames apart, or both of one polarity: left alone
+    # star: a half-gap of 3 px is too little for lobes of a spread above 3 / (0.6 x 1.05)),
+    # two long frames apart, or both of one polarity: left alone
     assert len(_lobes_joined(_lobes([103.0, 94.5], [2, 3], [10, 1]), 8.0)) == 2
     wide = _lobes([103.0, 97.0], [2, 3], [10, 1])
-    wide["spread"] = 4.0
+    limit = 3.0 / (_LOBE_GAP_SHARE * _LOBE_OFFSET_PER_SPREAD)
+    wide["spread"] = 1.1 * limit
     assert len(_lobes_joined(wide, 8.0)) == 2
-    wide["spread"] = 3.0
+    wide["spread"] = 0.9 * limit
     assert len(_lobes_joined(wide, 8.0)) == 1
     assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 4], [10, 1]), 8.0)) == 2
     assert len(_lobes_joined(_lobes([103.0, 97.0], [2, 3], [10, 10]), 8.0)) == 2
+
+
+def test_a_faint_lobe_s_offset_per_spread_is_that_of_its_events():
+    # a faint star's ON events lie ∝ u·G(u) ahead of it (u > 0: a Rayleigh law) and G(w)
+    # across: their mean offset over their spread (sqrt of both variances) is the constant
+    rng = np.random.default_rng(5)
+    u, w = rng.rayleigh(2.0, 200_000), rng.normal(0.0, 2.0, 200_000)
+    assert u.mean() / np.sqrt(u.var() + w.var()) == pytest.approx(_LOBE_OFFSET_PER_SPREAD, rel=0.01)
 
 
 def test_a_lone_on_lobe_moves_by_the_half_gap_of_its_star_s_nearest_joined_pair():
