@@ -133,30 +133,31 @@ def _lobes_joined(cents, gap_px):
     if not len(on) or not len(off):
         return cents
 
-    def pts(i):   # Chebyshev distance < gap_px: |dx|, |dy| < gap and long frames <= 1 apart
-        return np.column_stack([cents["x"][i], cents["y"][i], cents["frame"][i] * gap_px / 2])
-
-    d_on, j = cKDTree(pts(off)).query(pts(on), p=np.inf, distance_upper_bound=gap_px)
-    _, i = cKDTree(pts(on)).query(pts(off), p=np.inf, distance_upper_bound=gap_px)
+    scale = gap_px / 2    # Chebyshev distance < gap_px: long frames <= 1 apart
+    d_on, j = cKDTree(_points(cents, off, scale)).query(_points(cents, on, scale), p=np.inf,
+                                                        distance_upper_bound=gap_px)
+    _, i = cKDTree(_points(cents, on, scale)).query(_points(cents, off, scale), p=np.inf,
+                                                    distance_upper_bound=gap_px)
     found = np.flatnonzero(np.isfinite(d_on))
     a, b = on[found], off[j[found]]
     mutual = i[j[found]] == found
     a, b = a[mutual], b[mutual]
-    half = np.hypot(cents["x"][a] - cents["x"][b], cents["y"][a] - cents["y"][b]) / 2
+    # the half-gap, OFF lobe less ON lobe (the star lies there from its ON lobe)
+    hx, hy = (cents["x"][b] - cents["x"][a]) / 2, (cents["y"][b] - cents["y"][a]) / 2
+    half = np.hypot(hx, hy)
     # two lobes lie about their offset from the star apart on each side: a closer ON / OFF
     # pair is no slow star's lobes (a moving star's smeared pieces: joined, a 2 °/s σ 1.8 px
     # star's one such pair moved it 0.30 -> 0.64 px)
     lobe = _LOBE_OFFSET_PER_SPREAD * (cents["spread"][a] + cents["spread"][b]) / 2
     close = ((half < gap_px / 2) & (np.abs(cents["frame"][a] - cents["frame"][b]) <= 1)
              & (half >= _LOBE_GAP_SHARE * lobe))
-    a, b = a[close], b[close]
+    a, b, hx, hy, half = a[close], b[close], hx[close], hy[close], half[close]
     if not len(a):
         return cents
     out = cents.copy()
     for key in ("x", "y"):
         out[key][a] = (cents[key][a] + cents[key][b]) / 2
     out["t"][a] = (cents["t"][a] + cents["t"][b]) // 2
-    half = half[close]
     out["spread"][a] = np.sqrt((cents["spread"][a] ** 2 + cents["spread"][b] ** 2) / 2 + half ** 2)
     # counted as its larger lobe: a pair is still a faint cluster (kept takes it only where no
     # star seen explains it), its σ the larger lobe's; its polarity share that of both
@@ -164,8 +165,7 @@ def _lobes_joined(cents, gap_px):
     out["n_events"][a] = np.maximum(cents["n_events"][a], cents["n_events"][b])
     out["n_on"][a] = np.rint(out["n_events"][a] * n_on / n)
     out["border"][a] |= cents["border"][b]
-    _lone_lobes_moved(out, np.setdiff1d(on, a), a, (cents["x"][b] - cents["x"][a]) / 2,
-                      (cents["y"][b] - cents["y"][a]) / 2, gap_px)
+    _lone_lobes_moved(out, np.setdiff1d(on, a), a, hx, hy, gap_px)
     keep = np.ones(len(cents), bool)
     keep[b] = False
     return out[keep]
@@ -182,14 +182,18 @@ def _lone_lobes_moved(cents, lone, pairs, hx, hy, gap_px):
     if not len(lone) or not len(pairs):
         return
 
-    def pts(i):   # Chebyshev distance < gap_px: |dx|, |dy| < gap, <= _PAIR_LONG_FRAMES apart
-        scale = gap_px / (_PAIR_LONG_FRAMES + 0.5)
-        return np.column_stack([cents["x"][i], cents["y"][i], cents["frame"][i] * scale])
-
-    d, j = cKDTree(pts(pairs)).query(pts(lone), p=np.inf, distance_upper_bound=gap_px)
+    scale = gap_px / (_PAIR_LONG_FRAMES + 0.5)   # Chebyshev < gap_px: <= that many apart
+    d, j = cKDTree(_points(cents, pairs, scale)).query(_points(cents, lone, scale), p=np.inf,
+                                                       distance_upper_bound=gap_px)
     ok = np.isfinite(d)
     cents["x"][lone[ok]] += hx[j[ok]]
     cents["y"][lone[ok]] += hy[j[ok]]
+
+
+def _points(cents, idx, frame_scale):
+    """(x, y, long frame × frame_scale) of the rows idx: a Chebyshev query within gap_px of
+    them spans |dx|, |dy| < gap_px and long frames fewer than gap_px / frame_scale apart."""
+    return np.column_stack([cents["x"][idx], cents["y"][idx], cents["frame"][idx] * frame_scale])
 
 
 def kept(centroids, config):
