@@ -23,6 +23,29 @@ def match(centroids, positions, match_px=3.0):
     return np.where(err <= match_px, star, -1), err
 
 
+
+def common_error(frame, star, dxy, min_stars=5):
+    """The error all stars share, frame by frame: per frame with at least `min_stars`
+    matched rows of distinct stars, the median of their error vectors (dxy: (n, 2) estimate
+    less truth, px; frame, star: per row). A rigid field fit (one camera rotation per frame)
+    cannot remove it, and it is what a star tracker's attitude inherits; independent
+    per-star errors leave it near 0. Returns (frames, (k, 2) medians, RMS length px; NaN
+    when no frame qualifies)."""
+    frame, star, dxy = np.asarray(frame), np.asarray(star), np.asarray(dxy, float)
+    if not len(frame):
+        return np.zeros(0, np.int64), np.zeros((0, 2)), float("nan")
+    order = np.argsort(frame, kind="stable")
+    frames, starts = np.unique(frame[order], return_index=True)
+    keep, med = [], []
+    for f, rows in zip(frames, np.split(order, starts[1:])):
+        if len(np.unique(star[rows])) >= min_stars:
+            keep.append(f)
+            med.append(np.median(dxy[rows], axis=0))
+    if not keep:
+        return np.zeros(0, np.int64), np.zeros((0, 2)), float("nan")
+    med = np.array(med)
+    return np.array(keep), med, float(np.sqrt(np.mean((med ** 2).sum(1))))
+
 def summary(errors):
     """mean, median, p95 and max of an error array (NaN when empty)."""
     e = np.asarray(errors, dtype=float)

@@ -9,10 +9,13 @@ default pipeline; its rows are matched to the nearest star within 3 px
 within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close (another
 within 8 px: blended pairs) and the rest. False rows: rows matching no star. error/σ: the
 matched rows' error over their σ (centroids.csv's `sigma`, per axis): for an honest σ the
-median is 1.18 and 95 % lie within 2.45.
+median is 1.18 and 95 % lie within 2.45.common px: the isolated stars' error they share frame by frame
+(evstar.accuracy.common_error: per frame of ≥ 5 of them, their errors' median vector; RMS
+over frames): a rigid field fit cannot remove it, and a star tracker's attitude inherits it.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
-        [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default] [--name field]
+        [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default]
+        [--imu default|no-noise|ideal] [--name field]
         [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
@@ -29,27 +32,32 @@ dark-sky --rates 5,20`), a setting first run then.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import pathlib
 
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, sim
+from evstar.sim.imu_model import ImuSpec
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 #: named turn axes (camera frame): about the image's up axis (a pan), about the boresight
 AXES = {"up": (0.0, 1.0, 0.0), "roll": (0.0, 0.0, 1.0)}
+#: the simulated gyro: a MEMS one (noise, bias, bias walk), without its white noise, ideal
+IMUS = {"default": ImuSpec, "no-noise": lambda: ImuSpec(gyro_noise_density=0.0),
+        "ideal": ImuSpec.ideal}
 COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
            "isolated: stars / median / 90 % px", "close (< 8 px): stars / median px", "all: median px",
-           "error/σ: median, share ≤ 2.45")
+           "error/σ: median, share ≤ 2.45", "common px")
 
 
 def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
-              sensor="default", axis=AXES["up"]):
+              sensor="default", axis=AXES["up"], imu="default"):
     duration = 0.5 if motion == "pan" else 1.0   # sine: 1 Hz, peak rate rate_dps; slew: rest to rest
     scene = sim.field_scenario(cam, *pointing, rate_dps, duration, motion=motion, sensor=sensor,
                                noise_hz=noise_hz, axis=axis)
-    run = sim.simulate(scene, seed=seed)
+    run = sim.simulate(dataclasses.replace(scene, imu=IMUS[imu]()), seed=seed)
     rows = Pipeline(Config().replace(**(settings or {}))).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     z = err[star >= 0] / np.maximum(rows["sigma"][star >= 0], 1e-12)   # honest σ: χ², 2 dof
@@ -64,13 +72,18 @@ def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pa
     inner = ((own[:, 0] > 5) & (own[:, 0] < cam.width - 6) & (own[:, 1] > 5)
              & (own[:, 1] < cam.height - 6))
     iso, close = (nearest > 10) & inner, nearest < 8
+    # the isolated stars' error shared frame by frame (what a rigid field cannot remove)
+    on = np.flatnonzero(np.isin(star, ids[iso]))
+    truth = run.truth.star_position(rows["t"][on])[np.arange(len(on)), star[on]]
+    dxy = np.column_stack([rows["x"][on], rows["y"][on]]) - truth
+    common = accuracy.common_error(rows["frame"][on], star[on], dxy)[2]
     return {"noise_hz": noise_hz, "rate_dps": rate_dps, "seed": seed, "stars_seen": len(ids),
             "rows": len(rows), "false_pct": 100 * float((star < 0).mean()),
             "isolated": [int(iso.sum()), float(np.median(per_star[iso])),
                          float(np.percentile(per_star[iso], 90))],
             "close": [int(close.sum()), float(np.median(per_star[close]))],
             "all_median": float(np.median(per_star)),
-            "z": [float(np.median(z)), float(np.mean(z <= 2.45))]}
+            "z": [float(np.median(z)), float(np.mean(z <= 2.45))], "common_px": common}
 
 
 def markdown(rows):
@@ -80,7 +93,8 @@ def markdown(rows):
         lines.append(f"| {r['noise_hz']:g} | {r['rate_dps']:g} | {r['seed']} | {r['stars_seen']} | "
                      f"{r['rows']} | {r['false_pct']:.1f} | {i[0]} / {i[1]:.3f} / {i[2]:.3f} | "
                      f"{c[0]} / {c[1]:.3f} | {r['all_median']:.3f} | " +
-                     (f"{r['z'][0]:.2f}, {100 * r['z'][1]:.0f} % |" if "z" in r else "— |"))
+                     (f"{r['z'][0]:.2f}, {100 * r['z'][1]:.0f} % |" if "z" in r else "— |") +
+                     (f" {r['common_px']:.3f} |" if "common_px" in r else " — |"))
     return "\n".join(lines)
 
 
@@ -110,6 +124,8 @@ def main(argv=None):
     ap.add_argument("--sensor", default="default", help="evstar.sim.sensor_model name")
     ap.add_argument("--axis", default="up",
                     help="turn axis in the camera frame: up (a pan), roll (the boresight) or x,y,z")
+    ap.add_argument("--imu", choices=tuple(IMUS), default="default",
+                    help="the simulated gyro: default (MEMS noise and bias), no-noise, ideal")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
@@ -121,11 +137,11 @@ def main(argv=None):
     pointing = tuple(float(v) for v in args.pointing.split(","))
     rates = [float(r) for r in args.rates.split(",")]
     axis = AXES.get(args.axis) or tuple(float(v) for v in args.axis.split(","))
-    rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor, axis)
+    rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor, axis, args.imu)
             for n in (0.1, 1.5) for r in rates for s in seeds]
     RESULTS.mkdir(exist_ok=True)
     title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
-             f"{args.motion} about {args.axis}, {args.sensor} sensor, seeds {args.seeds}"
+             f"{args.motion} about {args.axis}, {args.sensor} sensor, {args.imu} IMU, seeds {args.seeds}"
              f"{''.join(', ' + kv for kv in args.set)})\n\n")
     (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")

@@ -1,6 +1,6 @@
 import numpy as np
 
-from evstar.accuracy import detection, false_tracks, match, summary
+from evstar.accuracy import common_error, detection, false_tracks, match, summary
 from evstar.extract import CENTROID_DTYPE
 
 
@@ -34,3 +34,22 @@ def test_detection_counts_only_stars_inside_and_false_tracks():
     assert per_star[0] == 0.9 and per_star[1] == 0.0
     assert abs(total - 9 / 20) < 1e-12
     assert false_tracks(_centroids(rows), _truth, duration_s=0.1) == 10.0
+
+
+def test_common_error_is_what_all_stars_share_per_frame():
+    rng = np.random.default_rng(5)
+    frames, stars = np.repeat(np.arange(20), 30), np.tile(np.arange(30), 20)
+    shared = np.column_stack([0.1 * np.sin(np.arange(20)), np.full(20, -0.05)])
+    own = rng.normal(0.0, 0.1, (600, 2))            # each star's own error: averages out
+    f, med, rms = common_error(frames, stars, own + shared[frames])
+    assert np.array_equal(f, np.arange(20))
+    assert np.abs(med - shared).max() < 0.08    # a median of 30: sd ~0.023 per axis
+    expected = np.sqrt(np.mean((shared ** 2).sum(1)))
+    assert abs(rms - expected) < 0.03
+    _, _, alone = common_error(frames, stars, own)
+    assert alone < 0.05 and expected > 0.07   # ~0.032 (√2 × 0.023) and 0.084
+    # a frame with fewer distinct stars than min_stars does not count
+    keep = (frames != 3) | (stars < 4)
+    f, _, _ = common_error(frames[keep], stars[keep], own[keep], min_stars=5)
+    assert 3 not in f and len(f) == 19
+    assert np.isnan(common_error(np.zeros(0), np.zeros(0), np.zeros((0, 2)))[2])
