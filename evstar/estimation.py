@@ -81,16 +81,20 @@ def _near_kept(events, keep, radius_px):
 def velocity_prior(config, imu, camera, t_events, filter_result=None):
     """The gyro's image velocity (evstar.smoothing.imu_velocity_prior) when the run
     compensates with the IMU (an IMU that only came along in the file is not trusted with
-    it), bias-corrected by the particle filter's result if there is one; else None."""
+    it), bias-corrected by the particle filter's result if there is one, carrying the random
+    walk its integral makes (estimate.gyro_noise: measured from the gyro's samples unless
+    set; evstar.smoothing.imu_diffusion); else None."""
     if config.motion.compensate == "none" or imu is None or camera is None or not len(t_events):
         return None
     from .motion import hold_ends
-    from .smoothing import imu_velocity_prior
+    from .smoothing import imu_diffusion, imu_velocity_prior, with_diffusion
 
     if filter_result is not None:
         imu = filter_result.corrected_imu(imu, causal=config.motion.causal)
     imu = hold_ends(imu, int(t_events[0]), int(t_events[-1]), config.motion.extrapolate_us)
-    return imu_velocity_prior(imu, camera)
+    density = config.estimate.gyro_noise
+    return with_diffusion(imu_velocity_prior(imu, camera),
+                          imu_diffusion(imu, camera, None if density == AUTO else density))
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,

@@ -2,7 +2,9 @@
 over tracks.
 
 The model of :mod:`evstar.smoothing`: state (x, vx, y, vy), per axis F = [[1, h], [0, 1]]
-and white-acceleration process noise q·[[h³/3, h²/2], [h²/2, h]], positions measured with
+and white-acceleration process noise q·[[h³/3, h²/2], [h²/2, h]] plus a position random walk
+w·h on the position (w px²/s: the noise a velocity prior's integrated displacement carries, a
+gyro's white noise; 0 without a prior), positions measured with
 a 2×2 covariance R (full: along-track crossings couple the axes). filterpy's
 ``batch_filter`` + ``rts_smoother`` run it one measurement at a time in Python (~80 µs a
 step); here every step is a handful of numpy operations on all tracks at once, and the
@@ -31,12 +33,14 @@ _POS = [0, 2]            # the measured state components
 
 class CVProblem(NamedTuple):
     """One track: step times ts (s, non-decreasing, n), which steps are measured (n bool),
-    the measured steps' positions z (m, 2) and covariances R (m, 2, 2), and q (px²/s³)."""
+    the measured steps' positions z (m, 2) and covariances R (m, 2, 2), q (px²/s³) and the
+    position's random-walk density w (px²/s)."""
     ts: np.ndarray
     measured: np.ndarray
     z: np.ndarray
     R: np.ndarray
     q: float
+    w: float = 0.0
 
 
 def diagonal_covariances(sigma):
@@ -96,13 +100,14 @@ def _padded(problems):
     return h, meas, z, R
 
 
-def _transitions(h, q):
-    """F and Q (L, T, 4, 4) of every step (filterpy's Q expression)."""
+def _transitions(h, q, w):
+    """F and Q (L, T, 4, 4) of every step (filterpy's Q expression, w·h added to the
+    positions' variance)."""
     F = np.broadcast_to(np.eye(4), h.shape + (4, 4)).copy()
     F[..., 0, 1] = F[..., 2, 3] = h
     Q = np.zeros(h.shape + (4, 4))
     for i in _POS:
-        Q[..., i, i] = q * (h**3 / 3)
+        Q[..., i, i] = q * (h**3 / 3) + w * h
         Q[..., i, i + 1] = Q[..., i + 1, i] = q * (h**2 / 2)
         Q[..., i + 1, i + 1] = q * h
     return F, Q
@@ -111,7 +116,8 @@ def _transitions(h, q):
 def _cv_rts_batch(problems):
     h, meas, z, R = _padded(problems)
     L, T = h.shape
-    F, Q = _transitions(h, np.array([p.q for p in problems], float))
+    F, Q = _transitions(h, np.array([p.q for p in problems], float),
+                        np.array([p.w for p in problems], float))
     FT = F.swapaxes(-1, -2)
     xp, Pp = np.empty((L, T, 4, 1)), np.empty((L, T, 4, 4))   # predicted
     xf, Pf = np.empty((L, T, 4, 1)), np.empty((L, T, 4, 4))   # filtered
@@ -175,6 +181,7 @@ def _filterpy_one(p):
     Fs = np.tile(np.eye(4), (n, 1, 1))
     Fs[:, 0, 1] = Fs[:, 2, 3] = h
     block = p.q * np.stack([np.stack([h**3 / 3, h**2 / 2], -1), np.stack([h**2 / 2, h], -1)], -2)
+    block[:, 0, 0] += p.w * h
     Qs = np.zeros((n, 4, 4))
     Qs[:, :2, :2] = Qs[:, 2:, 2:] = block
     zs, Rs = [None] * n, [kf.R] * n
@@ -186,29 +193,30 @@ def _filterpy_one(p):
 
 
 # -- the likelihood of q ------------------------------------------------------------------
-def innovation_loglik(tracks, q_grid):
+def innovation_loglik(tracks, q_grid, w=0.0):
     """Log-likelihood (len(q_grid),) per track of the innovations of a per-axis CV filter
-    (both axes share q); tracks: (ts (n,) s, z (n, 2), σ (n,)) each, every step measured.
+    (both axes share q; every track's position random walk w px²/s); tracks: (ts (n,) s,
+    z (n, 2), σ (n,)) each, every step measured.
     The first two steps, which only set the initial position and velocity, are left out;
     innovations beyond HUBER_C σ count linearly (one jump does not decide q)."""
     out = [None] * len(tracks)
     for group in _groups([len(t[0]) for t in tracks]):
-        for i, ll in zip(group, _loglik_batch([tracks[i] for i in group], q_grid)):
+        for i, ll in zip(group, _loglik_batch([tracks[i] for i in group], q_grid, w)):
             out[i] = ll
     return out
 
 
-def innovation_loglik_taichi(tracks, q_grid):
+def innovation_loglik_taichi(tracks, q_grid, w=0.0):
     """:func:`innovation_loglik` as a Taichi kernel, a thread per track and q."""
     from evstar_kernels.taichi import kalman_launch
 
     from .backends import taichi_running
 
     return kalman_launch.innovation_loglik(taichi_running(), tracks, np.asarray(q_grid, float),
-                                           V0_VAR, HUBER_C)
+                                           V0_VAR, HUBER_C, w)
 
 
-def innovation_loglik_one(ts, z, sigma, q_grid):
+def innovation_loglik_one(ts, z, sigma, q_grid, w=0.0):
     """The reference: :func:`innovation_loglik` of one track, the filter run for every q at
     once (the arithmetic of the batch, without padding)."""
     q = q_grid[:, None]
@@ -219,7 +227,7 @@ def innovation_loglik_one(ts, z, sigma, q_grid):
     for k in range(1, len(ts)):
         h = ts[k] - ts[k - 1]
         p = p + h * v
-        p00 = p00 + 2 * h * p01 + h * h * p11 + q * h**3 / 3
+        p00 = p00 + 2 * h * p01 + h * h * p11 + q * h**3 / 3 + w * h
         p01 = p01 + h * p11 + q * h * h / 2
         p11 = p11 + q * h
         s = p00 + sigma[k] ** 2
@@ -233,7 +241,7 @@ def innovation_loglik_one(ts, z, sigma, q_grid):
     return ll.sum(1)
 
 
-def _loglik_batch(tracks, q_grid):
+def _loglik_batch(tracks, q_grid, w=0.0):
     """innovation_loglik_one's arithmetic on (axis, track, grid) arrays (the long axes last:
     numpy's inner loops run over them); padded steps add 0. The covariances, the same for
     both axes (one σ), are computed once on (track, grid)."""
@@ -252,7 +260,7 @@ def _loglik_batch(tracks, q_grid):
     for k in range(1, L):
         hk = h[k]
         p = p + hk * v
-        p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk**3 / 3
+        p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk**3 / 3 + w * hk
         p01 = p01 + hk * p11 + q * hk * hk / 2
         p11 = p11 + q * hk
         s = p00 + s2[k]

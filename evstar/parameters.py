@@ -327,6 +327,10 @@ ESTIMATE = Params(
     Param("speed_change", bool, True, "with an IMU velocity prior, move each pixel crossing "
           "to when the star passed its pixel where the track speeds up or slows down (a level "
           "pair's flanks are equally far from the pixel, not equally long before and after)"),
+    Param("gyro_noise", float, AUTO, "with an IMU velocity prior, the gyro's white-noise "
+          "density, whose integral the track smoother lets each track's positions wander by "
+          "(auto: measured from the gyro's samples; set a datasheet value for a gyro filtered "
+          "on chip)", low=0, auto=True, unit="rad/s/√Hz"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
           "motion relative to across it (its mean is biased along the motion)", low=0,
           high=1, open_low=True),

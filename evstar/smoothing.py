@@ -20,7 +20,11 @@ filterpy's, one step at a time, is the reference, ``engine="filterpy"``).
 * An optional velocity prior, a callable ``(t_us, x, y) -> (n, 2)`` image velocity px/s
   (e.g. :func:`imu_velocity_prior` from gyro rates), is the model's control input: the
   filter runs on the positions minus the prior's integrated displacement, so its velocity
-  state is only the prior's error (a gyro bias) and turnarounds cost nothing.
+  state is only the prior's error (a gyro bias) and turnarounds cost nothing. A prior may
+  carry the random-walk density w (px²/s) of that displacement (:func:`with_diffusion`;
+  a gyro's white noise, :func:`imu_diffusion`): the positions' process noise then adds w per
+  second, and a pixel-lag fit counts the walk in its uncertainty (on an EVK4 behind 16 mm a
+  MEMS gyro's walk, 0.4 px/√s, taken as exact had put a field's stars 0.100 px off).
 * A centroid farther than ``outlier_sigma`` × its σ from the smoothed track (half of a
   star the extractor cut in two, a noise cluster the tracker took) is flagged ``outlier``
   and the track refitted without it; its frame keeps the refitted position.
@@ -72,7 +76,8 @@ _ENGINES = {
     "taichi": (kalman.cv_rts_taichi, kalman.innovation_loglik_taichi),
     "numpy": (kalman.cv_rts, kalman.innovation_loglik),
     "filterpy": (kalman.cv_rts_filterpy,
-                 lambda tracks, grid: [kalman.innovation_loglik_one(*t, grid) for t in tracks]),
+                 lambda tracks, grid, w=0.0: [kalman.innovation_loglik_one(*t, grid, w)
+                                              for t in tracks]),
 }
 
 
@@ -158,7 +163,7 @@ class TrackSmoother:
             t0_us = int((centroids["t"] - centroids["frame"] * self.dt_us).min())
         tracks = _batched([self._prepare(centroids[rows], sig[rows], t0_us, velocity_prior, rows)
                            for rows in _track_rows(centroids)], velocity_prior)
-        fits = self._fit_many(tracks)
+        fits = self._fit_many(tracks, diffusion(velocity_prior))
         parts = _batched([self._rows(tr, *fit, velocity_prior) for tr, fit in zip(tracks, fits)],
                          velocity_prior)
         return np.concatenate(parts) if parts else np.zeros(0, ESTIMATE_DTYPE)
@@ -174,17 +179,12 @@ class TrackSmoother:
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         every = _track_rows(centroids)
         rows = [r for r in every if len(r) >= _MIN_Q_STEPS]
-        t = [centroids["t"][r].astype(float) for r in rows]
-        z = [np.column_stack([centroids["x"][r], centroids["y"][r]]).astype(float) for r in rows]
-        shifts = _batched([_displacement(velocity_prior, ti, ti, zi) for ti, zi in zip(t, z)],
-                          velocity_prior)
-        tracks = []
-        for ti, zi, shift, r in zip(t, z, shifts, rows):
-            ts = (ti - ti[0]) * 1e-6
-            tracks += [(ts, zi - shift, sig[r]), (ts, zi, sig[r])]
-        best = [float(np.max(ll)) for ll in _ENGINES[self.engine][1](tracks, _Q_GRID)]
+        less, plain = _with_and_without(centroids, rows, sig, velocity_prior)
+        loglik = _ENGINES[self.engine][1]
+        best = [float(np.max(ll)) for ll in loglik(less, _Q_GRID, diffusion(velocity_prior))]
+        alone = [float(np.max(ll)) for ll in loglik(plain, _Q_GRID)]
         ids = [int(centroids["track"][r[0]]) for r in rows]
-        helps = {i for i, w, wo in zip(ids, best[::2], best[1::2]) if w - wo > _PRIOR_EVIDENCE}
+        helps = {i for i, w, wo in zip(ids, best, alone) if w - wo > _PRIOR_EVIDENCE}
         return helps | ({int(centroids["track"][r[0]]) for r in every} - set(ids))
 
     # -- one track ----------------------------------------------------------------------
@@ -192,7 +192,8 @@ class TrackSmoother:
         """Rows for one track's time-sorted centroids (see :meth:`smooth`)."""
         idx = np.arange(len(cents)) if index is None else np.asarray(index)
         [tr] = _batched([self._prepare(cents, sigma, t0_us, velocity_prior, idx)], velocity_prior)
-        return _batched([self._rows(tr, *self._fit_many([tr])[0], velocity_prior)], velocity_prior)[0]
+        return _batched([self._rows(tr, *self._fit_many([tr], diffusion(velocity_prior))[0],
+                                    velocity_prior)], velocity_prior)[0]
 
     def _prepare(self, cents, sigma, t0_us, velocity_prior, index):
         """The _Track of one track's time-sorted centroids: their steps and the coasted
@@ -335,20 +336,21 @@ class TrackSmoother:
         out = np.concatenate([rows, new])
         return out[np.argsort(out["t"], kind="stable")]
 
-    def _fit_many(self, tracks):
+    def _fit_many(self, tracks, w=0.0):
         """Smoothed states and covariances, and the outlier flag per measurement, of each
         _Track: a centroid whose standardised residual from the smoothed track exceeds
         outlier_sigma (either axis) is dropped and the track fitted again (a star cut in two
         by the extractor, a noise cluster taken by the track), at most _OUTLIER_PASSES times.
-        Each pass fits the tracks still refitting all at once."""
-        outlier = self._stiff_outliers(tracks)
+        Each pass fits the tracks still refitting all at once. w: the prior's random-walk
+        density (px²/s)."""
+        outlier = self._stiff_outliers(tracks, w)
         fits = [None] * len(tracks)
         todo = list(range(len(tracks)))
         for _ in range(_OUTLIER_PASSES):
             keep = [~outlier[i] for i in todo]
             qs = self._q_many([(tracks[i].ts[tracks[i].measured][k], tracks[i].resid[k],
-                                tracks[i].sigma[k]) for i, k in zip(todo, keep)])
-            problems = [_cv_problem(tracks[i], outlier[i], q) for i, q in zip(todo, qs)]
+                                tracks[i].sigma[k]) for i, k in zip(todo, keep)], w)
+            problems = [_cv_problem(tracks[i], outlier[i], q, w) for i, q in zip(todo, qs)]
             again = []
             for i, fit in zip(todo, _ENGINES[self.engine][0](problems)):
                 fits[i] = fit
@@ -361,7 +363,7 @@ class TrackSmoother:
                 break
         return [(x, P, o) for (x, P), o in zip(fits, outlier)]
 
-    def _stiff_outliers(self, tracks):
+    def _stiff_outliers(self, tracks, w=0.0):
         """Per track, the centroids beyond outlier_sigma from its stiffest fit (q =
         process_noise_min): an estimated q follows a stray centroid of a faint track (a noise
         clump merged into the star's cluster) instead of flagging it."""
@@ -370,7 +372,7 @@ class TrackSmoother:
             return out
         # a short track's few centroids cannot tell which of them is off
         long = [i for i, tr in enumerate(tracks) if len(tr.resid) >= _MIN_STIFF_CENTROIDS]
-        problems = [_cv_problem(tracks[i], out[i], self.process_noise_min) for i in long]
+        problems = [_cv_problem(tracks[i], out[i], self.process_noise_min, w) for i in long]
         for i, fit in zip(long, _ENGINES[self.engine][0](problems) if problems else []):
             new = self._new_outliers(tracks[i], *fit, out[i])
             if new is not None:
@@ -419,19 +421,48 @@ class TrackSmoother:
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
         return empty[_near_any(mid, t_meas, limit)]
 
-    def _q_many(self, tracks):
-        """q per (ts, positions, σ) of measured steps: the set one or the ML estimate."""
+    def _q_many(self, tracks, w=0.0):
+        """q per (ts, positions, σ) of measured steps: the set one or the ML estimate (with
+        the prior's random-walk density w)."""
         if self.process_noise != AUTO:
             return [float(self.process_noise)] * len(tracks)
         return [max(q, self.process_noise_min)
-                for q in _estimate_q_many(tracks, self.engine, self._q_memo)]
+                for q in _estimate_q_many(tracks, self.engine, self._q_memo, w)]
 
 
-def _cv_problem(track, outlier, q):
-    """The kalman.CVProblem of a _Track's centroids at q, its outliers weightless."""
+def _cv_problem(track, outlier, q, w=0.0):
+    """The kalman.CVProblem of a _Track's centroids at q and w, its outliers weightless."""
     return kalman.CVProblem(track.ts, track.measured, track.resid,
                             kalman.diagonal_covariances(np.where(outlier, _IGNORED_SIGMA, track.sigma)),
-                            q)
+                            q, w)
+
+
+def _with_and_without(centroids, rows, sigma, velocity_prior):
+    """Per track (`rows`: its centroids' indices, time-sorted) its likelihood data (ts s,
+    positions, σ): less the prior's displacement, and as they are."""
+    t = [centroids["t"][r].astype(float) for r in rows]
+    z = [np.column_stack([centroids["x"][r], centroids["y"][r]]).astype(float) for r in rows]
+    shifts = _batched([_displacement(velocity_prior, ti, ti, zi) for ti, zi in zip(t, z)],
+                      velocity_prior)
+    ts = [(ti - ti[0]) * 1e-6 for ti in t]
+    return ([(a, zi - shift, sigma[r]) for a, zi, shift, r in zip(ts, z, shifts, rows)],
+            [(a, zi, sigma[r]) for a, zi, r in zip(ts, z, rows)])
+
+
+def with_diffusion(velocity_prior, w):
+    """`velocity_prior` (a callable (t_us, x, y) -> (n, 2) px/s) carrying w, the random-walk
+    density (px²/s) of its integrated displacement, which the smoother adds to the positions'
+    process noise (imu_diffusion: a gyro's)."""
+    def prior(t_us, x, y):
+        return velocity_prior(t_us, x, y)
+
+    prior.diffusion_px2_s = float(w)
+    return prior
+
+
+def diffusion(velocity_prior):
+    """The random-walk density (px²/s) a velocity prior carries (with_diffusion); 0 for none."""
+    return 0.0 if velocity_prior is None else float(getattr(velocity_prior, "diffusion_px2_s", 0.0))
 
 
 def _near_any(t, times, limit):
@@ -450,19 +481,20 @@ def estimate_process_noise(ts, z, sigma, engine=SMOOTHER["engine"].default):
     return _estimate_q_many([(ts, z, sigma)], SMOOTHER.check("engine", engine))[0]
 
 
-def _estimate_q_many(tracks, engine, memo=None):
-    """estimate_process_noise of each (ts, z, σ), the likelihoods of all at once. memo: a
-    dict of the q of the data already seen, by their bytes (a smoother's own); only the
-    others' likelihoods are computed (a track's are its data's alone)."""
+def _estimate_q_many(tracks, engine, memo=None, w=0.0):
+    """estimate_process_noise of each (ts, z, σ), the likelihoods of all at once (position
+    random walk w px²/s). memo: a dict of the q of the data already seen, by their bytes
+    and w (a smoother's own); only the others' likelihoods are computed (a track's are its
+    data's alone)."""
     memo = {} if memo is None else memo
     if len(memo) > _Q_MEMO_TRACKS:
         memo.clear()
     q = [0.0] * len(tracks)
     long = [i for i, t in enumerate(tracks) if len(t[0]) >= _MIN_Q_STEPS]
     args = [tuple(np.asarray(a, float) for a in tracks[i]) for i in long]
-    keys = [tuple((a.shape, a.tobytes()) for a in arg) for arg in args]
+    keys = [(float(w),) + tuple((a.shape, a.tobytes()) for a in arg) for arg in args]
     new = [j for j, key in enumerate(keys) if key not in memo]
-    for j, ll in zip(new, _ENGINES[engine][1]([args[j] for j in new], _Q_GRID) if new else []):
+    for j, ll in zip(new, _ENGINES[engine][1]([args[j] for j in new], _Q_GRID, w) if new else []):
         memo[keys[j]] = float(_Q_GRID[int(np.argmax(ll))])
     for i, key in zip(long, keys):
         q[i] = memo[key]
@@ -568,8 +600,9 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
 def _along_track_fit_many(problems, velocity_prior, process_noise_min, engine, memo=None):
     """(rows, crossings used) of each _AlongTrack: q estimated (memo: _estimate_q_many's)
     and the filter run for all at once."""
-    qs = _estimate_q_many([p.q_data for p in problems], engine, memo)
-    fits = _ENGINES[engine][0]([p.problem._replace(q=max(q, process_noise_min))
+    w = diffusion(velocity_prior)
+    qs = _estimate_q_many([p.q_data for p in problems], engine, memo, w)
+    fits = _ENGINES[engine][0]([p.problem._replace(q=max(q, process_noise_min), w=w)
                                 for p, q in zip(problems, qs)])
     rows = _batched([_along_track_rows(p, x, P, velocity_prior) for p, (x, P) in zip(problems, fits)],
                     velocity_prior)
@@ -625,29 +658,47 @@ def _pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     if len(t_us) < MIN_CROSSINGS:
         return 0.0
     order = np.argsort(t_us, kind="stable")
-    y, local, lag_col, _ = yield from _lag_regression(np.asarray(t_us, float)[order], q[order],
-                                                      u[order], velocity_prior)
-    return _lag_fit(y, np.column_stack([local, lag_col]), max_se_s)
+    t_s = np.asarray(t_us, float)[order]
+    y, local, lag_col, _ = yield from _lag_regression(t_s, q[order], u[order], velocity_prior)
+    return _lag_fit(y, np.column_stack([local, lag_col]), max_se_s, (t_s - t_s[0]) * 1e-6,
+                    diffusion(velocity_prior))
 
 
-def _lag_fit(y, A, max_se_s):
-    """pixel_lag_s's robust fit of its regression rows."""
+def _lag_fit(y, A, max_se_s, ts=None, w=0.0):
+    """pixel_lag_s's robust fit of its regression rows (at times ts s, sorted; the prior's
+    displacement wandering as a random walk of density w px²/s): τ where its standard error
+    is within max_se_s, else 0."""
+    fit = _lag_estimate(y, A, ts, w)
+    return fit[0] if fit is not None and fit[1] <= max_se_s else 0.0
+
+
+def _lag_estimate(y, A, ts=None, w=0.0):
+    """(τ s, its standard error s) of the lag regression, robust (three passes dropping
+    residuals beyond 5 MAD); None with too few rows or no τ information."""
+    ts = np.zeros(len(y)) if ts is None else ts
     for _ in range(3):
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ sol
         keep = np.abs(r) <= 5 * 1.4826 * np.median(np.abs(r)) + 1e-9
         if keep.sum() < MIN_CROSSINGS:
-            return 0.0
-        A, y = A[keep], y[keep]
+            return None
+        A, y, ts = A[keep], y[keep], ts[keep]
     sol, *_ = np.linalg.lstsq(A, y, rcond=None)
     s2 = float(((y - A @ sol) ** 2).sum()) / max(len(y) - A.shape[1], 1)
     # τ's own information: its regressor less what the offset and drift columns explain
     # (nothing left at a constant speed: τ is then a position offset, not a lag)
     other, *_ = np.linalg.lstsq(A[:, :4], A[:, 4], rcond=None)
-    info = float(((A[:, 4] - A[:, :4] @ other) ** 2).sum())
+    a = A[:, 4] - A[:, :4] @ other
+    info = float((a ** 2).sum())
     if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
-        return 0.0
-    return float(sol[4]) if np.sqrt(s2 / info) <= max_se_s else 0.0
+        return None
+    # a random walk in the prior's displacement (a gyro's noise, the same on every track)
+    # adds w·Σ Δt_k (Σ_{i≥k} a_i)² / info² to τ's variance (Cov = w·min(t_i, t_j)); left out,
+    # a MEMS gyro's walk fitted every track of an EVK4 16 mm field the same spurious lag
+    # (0.041 px without the IMU, 0.100 with it)
+    tail = np.cumsum(a[::-1])[::-1]
+    walk = w * float((np.diff(ts, prepend=ts[0] if len(ts) else 0.0) * tail ** 2).sum())
+    return float(sol[4]), float(np.sqrt(s2 / info + walk / info ** 2))
 
 
 def _few(along):
@@ -998,6 +1049,30 @@ def imu_velocity_prior(imu, camera):
         return np.column_stack([(u1 - u0) / h, (v1 - v0) / h])
 
     return prior
+
+
+def gyro_noise_density(imu):
+    """The gyro's white-noise density (rad/s/√Hz) per camera axis, measured from its samples:
+    their second differences (a slew's rate hardly changes from one sample to the next at
+    hundreds of Hz; white noise's second difference has 6 × its variance), robust (MAD),
+    over the median sample rate. A gyro low-passed on chip before it is sampled reads low
+    (set estimate.gyro_noise from its datasheet then)."""
+    g = imu.gyro_cam
+    if len(g) < 3:
+        return np.zeros(3)
+    d2 = g[2:] - 2 * g[1:-1] + g[:-2]
+    sd = 1.4826 * np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) / np.sqrt(6)
+    return sd * np.sqrt(float(np.median(np.diff(imu.t))) * 1e-6)
+
+
+def imu_diffusion(imu, camera, density=None):
+    """The random-walk density (px²/s) of imu_velocity_prior's integrated displacement: the
+    gyro's white noise n (rad/s/√Hz per camera axis; `density`, else gyro_noise_density)
+    turns the image by f·n about x and y, ((fx·n_y)² + (fy·n_x)²) / 2 per image axis (a
+    1.2·10⁻⁴ rad/s/√Hz MEMS gyro at f = 3292 px: 0.16 px²/s; its roll term, r·n_z at
+    radius r, is left out)."""
+    n = gyro_noise_density(imu) if density is None else np.full(3, float(density))
+    return float(((camera.fx * n[1]) ** 2 + (camera.fy * n[0]) ** 2) / 2)
 
 
 def smooth(centroids, dt_us=10_000, t0_us=None, velocity_prior=None, sigma=None, **params):

@@ -1,6 +1,7 @@
 """The batched constant-velocity Kalman filter + RTS smoother equals filterpy's, and the
 batched innovation likelihood the per-track one, on random tracks: missing measurements,
-repeated times, diagonal and full covariances, process noise from 0 to 10⁶ px²/s³."""
+repeated times, diagonal and full covariances, process noise from 0 to 10⁶ px²/s³, with and
+without a position random walk (a velocity prior's noise)."""
 import numpy as np
 import pytest
 
@@ -23,7 +24,8 @@ def problem(rng, n, full):
     else:
         R = kalman.diagonal_covariances(rng.uniform(0.02, 0.5, m))
     q = 0.0 if rng.random() < 0.2 else float(10 ** rng.uniform(-2, 6))
-    return kalman.CVProblem(ts, measured, z, R, q)
+    w = 0.0 if rng.random() < 0.5 else float(10 ** rng.uniform(-3, 1))
+    return kalman.CVProblem(ts, measured, z, R, q, w)
 
 
 @pytest.fixture(scope="module")
@@ -71,10 +73,10 @@ def _exact(p, digits=60):
             h = D(p.ts[k]) - D(p.ts[k - 1]) if k else D(0)
             F = [[D(i == j) for j in range(4)] for i in range(4)]
             F[0][1] = F[2][3] = h
-            q = D(p.q)
+            q, w = D(p.q), D(p.w)
             Q = [[D(0)] * 4 for _ in range(4)]
             for i in (0, 2):
-                Q[i][i], Q[i][i + 1] = q * h ** 3 / 3, q * h ** 2 / 2
+                Q[i][i], Q[i][i + 1] = q * h ** 3 / 3 + w * h, q * h ** 2 / 2
                 Q[i + 1][i], Q[i + 1][i + 1] = q * h ** 2 / 2, q * h
             P = add(mm(mm(F, P), tr(F)), Q)
             Fs.append(F)
@@ -167,18 +169,36 @@ def test_a_track_comes_out_the_same_alone_or_padded_in_a_batch(problems):
         assert np.array_equal(x, xa) and np.array_equal(P, Pa)
 
 
+@pytest.mark.parametrize("w", [0.0, 0.2])
 @pytest.mark.parametrize("engine,rtol", [("numpy", 1e-12), ("taichi", 1e-9)])
-def test_batched_likelihood_equals_the_per_track_one(problems, engine, rtol):
+def test_batched_likelihood_equals_the_per_track_one(problems, engine, rtol, w):
     """The numpy batch and the Taichi kernel (a thread per track and q) against the
-    per-track reference."""
+    per-track reference, with and without a position random walk w."""
     rng = np.random.default_rng(4)
     tracks = [(p.ts[p.measured], p.z, rng.uniform(0.02, 0.5, len(p.z))) for p in problems
               if p.measured.sum() >= 4]
     run = kalman.innovation_loglik if engine == "numpy" else kalman.innovation_loglik_taichi
-    for t, ll in zip(tracks, run(tracks, GRID)):
-        ref = kalman.innovation_loglik_one(*t, GRID)
+    for t, ll in zip(tracks, run(tracks, GRID, w)):
+        ref = kalman.innovation_loglik_one(*t, GRID, w)
         np.testing.assert_allclose(ll, ref, rtol=rtol)
         assert np.argmax(ll) == np.argmax(ref)
+
+
+def test_the_likelihood_finds_a_random_walk_in_the_positions():
+    """A track wandering as a random walk of density 0.2 px²/s (a prior's gyro noise) is
+    likelier with that w than with none, and the likelihood peaks near it on a w grid; a
+    straight noisy track prefers none."""
+    rng = np.random.default_rng(8)
+    ts = np.arange(300) * 0.01
+    walk = np.cumsum(rng.normal(0, np.sqrt(0.2 * 0.01), (300, 2)), 0)
+    sigma = np.full(300, 0.02)
+    wander = (ts, 50 + walk + rng.normal(0, 0.02, (300, 2)), sigma)
+    straight = (ts, 50 + rng.normal(0, 0.02, (300, 2)), sigma)
+    ws = [0.0, 0.02, 0.2, 2.0]
+    best = [[float(kalman.innovation_loglik([t], GRID, w)[0].max()) for w in ws]
+            for t in (wander, straight)]
+    assert ws[int(np.argmax(best[0]))] == 0.2
+    assert ws[int(np.argmax(best[1]))] == 0.0
 
 
 @pytest.mark.parametrize("engine", ["numpy", "taichi"])

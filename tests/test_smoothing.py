@@ -160,12 +160,15 @@ def test_a_smoother_estimates_q_once_per_tracks_data(monkeypatch):
     asked = []
     loglik = smoothing._ENGINES["taichi"][1]
     monkeypatch.setitem(smoothing._ENGINES, "taichi", (smoothing._ENGINES["taichi"][0],
-                        lambda ts, grid: asked.append(len(ts)) or loglik(ts, grid)))
+                        lambda ts, grid, w=0.0: asked.append(len(ts)) or loglik(ts, grid, w)))
     memo = {}
     assert smoothing._estimate_q_many(tracks[:3], "taichi", memo) == want[:3]
     assert smoothing._estimate_q_many(tracks[::-1], "taichi", memo) == want[::-1]
     assert asked == [2, 1]          # too short a track is never asked; the others once each
     assert want[2] > 0
+    # the same data under a prior's random walk is another question
+    smoothing._estimate_q_many(tracks[1:2], "taichi", memo, w=0.5)
+    assert asked == [2, 1, 1]
 
 
 def test_imu_prior_gives_the_image_velocity_of_a_simulated_star():

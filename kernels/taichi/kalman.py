@@ -4,7 +4,8 @@ sequential, tracks are not; the numpy batch steps every track together through P
 step at a time, which costs ~15 array operations per step whatever the track count.
 
 Specification: evstar.kalman (cv_rts and innovation_loglik_one, numpy), term by term: state
-(x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]], the Joseph
+(x, vx, y, vy), F = [[1, h], [0, 1]] per axis, Q = q·[[h³/3, h²/2], [h²/2, h]] with w·h
+added to the position's variance, the Joseph
 update and its like in the smoother (kalman._rts), the diffuse start about the first
 position. Tracks are concatenated: track i holds steps start[i] .. start[i + 1] − 1 of the
 flat arrays (int32 offsets: a smoother launch holds at most kalman_launch.MAX_STEPS steps, a
@@ -26,11 +27,11 @@ vec4 = ti.types.vector(4, ti.f64)
 
 
 @ti.func
-def _noise(h: ti.f64, q: ti.f64) -> mat4:
+def _noise(h: ti.f64, q: ti.f64, w: ti.f64) -> mat4:
     Q = mat4(0.0)
     for half in range(2):
         a = 2 * half
-        Q[a, a] = q * (h ** 3 / 3)
+        Q[a, a] = q * (h ** 3 / 3) + w * h
         Q[a, a + 1] = q * (h ** 2 / 2)
         Q[a + 1, a] = q * (h ** 2 / 2)
         Q[a + 1, a + 1] = q * h
@@ -153,7 +154,7 @@ def _putv(a: ti.template(), k: ti.i32, v: vec4):
 
 @ti.kernel
 def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: f64_1d,
-           diffuse: ti.f64, xp: f64_2d, Pp: f64_3d, xf: f64_2d, Pf: f64_3d, xs: f64_2d,
+           w: f64_1d, diffuse: ti.f64, xp: f64_2d, Pp: f64_3d, xf: f64_2d, Pf: f64_3d, xs: f64_2d,
            Ps: f64_3d):
     """Filter then smooth each track; xp, Pp, xf, Pf: predicted and filtered scratch;
     xs, Ps: the smoothed states and covariances. z, R: per step (read where measured; the
@@ -166,7 +167,7 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
         for k in range(a, b):
             x[0] += h[k] * x[1]
             x[2] += h[k] * x[3]
-            P = _times_ft(_f_times(P, h[k]), h[k]) + _noise(h[k], q[i])
+            P = _times_ft(_f_times(P, h[k]), h[k]) + _noise(h[k], q[i], w[i])
             _putv(xp, k, x)
             _put4(Pp, k, P)
             if measured[k]:
@@ -196,7 +197,7 @@ def cv_rts(start: i32_1d, h: f64_1d, measured: i32_1d, z: f64_2d, R: f64_3d, q: 
             G = _mm(_times_ft(Pk, h[k + 1]), _inv4(Ppn))
             xn = _getv(xf, k) + _mv(G, xn - _getv(xp, k + 1))
             A = ti.Matrix.identity(ti.f64, 4) - _times_f(G, h[k + 1])
-            Pn = _mmt(_mm(A, Pk), A) + _mmt(_mm(G, _noise(h[k + 1], q[i]) + Pn), G)
+            Pn = _mmt(_mm(A, Pk), A) + _mmt(_mm(G, _noise(h[k + 1], q[i], w[i]) + Pn), G)
             _putv(xs, k, xn)
             _put4(Ps, k, Pn)
 
@@ -211,9 +212,10 @@ def _huber(u: ti.f64, c: ti.f64) -> ti.f64:
 
 @ti.kernel
 def innovation_loglik(start: i32_1d, ts: f64_1d, z: f64_2d, s2: f64_1d, q_grid: f64_1d,
-                      v0_var: ti.f64, huber_c: ti.f64, ll: f64_2d):
-    """ll[i, g]: the log-likelihood of track i's innovations under q_grid[g], both axes
-    (every step measured with per-axis variance s2; the first two steps left out)."""
+                      v0_var: ti.f64, huber_c: ti.f64, w: ti.f64, ll: f64_2d):
+    """ll[i, g]: the log-likelihood of track i's innovations under q_grid[g] and the
+    position random walk w, both axes (every step measured with per-axis variance s2; the
+    first two steps left out)."""
     n_q = q_grid.shape[0]
     for i, g in ti.ndrange(start.shape[0] - 1, n_q):
         a, b = start[i], start[i + 1]
@@ -226,7 +228,7 @@ def innovation_loglik(start: i32_1d, ts: f64_1d, z: f64_2d, s2: f64_1d, q_grid: 
             for k in range(a + 1, b):
                 hk = ts[k] - ts[k - 1]
                 p = p + hk * v
-                p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk ** 3 / 3
+                p00 = p00 + 2 * hk * p01 + hk * hk * p11 + q * hk ** 3 / 3 + w * hk
                 p01 = p01 + hk * p11 + q * hk * hk / 2
                 p11 = p11 + q * hk
                 s = p00 + s2[k]

@@ -33,10 +33,11 @@ def _cv_rts_batch(ti, problems, diffuse):
         z[sel], R[sel] = p.z, p.R
         z[a] = p.z[0]                        # the start: the first measured position
     q = np.array([p.q for p in problems], np.float64)
+    w = np.array([p.w for p in problems], np.float64)
     arrays = launch.Arrays(ti)
     outs = [arrays.empty(shape, np.float64) for shape in ((n, 4), (n, 4, 4)) * 3]
     with launch.RUNTIME_LOCK:
-        _cv_rts(*(arrays.put(a) for a in (start, h, measured, z, R, q)), float(diffuse), *outs)
+        _cv_rts(*(arrays.put(a) for a in (start, h, measured, z, R, q, w)), float(diffuse), *outs)
     xs, Ps = (np.empty((n, 4)), np.empty((n, 4, 4))) if arrays.on_device else outs[4:]
     if arrays.on_device:
         arrays.get(outs[4], xs)
@@ -44,8 +45,9 @@ def _cv_rts_batch(ti, problems, diffuse):
     return [(xs[a:b], Ps[a:b]) for a, b in zip(start[:-1], start[1:])]
 
 
-def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c):
-    """[log-likelihood (len(q_grid),)] per track (ts (n,) s, z (n, 2), σ (n,))."""
+def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c, w=0.0):
+    """[log-likelihood (len(q_grid),)] per track (ts (n,) s, z (n, 2), σ (n,)), position
+    random walk w (px²/s)."""
     if not tracks:
         return []
     start = _starts([len(t[0]) for t in tracks])
@@ -57,7 +59,7 @@ def innovation_loglik(ti, tracks, q_grid, v0_var, huber_c):
     ll = arrays.empty((len(tracks), len(grid)), np.float64)
     with launch.RUNTIME_LOCK:
         _loglik(*(arrays.put(a) for a in (start, ts, z, s2, grid)), float(v0_var),
-                float(huber_c), ll)
+                float(huber_c), float(w), ll)
     out = np.empty((len(tracks), len(grid)))
     arrays.get(ll, out)
     return list(out)
