@@ -60,10 +60,26 @@ def trajectory(motion):
     return sim.ConstantRate(float(motion), R0=R0)
 
 
+def _code_digest():
+    """A digest of evstar's and its kernels' sources: a cached run is reused only by the
+    code that made it (a cache keyed on the scene alone had served an older estimator's
+    centroids to a newer one)."""
+    import hashlib
+
+    import evstar_kernels
+
+    h = hashlib.sha1()
+    for pkg in (evstar, evstar_kernels):
+        root = pathlib.Path(pkg.__file__).parent
+        for f in sorted(root.rglob("*.py")):
+            h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
 def scene(camera_name, motion, seed=1, compensate="none"):
     """(centroids, truth, imu) of one simulated run through the pipeline with
     motion.compensate = `compensate`, cached on disk."""
-    path = CACHE / f"{camera_name}-{motion}-{seed}-{compensate}.pkl"
+    path = CACHE / f"{camera_name}-{motion}-{seed}-{compensate}-{_code_digest()}.pkl"
     if path.exists():
         return pickle.loads(path.read_bytes())
     cam = sim.camera_preset(camera_name, CAMERAS[camera_name])
