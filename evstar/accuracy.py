@@ -31,20 +31,16 @@ def common_error(frame, star, dxy, min_stars=5):
     cannot remove it, and it is what a star tracker's attitude inherits; independent
     per-star errors leave it near 0. Returns (frames, (k, 2) medians, RMS length px; NaN
     when no frame qualifies)."""
+    from .frames import groups
+
     frame, star, dxy = np.asarray(frame), np.asarray(star), np.asarray(dxy, float)
-    if not len(frame):
+    ids, rows = groups(frame)
+    enough = [len(np.unique(star[r])) >= min_stars for r in rows]
+    if not any(enough):
         return np.zeros(0, np.int64), np.zeros((0, 2)), float("nan")
-    order = np.argsort(frame, kind="stable")
-    frames, starts = np.unique(frame[order], return_index=True)
-    keep, med = [], []
-    for f, rows in zip(frames, np.split(order, starts[1:])):
-        if len(np.unique(star[rows])) >= min_stars:
-            keep.append(f)
-            med.append(np.median(dxy[rows], axis=0))
-    if not keep:
-        return np.zeros(0, np.int64), np.zeros((0, 2)), float("nan")
-    med = np.array(med)
-    return np.array(keep), med, float(np.sqrt(np.mean((med ** 2).sum(1))))
+    med = np.array([np.median(dxy[r], axis=0) for r, ok in zip(rows, enough) if ok])
+    return ids[np.array(enough)], med, float(np.sqrt(np.mean((med ** 2).sum(1))))
+
 
 def summary(errors):
     """mean, median, p95 and max of an error array (NaN when empty)."""

@@ -664,7 +664,7 @@ def _pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
                     diffusion(velocity_prior))
 
 
-def _lag_fit(y, A, max_se_s, ts=None, w=0.0):
+def _lag_fit(y, A, max_se_s, ts, w):
     """pixel_lag_s's robust fit of its regression rows (at times ts s, sorted; the prior's
     displacement wandering as a random walk of density w px²/s): τ where its standard error
     is within max_se_s, else 0."""
@@ -672,10 +672,9 @@ def _lag_fit(y, A, max_se_s, ts=None, w=0.0):
     return fit[0] if fit is not None and fit[1] <= max_se_s else 0.0
 
 
-def _lag_estimate(y, A, ts=None, w=0.0):
+def _lag_estimate(y, A, ts, w):
     """(τ s, its standard error s) of the lag regression, robust (three passes dropping
     residuals beyond 5 MAD); None with too few rows or no τ information."""
-    ts = np.zeros(len(y)) if ts is None else ts
     for _ in range(3):
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ sol
@@ -697,7 +696,7 @@ def _lag_estimate(y, A, ts=None, w=0.0):
     # a MEMS gyro's walk fitted every track of an EVK4 16 mm field the same spurious lag
     # (0.041 px without the IMU, 0.100 with it)
     tail = np.cumsum(a[::-1])[::-1]
-    walk = w * float((np.diff(ts, prepend=ts[0] if len(ts) else 0.0) * tail ** 2).sum())
+    walk = w * float((np.diff(ts, prepend=ts[0]) * tail ** 2).sum())
     return float(sol[4]), float(np.sqrt(s2 / info + walk / info ** 2))
 
 

@@ -28,6 +28,7 @@ Writes perf/results/study_attitude.json, .md and .png; prints the table.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -60,6 +61,7 @@ def trajectory(motion):
     return sim.ConstantRate(float(motion), R0=R0)
 
 
+@functools.cache
 def _code_digest():
     """A digest of evstar's and its kernels' sources: a cached run is reused only by the
     code that made it (a cache keyed on the scene alone had served an older estimator's

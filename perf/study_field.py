@@ -9,9 +9,10 @@ default pipeline; its rows are matched to the nearest star within 3 px
 within 10 px at the middle of its rows, ≥ 6 px from the sensor's edges), close (another
 within 8 px: blended pairs) and the rest. False rows: rows matching no star. error/σ: the
 matched rows' error over their σ (centroids.csv's `sigma`, per axis): for an honest σ the
-median is 1.18 and 95 % lie within 2.45.common px: the isolated stars' error they share frame by frame
-(evstar.accuracy.common_error: per frame of ≥ 5 of them, their errors' median vector; RMS
-over frames): a rigid field fit cannot remove it, and a star tracker's attitude inherits it.
+median is 1.18 and 95 % lie within 2.45. common px: the isolated stars' error they share
+frame by frame (evstar.accuracy.common_error: per frame of ≥ 5 of them, their errors'
+median vector; RMS over frames): a rigid field fit cannot remove it, and a star tracker's
+attitude inherits it.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
         [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default]
