@@ -23,6 +23,13 @@ from .frames import nearest_in_frame
 PURITY = 2 / 3
 
 
+def balanced(centroids):
+    """Per centroid (CENTROID_DTYPE): does it hold both lobes — an ON share strictly between
+    1 − PURITY and PURITY?"""
+    share = centroids["n_on"] / np.maximum(centroids["n_events"], 1)
+    return (share > 1 - PURITY) & (share < PURITY)
+
+
 def pairs(frame, n_by_p, sx, sy, max_px):
     """(ON lobes, OFF lobes): index arrays of the cluster pairs to join. frame: frame per
     cluster; n_by_p, sx, sy: per-cluster (OFF, ON) event counts and coordinate sums."""

@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kalman
+from . import kalman, lobes
 from .errors import ParameterError
 from .frames import groups
 from .parameters import AUTO, ESTIMATE, SMOOTHER
@@ -283,15 +283,17 @@ class TrackSmoother:
                            turns))
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
-        # a reversing track's centroids, their along-motion bias measured against the fit
-        # where crossings tell it, weigh fully at its turns (not where a pixel lag is
-        # corrected: the centroids carry that lag)
-        redo = [i for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None
-                and pixel_lag is None]
+        # a reversing track's centroids, less their along-motion bias measured against the
+        # fit where crossings tell it, weigh fully at its turns where that bias's model
+        # explains them (_debiased)
+        again = {i: _debiased(t, fitted[i][0], along_weight,
+                              lobes.balanced(centroids[t[0]["centroid"][~t[0]["coasted"]]]),
+                              pixel_lag is not None)
+                 for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None}
+        redo = [i for i, a in again.items() if a is not None]
         if redo:
-            again = [_debiased(tracks[i], fitted[i][0], along_weight) for i in redo]
-            for i, f in zip(redo, self._fit_along([a for a, _ in again], [w for _, w in again],
-                                                  velocity_prior)):
+            for i, f in zip(redo, self._fit_along([again[i][0] for i in redo],
+                                                  [again[i][1] for i in redo], velocity_prior)):
                 fitted[i] = f
         parts = [est[rows] if r is None else r for rows, (r, _) in zip(est_rows, fitted)]
         used = sum(n for _, n in fitted)
@@ -779,53 +781,84 @@ def _single_passes(m, t_c, q_c, turns, radius):
 def _along_weights(t, turns, along_weight):
     """Per centroid (times t) its weight along the motion: along_weight, but 1 in a turn's
     time, where the crossings cannot tell the passages (_single_passes) and the star is slow
-    (refine uses these only where no pixel lag is corrected: the centroids carry that lag,
-    and trusting them at the turns took dark-sky sinusoids from 0.03–0.05 to 0.14–0.15 px)."""
+    (refine uses these where _debiased's bias model explains the centroids)."""
     w = np.full(len(t), float(along_weight))
     for t_lo, t_hi, _, _ in turns:
         w[(t >= t_lo) & (t <= t_hi)] = 1.0
     return w
 
 
-def _debiased(track, fitted, along_weight):
-    """(track with its centroids moved by their along-motion offset from `fitted`, a + b·speed
-    fitted outside its turns' time, their along weights: 1 in the turns' time, along_weight
-    elsewhere). A moving star's per-frame mean trails it by a near-constant amount (ON
-    events lead, OFF events trail; 0.08 px at PSF σ 1, 0.16 at 1.5 on the paper's camera
-    from 50 to 700 px/s) and, behind a pixel low-pass, by its lag × speed, which the turns,
-    where crossings cannot tell, would take in."""
+def _debiased(track, fitted, along_weight, balanced, lagging):
+    """(track with its centroids moved by their along-motion offset from `fitted`, their along
+    weights: 1 in the turns' time for those `balanced` (bool per centroid: both lobes,
+    evstar.lobes.balanced), along_weight elsewhere), or None where that offset's model does
+    not explain them. A moving star's per-frame mean trails it by a near-constant amount a
+    (ON events lead, OFF events trail; 0.08 px at PSF σ 1, 0.16 at 1.5 on the paper's
+    camera from 50 to 700 px/s) and, behind a pixel low-pass, by a lag τ in time. Measured
+    on the balanced centroids outside the turns as a + b·speed (_speed_terms, b = −τ), each
+    centroid is moved by a along the motion and by the fitted track's displacement over τ
+    (at a turn a lag is no speed × τ: the star there is slow and swings back). The turns,
+    where crossings cannot tell, then take the centroids in, but for lone lobes (~1.7 σ_PSF
+    ahead of the star or behind it: a faint star's frames at a slow turn often are one;
+    trusted, a mag-5 star overshot a low-pass sinusoid's turn by 1.7 px); not at all where
+    the calm centroids scatter about the model by over _BIAS_FIT_SIGMAS times their σ (a
+    dark sky's fast stars trail by a lag that changes with speed: trusted, their 20 °/s
+    sinusoid's turns went 2–3 px off). Where too few calm centroids measure it, they weigh
+    fully unmoved, unless `lagging` (a pixel lag corrected in the crossings: the centroids
+    carry it, unmeasured)."""
     full, z, s_cent, crossings, turns = track
     rows = fitted[~fitted["coasted"]]
     v = np.column_stack([rows["vx"], rows["vy"]])
     speed = np.hypot(v[:, 0], v[:, 1])
     u = v / np.maximum(speed, 1e-9)[:, None]
-    w = _along_weights(rows["t"], turns, along_weight)
-    off = np.sum((z - np.column_stack([rows["x"], rows["y"]])) * u, axis=1)
-    calm = (w < 1.0) & (s_cent < _IGNORED_SIGMA)
-    bias = np.zeros(len(z))
-    if calm.sum() >= _MIN_BIAS_ROWS and np.ptp(speed[calm]) > 0:
-        bias = _speed_bias(speed[calm], off[calm], speed)
-    return (full, z - bias[:, None] * u, s_cent, crossings, turns), w
+    turning = _along_weights(rows["t"], turns, along_weight) == 1.0
+    w = np.where(turning & balanced, 1.0, along_weight)
+    pos = np.column_stack([rows["x"], rows["y"]])
+    off = np.sum((z - pos) * u, axis=1)
+    calm = ~turning & balanced & (s_cent < _IGNORED_SIGMA)
+    if calm.sum() < _MIN_BIAS_ROWS or np.ptp(speed[calm]) == 0:
+        # too few to measure: a pixel's lag is unknown then, a lobe offset is small
+        return None if lagging else ((full, z, s_cent, crossings, turns), w)
+    a, b = _speed_terms(speed[calm], off[calm], np.median(s_cent[calm]))
+    scatter = np.sqrt(np.mean((off[calm] - a - b * speed[calm]) ** 2))
+    if scatter > _BIAS_FIT_SIGMAS * np.median(s_cent[calm]):
+        return None
+    t, t_fit = rows["t"].astype(np.float64), fitted["t"].astype(np.float64)
+    then = t + b * 1e6                            # when the star was where the centroid says
+    moved = np.column_stack([np.interp(then, t_fit, fitted["x"]),
+                             np.interp(then, t_fit, fitted["y"])]) - pos
+    beyond = (then < t_fit[0]) | (then > t_fit[-1])   # the fit's ends: speed × lag
+    moved[beyond] = b * v[beyond]
+    return (full, z - moved - a * u, s_cent, crossings, turns), w
 
 
 #: fewest centroids outside a track's turns that measure its centroids' along bias
 _MIN_BIAS_ROWS = 5
 #: t statistic a bias's speed term needs (else the bias is the offsets' median)
 _BIAS_SLOPE_T = 3.0
+#: most RMS scatter of a track's calm centroids about their bias model, in their median σ,
+#: for the model to be trusted at the turns (honest σ: ~1; the low-pass sinusoids of
+#: perf/study_indep.py it helps: 0.7–1.1; the dark-sky 20 °/s Scorpius field's tracks 1.1–3.2,
+#: whose isolated stars went 0.271 -> 0.295 px at 2, 0.257 at 1.5)
+_BIAS_FIT_SIGMAS = 1.5
 
 
-def _speed_bias(s, off, speed):
-    """The along offsets `off` at speeds `s` as a + b·speed at `speed`, where b is
-    significant (|b| ≥ _BIAS_SLOPE_T standard errors); else their median. A turn's speeds
-    lie below the fitted ones: a line through a narrow range of noisy speeds, extended to
-    them, moved a small sinusoid's centroids by up to 9 px."""
+def _speed_terms(s, off, sigma):
+    """(a, b) of the along offsets `off` at speeds `s` as a + b·speed, where b is significant
+    (|b| ≥ _BIAS_SLOPE_T standard errors) and the line's value at rest, a, is known to within
+    `sigma` (the centroids' σ); else (their median, 0). A turn's speeds lie below the
+    fitted ones: a line through a narrow range of noisy speeds, extended to them, moved a
+    small sinusoid's centroids by up to 9 px (a low-pass sinusoid's 113–190 px/s: a = 3.8
+    px, b = −24 ms)."""
     b, a = np.polyfit(s, off, 1)
-    dof = len(s) - 2
+    n = len(s)
     sxx = np.sum((s - s.mean()) ** 2)
-    se = np.sqrt(np.sum((off - a - b * s) ** 2) / dof / sxx) if dof > 0 else np.inf
-    if abs(b) >= _BIAS_SLOPE_T * se:
-        return a + b * speed
-    return np.full(len(speed), float(np.median(off)))
+    res = np.sqrt(np.sum((off - a - b * s) ** 2) / (n - 2)) if n > 2 else np.inf
+    se_b = res / np.sqrt(sxx)
+    se_a = res * np.sqrt(1.0 / n + s.mean() ** 2 / sxx)
+    if abs(b) >= _BIAS_SLOPE_T * se_b and se_a <= sigma:
+        return float(a), float(b)
+    return float(np.median(off)), 0.0
 
 
 def _run_around(flags, i):

@@ -147,3 +147,12 @@ def test_a_wild_centroid_does_not_set_the_lobe_bias():
     fixed, changed = debiased(c, TrackSmoother(10_000, process_noise=1.0).smooth(c, 0))
     assert list(changed) == [0]
     assert np.abs(fixed["x"][1:] - truth[1:]).max() < 0.3
+
+
+def test_a_centroid_is_balanced_when_both_polarities_hold_more_than_a_third():
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.lobes import balanced
+
+    c = np.zeros(5, CENTROID_DTYPE)
+    c["n_events"], c["n_on"] = [9, 9, 9, 9, 0], [0, 3, 4, 6, 0]
+    assert list(balanced(c)) == [False, False, True, False, False]

@@ -478,23 +478,87 @@ def test_a_track_that_never_turns_keeps_every_crossing():
     assert list(_single_passes(m, np.zeros(5), np.zeros((5, 2)), [], 3.0)) == list(m)
 
 
+def _lagging_centroids(fitted, a, tau_s):
+    """Centroids of the track `fitted` that trail it by `a` px along the motion and by a
+    lag of tau_s in time (where the star was tau_s earlier), and its true positions."""
+    true = np.column_stack([fitted["x"], fitted["y"]])
+    then = np.column_stack([50 + 40 * np.sin(2 * np.pi * (fitted["t"] * 1e-6 - tau_s)),
+                            fitted["y"]])      # _reversing_track's motion
+    u = np.column_stack([np.sign(fitted["vx"]), np.zeros(len(fitted))])
+    return then - a * u, true
+
+
 def test_centroids_along_bias_is_measured_away_from_the_turns_and_removed():
-    """Centroids trailing the star by a + b·speed along its motion: fitted where the star is
-    fast (outside its turns), removed everywhere; in the turns' time they weigh fully."""
+    """Centroids trailing the star by a constant a along its motion and by a lag in time:
+    measured where the star is fast (outside its turns), removed everywhere — at the turns
+    too, where the star slows and swings back and the lag is no speed × lag; in the turns'
+    time they weigh fully."""
     from evstar.smoothing import _debiased, _turns
 
     fitted = _reversing_track()
-    speed = np.abs(fitted["vx"])
-    u = np.column_stack([np.sign(fitted["vx"]), np.zeros(len(fitted))])
-    true = np.column_stack([fitted["x"], fitted["y"]])
-    z = true - (0.08 + 2e-4 * speed)[:, None] * u          # trailing: behind the motion
+    z, true = _lagging_centroids(fitted, 0.08, 10e-3)
     turns = _turns(fitted, 3.0)
     track = (fitted, z, np.full(len(z), 0.05), None, turns)
-    (_, z_fixed, _, _, _), w = _debiased(track, fitted, 0.1)
-    moving = speed > 1e-6                                   # no direction at a standstill
-    np.testing.assert_allclose(z_fixed[moving], true[moving], atol=1e-6)
+    (_, z_fixed, _, _, _), w = _debiased(track, fitted, 0.1, np.ones(len(z), bool), True)
+    moving = np.abs(fitted["vx"]) > 1e-6                    # no direction at a standstill
+    np.testing.assert_allclose(z_fixed[moving], true[moving], atol=0.02)
+    # a lag taken as speed × lag leaves a turn's centroids ½·acceleration·lag² inside it
+    at_turn = moving & (np.abs(fitted["t"] - 250_000) <= 10_000)
+    as_speed = z[:, 0] + (0.08 + 10e-3 * np.abs(fitted["vx"])) * np.sign(fitted["vx"])
+    assert np.all(np.abs(as_speed - true[:, 0])[at_turn] > 0.05)
     assert set(np.unique(w)) == {0.1, 1.0}
     assert np.all(w[np.abs(fitted["t"] - 250_000) <= 10_000] == 1.0)
+
+
+def test_centroids_the_bias_model_does_not_explain_are_not_trusted_at_the_turns():
+    """Calm centroids scattering about their a + b·speed model by several times their σ (a
+    lag that changes with speed, trails): no refit that weighs them fully at the turns."""
+    from evstar.smoothing import _debiased, _turns
+
+    fitted = _reversing_track()
+    z, _ = _lagging_centroids(fitted, 0.08, 2e-3)
+    noisy = z + np.column_stack([np.random.default_rng(5).normal(0, 0.5, len(z)), np.zeros(len(z))])
+    turns = _turns(fitted, 3.0)
+    both = np.ones(len(z), bool)
+    for lagging in (True, False):
+        assert _debiased((fitted, noisy, np.full(len(z), 0.5), None, turns), fitted, 0.1, both,
+                         lagging) is not None
+        assert _debiased((fitted, noisy, np.full(len(z), 0.1), None, turns), fitted, 0.1, both,
+                         lagging) is None
+
+
+def test_too_few_calm_centroids_weigh_unmoved_at_the_turns_unless_a_pixel_lag_is_corrected():
+    from evstar.smoothing import _debiased, _turns
+
+    fitted = _reversing_track()
+    z, _ = _lagging_centroids(fitted, 0.08, 2e-3)
+    turns = _turns(fitted, 3.0)
+    few = np.zeros(len(z), bool)
+    few[[10, 11, 12, 24, 25, 26]] = True                  # 3 calm, 3 in a turn's time
+    track = (fitted, z, np.full(len(z), 0.05), None, turns)
+    assert _debiased(track, fitted, 0.1, few, True) is None
+    (_, z_same, _, _, _), w = _debiased(track, fitted, 0.1, few, False)
+    assert np.array_equal(z_same, z) and w[25] == 1.0 and w[11] == 0.1 and w[40] == 0.1
+
+
+def test_lone_lobes_neither_weigh_at_the_turns_nor_set_the_bias():
+    """One-polarity centroids (a slow faint star's lone ON lobe, ~1.7 σ_PSF ahead), at a
+    turn and away from it: they keep along_weight at the turn, and the bias measured on the
+    balanced centroids alone moves those onto the star."""
+    from evstar.smoothing import _debiased, _turns
+
+    fitted = _reversing_track()
+    z, true = _lagging_centroids(fitted, 0.08, 2e-3)
+    u = np.sign(fitted["vx"])
+    lone = np.zeros(len(z), bool)
+    lone[[10, 22, 24, 26, 60, 72, 74]] = True           # 24, 26 and 74 in the turns' time
+    z[lone, 0] += 2.0 * u[lone]
+    turns = _turns(fitted, 3.0)
+    (_, z_fixed, _, _, _), w = _debiased((fitted, z, np.full(len(z), 0.05), None, turns),
+                                         fitted, 0.1, ~lone, True)
+    assert np.all(w[lone] == 0.1) and w[25] == 1.0
+    moving = (np.abs(fitted["vx"]) > 1e-6) & ~lone
+    np.testing.assert_allclose(z_fixed[moving], true[moving], atol=0.02)
 
 
 def test_one_level_crossings_get_the_scatter_of_their_own_class():
@@ -647,13 +711,22 @@ def test_a_bias_line_through_noisy_offsets_of_a_narrow_speed_range_is_not_extend
     """Offsets of one constant bias, noisy, at speeds 95–108 px/s: a fitted line's chance
     slope extended to a turn's speeds would move the centroids there by ~1 px; the
     median is used. A clear speed term is kept and extended."""
-    from evstar.smoothing import _speed_bias
+    from evstar.smoothing import _speed_terms
 
     rng = np.random.default_rng(3)
     s = rng.uniform(95, 108, 50)
     off = -0.2 + rng.normal(0, 0.15, 50)
     off[:10] += 0.25 * (s[:10] > 104)       # a chance tilt at the fast end
-    at_turn = _speed_bias(s, off, np.array([0.0, 5.0]))
-    assert np.all(np.abs(at_turn - np.median(off)) < 1e-12)
+    a, b = _speed_terms(s, off, 0.15)
+    assert a == np.median(off) and b == 0.0
     clear = -0.05 - 2e-3 * s + rng.normal(0, 0.002, 50)
-    np.testing.assert_allclose(_speed_bias(s, clear, np.array([0.0])), [-0.05], atol=0.02)
+    a, b = _speed_terms(s, clear, 0.15)
+    assert abs(a + 0.05) < 0.02 and abs(b + 2e-3) < 2e-4
+    # a clear 20 ms lag whose value at rest the narrow range cannot pin within σ: the
+    # median; from speeds down to 5 px/s the line
+    steep = lambda v: -0.05 - 2e-2 * v + rng.normal(0, 0.05, len(v))
+    a, b = _speed_terms(s, steep(s), 0.15)
+    assert b == 0.0
+    wide = rng.uniform(5, 108, 50)
+    a, b = _speed_terms(wide, steep(wide), 0.15)
+    assert abs(a + 0.05) < 0.05 and abs(b + 2e-2) < 1e-3
