@@ -823,13 +823,20 @@ def _debiased(track, fitted, along_weight, balanced, lagging):
     scatter = np.sqrt(np.mean((off[calm] - a - b * speed[calm]) ** 2))
     if scatter > _BIAS_FIT_SIGMAS * np.median(s_cent[calm]):
         return None
+    return (full, z - _moved(fitted, rows, b) - a * u, s_cent, crossings, turns), w
+
+
+def _moved(fitted, rows, b):
+    """(n, 2) the displacement of the track `fitted` from each of its rows' times t to
+    t + b (s): where the star was when a centroid's events, lagging by −b, say; speed × b
+    beyond the fit's ends."""
     t, t_fit = rows["t"].astype(np.float64), fitted["t"].astype(np.float64)
-    then = t + b * 1e6                            # when the star was where the centroid says
-    moved = np.column_stack([np.interp(then, t_fit, fitted["x"]),
-                             np.interp(then, t_fit, fitted["y"])]) - pos
-    beyond = (then < t_fit[0]) | (then > t_fit[-1])   # the fit's ends: speed × lag
-    moved[beyond] = b * v[beyond]
-    return (full, z - moved - a * u, s_cent, crossings, turns), w
+    then = t + b * 1e6
+    moved = np.column_stack([np.interp(then, t_fit, fitted["x"]) - rows["x"],
+                             np.interp(then, t_fit, fitted["y"]) - rows["y"]])
+    beyond = (then < t_fit[0]) | (then > t_fit[-1])
+    moved[beyond] = b * np.column_stack([rows["vx"], rows["vy"]])[beyond]
+    return moved
 
 
 #: fewest centroids outside a track's turns that measure its centroids' along bias
