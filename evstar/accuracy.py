@@ -23,7 +23,6 @@ def match(centroids, positions, match_px=3.0):
     return np.where(err <= match_px, star, -1), err
 
 
-
 def common_error(frame, star, dxy, min_stars=5):
     """The error all stars share, frame by frame: per frame with at least `min_stars`
     matched rows of distinct stars, the median of their error vectors (dxy: (n, 2) estimate

@@ -23,10 +23,15 @@ from .frames import nearest_in_frame
 PURITY = 2 / 3
 
 
+def on_share(centroids):
+    """Per centroid (CENTROID_DTYPE) the share of its events that are ON."""
+    return centroids["n_on"] / np.maximum(centroids["n_events"], 1)
+
+
 def balanced(centroids):
     """Per centroid (CENTROID_DTYPE): does it hold both lobes — an ON share strictly between
     1 − PURITY and PURITY?"""
-    share = centroids["n_on"] / np.maximum(centroids["n_events"], 1)
+    share = on_share(centroids)
     return (share > 1 - PURITY) & (share < PURITY)
 
 
@@ -112,7 +117,7 @@ WILD = 5.0
 
 def _shares(centroids):
     """ON share less ½ per centroid (n_on / n_events − ½)."""
-    return centroids["n_on"] / np.maximum(centroids["n_events"], 1) - 0.5
+    return on_share(centroids) - 0.5
 
 
 def candidates(centroids):

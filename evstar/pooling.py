@@ -31,7 +31,7 @@ from evstar_kernels.reference.denoise import disk_area, poisson_thresholds
 from .denoise import NDSEF
 from .extract import CENTROID_DTYPE
 from .frames import FRAME_GAP, nearest_in_frame
-from .lobes import PURITY
+from .lobes import PURITY, on_share
 from .parameters import AUTO, MAX_DT_US
 
 #: background-only DBSCAN disks over the whole sensor per second that hold the smallest
@@ -128,7 +128,7 @@ def _lobes_joined(cents, gap_px):
     half-gap (_lone_lobes_moved)."""
     from scipy.spatial import cKDTree
 
-    share = cents["n_on"] / np.maximum(cents["n_events"], 1)
+    share = on_share(cents)
     on, off = np.flatnonzero(share >= PURITY), np.flatnonzero(share <= 1 - PURITY)
     if not len(on) or not len(off):
         return cents

@@ -261,7 +261,7 @@ class TrackSmoother:
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
         tids, est_rows = groups(est["track"])
         mine = dict(zip(*groups(owner)))
-        tracks = []
+        tracks, both = [], []      # both: a reversing track's centroids of both lobes
         for tid, rows in zip(tids, est_rows):
             m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz)
             track = est[rows]
@@ -281,14 +281,13 @@ class TrackSmoother:
             s_cent = np.where(full["outlier"][~full["coasted"]], _IGNORED_SIGMA, sig[meas])
             tracks.append((full, z, s_cent, (t_c, q_got.take(m, 0), u.take(m, 0), r_c, pairs[m]),
                            turns))
+            both.append(lobes.balanced(centroids[meas]) if turns else None)
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
         # a reversing track's centroids, less their along-motion bias measured against the
         # fit where crossings tell it, weigh fully at its turns where that bias's model
         # explains them (_debiased)
-        again = {i: _debiased(t, fitted[i][0], along_weight,
-                              lobes.balanced(centroids[t[0]["centroid"][~t[0]["coasted"]]]),
-                              pixel_lag is not None)
+        again = {i: _debiased(t, fitted[i][0], along_weight, both[i], pixel_lag is not None)
                  for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None}
         redo = [i for i, a in again.items() if a is not None]
         if redo:
@@ -778,14 +777,13 @@ def _single_passes(m, t_c, q_c, turns, radius):
     return m[keep]
 
 
-def _along_weights(t, turns, along_weight):
-    """Per centroid (times t) its weight along the motion: along_weight, but 1 in a turn's
-    time, where the crossings cannot tell the passages (_single_passes) and the star is slow
-    (refine uses these where _debiased's bias model explains the centroids)."""
-    w = np.full(len(t), float(along_weight))
+def _in_turns(t, turns):
+    """Per time t: does it lie in a turn's time (_turns), where the crossings cannot tell
+    the passages (_single_passes) and the star is slow?"""
+    inside = np.zeros(len(t), bool)
     for t_lo, t_hi, _, _ in turns:
-        w[(t >= t_lo) & (t <= t_hi)] = 1.0
-    return w
+        inside |= (t >= t_lo) & (t <= t_hi)
+    return inside
 
 
 def _debiased(track, fitted, along_weight, balanced, lagging):
@@ -811,7 +809,7 @@ def _debiased(track, fitted, along_weight, balanced, lagging):
     v = np.column_stack([rows["vx"], rows["vy"]])
     speed = np.hypot(v[:, 0], v[:, 1])
     u = v / np.maximum(speed, 1e-9)[:, None]
-    turning = _along_weights(rows["t"], turns, along_weight) == 1.0
+    turning = _in_turns(rows["t"], turns)
     w = np.where(turning & balanced, 1.0, along_weight)
     pos = np.column_stack([rows["x"], rows["y"]])
     off = np.sum((z - pos) * u, axis=1)
@@ -819,9 +817,10 @@ def _debiased(track, fitted, along_weight, balanced, lagging):
     if calm.sum() < _MIN_BIAS_ROWS or np.ptp(speed[calm]) == 0:
         # too few to measure: a pixel's lag is unknown then, a lobe offset is small
         return None if lagging else ((full, z, s_cent, crossings, turns), w)
-    a, b = _speed_terms(speed[calm], off[calm], np.median(s_cent[calm]))
+    sigma = np.median(s_cent[calm])
+    a, b = _speed_terms(speed[calm], off[calm], sigma)
     scatter = np.sqrt(np.mean((off[calm] - a - b * speed[calm]) ** 2))
-    if scatter > _BIAS_FIT_SIGMAS * np.median(s_cent[calm]):
+    if scatter > _BIAS_FIT_SIGMAS * sigma:
         return None
     return (full, z - _moved(fitted, rows, b) - a * u, s_cent, crossings, turns), w
 

@@ -6,8 +6,8 @@ changed how the turns are estimated (evstar.smoothing._debiased) on the first se
 ("dev": scenes 14–17 and 22 with other sensors, PSFs or motions, looked at while the change
 was written) and ran the second ("held-out": twelve variants never looked at before) once
 with the code before and after it. Each variant is a study_indep scene (same seed, star
-placement and simulator) with some of its fields replaced; the default pipeline (no IMU
-unless the variant says "imu") runs on it and its rows are scored as study_indep scores them.
+placement and simulator) with some of its fields replaced, run by study_indep.run_scene (no
+IMU unless the variant says "imu"); the table shows the default pipeline's scores.
 
     python perf/study_turns.py [--part dev|held-out] [--name NAME]
 
@@ -20,13 +20,8 @@ import json
 import pathlib
 import sys
 
-import numpy as np
-
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-import indep_sim as S  # noqa: E402
 import study_indep as SI  # noqa: E402
-
-from evstar import Config, Pipeline  # noqa: E402
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 FIELDS = ("cam", "motion", "mags", "psf", "sensor", "noise", "hot", "dur")
@@ -62,21 +57,13 @@ PARTS = {
 
 
 def run_variant(number, changes, imu):
-    """Scores (study_indep.scores) of the default pipeline on one variant."""
-    i = number - 1
-    spec = dict(zip(FIELDS, SI.GRID[i]), **changes)
-    scene, sensor = SI.scene_of(i, tuple(spec[f] for f in FIELDS))
-    run = S.simulate(scene, sensor, seed=i, imu=imu)
-    ev = run.events
-    cfg = Config().replace(**{"motion.compensate": "imu" if imu else "none"})
-    t0 = int(ev.t[0])
-    n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
-    frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
-    rows = Pipeline(cfg).run(ev, run.imu, run.camera).centroids
+    """Scores (study_indep.scores) of the default pipeline on one variant
+    (study_indep.run_scene, which runs the per-frame mean too)."""
+    spec = dict(zip(FIELDS, SI.GRID[number - 1]), **changes)
+    out = SI.run_scene(number - 1, tuple(spec[f] for f in FIELDS), imu=imu)
     label = ", ".join(f"{k} {v}" for k, v in changes.items()) or "as it is"
-    return {"scene": number, "changes": label, "imu": imu, "motion": scene.motion.label(),
-            "sensor": spec["sensor"], "psf": scene.psf.label(),
-            **SI.scores(rows, scene, run.truth, frames_t, n_frames)}
+    return {"scene": number, "changes": label, "imu": imu, "motion": out["motion"],
+            "sensor": spec["sensor"], "psf": out["psf"], **out["default"]}
 
 
 def markdown(rows):

@@ -453,7 +453,7 @@ def _reversing_track():
 
 
 def test_crossings_at_a_turn_are_left_out_and_centroids_weigh_there():
-    from evstar.smoothing import _along_weights, _single_passes, _turns
+    from evstar.smoothing import _in_turns, _single_passes, _turns
 
     track = _reversing_track()
     turns = _turns(track, radius=3.0)
@@ -465,8 +465,7 @@ def test_crossings_at_a_turn_are_left_out_and_centroids_weigh_there():
     q_c = np.array([[89.0, 20.0], [80.0, 20.0], [89.0, 20.0], [88.0, 20.0]])
     # near the turn point in its time: out; far from it, or at another time: kept
     assert list(_single_passes(np.arange(4), t_c, q_c, turns, 3.0)) == [1, 2]
-    w = _along_weights(np.array([250_000, 100_000, 750_000]), turns, 0.1)
-    assert list(w) == [1.0, 0.1, 1.0]
+    assert list(_in_turns(np.array([250_000, 100_000, 750_000]), turns)) == [True, False, True]
 
 
 def test_a_track_that_never_turns_keeps_every_crossing():
