@@ -280,7 +280,7 @@ def outer_half_width(ts, change, k, ratio, on_before):
     """Per change, µs from its deepest pair's midpoint (level k) to that level's OFF event
     (NaN where k is 0). A pixel's low-pass stretches its falling flank, and the more it
     does, the later its midpoints: at one k the lag grows with this width alike for a
-    bright star's flank pixels and a faint star's own (EVK4 dark sky, README)."""
+    bright star's flank pixels and a faint star's own (EVK4 dark sky, docs/measurements.md)."""
     out = np.full(len(change), np.nan)
     m = np.flatnonzero(np.asarray(k) > 0)
     mid, fall = _midpoint(ts, change[m], np.asarray(on_before)[m], np.asarray(k)[m], ratio)

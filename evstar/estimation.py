@@ -178,7 +178,7 @@ def largest_lag_us(e, measured_lag):
 
 #: a measured or calibrated pixel lag is known to about this fraction of itself (the level
 #: profiles' lag was 20–60 % long at k = 2–4 on short passages before the tracks' check and
-#: within ~10 % at k >= 5; README). On the grid's 29 dark-sky rows the median error/σ went
+#: within ~10 % at k >= 5; docs/measurements.md). On the grid's 29 dark-sky rows the median error/σ went
 #: 1.41 -> 1.03 (a calibrated 2-D σ: 1.18); 0.2 overstated σ (0.66). The profiles' lag, not
 #: the tracks' told table: with the latter, Cygnus EVK4 dark-sky pans went 0.52–1.29 ->
 #: 1.33–1.67

@@ -8,7 +8,7 @@ The twenty-second session's check: a Cygnus EVK4 16 mm dark-sky field on a 1 Hz 
 peaking at 25 °/s (these defaults) calibrated the held-out Lyra pans
 (`perf/study_field.py --camera evk4:16 --pointing 280,38 --seeds 222 --motion pan --sensor
 dark-sky --rates 10,20,30 --set estimate.pixel_lag_file=OUT.json`) worse than the lag the
-pipeline measures itself (README, the twenty-second session).
+pipeline measures itself (docs/measurements.md, the twenty-second session).
 """
 import argparse
 
