@@ -21,7 +21,7 @@ def warp_to_reference(ti, t, x, y, ref_index, ref_q, node_t, node_q, node_phi, c
                for o in out]
         with launch.RUNTIME_LOCK:
             warp_events(*ev, *track, *map(float, camera_params), int(undistort_iterations),
-                        *map(int, sensor), *dev)
+                        *map(int, sensor), *dev, int(undistort_iterations) > 0)
         if arrays.on_device:
             for d, o in zip(dev, out):
                 arrays.get(d, o[a:b])
