@@ -311,3 +311,21 @@ def test_pooled_centroids_identify_but_update_only_when_asked(pan):
     err = {on: errors_px(estimate(c, CAM, identifier=truth_identifier(truth), pooled_centroids=on),
                          truth)[0] for on in (False, True)}
     assert np.sqrt(np.mean(err[False] ** 2)) < 0.05 < 0.3 < np.sqrt(np.mean(err[True] ** 2))
+
+
+def test_an_imu_that_does_not_reach_the_centroids_is_refused(pan):
+    """An IMU 10 s late (or with a repeated timestamp) is a DataError naming the spans, not
+    a run driven by its end samples' rate; one that misses the centroids' ends by less than
+    motion.extrapolate_us is held there, as the pipeline holds it."""
+    c, truth, imu = pan
+    ident = truth_identifier(truth)
+    late = evstar.Imu(imu.t + 10_000_000, imu.gyro, imu.accel, R_cam_imu=imu.R_cam_imu)
+    with pytest.raises(evstar.DataError, match="IMU .*centroids|the IMU starts"):
+        estimate(c, CAM, late, identifier=ident)
+    t = imu.t.copy()
+    t[5] = t[4]
+    with pytest.raises(evstar.DataError, match="increase strictly"):
+        estimate(c, CAM, evstar.Imu(t, imu.gyro, imu.accel, R_cam_imu=imu.R_cam_imu), identifier=ident)
+    inside = (imu.t >= c["t"].min() + 2000) & (imu.t <= c["t"].max() - 2000)
+    short = evstar.Imu(imu.t[inside], imu.gyro[inside], imu.accel[inside], R_cam_imu=imu.R_cam_imu)
+    assert len(estimate(c, CAM, short, identifier=ident)) > 0

@@ -130,6 +130,29 @@ def test_atomic_writer_turns_os_errors_into_output_errors(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # no temporary left
 
 
+def test_atomic_writer_follows_links_and_writes_pipes_in_place(tmp_path):
+    """A symbolic link keeps pointing at its (rewritten) target; a named pipe stays a pipe and
+    its reader gets the bytes (a rename had put a plain file in their place)."""
+    import stat
+    import threading
+
+    (tmp_path / "target.csv").write_text("old")
+    link = tmp_path / "link.csv"
+    link.symlink_to("target.csv")
+    with atomic_path(link) as tmp:
+        tmp.write_text("new")
+    assert link.is_symlink() and (tmp_path / "target.csv").read_text() == "new"
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    with atomic_path(fifo) as tmp:
+        tmp.write_text("through the pipe")
+    reader.join(timeout=10)
+    assert got == ["through the pipe"] and stat.S_ISFIFO(os.stat(fifo).st_mode)
+
+
 # -- the run folder ----------------------------------------------------------------------------
 def test_rerun_removes_its_own_stale_files_only(files, tmp_path):
     out = tmp_path / "out"

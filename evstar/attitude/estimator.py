@@ -115,7 +115,8 @@ class AttitudeEstimator:
         # frames without centroids count too (the pipeline's frames start at the first event)
         empty = pooled and "frame" in c.dtype.names and np.all(c["frame"] >= 0)
         self._next_frame = 0
-        self._gyro = None if self.imu is None else _GyroIntegral(self.imu)
+        self._gyro = None if self.imu is None else _GyroIntegral(
+            _checked_imu(self.imu, c["t"], events if pooled else None))
         self._c, self._xy_dt = c, _track_velocity(c)
         # a pooled centroid averages pool_frames frames: biased along an acceleration
         self._updates = np.ones(len(c), bool) if self.o["pooled_centroids"] or \
@@ -441,6 +442,24 @@ def _frames(c, frame_us):
     cuts = np.flatnonzero(np.diff(key[order])) + 1
     groups = np.split(order, cuts)
     return sorted(groups, key=lambda g: c["t"][g[-1]])
+
+
+def _checked_imu(imu, t_us, events=None):
+    """The IMU held over the span of the centroid times `t_us` (and of `events`, where the
+    pooled search reads them) as the pipeline's compensation holds it, or DataError: an IMU
+    that does not reach the data drove the filter with its end samples' rate for the whole
+    run (an IMU 10 s late: half the true rate, the attitude 0.4° off, no error)."""
+    from ..motion.imu_integration import check_coverage, hold_ends
+
+    ends = [float(np.min(t_us)), float(np.max(t_us))] if len(t_us) else []
+    if events is not None and len(events):
+        ends += [float(events.t[0]), float(events.t[-1])]
+    if not ends:
+        return imu
+    t0, t1 = min(ends), max(ends)
+    held = hold_ends(imu, t0, t1, P.MOTION["extrapolate_us"].default)
+    check_coverage(held, t0, t1, what="the centroids")    # finite, strictly increasing
+    return held
 
 
 class _GyroIntegral:

@@ -13,8 +13,19 @@ from ..errors import EvstarError, OutputError
 @contextlib.contextmanager
 def atomic_path(path, suffix=None):
     """Yield a temporary path in the target's folder; it replaces `path` only if the block
-    succeeds. An OSError (folder not creatable, disk full, no permission) is an OutputError."""
-    path = pathlib.Path(path)
+    succeeds. An OSError (folder not creatable, disk full, no permission) is an OutputError.
+    A symbolic link is followed (its target is replaced, the link kept), and a device or a
+    named pipe (/dev/null, a FIFO a reader waits on) is written in place: a rename would
+    put a plain file where it was."""
+    path = pathlib.Path(os.path.realpath(path)) if os.path.islink(path) else pathlib.Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        try:
+            yield path
+        except OSError as exc:
+            if isinstance(exc, EvstarError):
+                raise
+            raise _output_error(path, exc) from None
+        return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix or path.suffix + ".tmp",
