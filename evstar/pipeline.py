@@ -430,6 +430,8 @@ class _RunState:
     and events as a run in memory."""
 
     def __init__(self, config, width, height, t0_us, hot=None):
+        # no hot pixel found: no mask (a pass over every event finds none on it)
+        hot = hot if hot is not None and hot.any() else None
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
         self._near = []
         self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us

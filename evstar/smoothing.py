@@ -256,7 +256,6 @@ class TrackSmoother:
         half = crossings["t_half"][got]             # their pairs' RMS half-width
         # their positions along the motion (the row sum's arithmetic but for a zero's sign)
         along = q_got[:, 0] * u[:, 0] + q_got[:, 1] * u[:, 1]
-        used = 0
         if t0_us is None and len(est):
             t0_us = int((est["t"] - est["frame"] * self.dt_us).min())
         tids, est_rows = groups(est["track"])
