@@ -12,8 +12,11 @@ while a pixel without a low-pass has flat profiles. The lag of the crossing's me
 m̄ − t0: the geometric trend's extrapolation to a level bright enough to have none. Per
 number of pairs k the median demeaned profile D_k(j) = a_k·ρ^j + c_k is fitted (a_k, c_k
 linear, ρ shared, on a grid), and the crossing lag is −c_k. The deepest level is left out
-of the shape where a profile has >= 5: near the background τ approaches the pulse's own
-length and the quasi-static model lags it less than it really is.
+of the shape where a profile has >= 4: near the background τ approaches the pulse's own
+length and the quasi-static model misses its lag (from 5 levels at first; unequal
+thresholds, OFF levels 1.5 ON apart, give a bright star only 2–4 pairs, whose 4th level
+took ρ 1.58 where the first three give ~1.3, and every lag 0.6–0.8 ms short of the
+crossings' true lag on perf/study_indep.py's scene 22).
 
 Trusted only where the model explains the profiles (R² >= MIN_R2): a sensor without a
 low-pass has profiles of timestamp jitter, refractory and threshold-ratio effects (R²
@@ -38,7 +41,7 @@ MIN_R2 = 0.99
 #: shape took R² below MIN_R2 (their lag is still read off the shared fit)
 FILLED_SHARE = 0.1
 #: profiles with at least this many levels drop their deepest from the shape fit
-_DROP_BOTTOM_FROM = 5
+_DROP_BOTTOM_FROM = 4
 #: ρ's grid: C·γ from 0.1 to 0.9 (contrast thresholds of DVS pixels are ~0.1–0.5)
 _RHOS = np.exp(np.linspace(0.1, 0.9, 161))
 
@@ -127,7 +130,7 @@ def fit_lag(profiles):
 
 
 def _levels(k):
-    """Levels of a k-pair profile that shape the fit (the deepest left out from 5)."""
+    """Levels of a k-pair profile that shape the fit (the deepest left out from 4)."""
     return k - 1 if k >= _DROP_BOTTOM_FROM else k
 
 
@@ -144,8 +147,8 @@ def _fit_grid(D, k):
 
 
 #: crossings of at least this many pairs anchor each track's lags: their profiles have the
-#: levels that shape the fit (the deepest one dropped, see _levels)
-ANCHOR_PAIRS = _DROP_BOTTOM_FROM
+#: levels that shape the fit (the deepest one dropped, see _levels) — at least four
+ANCHOR_PAIRS = 5
 #: a track anchors only with this many anchoring crossings
 MIN_ANCHORS = 10
 #: fewest anchored crossings of one k to correct its lag (50 let a lone faint star correct

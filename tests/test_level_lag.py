@@ -46,7 +46,7 @@ def test_a_profile_falling_with_depth_is_no_lowpass():
 
 
 def test_a_long_profile_s_deepest_level_does_not_decide():
-    """The deepest level of a profile of >= 5 levels is left out of the shape; a background
+    """The deepest level of a profile of >= 4 levels is left out of the shape; a background
     event paired there (a fast dark-sky field at 1.5 Hz: one k of 32 crossings whose
     deepest midpoint came 12 ms early) must not veto the lag of all the others. A level
     that shapes the fit still does."""
@@ -56,6 +56,22 @@ def test_a_long_profile_s_deepest_level_does_not_decide():
     assert fit_lag(prof) is not None
     prof[11] = (np.r_[D[:-2], D[0] - 10_000.0, D[-1]], 32)
     assert fit_lag(prof) is None
+
+
+def test_short_profiles_shape_rho_without_their_deepest_level():
+    """Unequal thresholds give a bright star only 2–4 pairs. The 4-pair profile's deepest
+    level, near the background, lags beyond the geometric trend: left out, the 3- and
+    4-pair profiles' upper levels give ρ and the lags; shaping with it took ρ high and
+    every lag short (perf/study_indep.py scene 22: 1.1–1.9 against 1.7–2.7 ms)."""
+    rho, amp = 1.3, 1500.0
+    prof = _profiles(rho, amp, ks=range(2, 5), noise_us=5.0)
+    D, n = prof[4]
+    deep = np.r_[D[:3], D[3] + 800.0]         # the deepest level 0.8 ms later than the trend
+    prof[4] = (deep - deep.mean(), n)
+    ks, lag, r2, got_rho = fit_lag(prof)
+    assert abs(got_rho - rho) < 0.05 * rho
+    want = (amp / 3) * np.mean(rho ** np.arange(1, 4))
+    assert lag[list(ks).index(3)] == pytest.approx(want, rel=0.1)
 
 
 def test_a_sparse_profile_neither_vetoes_nor_shapes_the_lag():
