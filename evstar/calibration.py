@@ -46,6 +46,16 @@ _ROBUST_PASSES = 4
 #: a cell known less precisely than this (µs) is filled from its neighbours instead
 MAX_CELL_SE_US = 100.0
 _UNKNOWN_SE = 1e9   # σ of a cell filled from its neighbours (no crossings of its own)
+#: a file's |τ| beyond this (µs) is corrupt: a photoreceptor lags a star by ms, never 1 s
+#: (small negative τ are real: on an ideal sensor crossings come 50-150 µs early)
+MAX_LAG_US = 1e6
+# what each numeric field of a file must hold: (dimensions, test of finite values, wording)
+_FILE_FIELDS = {
+    "pairs": (1, lambda v: (v >= 0) & (v == np.round(v)), "non-negative integers"),
+    "speed_px_s": (1, lambda v: v > 0, "positive speeds"),
+    "lag_us": (2, lambda v: np.abs(v) <= MAX_LAG_US, f"lags within ±{MAX_LAG_US:g} µs"),
+    "se_us": (2, lambda v: v >= 0, "non-negative σ"),
+}
 
 
 @dataclass
@@ -153,14 +163,25 @@ class PixelLag:
         if doc.get("version") != VERSION:
             raise FormatError(path, f"version must be {VERSION}, got {doc.get('version')!r}")
         fields = {}
-        for key in ("pairs", "speed_px_s", "lag_us", "se_us"):
+        for key, (ndim, ok, what) in _FILE_FIELDS.items():
             try:
-                fields[key] = np.asarray(doc[key], np.float64)
+                v = fields[key] = np.asarray(doc[key], np.float64)
             except (KeyError, TypeError, ValueError):
                 raise FormatError(path, f"field {key!r} must be numbers, got "
                                   f"{doc.get(key)!r:.80}") from None
+            if v.ndim != ndim:
+                raise FormatError(path, f"field {key!r} must be a {'list' if ndim == 1 else 'list of rows'}"
+                                  f" of numbers, got shape {v.shape}")
+            bad = np.argwhere(~(np.isfinite(v) & ok(v)))
+            if len(bad):
+                at = "".join(f"[{j}]" for j in bad[0])
+                raise FormatError(path, f"field {key!r} must hold finite {what}, got "
+                                  f"{key}{at} = {v[tuple(bad[0])]:g}")
+        meta = doc.get("meta") or {}
+        if not isinstance(meta, dict):
+            raise FormatError(path, f"field 'meta' must be an object, got {meta!r:.80}")
         try:
-            return cls(**fields, meta=doc.get("meta") or {})
+            return cls(**fields, meta=meta)
         except DataError as e:
             raise FormatError(path, f"{e}") from None
 

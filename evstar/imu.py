@@ -9,6 +9,21 @@ from .errors import DataError, EvstarWarning
 from .events import SORT_HINT, T_LIMIT_US, check_time_range
 
 
+#: the largest angular rate (rad/s) a gyro sample may hold: 100 rad/s ≈ 5700 °/s, well beyond
+#: any star sensor's slew and MEMS gyros' ±2000 °/s ranges; larger values are corrupt data
+#: (rotating by them makes cos/sin of huge angles: warnings and garbage attitudes)
+MAX_RATE_RAD_S = 100.0
+
+
+def first_excess_rate(gyro):
+    """(sample, axis) of the first value of an (N, 3) gyro array beyond ±MAX_RATE_RAD_S, or None."""
+    bad = np.abs(gyro) > MAX_RATE_RAD_S
+    if not bad.any():
+        return None
+    i = int(np.flatnonzero(bad.any(axis=1))[0])
+    return i, int(np.argmax(bad[i]))
+
+
 def _vec3(name, values, n, finite=True):
     try:
         arr = np.ascontiguousarray(values, dtype=np.float64)
@@ -48,6 +63,11 @@ class Imu:
             raise DataError(f"IMU field 't' = {t[i]} at sample {i} is outside the valid range ±{T_LIMIT_US} µs")
         self.t = np.ascontiguousarray(t, dtype=np.int64)
         self.gyro = _vec3("gyro", gyro, n)
+        bad = first_excess_rate(self.gyro)
+        if bad is not None:
+            i, k = bad
+            raise DataError(f"IMU field 'gyro' axis {'xyz'[k]} = {self.gyro[i, k]:g} rad/s at sample {i} "
+                            f"is beyond ±{MAX_RATE_RAD_S:g} rad/s (≈5700 °/s), not a real rotation rate")
         self.accel = _vec3("accel", np.zeros((n, 3)) if accel is None else accel, n)
         R = np.eye(3) if R_cam_imu is None else _vec3("R_cam_imu", R_cam_imu, 3, finite=False)
         if R.shape != (3, 3) or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \

@@ -141,7 +141,9 @@ def test_leading_size_comment_is_read_too(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert io.read(p).events.sensor_size == (100, 90)
-    assert io.read(p, sensor_size=(10, 10)).events.sensor_size == (10, 10)  # the option wins
+    assert io.read(p, sensor_size=(100, 90)).events.sensor_size == (100, 90)
+    with pytest.raises(FormatError, match=r"100x90 px but sensor_size 10x10"):  # only for files that do not say
+        io.read(p, sensor_size=(10, 10))
 
 
 # -- 6. unsorted input: sort=True / --sort ------------------------------------------------

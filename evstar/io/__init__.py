@@ -121,8 +121,9 @@ def packets(path, format=None, sensor_size=None):
     check_readable(path)
     mod = _module(fmt)
     if fmt == "csv":
+        from .guard import stored_size
         from .text import header_sensor_size, sensor_size_from
-        sensor_size = sensor_size or header_sensor_size(path)
+        sensor_size = stored_size(path, header_sensor_size(path), sensor_size)
         if sensor_size is None:  # one bounded pass to find the extent
             ext = [0, 0]
             for _, x, y, _ in mod.packets(path):

@@ -9,7 +9,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
-from .guard import decoder_errors, int64_times
+from .guard import decoder_errors, int64_times, stored_size
 
 G = 9.80665  # standard gravity, m/s² per g
 D = faery.aedat
@@ -42,16 +42,16 @@ def _imu_from(packets):
     return Imu(a["t"], gyro, accel)  # Imu range-checks the unsigned times before its cast
 
 
-def read(path, sort=False, **_):
+def read(path, sensor_size=None, sort=False):
     dec = _decoder(path)
     track = _event_track(path, dec)
+    w, h = stored_size(path, track.dimensions, sensor_size)  # the event stream states its size
     ev, imu = [], []
     for tr, packet in _iterate(path, dec):
         if tr.id == track.id:
             ev.append(packet)
         elif tr.data_type == "imus":
             imu.append(packet)
-    w, h = track.dimensions
     try:
         a = np.concatenate(ev) if ev else np.zeros(0, ev_dtype())
         events = Events(a["t"], a["x"], a["y"], a["on"], w, h, sort=sort)
@@ -64,16 +64,17 @@ def ev_dtype():
     return np.dtype([("t", "<u8"), ("x", "<u2"), ("y", "<u2"), ("on", "?")])
 
 
-def packets(path, **_):
+def packets(path, sensor_size=None):
     dec = _decoder(path)
     track = _event_track(path, dec)
+    w, h = stored_size(path, track.dimensions, sensor_size)
 
     def gen():
         for tr, packet in _iterate(path, dec):
             if tr.id == track.id and len(packet):
                 yield (int64_times(path, packet["t"]), packet["x"], packet["y"],
                        packet["on"].astype(np.int8))
-    return (*track.dimensions, gen())
+    return w, h, gen()
 
 
 def _node(name, path, attrs, nodes=()):

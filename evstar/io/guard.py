@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tokenize
 import zipfile
 import zlib
@@ -70,6 +71,43 @@ def int64_times(path, t):
         raise FormatError(path, f"timestamp {t[i]} (event {i} of a packet) is outside the valid "
                                 f"range ±{T_LIMIT_US} µs")
     return t.astype(np.int64)
+
+
+def stored_size(path, stored, option):
+    """The sensor size of a file that states its own (`stored`, or None where it does not):
+    the `option` (sensor_size, from --sensor-size or --camera) is for files that do not say,
+    so one that disagrees is an error rather than a silent override."""
+    if stored is None:
+        return None if option is None else tuple(int(v) for v in option)
+    stored = tuple(stored)  # as the file has it: Events checks that these are sizes
+    if option is not None and tuple(option) != stored:
+        raise FormatError(path, f"the file's sensor is {stored[0]}x{stored[1]} px but sensor_size "
+                                f"{option[0]}x{option[1]} was given (--sensor-size, or the --camera's "
+                                "width and height, is only for files that do not say)")
+    return stored
+
+
+# pandas' C parser: a row with more fields than the header (its text spans two lines)
+_FIELD_COUNT = re.compile(r"Expected (\d+) fields in line (\d+), saw (\d+)")
+
+
+def csv_parser_error(path, exc, what):
+    """FormatError for a pandas ParserError, one line; a wrong field count names its line."""
+    m = _FIELD_COUNT.search(str(exc))
+    if m:
+        want, line, saw = m.groups()
+        return FormatError(path, f"line {line} has {saw} fields, expected {want}")
+    return FormatError(path, f"not a readable {what} ({one_line(exc)})")
+
+
+def check_no_implicit_index(path, frame, line, header_fields):
+    """pandas makes the leading columns an index (shifting every field) when the first row
+    has more fields than the header: FormatError naming that row, `line` of the file."""
+    import pandas as pd
+
+    if not isinstance(frame.index, pd.RangeIndex):
+        saw = frame.index.nlevels + frame.shape[1]
+        raise FormatError(path, f"line {line} has {saw} fields but the header has {header_fields}")
 
 
 def one_line(exc):

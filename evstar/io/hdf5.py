@@ -10,7 +10,7 @@ from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
-from .guard import H5PY_ERRORS, check_h5_numeric, decoder_errors, int64_times
+from .guard import H5PY_ERRORS, check_h5_numeric, decoder_errors, int64_times, stored_size
 from .text import sensor_size_from
 
 
@@ -44,11 +44,11 @@ def _datasets(path, f):
 
 
 def _size(path, g, sensor_size):
-    if sensor_size is None and "width" in g.attrs and "height" in g.attrs:
-        return _attr(path, g, "width"), _attr(path, g, "height")
-    if sensor_size is None:
-        return sensor_size_from(path, (g["x"][:], g["y"][:]), None)
-    return tuple(int(v) for v in sensor_size)
+    stored = None
+    if "width" in g.attrs and "height" in g.attrs:
+        stored = _attr(path, g, "width"), _attr(path, g, "height")
+    size = stored_size(path, stored, sensor_size)
+    return size or sensor_size_from(path, (g["x"][:], g["y"][:]), None)
 
 
 def _attr(path, obj, name, default=None):
@@ -58,6 +58,15 @@ def _attr(path, obj, name, default=None):
     check_h5_numeric(path, obj.attrs, name)
     v = np.asarray(obj.attrs[name])
     return v.item() if v.size == 1 else v
+
+
+def _group(path, f, name):
+    """The optional group `/name` (None where absent); a dataset there is a FormatError."""
+    if name not in f:
+        return None
+    if not isinstance(f[name], h5py.Group):
+        raise FormatError(path, f"'/{name}' is a {type(f[name]).__name__.lower()}, expected a group")
+    return f[name]
 
 
 def _array(path, group, name):
@@ -73,13 +82,11 @@ def read(path, sensor_size=None, sort=False):
         try:
             w, h = _size(path, g, sensor_size)
             rec = Recording(Events(*(g[k][:] for k in "txyp"), w, h, sort=sort))
-            if "imu" in f:
-                i = f["imu"]
+            if (i := _group(path, f, "imu")) is not None:
                 rec.imu = Imu(*(_array(path, i, k) for k in ("t", "gyro", "accel")),
                               R_cam_imu=_attr(path, i, "R_cam_imu"),
                               time_offset_us=_attr(path, i, "time_offset_us", 0))
-            if "camera" in f:
-                c = f["camera"]
+            if (c := _group(path, f, "camera")) is not None:
                 rec.camera = Camera(**{k: _attr(path, c, k) for k in c.attrs})
         except DataError as exc:
             raise FormatError(path, str(exc)) from None

@@ -6,9 +6,10 @@ import pandas as pd
 
 from ..errors import DataError, FormatError
 from ..events import T_LIMIT_US, check_time_range
-from ..imu import Imu
+from ..imu import MAX_RATE_RAD_S, Imu, first_excess_rate
 from .atomic import atomic_path
-from .guard import check_readable, decoder_errors
+from .guard import check_no_implicit_index, check_readable, csv_parser_error, decoder_errors
+from .text import first_row_line
 
 COLUMNS = ["t", "gx", "gy", "gz", "ax", "ay", "az"]
 
@@ -17,14 +18,20 @@ def read_imu(path, R_cam_imu=None, time_offset_us=0, sort=False):
     """IMU samples from CSV; sort=True orders unsorted timestamps (otherwise an error)."""
     check_readable(path)
     with decoder_errors(path, "IMU CSV"):
-        try:
-            frame = pd.read_csv(path, dtype=str, skipinitialspace=True, comment="#", keep_default_na=False)
+        try:  # utf-8-sig: a BOM is not part of the first column's name
+            frame = pd.read_csv(path, dtype=str, skipinitialspace=True, comment="#",
+                                keep_default_na=False, encoding="utf-8-sig")
         except pd.errors.EmptyDataError:
             raise FormatError(path, "file is empty") from None
-        return _imu(path, frame, R_cam_imu, time_offset_us, sort)
+        except pd.errors.ParserError as exc:
+            raise csv_parser_error(path, exc, "IMU CSV") from None
+        first = first_row_line(path)
+        check_no_implicit_index(path, frame, first, frame.shape[1])
+        return _imu(path, frame, R_cam_imu, time_offset_us, sort, first)
 
 
-def _imu(path, frame, R_cam_imu, time_offset_us, sort):
+def _imu(path, frame, R_cam_imu, time_offset_us, sort, first):
+    """Samples from the frame of strings; `first` is the file line of its first row."""
     frame.columns = [str(c).strip().lower() for c in frame.columns]
     dup = sorted({c for c in COLUMNS if f"{c}.1" in frame.columns})
     if dup:
@@ -38,18 +45,23 @@ def _imu(path, frame, R_cam_imu, time_offset_us, sort):
         bad = np.flatnonzero(np.isnan(v) & ~frame[c].str.strip().str.lower().isin(["nan", "inf", "-inf"]).to_numpy())
         if len(bad):
             i = int(bad[0])
-            raise FormatError(path, f"line {i + 2}: column '{c}' holds a non-numeric value {frame[c].iloc[i]!r}")
+            raise FormatError(path, f"line {first + i}: column '{c}' holds a non-numeric value {frame[c].iloc[i]!r}")
         if c == "t" and check_time_range(v) is not None:
             i = check_time_range(v)
-            raise FormatError(path, f"line {i + 2}: column 't' = {frame[c].iloc[i]} is outside the "
+            raise FormatError(path, f"line {first + i}: column 't' = {frame[c].iloc[i]} is outside the "
                                     f"valid time range ±{T_LIMIT_US} µs")
         if not np.all(np.isfinite(v)):
             i = int(np.flatnonzero(~np.isfinite(v))[0])
-            raise FormatError(path, f"line {i + 2}: column '{c}' is not finite ({frame[c].iloc[i]})")
+            raise FormatError(path, f"line {first + i}: column '{c}' is not finite ({frame[c].iloc[i]})")
         data[c] = v
+    gyro = np.stack([data[c] for c in ("gx", "gy", "gz")], 1)
+    bad = first_excess_rate(gyro)  # Imu checks this too; here the message names line and column
+    if bad is not None:
+        i, c = bad[0], ("gx", "gy", "gz")[bad[1]]
+        raise FormatError(path, f"line {first + i}: column '{c}' = {frame[c].iloc[i]} rad/s is beyond "
+                                f"±{MAX_RATE_RAD_S:g} rad/s (≈5700 °/s), not a real rotation rate")
     try:
-        return Imu(np.round(data["t"]).astype(np.int64),
-                   np.stack([data[c] for c in ("gx", "gy", "gz")], 1),
+        return Imu(np.round(data["t"]).astype(np.int64), gyro,
                    np.stack([data[c] for c in ("ax", "ay", "az")], 1),
                    R_cam_imu=R_cam_imu, time_offset_us=time_offset_us, sort=sort)
     except DataError as exc:

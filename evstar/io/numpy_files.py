@@ -9,19 +9,27 @@ from ..errors import DataError, FormatError
 from ..imu import Imu
 from ..recording import Recording
 from .atomic import atomic_path
-from .guard import int64_times
+from .guard import int64_times, one_line, stored_size
 from .text import sensor_size_from
 from ..camera import Camera
 from ..events import Events
 
 
+# what a .npy / .npz starts with: numpy's magic, or a zip entry (an empty zip's end record)
+MAGIC = (b"\x93NUMPY", b"PK\x03\x04", b"PK\x05\x06")
+
+
 def _load(path):
     try:
-        return np.load(path, allow_pickle=False, mmap_mode="r" if str(path).endswith(".npy") else None)
+        with open(path, "rb") as f:
+            head = f.read(6)
+        if head.startswith(MAGIC):  # anything else np.load would call pickled data
+            return np.load(path, allow_pickle=False, mmap_mode="r" if str(path).endswith(".npy") else None)
     except FileNotFoundError:
         raise FormatError(path, "no such file") from None
     except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
-        raise FormatError(path, f"not a readable NumPy file ({exc})") from None
+        raise FormatError(path, f"not a readable NumPy file ({one_line(exc)})") from None
+    raise FormatError(path, "not an evstar/NumPy events archive (neither a .npz zip nor a .npy array)")
 
 
 def _columns(path, data):
@@ -55,9 +63,10 @@ def _integers(path, data, name, sizes):
 
 
 def _size(path, data, cols, sensor_size):
-    if sensor_size is None and not isinstance(data, np.ndarray) and "sensor_size" in data.files:
-        sensor_size = _integers(path, data, "sensor_size", (2,))
-    return sensor_size_from(path, (cols[1], cols[2]), sensor_size)
+    stored = None
+    if not isinstance(data, np.ndarray) and "sensor_size" in data.files:
+        stored = _integers(path, data, "sensor_size", (2,))
+    return sensor_size_from(path, (cols[1], cols[2]), stored_size(path, stored, sensor_size))
 
 
 def read(path, sensor_size=None, sort=False):

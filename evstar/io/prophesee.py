@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import DataError, FormatError
 from ..events import Events
 from ..recording import Recording
-from .guard import decoder_errors, int64_times, is_rust_panic, one_line
+from .guard import decoder_errors, int64_times, is_rust_panic, one_line, stored_size
 
 # sensor generation (from the header's plugin_name) -> size
 PLUGIN_SIZES = {"gen3": (640, 480), "gen31": (640, 480), "gen4": (1280, 720),
@@ -24,14 +24,14 @@ PLUGIN_SIZES = {"gen3": (640, 480), "gen31": (640, 480), "gen4": (1280, 720),
 
 
 def _header_size(path):
+    """(the size the header states, the size its camera plugin implies), each or None."""
     with open(path, "rb") as f:
         head = f.read(4096)
     text = head.split(b"\n% end", 1)[0].decode("latin-1")
     m = re.search(r"% geometry (\d+)x(\d+)", text) or re.search(r"width (\d+).*height (\d+)", text, re.S)
-    if m:
-        return int(m.group(1)), int(m.group(2))
+    stated = (int(m.group(1)), int(m.group(2))) if m else None
     m = re.search(r"plugin_name \S*?(gen\d+|imx\d+|genx320)", text)
-    return PLUGIN_SIZES.get(m.group(1)) if m else None
+    return stated, PLUGIN_SIZES.get(m.group(1)) if m else None
 
 
 def _check_whole_words(path, dec, kind):
@@ -51,7 +51,9 @@ def _check_whole_words(path, dec, kind):
 
 def _decoder(path, sensor_size):
     kind = "dat" if str(path).lower().endswith(".dat") else "evt"
-    size = tuple(int(v) for v in sensor_size) if sensor_size else _header_size(path)
+    stated, plugin = _header_size(path)
+    # a stated size must agree with the option; a plugin's is a guess the option overrides
+    size = stored_size(path, stated, sensor_size) or plugin
     mod = faery.dat if kind == "dat" else faery.evt
     try:
         dec = mod.Decoder(str(path), size, None)

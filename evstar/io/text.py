@@ -22,6 +22,7 @@ from ..errors import DataError, EvstarWarning, FormatError
 from ..events import T_LIMIT_US, Events, check_time_range
 from ..recording import Recording
 from .atomic import atomic_path
+from .guard import check_no_implicit_index, csv_parser_error, one_line, stored_size
 
 # accepted header names for each field (lower case)
 ALIASES = {"t": ("t", "timestamp", "ts", "time", "t_us"), "x": ("x",), "y": ("y",),
@@ -36,7 +37,7 @@ def _sniff(path):
     after the header."""
     size, line, names, number = None, "", None, 0
     try:
-        with open(path, "r", errors="replace") as f:
+        with open(path, "r", encoding="utf-8-sig", errors="replace") as f:  # -sig: drop a BOM
             for number, ln in enumerate(f, 1):
                 if ln.startswith("#"):
                     m = SIZE_LINE.match(ln.strip())
@@ -61,6 +62,11 @@ def _sniff(path):
 
 def _is_header(line):
     return any(c.isalpha() and c not in "eE" for c in line)
+
+
+def first_row_line(path):
+    """The line number of the first data row (after the header and comment lines)."""
+    return _sniff(path)[3]
 
 
 def header_sensor_size(path):
@@ -142,7 +148,7 @@ def _times(path, frame, column, name, offset, seconds, rounding):
 
 def _reader(path, names, sep, chunk_rows):
     kw = dict(sep=sep, dtype=str, comment="#", skipinitialspace=True, chunksize=chunk_rows,
-              engine="c", keep_default_na=False)
+              engine="c", keep_default_na=False, encoding="utf-8-sig")
     if names is None:
         kw.update(header=None, names=["t", "x", "y", "p"], usecols=[0, 1, 2, 3])
     return pd.read_csv(path, **kw)
@@ -161,6 +167,8 @@ def packets(path, chunk_rows=1_000_000):
     rounding = _Rounding()
     try:
         for frame in _reader(path, names, sep, chunk_rows):
+            if not seconds:
+                check_no_implicit_index(path, frame, line, len(names))
             frame.columns = [_clean(c) for c in frame.columns]
             missing = [c for c in cols.values() if c not in frame.columns]
             if missing:
@@ -172,7 +180,9 @@ def packets(path, chunk_rows=1_000_000):
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OverflowError) as exc:
         if isinstance(exc, FormatError):
             raise
-        raise FormatError(path, f"not a readable CSV/TXT event file ({exc})") from None
+        if isinstance(exc, pd.errors.ParserError):
+            raise csv_parser_error(path, exc, "CSV/TXT event file") from None
+        raise FormatError(path, f"not a readable CSV/TXT event file ({one_line(exc)})") from None
     if rounding.count:
         what = "sub-µs digits" if seconds else "fractional µs"
         warnings.warn(f"{path}: column {label['t']} has {rounding.count} value(s) with {what}, "
@@ -196,9 +206,9 @@ def sensor_size_from(path, arrays, sensor_size):
 
 
 def read(path, sensor_size=None, sort=False):
+    size = stored_size(path, header_sensor_size(path), sensor_size)
     parts = list(packets(path))
     cols = [np.concatenate(c) for c in zip(*parts)] if parts else [np.zeros(0, np.int64)] * 4
-    size = sensor_size if sensor_size is not None else header_sensor_size(path)
     w, h = sensor_size_from(path, (cols[1], cols[2]), size)
     try:
         return Recording(Events(*cols, w, h, sort=sort))
