@@ -168,6 +168,11 @@ SCHEDULES = ("auto", "lanes", "events")
 MAX_RADIUS = 64          # px; the counting kernels' disk tables stop here
 MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistake
 MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
+MAX_PIXEL_RATE_HZ = 1e6  # events/pixel/s: a pixel's refractory period is ~1 µs or more
+#: °/s: the fastest slew the simulator and demo take (constant rate, or a sinusoid's peak
+#: rate 2π·f·A), ten turns a second; faster slews only cost time (the simulator's steps
+#: follow the star across the image) and no star sensor tracks them
+MAX_SLEW_DPS = 3600
 
 
 def check_path(value, key):
@@ -210,8 +215,9 @@ DENOISE = Params(
           auto=True),
     Param("alpha", float, 1e-3, "false-alarm probability of auto thresholds", low=0, high=1,
           open_low=True, open_high=True),
-    Param("rate_hz", float, None, "background rate for auto thresholds (default: measured)",
-          low=0, optional=True, unit="events/pixel/s"),
+    Param("rate_hz", float, None, "background rate for auto thresholds (default: measured; "
+          f"at most {MAX_PIXEL_RATE_HZ:g}: no pixel fires faster than about one event per µs)",
+          low=0, high=MAX_PIXEL_RATE_HZ, optional=True, unit="events/pixel/s"),
     Param("k", int, 1, "classical filter: supporting neighbours needed (1 = dv's filter)",
           low=1, high=8),
 )

@@ -56,4 +56,4 @@ def test_warnings_are_one_line_each(tmp_path):
                          text=True, cwd=tmp_path, timeout=300)
     assert res.returncode == 0, res.stderr
     assert res.stderr == ("evstar info: warning: ev.csv: no sensor size given; inferred 3x3 from "
-                          "the largest coordinates (pass sensor_size=(W, H) or a camera)\n")
+                          "the largest coordinates (pass --sensor-size W H or --camera)\n")

@@ -77,7 +77,10 @@ def main(argv=None):
 
 def _one_line_warning(command):
     def show(message, category, filename, lineno, file=None, line=None):
-        print(f"evstar {command}: warning: {message}", file=sys.stderr if file is None else file)
+        from .common import cli_wording
+
+        print(f"evstar {command}: warning: {cli_wording(message)}",
+              file=sys.stderr if file is None else file)
     return show
 
 
@@ -103,5 +106,7 @@ def _run(args):
 def _fail(args, message, code, exc=None):
     if args.debug:
         raise exc if exc is not None else message
-    print(f"evstar {args.command}: error: {message}", file=sys.stderr)
+    from .common import cli_wording
+
+    print(f"evstar {args.command}: error: {cli_wording(message)}", file=sys.stderr)
     return code

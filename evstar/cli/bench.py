@@ -1,9 +1,17 @@
-"""`evstar bench`: throughput of every stage on a simulated scene; JSON plus a table."""
+"""`evstar bench`: throughput of every stage on a simulated scene; JSON plus a table.
+
+-o names a .json file; an existing file there is replaced only when it holds an earlier
+`evstar bench` result (never a recording, a camera file or any other JSON)."""
 from __future__ import annotations
 
+import json
+import pathlib
 
 from .. import parameters as P
 from .options import add_options, checked
+
+#: the top-level keys of a results file (evstar.profiling.write_results)
+RESULT_KEYS = {"machine", "meta", "rows"}
 
 
 def add_arguments(p):
@@ -12,12 +20,38 @@ def add_arguments(p):
     add_options(p, P.GLOBAL, ["device"], device={"default": "cpu"})
     p.add_argument("--repeats", type=checked(int, 1, 1000), default=3,
                    help="timed runs per stage (median reported)")
-    p.add_argument("-o", "--output", default="bench.json", help="JSON results (bench.json)")
+    p.add_argument("-o", "--output", default="bench.json", metavar="RESULTS.json",
+                   help="JSON results (bench.json)")
+
+
+def check_results_path(path):
+    """Before any work: a .json name (ParameterError) where no other file would be replaced
+    (OutputError)."""
+    from ..errors import OutputError, ParameterError
+    from .common import check_file_output
+
+    check_file_output(path, "-o/--output")   # the raw text: "x.json/" is a folder path
+    path = pathlib.Path(path)
+    if path.suffix.lower() != ".json":
+        raise ParameterError(f"-o/--output must name a .json file (bench writes JSON), got {str(path)!r}")
+    if path.exists() and not _is_results(path):
+        raise OutputError(path, "exists and is not an evstar bench result; evstar bench replaces "
+                                "only its own results, choose another name")
+
+
+def _is_results(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+    except (OSError, ValueError):
+        return False
+    return isinstance(doc, dict) and set(doc) == RESULT_KEYS
 
 
 def run(args):
     from .. import bench, profiling
 
+    check_results_path(args.output)
     rows = bench.run(args.events, args.device, args.repeats)
     profiling.write_results(args.output, rows, {"events": args.events, "device": args.device,
                                                 "repeats": args.repeats})

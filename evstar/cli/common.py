@@ -1,15 +1,83 @@
 """Options and helpers shared by several sub-commands."""
 from __future__ import annotations
 
+import argparse
+import os
+import re
+
+from ..errors import OutputError, ParameterError
+from .options import checked
+
+MAX_SENSOR_SIDE = 65536  # pixels: evstar.Events holds x, y as uint16
+
 
 def add_input_options(p):
-    p.add_argument("--format", help="input format, overriding the extension (csv, npz, hdf5, aedat4, raw, dat)")
-    p.add_argument("--sensor-size", nargs=2, type=int, metavar=("W", "H"),
+    p.add_argument("--format", type=format_name,
+                   help="input format, overriding the extension (csv, npz, hdf5, aedat4, raw, dat)")
+    p.add_argument("--sensor-size", nargs=2, type=checked(int, 1, MAX_SENSOR_SIDE), metavar=("W", "H"),
                    help="sensor size when the file does not say")
     p.add_argument("--camera", help="camera JSON (width, height, fx, fy, cx, cy)")
     p.add_argument("--imu", help="IMU CSV t,gx,gy,gz,ax,ay,az (µs, rad/s, m/s²)")
     p.add_argument("--sort", action="store_true",
                    help="order unsorted timestamps by time (otherwise they are an error)")
+
+
+def add_output_format_option(p, help_text):
+    """--to: the output's format, overriding its extension (a format evstar can write)."""
+    p.add_argument("--to", dest="out_format", type=writable_format_name, metavar="FORMAT", help=help_text)
+
+
+def format_name(text):
+    """argparse `type` of --format: a format evstar reads (evstar.io.FORMATS, imported only
+    when the option is given)."""
+    from ..io import FORMATS
+
+    if text not in FORMATS:
+        raise argparse.ArgumentTypeError(f"must be one of {', '.join(sorted(FORMATS))}, got {text!r}")
+    return text
+
+
+def writable_format_name(text):
+    """argparse `type` of --to: a format evstar writes."""
+    from ..io import FORMATS
+
+    names = sorted(n for n, (_, _, can_write) in FORMATS.items() if can_write)
+    if text not in names:
+        raise argparse.ArgumentTypeError(f"must be one of {', '.join(names)}, got {text!r}")
+    return text
+
+
+def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
+    """ParameterError (a usage error, exit 2) unless evstar can write events to `path`
+    (format from --to or the extension), checked before any work."""
+    from .. import io
+    from ..errors import FormatError
+
+    names = sorted(n for n, (_, _, can_write) in io.FORMATS.items() if can_write)
+    try:
+        fmt = io.format_of(path, out_format)
+    except FormatError:
+        ext = os.path.splitext(str(path))[1]
+        known = sorted(e for n in names for e in io.FORMATS[n][1])
+        raise ParameterError(f"{option} {path}: unknown extension {ext!r}; give one of "
+                             f"{', '.join(known)}" + (f" (or {override})" if override else "")) from None
+    if not io.FORMATS[fmt][2]:
+        raise ParameterError(f"{option} {path}: evstar reads {fmt} files but cannot write them; "
+                             f"write {', '.join(names[:-1])} or {names[-1]}")
+    return fmt
+
+
+def check_file_output(path, option):
+    """The checks of a file output before any work: not a folder (an existing one, or a
+    path ending in a separator, which would otherwise become a file of the folder's name),
+    in a writable place. OutputError (exit 4) otherwise."""
+    from ..io.atomic import check_output_file
+
+    text = os.fspath(path)
+    if text.endswith(os.sep) or (os.altsep and text.endswith(os.altsep)) \
+            or os.path.basename(text) in ("", ".", ".."):
+        raise OutputError(text, f"is a folder path; {option} needs a file name")
+    return check_output_file(path)
 
 
 def load(args):
@@ -19,3 +87,24 @@ def load(args):
     return read_recording(args.input, format=args.format, sensor_size=args.sensor_size,
                           camera=getattr(args, "camera", None), imu=getattr(args, "imu", None),
                           sort=bool(getattr(args, "sort", False)))
+
+
+#: the library's wording of a remedy (Python keywords, functions) -> the command line's
+_CLI_WORDS = [
+    (re.compile(r"pass sensor_size=\(W, H\) or a camera"), "pass --sensor-size W H or --camera"),
+    (re.compile(r"pass sensor_size=\(W, H\)"), "pass --sensor-size W H"),
+    (re.compile(r"\(or pass format=\)"), "(or pass --format)"),
+    (re.compile(r"; write it separately \(write_imu / write_camera\)"),
+     "; an .h5 or .npz output keeps them"),
+    (re.compile(r"sensor_size must be two positive integers \(W, H\)"),
+     "--sensor-size must be two positive integers W H"),
+]
+
+
+def cli_wording(message):
+    """An error or warning of the library as the command line says it: options instead of
+    the Python arguments the library's messages name."""
+    message = str(message)
+    for pattern, text in _CLI_WORDS:
+        message = pattern.sub(text, message)
+    return message

@@ -1,4 +1,5 @@
-"""`evstar denoise IN OUT --method classical|ndsef|mr-ndsef`: keep the events a filter accepts.
+"""`evstar denoise IN OUT [--method classical|ndsef|mr-ndsef]`: keep the events a filter
+accepts (default: MR-NDSEF, the configuration's default).
 
 OUT receives the kept events in input order (format by extension, IMU and camera carried
 over where the format holds them); --mask-out writes the keep mask (one bool per input
@@ -10,8 +11,9 @@ from __future__ import annotations
 import time
 
 from .. import parameters as P
-from ..errors import ParameterError
-from .common import add_input_options, load
+from ..errors import OutputError, ParameterError
+from .common import add_input_options, add_output_format_option, check_events_output, \
+    check_file_output, load
 from .options import add_options, config_from_args
 
 METHODS = P.METHODS[1:]  # every filter; "none" is for the pipeline
@@ -21,12 +23,12 @@ def add_arguments(p):
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT", help="kept events: .csv .npz .h5 .aedat4")
     add_options(p, P.GLOBAL, ["device", "dt_us"])
-    add_options(p, P.DENOISE, method={"required": True, "choices": METHODS})
+    add_options(p, P.DENOISE, method={"choices": METHODS})
     add_options(p, P.KERNEL, ["backend"], section="")
     p.add_argument("--auto", action="store_true", help="thresholds from the background rate (the default)")
     p.add_argument("--mask-out", metavar="MASK.npy", help="write the keep mask (bool per input event)")
     add_input_options(p)
-    p.add_argument("--to", dest="out_format", help="output format, overriding OUT's extension")
+    add_output_format_option(p, "output format, overriding OUT's extension (csv, npz, hdf5, aedat4)")
 
 
 def make_filter(args):
@@ -36,22 +38,33 @@ def make_filter(args):
     given = {k for k, v in vars(args).items() if v is not None and v is not False}
     for option, key, method in (("--threshold", "denoise.threshold", "ndsef"),
                                 ("--thresholds", "denoise.thresholds", "mr-ndsef")):
-        if key in given and args.__dict__["denoise.method"] != method:
+        if key in given and method_of(args) != method:
             raise ParameterError(f"{option} is for --method {method}")
         if key in given and "auto" in given:
             raise ParameterError(f"{option} and --auto exclude each other")
     return denoise.from_config(config_from_args(args), backend=args.backend or "taichi")
 
 
+def method_of(args):
+    """--method, or the declared default when it is not given."""
+    return args.__dict__["denoise.method"] or P.DENOISE["method"].default
+
+
 def run(args):
     import numpy as np
 
     from .. import io
-    from ..io.atomic import atomic_path, check_output_file, check_outputs
+    from ..io.atomic import atomic_path, check_outputs
 
-    for out in (args.output, args.mask_out):
+    for out, option in ((args.output, "OUT"), (args.mask_out, "--mask-out")):
         if out is not None:
-            check_output_file(out)
+            check_file_output(out, option)
+    check_events_output(args.output, args.out_format)  # the format, before any work
+    try:  # the two outputs must differ: the mask would replace the kept events
+        check_outputs([args.mask_out], [args.output])
+    except OutputError:
+        raise ParameterError(f"--mask-out {args.mask_out} is OUT {args.output}; give the mask "
+                             "its own file") from None
     check_outputs([args.output, args.mask_out], [args.input, args.imu, args.camera])
     flt = make_filter(args)
     rec = load(args)
@@ -65,4 +78,4 @@ def run(args):
     n = len(keep)
     extra = f", thresholds {list(flt.thresholds_)}" if hasattr(flt, "thresholds_") else ""
     print(f"kept {int(keep.sum()):,} of {n:,} events ({100 * keep.mean() if n else 0:.1f} %) "
-          f"with {args.__dict__['denoise.method']}{extra} in {elapsed:.3f} s; wrote {args.output}")
+          f"with {method_of(args)}{extra} in {elapsed:.3f} s; wrote {args.output}")

@@ -7,6 +7,7 @@ unset keep the configuration file's value (or the declared default).
 from __future__ import annotations
 
 import argparse
+import math
 
 from .. import parameters as P
 from ..errors import EvstarError, ParameterError
@@ -33,6 +34,8 @@ def add_options(p, params, names=None, section=None, **overrides):
             if param.choices:
                 kw.update(choices=param.choices, metavar=None, type=str)
         kw.update(overrides.get(name, {}))
+        if "default" in overrides.get(name, {}) and "help" not in overrides[name]:
+            kw["help"] = _help(param, kw["default"])  # the help names the default used
         group.add_argument(param.option, **kw)
 
 
@@ -83,6 +86,8 @@ def _parser(param):
             value = _number(text, param.kind)
             if param.cli_scale == 1:
                 return scalar.check(value, param.name)
+            if not math.isfinite(value):  # inf, 1e400, nan: no µs count (the range error below)
+                raise ParameterError(f"{param.name} must be finite, got {text}")
             return scalar.check(round(value * param.cli_scale), param.name)  # --dt-ms 2.5 -> 2500 µs
         except (ValueError, EvstarError) as exc:
             if param.cli_scale == 1 or isinstance(exc, ValueError) and "number" in str(exc):
@@ -110,9 +115,11 @@ def _metavar(param):
     return (param.cli_unit or param.unit or "N").upper().replace("/", "_").replace("µ", "U")
 
 
-def _help(param):
+def _help(param, default=None):
+    """The option's help: its doc, unit and default (the declared one unless the command
+    overrides it)."""
     unit = param.cli_unit or param.unit
-    default = param.default
+    default = param.default if default is None else default
     if param.cli_scale != 1 and isinstance(default, (int, float)):
         default = f"{default / param.cli_scale:g}"
     return (f"{param.doc}{f', {unit}' if unit and param.kind is not str else ''} "

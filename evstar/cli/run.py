@@ -13,7 +13,9 @@ processed in chunks with bounded memory.
 from __future__ import annotations
 
 from .common import add_input_options
-from .options import add_pipeline_options, config_from_args
+from .options import add_pipeline_options, checked, config_from_args
+
+MAX_STREAM_ABOVE_MB = 1e9  # a petabyte: larger is no threshold but a typo
 
 
 def add_arguments(p):
@@ -25,8 +27,9 @@ def add_arguments(p):
 
 def add_run_options(p):
     """What `evstar run` and `evstar batch` share: streaming, progress, inputs, pipeline."""
-    p.add_argument("--stream-above-mb", type=float, default=1024.0,
-                   help="stream inputs larger than this many MB in chunks (1024)")
+    p.add_argument("--stream-above-mb", type=checked(float, 0, MAX_STREAM_ABOVE_MB), default=1024.0,
+                   metavar="MB", help="stream inputs larger than this many MB in chunks (1024; "
+                   "0: always; at most 1e9, a petabyte)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_input_options(p)
     add_pipeline_options(p)

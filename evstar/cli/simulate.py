@@ -4,13 +4,24 @@ OUT_DIR receives the events (events.h5 by default; the format follows --events-n
 extension: .h5 .npz .csv .aedat4), imu.csv (samples as measured: IMU frame and clock),
 camera.json, and truth.npz (per-event labels in event order, star table, attitude and
 star positions over time, IMU biases and calibration; read it with evstar.sim.load_truth).
+
+A rerun into the same folder replaces these files; it never replaces a file an earlier
+`evstar simulate` did not write there (truth.npz records the events file's name), and
+--events-name must differ from imu.csv, camera.json and truth.npz.
 """
 from __future__ import annotations
 
+import math
 import os
 
-from ..errors import FormatError, OutputError, ParameterError
+from .. import parameters as P
+from ..errors import OutputError, ParameterError
+from .common import check_events_output
 from .options import checked
+
+#: the files simulate writes besides the events (fixed names)
+OTHER_FILES = ("imu.csv", "camera.json", "truth.npz")
+DEFAULT_EVENTS_NAME = "events.h5"
 
 
 def add_arguments(p):
@@ -22,9 +33,11 @@ def add_arguments(p):
     p.add_argument("--focal-length", type=checked(float, 0, open_low=True), default=12.0, metavar="MM",
                    help="lens focal length (12)")
     motion = p.add_mutually_exclusive_group()
-    motion.add_argument("--rate", type=checked(float, -3600, 3600), metavar="DPS", help="constant turntable rate, °/s (default 10)")
+    motion.add_argument("--rate", type=checked(float, -P.MAX_SLEW_DPS, P.MAX_SLEW_DPS), metavar="DPS",
+                        help=f"constant turntable rate, °/s, at most {P.MAX_SLEW_DPS} in size (default 10)")
     motion.add_argument("--sine", type=checked(float, 0), nargs=2, metavar=("AMP_DEG", "FREQ_HZ"),
-                        help="sinusoidal motion, e.g. 10 1 (the paper's)")
+                        help="sinusoidal motion, e.g. 10 1 (the paper's); its peak rate "
+                             f"2π·FREQ_HZ·AMP_DEG at most {P.MAX_SLEW_DPS} °/s")
     p.add_argument("--axis", type=checked(float), nargs=3, default=(0.0, -1.0, 0.0), metavar=("X", "Y", "Z"),
                    help="rotation axis in the camera frame (default 0 -1 0: camera up)")
     p.add_argument("--magnitude", type=checked(float, -30, 30), default=3.0, help="single star's magnitude (3)")
@@ -42,7 +55,8 @@ def add_arguments(p):
                    help="sensor model: default (no pixel bandwidth limit) or dark-sky (photoreceptor "
                         "low-pass 30 Hz at the sky background up to 2 kHz, 0.1 Hz leak)")
     p.add_argument("--noise-hz", type=checked(float, 0, 1e6), default=1.5, help="background activity, events/pixel/s (1.5)")
-    p.add_argument("--hot-pixels", type=checked(int, 0, 10**6), default=5, metavar="N", help="number of hot pixels (5)")
+    p.add_argument("--hot-pixels", type=checked(int, 0, 10**7), default=5, metavar="N",
+                   help="number of hot pixels, at most the camera's pixel count (5)")
     p.add_argument("--threshold", type=checked(float, 0, 10, open_low=True), default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
     p.add_argument("--psf-sigma", type=checked(float, 0, 100, open_low=True), default=1.0, metavar="PX", help="PSF sigma in pixels (1.0)")
     p.add_argument("--duration", type=checked(float, 0, 3600, open_low=True), metavar="S",
@@ -50,8 +64,9 @@ def add_arguments(p):
     p.add_argument("--imu-rate", type=checked(float, 0, 1e6, open_low=True), default=1000.0, metavar="HZ", help="IMU sample rate (1000)")
     p.add_argument("--ideal-imu", action="store_true", help="IMU without noise or bias")
     p.add_argument("--seed", type=checked(int, 0, 2**32 - 1), default=0)
-    p.add_argument("--events-name", default="events.h5", metavar="NAME",
-                   help="events file name; its extension picks the format (events.h5)")
+    p.add_argument("--events-name", default=DEFAULT_EVENTS_NAME, metavar="NAME",
+                   help="events file name in OUT_DIR; its extension picks the format: .h5 .npz "
+                        ".csv .aedat4 (events.h5)")
 
 
 def scenario_from(args):
@@ -63,7 +78,12 @@ def scenario_from(args):
     """
     from .. import sim
 
+    check_motion(args)
     cam = sim.camera_preset(args.preset, args.focal_length)
+    if args.hot_pixels > cam.width * cam.height:
+        raise ParameterError(f"--hot-pixels must be at most the {args.preset} sensor's "
+                             f"{cam.width * cam.height:,} pixels ({cam.width}x{cam.height}), "
+                             f"got {args.hot_pixels:,}")
     sensor = sim.sensor_model(args.sensor, threshold_on=args.threshold, threshold_off=args.threshold,
                               noise_hz=args.noise_hz, hot_pixels=args.hot_pixels)
     imu = (sim.ImuSpec.ideal if args.ideal_imu else sim.ImuSpec)(rate_hz=args.imu_rate)
@@ -78,6 +98,17 @@ def scenario_from(args):
         stars = sim.hipparcos_field_along(cam, motion, duration, mag_limit=args.mag_limit,
                                           max_stars=args.stars)
     return sim.Scenario(cam, stars, motion, duration, sensor=sensor, imu=imu, psf_sigma_px=args.psf_sigma)
+
+
+def check_motion(args):
+    """ParameterError when --sine's peak rate 2π·f·A exceeds the bound of --rate."""
+    if args.sine:
+        amp, freq = args.sine
+        peak = 2 * math.pi * freq * amp
+        if peak > P.MAX_SLEW_DPS:
+            raise ParameterError(f"--sine {amp:g} {freq:g}: peak rate 2π·FREQ_HZ·AMP_DEG = "
+                                 f"{peak:.4g} °/s exceeds {P.MAX_SLEW_DPS} °/s (the bound of --rate); "
+                                 "lower the amplitude or the frequency")
 
 
 def pointing(args):
@@ -109,11 +140,9 @@ def run(args):
 
     if os.path.exists(args.out_dir) and not os.path.isdir(args.out_dir):
         raise OutputError(args.out_dir, "exists and is not a folder")
-    events_path = os.path.join(args.out_dir, args.events_name)
-    try:
-        fmt = io.format_of(events_path)
-    except FormatError as exc:
-        raise ParameterError(f"--events-name: {exc}") from None
+    events_path = os.path.join(args.out_dir, check_events_name(args.events_name))
+    fmt = check_events_output(events_path, None, option="--events-name", override=None)
+    check_replaceable(args.out_dir, args.events_name)
     try:
         scenario = scenario_from(args)
     except ValueError as exc:  # the simulator's own checks of a combination of options
@@ -124,12 +153,13 @@ def run(args):
         result.truth.meta["pointing_deg"] = dict(ra=ra, dec=dec, roll=roll)
         print(f"pointing RA {ra:.3f}°, Dec {dec:.3f}°, roll {roll:.3f}° (truth.npz quat_icrs_cam: "
               "camera -> ICRS over time)")
+    result.truth.meta["events_name"] = args.events_name   # a rerun may replace it
     os.makedirs(args.out_dir, exist_ok=True)
+    save_truth(os.path.join(args.out_dir, "truth.npz"), result.truth)  # first: it says what is ours
     io.write(events_path, result.events, imu=result.imu if fmt != "csv" else None,
              camera=result.camera if fmt not in ("csv", "aedat4") else None)
     io.write_imu(os.path.join(args.out_dir, "imu.csv"), result.imu)
     io.write_camera(os.path.join(args.out_dir, "camera.json"), result.camera)
-    save_truth(os.path.join(args.out_dir, "truth.npz"), result.truth)
     labels = result.truth.labels
     if not (labels >= 0).any():
         print(f"note: the star(s) gave no events (magnitude {args.magnitude:g} is too faint for "
@@ -138,3 +168,53 @@ def run(args):
           f"{len(scenario.stars)} star(s), {int((labels == -1).sum()):,} noise, "
           f"{int((labels == -2).sum()):,} hot-pixel) to {events_path}")
     print(f"wrote {len(result.imu):,} IMU samples, camera.json and truth.npz to {args.out_dir}")
+
+
+def check_events_name(name):
+    """--events-name: a file name in OUT_DIR that is none of simulate's other files."""
+    if not name or os.path.basename(name) != name or name in (".", "..") \
+            or (os.altsep and os.altsep in name):
+        raise ParameterError(f"--events-name must be a file name in OUT_DIR (no folder), got {name!r}")
+    # compared ignoring case: one file on case-insensitive file systems
+    if name.lower() in OTHER_FILES:
+        raise ParameterError(f"--events-name {name} is the name of simulate's {name.lower()}; "
+                             f"choose another name (simulate also writes {', '.join(OTHER_FILES)})")
+    return name
+
+
+def check_replaceable(out_dir, events_name):
+    """OutputError if a file simulate would write exists in `out_dir` but no earlier
+    `evstar simulate` wrote it: simulate's files are known by truth.npz, which records the
+    events file's name (a truth file without that record: the default events.h5)."""
+    existing = [n for n in (events_name, *OTHER_FILES) if os.path.lexists(os.path.join(out_dir, n))]
+    if not existing:
+        return
+    ours = _earlier_files(out_dir)
+    foreign = [n for n in existing if n not in ours]
+    if foreign:
+        raise OutputError(os.path.join(out_dir, foreign[0]),
+                          "exists and was not written by evstar simulate; simulate never "
+                          "replaces other files: choose another OUT_DIR or --events-name")
+
+
+def _earlier_files(out_dir):
+    """The names an earlier simulate wrote into `out_dir` (empty without its truth.npz)."""
+    import json
+    import zipfile
+
+    import numpy as np
+
+    path = os.path.join(out_dir, "truth.npz")
+    if not os.path.isfile(path):
+        return set()
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if "format_version" not in z.files or "meta" not in z.files:
+                return set()
+            meta = json.loads(str(z["meta"]))
+    except (OSError, ValueError, zipfile.BadZipFile):
+        return set()
+    if not isinstance(meta, dict):
+        return set()
+    name = meta.get("events_name", DEFAULT_EVENTS_NAME)
+    return {*OTHER_FILES, *([name] if isinstance(name, str) else [])}
