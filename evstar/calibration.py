@@ -243,8 +243,10 @@ def calibrate(events, imu, camera, config=None, progress=None):
     from . import Config, Pipeline
     from .estimation import chunk_crossings, velocity_prior
 
-    if imu is None or camera is None:
-        raise DataError("calibration needs the recording's IMU and camera")
+    missing = [name for name, v in (("IMU", imu), ("camera", camera)) if v is None]
+    if missing:
+        raise DataError(f"calibration needs the recording's IMU and camera; no {' and no '.join(missing)} "
+                        "was given (--imu imu.csv, --camera camera.json, or a file that holds them)")
     config = (config or Config()).replace(**{"motion.compensate": "imu",
                                              "estimate.estimator": "crossings",
                                              "estimate.pixel_lag_file": None})

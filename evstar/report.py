@@ -59,8 +59,8 @@ def plot_tracks(path, image, centroids, truth_xy=None):
             ax.plot(xy[:, 0], xy[:, 1], "--", color="cyan", lw=0.8, label="truth" if k == 0 else None)
     ax.set_xlim(-0.5, width - 0.5)
     ax.set_ylim(height - 0.5, -0.5)
-    if len(np.unique(centroids["track"])) <= 12:
-        ax.legend(loc="upper right", fontsize=7)
+    if ax.get_legend_handles_labels()[0] and len(np.unique(centroids["track"])) <= 12:
+        ax.legend(loc="upper right", fontsize=7)   # none without a track: matplotlib warns
     return _save(fig, path)
 
 

@@ -6,7 +6,10 @@ as a library function that `evstar run` and `evstar batch` (evstar.batch) share.
 """
 from __future__ import annotations
 
+import math
 import os
+
+from .errors import ParameterError
 
 
 def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, format=None,
@@ -23,6 +26,9 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     from .pipeline import Pipeline
     from .sim import load_truth
 
+    if not (isinstance(stream_above_mb, (int, float)) and math.isfinite(stream_above_mb)
+            and stream_above_mb >= 0):
+        raise ParameterError(f"stream_above_mb must be a finite number >= 0, got {stream_above_mb!r}")
     check_output_dir(outdir)
     check_outputs(outputs.run_files(outdir), [input, imu, camera, truth])
     truth = load_truth(truth) if truth else None
@@ -36,11 +42,26 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     else:
         rec = read_recording(input, format=format, sensor_size=sensor_size, camera=camera,
                              imu=imu, sort=sort)
+        if rec.imu is not None and rec.camera is not None and len(rec.events):
+            _check_imu_span(rec.imu, rec.events, config, imu or input)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
         cam, imu_data, events = rec.camera, rec.imu, rec.events
     outputs.write_run(outdir, result, config, truth,
                       attitude=attitude_rows(result, cam, imu_data, events))
     return result
+
+
+def _check_imu_span(imu, events, config, source):
+    """DataError before any work where the IMU (from `source`) does not reach the events
+    within motion.extrapolate_us: compensation or the attitude after the run would refuse
+    it, minutes later."""
+    from .errors import DataError
+    from .motion import hold_ends
+
+    try:
+        hold_ends(imu, int(events.t[0]), int(events.t[-1]), config.motion.extrapolate_us)
+    except DataError as exc:
+        raise DataError(f"{source}: {exc}") from None
 
 
 def attitude_rows(result, camera, imu=None, events=None):

@@ -57,3 +57,15 @@ def test_warnings_are_one_line_each(tmp_path):
     assert res.returncode == 0, res.stderr
     assert res.stderr == ("evstar info: warning: ev.csv: no sensor size given; inferred 3x3 from "
                           "the largest coordinates (pass --sensor-size W H or --camera)\n")
+
+
+def test_a_recording_without_stars_runs_without_warnings(tmp_path):
+    """No events at all: the run folder is written and stderr holds no stray library warning
+    (matplotlib warned of a legend without labels)."""
+    (tmp_path / "empty.csv").write_text("t,x,y,p\n")
+    res = subprocess.run([sys.executable, "-m", "evstar", "run", "empty.csv", "-o", "out",
+                          "--sensor-size", "10", "10", "--no-progress"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "warning" not in res.stderr.lower(), res.stderr
+    assert (tmp_path / "out" / "tracks.png").exists()

@@ -109,6 +109,8 @@ def test_output_checks_raise_output_error(tmp_path):
     (tmp_path / "f").write_text("")
     with pytest.raises(evstar.OutputError, match="is a folder"):
         check_output_file(tmp_path)
+    with pytest.raises(evstar.OutputError, match="is a folder"):   # would become a file "lagdir"
+        check_output_file(f"{tmp_path / 'lagdir'}{os.sep}")
     with pytest.raises(evstar.OutputError, match="is a file"):
         check_output_file(tmp_path / "f" / "g.csv")
     with pytest.raises(evstar.OutputError, match="not a folder"):
@@ -232,3 +234,20 @@ def test_accumulated_counts_events_per_pixel():
     ev = evstar.Events([0, 1, 2], [3, 3, 0], [1, 1, 2], [1, 0, 1], 4, 3)
     img = frames.accumulated(ev)
     assert img.shape == (3, 4) and img[1, 3] == 2 and img[2, 0] == 1 and img.sum() == 3
+
+
+def test_an_imu_that_misses_the_events_is_refused_before_any_work(scene, files, tmp_path):
+    """evstar run with an IMU 10 s late: one DataError naming the IMU file, before the
+    pipeline ran and before the output folder exists (the attitude after the run refused it
+    only then; before that, a run without compensation ended with a garbage attitude)."""
+    from evstar import Config, runs
+
+    late = tmp_path / "late.csv"
+    imu = scene.imu
+    io.write_imu(late, evstar.Imu(imu.t + 10_000_000, imu.gyro, imu.accel))
+    out = tmp_path / "out"
+    with pytest.raises(evstar.DataError, match="late.csv: the IMU starts"):
+        runs.run_recording(files / "events.h5", out, Config(), imu=late)
+    assert not out.exists()
+    with pytest.raises(evstar.ParameterError, match="stream_above_mb"):
+        runs.run_recording(files / "events.h5", out, Config(), stream_above_mb=float("nan"))

@@ -68,16 +68,11 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
 
 
 def check_file_output(path, option):
-    """The checks of a file output before any work: not a folder (an existing one, or a
-    path ending in a separator, which would otherwise become a file of the folder's name),
-    in a writable place. OutputError (exit 4) otherwise."""
+    """The checks of a file output before any work (io.atomic.check_output_file: not a
+    folder, in a writable place); OutputError (exit 4) naming `option` otherwise."""
     from ..io.atomic import check_output_file
 
-    text = os.fspath(path)
-    if text.endswith(os.sep) or (os.altsep and text.endswith(os.altsep)) \
-            or os.path.basename(text) in ("", ".", ".."):
-        raise OutputError(text, f"is a folder path; {option} needs a file name")
-    return check_output_file(path)
+    return check_output_file(path, option)
 
 
 def load(args):

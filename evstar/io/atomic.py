@@ -52,11 +52,16 @@ def _output_error(path, exc):
     return OutputError(path, f"cannot write: {exc.strerror or exc}")
 
 
-def check_output_file(path):
-    """OutputError unless a file can be written at `path` (checked before any work)."""
+def check_output_file(path, option=None):
+    """OutputError unless a file can be written at `path` (checked before any work): not a
+    folder (an existing one, or a path ending in a separator, which would otherwise become
+    a file of the folder's name). option: the command-line option the message names."""
+    text = os.fspath(path)
     path = pathlib.Path(path)
-    if path.is_dir():
-        raise OutputError(path, "is a folder; give a file name")
+    if path.is_dir() or text.endswith(os.sep) or (os.altsep and text.endswith(os.altsep)) \
+            or os.path.basename(text) in ("", ".", ".."):
+        raise OutputError(text, "is a folder; give a file name" if option is None
+                          else f"is a folder path; {option} needs a file name")
     _check_parent(path)
     return path
 
