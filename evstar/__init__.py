@@ -18,7 +18,8 @@ from .config import Config
 
 __version__ = "0.1.0"
 _SUBMODULES = {"io", "sim", "denoise", "extract", "tracking", "motion", "metrics", "accuracy",
-               "pipeline", "backends", "report", "profiling", "interop"}
+               "pipeline", "backends", "report", "profiling", "interop", "attitude", "runs",
+               "batch", "calibration"}
 
 __all__ = ["Camera", "Config", "Pipeline", "Events", "Imu", "Recording", "EvstarError", "DataError",
            "FormatError", "BackendError", "EvstarWarning", "OutputError", "ParameterError",

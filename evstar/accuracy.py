@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import DataError
+from .errors import DataError, ParameterTypeError
 
 
 def match(centroids, positions, match_px=3.0):
@@ -81,6 +81,11 @@ def check_truth(truth, n_events, width, height, t_span_us):
     """DataError unless `truth` (evstar.sim Truth) belongs to these events: one label per
     event (n_events; None = not known yet), the same sensor size, attitude covering the
     event times t_span_us (None = not checked)."""
+    from .sim.truth import Truth
+
+    if not isinstance(truth, Truth):
+        raise ParameterTypeError(f"truth must be an evstar.sim Truth (evstar.sim.load_truth), "
+                                 f"got {type(truth).__name__}")
     if n_events is not None and len(truth.labels) != n_events:
         raise DataError(f"the truth labels {len(truth.labels):,} events but the recording has "
                         f"{n_events:,}: a truth file of another recording")

@@ -633,10 +633,24 @@ def _distinct_positions(labels, coords, k):
 
 
 def _coords(events, xy):
-    """xy checked as float coordinates of the events (None: the events' own pixels)."""
+    """xy checked as float coordinates of the events (None: the events' own pixels): each
+    rounds to its event's pixel (pixel i covers [i − ½, i + ½)), as the kernels assume —
+    a NaN or a far-off value sent them outside their images (a segfault). ~6 ms for the
+    1.3 M kept events of a 50-star field."""
     if xy is None:
         return None
-    xy = np.asarray(xy, dtype=np.float64)
+    try:
+        xy = np.asarray(xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterTypeError(f"xy must be an (n, 2) array of numbers, got {type(xy).__name__}") from None
     if xy.shape != (len(events), 2):
         raise ParameterError(f"xy must have shape ({len(events)}, 2), got {xy.shape}")
+    with np.errstate(invalid="ignore"):
+        for k, (axis, px) in enumerate((("x", events.x), ("y", events.y))):
+            off = np.flatnonzero(np.floor(xy[:, k] + 0.5) != px)
+            if len(off):
+                i = int(off[0])
+                raise ParameterError(f"xy[{i}] = ({xy[i, 0]:g}, {xy[i, 1]:g}) does not round to its "
+                                     f"event's pixel ({events.x[i]}, {events.y[i]}) in {axis}: xy must be "
+                                     "the events' coordinates, each within half a pixel of its own")
     return xy

@@ -22,14 +22,13 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import accuracy
-from .camera import Camera
 from .config import Config
-from .errors import DataError, ParameterError, ParameterTypeError
+from .errors import DataError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
 from .frames import accumulated, frame_offsets, images, on_pixels
-from .imu import Imu
 from .parameters import AUTO
+from .recording import check_parts
 from .tracking import Tracker
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -227,7 +226,9 @@ class Pipeline:
     def run(self, events, imu=None, camera=None, truth=None):
         """Run every stage on events held in memory."""
         mode = self.config.motion.compensate
-        _check_inputs(events, imu, camera, mode)
+        if not isinstance(events, Events):   # check_parts lets None through (run_file's)
+            raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__}")
+        check_parts(events, imu, camera, mode)
         if truth is not None:
             accuracy.check_truth(truth, len(events), events.width, events.height,
                         events.t[[0, -1]] if len(events) else None)
@@ -350,12 +351,12 @@ class Pipeline:
         from . import io
 
         mode = self.config.motion.compensate
-        _check_inputs(None, imu, camera, mode)
+        check_parts(None, imu, camera, mode)
         span = self.config.chunk_frames * self.config.dt_us
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:
             raise DataError(f"{path}: no events")
-        _check_inputs(first[1], imu, camera, mode)
+        check_parts(first[1], imu, camera, mode)
         if truth is not None:  # the event count is known only at the end (checked there)
             accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
@@ -393,30 +394,6 @@ def _warp(mode):
 
 
 # -- input checks ------------------------------------------------------------------------
-def _check_inputs(events, imu, camera, mode):
-    """Types of the run's arguments, what the compensation mode needs, matching sizes."""
-    if events is not None and not isinstance(events, Events):
-        raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__} "
-                                 "(build one with evstar.Events(t, x, y, p, width, height))")
-    for name, value, cls in (("imu", imu, Imu), ("camera", camera, Camera)):
-        if value is not None and not isinstance(value, cls):
-            raise ParameterTypeError(f"{name} must be an evstar.{cls.__name__} or None, "
-                                     f"got {type(value).__name__}")
-    if mode != "none":
-        missing = [what for what, v in (("an IMU (imu=; command line: --imu FILE, a CSV "
-                                         "t,gx,gy,gz,ax,ay,az)", imu),
-                                        ("a camera (camera=; command line: --camera FILE, a "
-                                         "JSON width, height, fx, fy, cx, cy)", camera))
-                   if v is None]
-        if missing:
-            raise ParameterError(f"motion.compensate = {mode!r} needs {' and '.join(missing)}; "
-                                 "the input holds none")
-    if events is not None and camera is not None and \
-            (camera.width, camera.height) != (events.width, events.height):
-        raise DataError(f"the camera is {camera.width}x{camera.height} px but the events' sensor "
-                        f"is {events.width}x{events.height} px: a camera of another sensor")
-
-
 # -- helpers -----------------------------------------------------------------------------
 class _RunState:
     """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their

@@ -26,7 +26,7 @@ import math
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .errors import ParameterTypeError
+from .errors import DataError, ParameterTypeError
 from .frames import frame_bounds
 from .parameters import TRACK as T
 
@@ -53,6 +53,11 @@ class Tracker:
             raise ParameterTypeError("centroids must be a structured array with fields "
                                      f"{', '.join(_NEEDED)} (evstar.extract.CENTROID_DTYPE), "
                                      f"got {type(centroids).__name__}")
+        bad = np.flatnonzero(~(np.isfinite(centroids["x"]) & np.isfinite(centroids["y"])))
+        if len(bad):   # a NaN's distances gate nothing: its track broke silently
+            i = int(bad[0])
+            raise DataError(f"centroid {i} has a non-finite position ({centroids['x'][i]}, "
+                            f"{centroids['y'][i]}); tracks need finite x, y")
         out = centroids.copy()
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])

@@ -81,6 +81,9 @@ class AttitudeEstimator:
         self.camera, self.imu = camera, imu
         self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
         self.epoch, self._solver = epoch, solver
+        if identifier is not None and not callable(identifier):
+            raise ParameterTypeError("identifier must be a function (xy, t_us, weight=None) -> "
+                                     f"Fix, got {type(identifier).__name__}")
         self.identifier = identifier or self._default_identifier
         self.fixes, self.searches = [], []
 

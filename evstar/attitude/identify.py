@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..camera import Camera
-from ..errors import DataError, ParameterTypeError
+from ..errors import DataError, ParameterError, ParameterTypeError
 from . import catalog
 from .solver import Solver
 
@@ -79,6 +79,9 @@ def identify(xy, camera, t_us=0, *, epoch=None, solver=None, weight=None):
     says why.
     """
     start = time.perf_counter()
+    if isinstance(t_us, bool) or not isinstance(t_us, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(t_us):
+        raise ParameterError(f"t_us must be a finite time in µs, got {t_us!r}")
     xy = _xy(xy)
     epoch = catalog.check_epoch(epoch)
     solver = Solver.of(solver, camera)

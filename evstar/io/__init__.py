@@ -6,7 +6,6 @@ unless ``format=`` names it. ``write(path, events, imu=None, camera=None)`` like
 """
 from __future__ import annotations
 
-import os
 import pathlib
 import warnings
 from importlib import import_module
@@ -136,7 +135,10 @@ def packets(path, format=None, sensor_size=None):
 
 def windows(path, window_us, format=None, sensor_size=None, t_origin_us=None):
     """Yield (k, Events) per time window k of `window_us`, holding one window in memory."""
+    from .. import parameters as P
     from .chunks import windows as _windows
 
+    window_us = P.GLOBAL.check("dt_us", window_us, "window_us")      # whole µs, as frames
+    t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
     w, h, gen = packets(path, format, sensor_size)
     yield from _windows(gen, w, h, window_us, t_origin_us)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 
 from ..camera import Camera
-from ..errors import DataError, FormatError
+from ..errors import DataError, FormatError, ParameterTypeError
 from .atomic import atomic_path
 from .guard import check_readable
 
@@ -39,5 +39,7 @@ def read_camera(path):
 
 
 def write_camera(path, camera):
+    if not isinstance(camera, Camera):
+        raise ParameterTypeError(f"camera must be an evstar.Camera, got {type(camera).__name__}")
     with atomic_path(path) as tmp:
         tmp.write_text(json.dumps(camera.to_dict(), indent=2) + "\n")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..errors import DataError, FormatError
+from ..errors import DataError, FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 from ..imu import MAX_RATE_RAD_S, Imu, first_excess_rate
 from .atomic import atomic_path
@@ -70,6 +70,8 @@ def _imu(path, frame, R_cam_imu, time_offset_us, sort, first):
 
 def write_imu(path, imu):
     """Write the samples as measured (IMU frame and clock); calibration is not part of this format."""
+    if not isinstance(imu, Imu):
+        raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
     frame = pd.DataFrame(np.column_stack([imu.gyro, imu.accel]), columns=COLUMNS[1:])
     frame.insert(0, "t", imu.t)
     with atomic_path(path) as tmp:

@@ -66,6 +66,8 @@ def _size(path, data, cols, sensor_size):
     stored = None
     if not isinstance(data, np.ndarray) and "sensor_size" in data.files:
         stored = _integers(path, data, "sensor_size", (2,))
+        if any(v != int(v) for v in stored):   # a 4.5 px side is no size: not cut to 4
+            raise FormatError(path, f"'sensor_size' must hold whole numbers, got {stored}")
     return sensor_size_from(path, (cols[1], cols[2]), stored_size(path, stored, sensor_size))
 
 

@@ -166,17 +166,18 @@ def packets(path, chunk_rows=1_000_000):
         label = {k: repr(c) for k, c in cols.items()}
     rounding = _Rounding()
     try:
-        for frame in _reader(path, names, sep, chunk_rows):
-            if not seconds:
-                check_no_implicit_index(path, frame, line, len(names))
-            frame.columns = [_clean(c) for c in frame.columns]
-            missing = [c for c in cols.values() if c not in frame.columns]
-            if missing:
-                raise FormatError(path, f"cannot find column(s) {missing} in the rows")
-            t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
-            xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
-            line += len(frame)
-            yield (t, *xyp)
+        with _reader(path, names, sep, chunk_rows) as reader:   # closed on an error too
+            for frame in reader:
+                if not seconds:
+                    check_no_implicit_index(path, frame, line, len(names))
+                frame.columns = [_clean(c) for c in frame.columns]
+                missing = [c for c in cols.values() if c not in frame.columns]
+                if missing:
+                    raise FormatError(path, f"cannot find column(s) {missing} in the rows")
+                t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
+                xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
+                line += len(frame)
+                yield (t, *xyp)
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OverflowError) as exc:
         if isinstance(exc, FormatError):
             raise

@@ -19,8 +19,10 @@ import numpy as np
 from evstar_kernels.reference.pixels import rounded_pixels
 
 from .. import parameters as P
-from ..errors import ParameterError, ParameterTypeError
+from ..errors import DataError, ParameterError, ParameterTypeError
 from ..events import Events
+from ..frames import check_dt
+from ..recording import check_parts
 from .imu_integration import AttitudeTrack, check_coverage, hold_ends
 from .particle_filter import ParticleFilter
 from .warping import frame_reference_times, frame_references, warp_indexed
@@ -144,11 +146,17 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
     """
     mode = P.MOTION.check("compensate", mode, "mode")
     extrapolate_us = P.MOTION.check("extrapolate_us", extrapolate_us)
+    dt_us = check_dt(dt_us)
+    if not isinstance(events, Events):
+        raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__}")
     if mode == "none":
         return Compensation.identity(events, dt_us, t0_us, reference)
-    refs, ref_index = frame_references(events.t, dt_us, t0_us, reference)
     if imu is None or camera is None:
         raise ParameterError(f"mode={mode!r} needs an imu and a camera")
+    check_parts(events, imu, camera, mode)   # their types, the camera's size against the events'
+    if len(imu) < 2:
+        raise DataError(f"the IMU has {len(imu)} sample(s); compensation needs at least 2")
+    refs, ref_index = frame_references(events.t, dt_us, t0_us, reference)
     if len(events):
         imu = hold_ends(imu, events.t[0], events.t[-1], extrapolate_us)
         check_coverage(imu, events.t[0], events.t[-1])

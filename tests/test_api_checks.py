@@ -1,0 +1,101 @@
+"""Bad arguments to the library's entry points are evstar's own one-line errors, found by
+fuzzing the API: never a segfault, a raw exception from deep inside, or a silent result."""
+import gc
+import warnings
+
+import numpy as np
+import pytest
+
+import evstar
+from evstar import io, sim
+from evstar.extract import Extractor
+from evstar.motion import compensate
+from evstar.tracking import Tracker
+
+
+@pytest.fixture(scope="module")
+def run():
+    return sim.simulate(sim.paper_preset(20.0, duration_s=0.15), seed=1)
+
+
+def test_extractor_refuses_coordinates_that_are_not_the_events_own(run):
+    """NaN or far-off floats sent the cluster kernels outside their images (a segfault);
+    floats within half a pixel of each event's own pixel are what xy is for."""
+    ev = run.events[:4000]
+    own = np.column_stack([ev.x, ev.y]).astype(float)
+    for bad in (np.full((len(ev), 2), np.nan), own + 1e6, own + [0.6, 0.0]):
+        with pytest.raises(evstar.ParameterError, match=r"xy\[0\].*does not round to its event's pixel"):
+            Extractor().centroids(ev, xy=bad)
+    assert np.array_equal(Extractor().centroids(ev, xy=own + 0.3)["n_events"],
+                          Extractor().centroids(ev)["n_events"])
+
+
+def test_compensate_checks_its_arguments_as_the_pipeline_does(run):
+    ev, imu, cam = run.events[:3000], run.imu, run.camera
+    other = evstar.Camera(cam.width + 26, cam.height + 20, cam.fx, cam.fy, cam.cx, cam.cy)
+    with pytest.raises(evstar.DataError, match="camera of another sensor"):
+        compensate(ev, imu, other, 10_000, mode="imu")
+    with pytest.raises(evstar.ParameterError, match="dt_us"):
+        compensate(ev, imu, cam, "a", mode="imu")
+    with pytest.raises(evstar.ParameterTypeError, match="events must be an evstar.Events"):
+        compensate(np.zeros(3), imu, cam, 10_000, mode="imu")
+    with pytest.raises(evstar.ParameterTypeError, match="camera must be an evstar.Camera"):
+        compensate(ev, imu, "x", 10_000, mode="imu")
+    empty = evstar.Imu(np.zeros(0, np.int64), np.zeros((0, 3)))
+    with pytest.raises(evstar.DataError, match="IMU has 0 sample"):
+        compensate(ev[:0], empty, cam, 10_000, mode="imu")
+
+
+def test_tracker_refuses_a_centroid_without_a_position(run):
+    c = Extractor().centroids(run.events[:4000])
+    c["x"][0] = np.nan
+    with pytest.raises(evstar.DataError, match="centroid 0 has a non-finite position"):
+        Tracker().link(c)
+
+
+def test_pipeline_run_names_wrong_events_and_truth(run):
+    with pytest.raises(evstar.ParameterTypeError, match="events must be an evstar.Events"):
+        evstar.Pipeline().run(None)
+    with pytest.raises(evstar.ParameterTypeError, match="truth must be an evstar.sim Truth"):
+        evstar.Pipeline().run(run.events, truth="x")
+
+
+def test_io_checks_windows_and_what_it_writes(run, tmp_path):
+    path = tmp_path / "e.h5"
+    io.write(path, run.events)
+    for bad in (float("nan"), "a", 0):
+        with pytest.raises(evstar.ParameterError, match="window_us"):
+            next(io.windows(path, bad))
+    with pytest.raises(evstar.ParameterError, match="t_origin_us"):
+        next(io.windows(path, 10_000, t_origin_us="x"))
+    with pytest.raises(evstar.ParameterTypeError, match="camera must be an evstar.Camera"):
+        io.write_camera(tmp_path / "c.json", "x")
+    with pytest.raises(evstar.ParameterTypeError, match="imu must be an evstar.Imu"):
+        io.write_imu(tmp_path / "i.csv", "x")
+    assert not (tmp_path / "c.json").exists() and not (tmp_path / "i.csv").exists()
+    ev = run.events[:10]
+    np.savez(tmp_path / "half.npz", t=ev.t, x=ev.x, y=ev.y, p=ev.p, sensor_size=[320.5, 240])
+    with pytest.raises(evstar.FormatError, match="'sensor_size' must hold whole numbers"):
+        io.read(tmp_path / "half.npz")
+
+
+def test_a_bad_csv_row_leaves_no_file_open(tmp_path):
+    (tmp_path / "f.csv").write_text("t,x,y,p\n1,1.5,1,1\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(evstar.FormatError, match="non-integer"):
+            io.read(tmp_path / "f.csv", sensor_size=(10, 10))
+        gc.collect()
+    assert not [w for w in caught if issubclass(w.category, ResourceWarning)]
+
+
+def test_attitude_arguments(run):
+    from evstar.attitude import AttitudeEstimator, identify
+
+    assert evstar.attitude.estimate is not None       # a submodule reached as an attribute
+    xy = np.array([[10.0, 20.0], [30.0, 40.0], [50.0, 60.0], [70.0, 80.0]])
+    for bad in ("a", float("nan")):
+        with pytest.raises(evstar.ParameterError, match="t_us must be a finite time"):
+            identify(xy, run.camera, bad)
+    with pytest.raises(evstar.ParameterTypeError, match="identifier must be a function"):
+        AttitudeEstimator(run.camera, identifier="x")
