@@ -5,7 +5,7 @@ import threading
 
 import numpy as np
 
-from .errors import DataError, ParameterTypeError
+from .errors import DataError, ParameterError, ParameterTypeError
 
 #: The structured-array convention of tonic / Metavision (field names x, y, t, p).
 STRUCTURED_DTYPE = np.dtype([("x", "<u2"), ("y", "<u2"), ("t", "<i8"), ("p", "<i1")])
@@ -26,37 +26,46 @@ def check_time_range(values):
     return int(np.flatnonzero(bad)[0]) if bad.any() else None
 
 
-def _as_int_array(name, values, n=None):
+def is_integer_value(v):
+    """Whether v is one whole number (int, numpy integer, or a float such as 5.0): not a bool,
+    a string, an array, NaN or inf."""
+    if isinstance(v, (bool, np.bool_, str, bytes)) or np.ndim(v) != 0:
+        return False
+    try:
+        return int(v) == v
+    except (TypeError, ValueError, OverflowError):   # None, NaN, inf, other objects
+        return False
+
+
+def as_int_array(name, values, n=None, kind="events"):
+    """values as a 1-D integer-valued array (floats must hold whole numbers); errors name
+    `kind` field `name` (Imu checks its t with kind="IMU")."""
     try:
         arr = np.asarray(values)
     except (TypeError, ValueError) as exc:  # ragged lists and the like
-        raise DataError(f"events field '{name}' is not an array ({exc})") from None
+        raise DataError(f"{kind} field '{name}' is not an array ({exc})") from None
     if arr.dtype != bool and not (np.issubdtype(arr.dtype, np.integer)
                                   or np.issubdtype(arr.dtype, np.floating)):
-        raise DataError(f"events field '{name}' must be numeric, got dtype {arr.dtype}")
+        raise DataError(f"{kind} field '{name}' must be numeric, got dtype {arr.dtype}")
     if arr.ndim != 1:
-        raise DataError(f"events field '{name}' must be one-dimensional, got shape {arr.shape}")
+        raise DataError(f"{kind} field '{name}' must be one-dimensional, got shape {arr.shape}")
     if n is not None and len(arr) != n:
-        raise DataError(f"events field '{name}' has {len(arr)} entries, expected {n} (as t)")
+        raise DataError(f"{kind} field '{name}' has {len(arr)} entries, expected {n} (as t)")
     if arr.dtype == bool:
         return arr.astype(np.int64)
     if not np.issubdtype(arr.dtype, np.integer):
         if arr.size and not np.all(np.isfinite(arr)):
-            raise DataError(f"events field '{name}' holds non-finite values")
+            raise DataError(f"{kind} field '{name}' holds non-finite values")
         if arr.size and np.any(arr != np.round(arr)):
             bad = arr[arr != np.round(arr)][0]
-            raise DataError(f"events field '{name}' holds a non-integer value {bad!r}")
+            raise DataError(f"{kind} field '{name}' holds a non-integer value {bad.item()!r}")
     return arr
 
 
 def _sensor_dims(width, height):
-    try:
-        w, h = int(width), int(height)
-    except (TypeError, ValueError, OverflowError):
-        raise DataError(f"sensor size must be two integers, got {width!r}x{height!r}") from None
-    if w != width or h != height:
+    if not (is_integer_value(width) and is_integer_value(height)):
         raise DataError(f"sensor size must be two integers, got {width!r}x{height!r}")
-    return w, h
+    return int(width), int(height)
 
 
 def _check_times(t):
@@ -111,10 +120,10 @@ class Events:
         width, height = _sensor_dims(width, height)
         if not (0 < width <= 65536 and 0 < height <= 65536):
             raise DataError(f"sensor size must be positive and <= 65536, got {width}x{height}")
-        t = _as_int_array("t", t)
+        t = as_int_array("t", t)
         _check_times(t)
         n = len(t)
-        x, y, p = (_as_int_array(k, v, n) for k, v in (("x", x), ("y", y), ("p", p)))
+        x, y, p = (as_int_array(k, v, n) for k, v in (("x", x), ("y", y), ("p", p)))
         for name, arr, limit in (("x", x, width), ("y", y, height)):
             if n and (arr.min() < 0 or arr.max() >= limit):
                 i = int(np.flatnonzero((arr < 0) | (arr >= limit))[0])
@@ -156,6 +165,9 @@ class Events:
     @classmethod
     def from_structured(cls, arr, width, height, *, sort=False):
         """From a structured array with fields x, y, t, p (tonic / Metavision / faery)."""
+        if not isinstance(getattr(arr, "dtype", None), np.dtype):
+            raise ParameterTypeError(f"Events.from_structured: 'arr' must be a numpy structured "
+                                     f"array with fields x, y, t, p, got {type(arr).__name__}")
         names = arr.dtype.names or ()
         missing = [k for k in ("x", "y", "t", "p") if k not in names]
         if missing:
@@ -171,9 +183,17 @@ class Events:
     @staticmethod
     def concatenate(parts):
         """Join Events of one sensor in order; the result must stay time-sorted."""
-        parts = list(parts)
+        try:
+            parts = list(parts)
+        except TypeError:
+            raise ParameterTypeError(f"Events.concatenate: 'parts' must be a sequence of Events, "
+                                     f"got {type(parts).__name__}") from None
         if not parts:
             raise DataError("cannot concatenate an empty list of Events")
+        bad = next((i for i, e in enumerate(parts) if not isinstance(e, Events)), None)
+        if bad is not None:
+            raise ParameterTypeError(f"Events.concatenate: 'parts'[{bad}] is a "
+                                     f"{type(parts[bad]).__name__}, not Events")
         w, h = parts[0].width, parts[0].height
         if any((e.width, e.height) != (w, h) for e in parts):
             raise DataError("cannot concatenate Events of different sensor sizes")
@@ -187,19 +207,43 @@ class Events:
         return len(self.t)
 
     def __getitem__(self, index):
-        """Slice or boolean mask / index array (order kept; fancy indices must be increasing)."""
-        if isinstance(index, (int, np.integer)):
-            raise ParameterTypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
-        ordered = isinstance(index, slice) or np.asarray(index).dtype == bool   # order kept
-        if not isinstance(index, slice) and ordered:   # a mask: its events found once for
-            mask = np.asarray(index)                   # the four arrays (~3x a mask each)
-            if mask.shape != self.t.shape:
-                raise IndexError(f"boolean index of shape {mask.shape} for {len(self)} events")
-            return self.at_sorted(np.flatnonzero(mask))
+        """Slice (positive step) or boolean mask / index array (order kept; fancy indices must
+        be increasing). Checks are O(1), or vectorised over a given index array only."""
         if isinstance(index, slice):
+            try:
+                step = index.indices(len(self))[2]
+            except TypeError:
+                raise ParameterTypeError(f"Events slice {index!r} must hold integers or None") from None
+            except ValueError:        # step 0
+                raise ParameterError(f"Events slice {index!r} has step 0") from None
+            if step < 0:              # a reversed view would break the time order
+                raise ParameterError(f"Events slice {index!r} has a negative step; events stay "
+                                     f"time-sorted, slice with a positive step")
             return Events._trusted(self.t[index], self.x[index], self.y[index], self.p[index],
                                    self.width, self.height)                   # views
-        sel = self.at_sorted(np.asarray(index))
+        if isinstance(index, (int, np.integer)):
+            raise ParameterTypeError("index Events with a slice or mask; use .t[i], .x[i] for one event")
+        try:
+            idx = np.asarray(index)
+        except (TypeError, ValueError):   # ragged lists
+            idx = None
+        if idx is not None and idx.ndim == 1 and idx.size == 0:
+            return self[:0]                # [] is float64 to numpy: selects nothing
+        if idx is None or idx.ndim != 1 or not (idx.dtype == bool
+                                                 or np.issubdtype(idx.dtype, np.integer)):
+            what = (f"an array of dtype {index.dtype}, shape {index.shape}"
+                    if isinstance(index, np.ndarray) else repr(index)[:80])
+            raise ParameterTypeError(f"Events index must be a slice, a boolean mask or a 1-D integer "
+                                     f"index array, got {what}")
+        if idx.dtype == bool:          # a mask: its events found once for the four arrays
+            if len(idx) != len(self):  # (~3x a mask each)
+                raise ParameterError(f"Events boolean index has {len(idx)} entries for "
+                                     f"{len(self)} events")
+            return self.at_sorted(np.flatnonzero(idx))
+        try:
+            sel = self.at_sorted(idx)
+        except IndexError as exc:      # from take: costs nothing unless raised
+            raise ParameterError(f"Events index array: {exc}") from None
         if len(sel) > 1 and np.any(np.diff(sel.t) < 0):
             raise DataError("an index array must keep events in time order")
         return sel

@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 
 from .errors import DataError, EvstarWarning
-from .events import SORT_HINT, T_LIMIT_US, check_time_range
+from .events import SORT_HINT, T_LIMIT_US, as_int_array, check_time_range, is_integer_value
 
 
 #: the largest angular rate (rad/s) a gyro sample may hold: 100 rad/s ≈ 5700 °/s, well beyond
@@ -26,9 +26,13 @@ def first_excess_rate(gyro):
 
 def _vec3(name, values, n, finite=True):
     try:
-        arr = np.ascontiguousarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
+        arr = np.asarray(values)
+    except (TypeError, ValueError) as exc:  # ragged lists and the like
         raise DataError(f"IMU field '{name}' is not a numeric array ({exc})") from None
+    # real numbers only: casting complex drops the imaginary part (numpy warns), strings would parse
+    if arr.dtype.kind not in "biuf":
+        raise DataError(f"IMU field '{name}' must hold real numbers, got dtype {arr.dtype}")
+    arr = np.ascontiguousarray(arr, dtype=np.float64)
     if arr.shape != (n, 3):
         raise DataError(f"IMU field '{name}' must have shape ({n}, 3), got {arr.shape}")
     if finite and not np.all(np.isfinite(arr)):
@@ -49,15 +53,8 @@ class Imu:
     __slots__ = ("t", "gyro", "accel", "R_cam_imu", "time_offset_us")
 
     def __init__(self, t, gyro, accel=None, *, R_cam_imu=None, time_offset_us=0, sort=False):
-        t = np.asarray(t)
-        if t.dtype != bool and not (np.issubdtype(t.dtype, np.integer) or np.issubdtype(t.dtype, np.floating)):
-            raise DataError(f"IMU field 't' must be numeric, got dtype {t.dtype}")
-        if t.ndim != 1:
-            raise DataError(f"IMU field 't' must be one-dimensional, got shape {t.shape}")
+        t = as_int_array("t", t, kind="IMU")   # Events' checks: whole, finite, 1-D numbers
         n = len(t)
-        if not np.issubdtype(t.dtype, np.integer):
-            if n and not np.all(np.isfinite(t)):
-                raise DataError("IMU field 't' holds non-finite timestamps")
         i = check_time_range(t)
         if i is not None:
             raise DataError(f"IMU field 't' = {t[i]} at sample {i} is outside the valid range ±{T_LIMIT_US} µs")
@@ -74,10 +71,9 @@ class Imu:
                 or np.linalg.det(R) < 0:
             raise DataError(f"R_cam_imu must be a 3x3 rotation matrix, got {R.tolist()}")
         self.R_cam_imu = R
-        try:
-            self.time_offset_us = int(time_offset_us)
-        except (TypeError, ValueError, OverflowError):
-            raise DataError(f"IMU time_offset_us must be an integer, got {time_offset_us!r}") from None
+        if not is_integer_value(time_offset_us):   # 1.7 or "5" is no clock offset in µs
+            raise DataError(f"IMU time_offset_us must be an integer, got {time_offset_us!r}")
+        self.time_offset_us = int(time_offset_us)
         if abs(self.time_offset_us) > T_LIMIT_US:
             raise DataError(f"IMU time_offset_us = {self.time_offset_us} is outside ±{T_LIMIT_US} µs")
         if n > 1 and np.any(np.diff(self.t) < 0):
