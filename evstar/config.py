@@ -6,13 +6,15 @@ Its sections and keys are generated from the declarations in :mod:`evstar.parame
 """
 from __future__ import annotations
 
+import functools
 import json
+import os
 import pathlib
 import sys
 from dataclasses import asdict, dataclass, field, fields, make_dataclass
 
 from . import parameters as P
-from .errors import FormatError, ParameterError
+from .errors import FormatError, ParameterError, ParameterTypeError
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -24,6 +26,28 @@ METHODS, COMPENSATIONS = P.METHODS, P.COMPENSATIONS
 
 def _key(section, name):
     return f"config key '{section + '.' if section else ''}{name}'"
+
+
+def _check_keys(keys, cls, section=""):
+    known = sorted(f.name for f in fields(cls))
+    for key in keys:
+        if key not in known:
+            raise ParameterError(f"unknown config key '{section + '.' if section else ''}{key}' "
+                                 f"(known: {known})")
+
+
+def _known_keys_only(cls, section=""):
+    """cls, its constructor refusing an unknown keyword as ParameterError (as from_dict does)
+    instead of the dataclass's TypeError."""
+    init = cls.__init__
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kwargs):
+        _check_keys(kwargs, cls, section)
+        init(self, *args, **kwargs)
+
+    cls.__init__ = __init__
+    return cls
 
 
 def _check_section(obj, params):
@@ -43,8 +67,9 @@ def _section_class(class_name, params, extra_check=None):
             extra_check(self)
         return self
 
-    return make_dataclass(class_name, [(n, object, _default(p.default)) for n, p in params.items()],
-                          namespace={"validate": validate, "__doc__": _doc(params)})
+    return _known_keys_only(make_dataclass(
+        class_name, [(n, object, _default(p.default)) for n, p in params.items()],
+        namespace={"validate": validate, "__doc__": _doc(params)}), params.section)
 
 
 def _doc(params):
@@ -66,6 +91,7 @@ _SECTIONS = {"denoise": DenoiseConfig, "extract": ExtractConfig, "track": TrackC
              "motion": MotionConfig, "estimate": EstimateConfig, "hotpixels": HotPixelsConfig}
 
 
+@_known_keys_only
 @dataclass
 class Config:
     device: str = P.GLOBAL["device"].default
@@ -99,16 +125,9 @@ class Config:
     def from_dict(cls, data):
         if not isinstance(data, dict):
             raise ParameterError(f"config must be a mapping, got {type(data).__name__}")
-        kwargs = {}
-        for key, value in data.items():
-            if key in _SECTIONS:
-                kwargs[key] = _section(key, value)
-            elif key in {f.name for f in fields(cls)}:
-                kwargs[key] = value
-            else:
-                raise ParameterError(f"unknown config key '{key}' (known: "
-                                     f"{sorted(f.name for f in fields(cls))})")
-        return cls(**kwargs)
+        _check_keys(data, cls)
+        return cls(**{key: _section(key, value) if key in _SECTIONS else value
+                      for key, value in data.items()})
 
     def to_json(self):
         return json.dumps(self.to_dict(), indent=2)
@@ -121,6 +140,8 @@ class Config:
     @classmethod
     def load(cls, path):
         """Read a .toml or .json configuration file."""
+        if not isinstance(path, (str, os.PathLike)):
+            raise ParameterTypeError(f"config path must be a str or os.PathLike, got {path!r}")
         path = pathlib.Path(path)
         try:
             text = path.read_text()
@@ -132,6 +153,8 @@ class Config:
             data = tomllib.loads(text) if path.suffix.lower() == ".toml" else json.loads(text)
         except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
             raise FormatError(path, f"cannot parse configuration ({exc})") from None
+        except RecursionError:
+            raise FormatError(path, "cannot parse configuration (nested too deeply)") from None
         try:
             return cls.from_dict(data)
         except ParameterError as exc:
@@ -152,10 +175,7 @@ def _section(name, value):
     cls = _SECTIONS[name]
     if not isinstance(value, dict):
         raise ParameterError(f"config key '{name}' must be a table of settings, got {value!r}")
-    known = {f.name for f in fields(cls)}
-    for key in value:
-        if key not in known:
-            raise ParameterError(f"unknown config key '{name}.{key}' (known: {sorted(known)})")
+    _check_keys(value, cls, name)
     return cls(**value).validate()
 
 

@@ -26,8 +26,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import backends, parameters as P
-from .errors import ParameterError, ParameterTypeError
+from .config import Config
+from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events, gather
+from .frames import check_frame_count
 from evstar_kernels.reference import denoise as ref
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -53,14 +55,28 @@ def _check_events(events):
     return events
 
 
-def _check_select(select, n):
+def _check_select(select, n, key="select"):
     """select as a contiguous bool array of n entries, or None."""
     if select is None:
         return None
-    select = np.ascontiguousarray(select, bool)
+    select = np.ascontiguousarray(select)
+    if select.dtype != bool:
+        raise ParameterTypeError(f"{key} must be a bool array (one per event), got "
+                                 f"{select.dtype} values")
     if select.shape != (n,):
-        raise ParameterError(f"select must hold one bool per event ({n}), got shape {select.shape}")
+        raise ParameterError(f"{key} must hold one bool per event ({n}), got shape {select.shape}")
     return select
+
+
+def _frame_offsets(t, dt_us, t0_us):
+    """ref.frame_offsets, or DataError where t0_us is after the first event or the events
+    span more than MAX_FRAMES frames."""
+    if len(t):
+        t0 = int(t[0]) if t0_us is None else t0_us
+        if t[0] < t0:
+            raise DataError(f"t0_us={t0} is after the first event ({int(t[0])} µs)")
+        check_frame_count((int(t[-1]) - t0) // dt_us + 1, t0, int(t[-1]), dt_us)
+    return ref.frame_offsets(t, dt_us, t0_us)
 
 
 def _check_schedule(schedule, device):
@@ -159,7 +175,11 @@ class _DensityFilter(_Filter):
         if isinstance(self.thresholds, str):
             rate = self.rate_hz if self.rate_hz is not None else _background_rate(ev, offsets, self.dt_us)
             self.rate_hz_ = rate
-            return ref.poisson_thresholds(rate, self.dt_us, self.radii, self.alpha)
+            try:
+                return ref.poisson_thresholds(rate, self.dt_us, self.radii, self.alpha)
+            except ValueError as exc:
+                raise ParameterError(f"auto thresholds at {rate:g} events/pixel/s in frames "
+                                     f"of dt_us={self.dt_us}: {exc}") from None
         self.rate_hz_ = self.rate_hz
         return np.asarray(self.thresholds, np.int64)
 
@@ -180,7 +200,7 @@ class _DensityFilter(_Filter):
         return self._record(events, self._apply(events, _check_select(select, len(events)), full))
 
     def _apply(self, ev, select=None, full=True):
-        offsets = ref.frame_offsets(ev.t, self.dt_us, self.t0_us)
+        offsets = _frame_offsets(ev.t, self.dt_us, self.t0_us)
         th = self._resolve_thresholds(ev, offsets)
         self.thresholds_ = tuple(int(v) for v in th)
         if self.backend == "reference":
@@ -201,13 +221,13 @@ class _DensityFilter(_Filter):
         gathered: the pooled look tests 3.7 M of a 5 M-event chunk). The Taichi backend with
         t0_us and a rate (or explicit thresholds); otherwise by that selection."""
         events = _check_events(events)
-        idx = np.flatnonzero(_check_select(among, len(events)))
+        idx = np.flatnonzero(_check_select(among, len(events), "among"))
         if (self.backend != "taichi" or self.t0_us is None or not len(idx)
                 or (self.rate_hz is None and isinstance(self.thresholds, str))
                 or events.t[0] < self.t0_us):
             return idx[self.mask(events[idx])]
         # the selection's frames: those of the whole stream up to its last event's
-        bounds = ref.frame_offsets(events.t[:idx[-1] + 1], self.dt_us, self.t0_us)
+        bounds = _frame_offsets(events.t[:idx[-1] + 1], self.dt_us, self.t0_us)
         offsets = np.searchsorted(idx, bounds)
         th = self._resolve_thresholds(None, offsets)
         self.thresholds_ = tuple(int(v) for v in th)
@@ -297,6 +317,8 @@ def from_config(config, *, t0_us=None, rate_hz=None, backend="taichi", scratch=N
     factory of the pipeline and the command line. `rate_hz` (e.g. a calibration window's
     background rate) is used unless the configuration fixes denoise.rate_hz. scratch: a
     Scratch the filter shares (_Filter.sharing), None for its own."""
+    if not isinstance(config, Config):
+        raise ParameterTypeError(f"config must be an evstar.Config, got {type(config).__name__}")
     flt = _from_config(config, t0_us, rate_hz, backend)
     return flt if flt is None or scratch is None else flt.sharing(scratch)
 

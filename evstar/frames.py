@@ -3,6 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import DataError
+from .parameters import MAX_FRAMES
+
 #: frames are kept apart in one spatial search by a coordinate this far apart (>> any px)
 FRAME_GAP = 1e6
 
@@ -59,12 +62,22 @@ def ranks(counts, starts=0):
     return np.arange(counts.sum()) + np.repeat(starts - (np.cumsum(counts) - counts), counts)
 
 
+def check_frame_count(n_frames, first_us, last_us, dt_us):
+    """DataError where the n_frames frames of dt_us from first_us to last_us (the first
+    event or frame origin, the last event) are more than MAX_FRAMES (per-frame arrays would
+    not fit in memory)."""
+    if n_frames > MAX_FRAMES:
+        raise DataError(f"{first_us} to {last_us} µs spans {n_frames} frames of dt_us={dt_us}, "
+                        f"more than {MAX_FRAMES:_} (a corrupt timestamp or frame origin?)")
+
+
 def frame_offsets(t, dt_us, t0):
     """(first frame id, index where each frame from it to the last starts, then len(t)) of
-    time-sorted t in frames of dt_us from t0."""
+    time-sorted t in frames of dt_us from t0 (DataError beyond MAX_FRAMES frames)."""
     if len(t) == 0:
         return 0, np.zeros(1, np.int64)
     f0, f1 = (int(t[0]) - t0) // dt_us, (int(t[-1]) - t0) // dt_us
+    check_frame_count(f1 - f0 + 1, int(t[0]), int(t[-1]), dt_us)
     return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
 
 

@@ -11,11 +11,17 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Iterable, Mapping, Set
 from dataclasses import dataclass
 
 from .errors import ParameterError
 
 AUTO = "auto"
+
+
+def is_auto(value):
+    """value is the string "auto" (never compared as an array is: elementwise)."""
+    return isinstance(value, str) and value == AUTO
 
 
 @dataclass(frozen=True)
@@ -52,11 +58,13 @@ class Param:
         key = key or self.name
         if value is None and self.optional:
             return None
-        if self.auto and value == AUTO:
+        if self.auto and is_auto(value):
             return AUTO
         if not self.many:
             return self._one(value, key)
-        if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        # a list is ordered and one-dimensional: not a string, mapping, set or 0-d array
+        if isinstance(value, (str, bytes, Mapping, Set)) or not isinstance(value, Iterable) \
+                or getattr(value, "ndim", 1) != 1:
             raise ParameterError(f"{key} must be {self.expected()}, got {value!r}")
         values = [self._one(v, key) for v in value]
         if not values:
@@ -167,6 +175,16 @@ STRATEGIES = ("auto", "sparse", "dense")
 SCHEDULES = ("auto", "lanes", "events")
 MAX_RADIUS = 64          # px; the counting kernels' disk tables stop here
 MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistake
+#: pseudo-frames of one stream: its per-frame arrays (int64 offsets: 0.8 GB) must fit, and
+#: 1e8 frames are 11.6 days of the default 10 ms frames (a longer span is a corrupt timestamp)
+MAX_FRAMES = 10**8
+#: largest density threshold: the counting kernels count in int32
+MAX_THRESHOLD = 2**31 - 1
+_INT32 = " (below 2**31: the kernels count in int32)"
+#: smallest false-alarm probability of a Poisson count test: its quantile is computed from
+#: 1 − alpha in double precision (as scipy's), exact to 1e-4 of alpha at 1e-12, NaN below ~1e-16
+MIN_ALPHA = 1e-12
+_TAIL = f" (at least {MIN_ALPHA:g}: the Poisson quantile is computed from 1 − alpha)"
 MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
 MAX_PIXEL_RATE_HZ = 1e6  # events/pixel/s: a pixel's refractory period is ~1 µs or more
 #: °/s: the fastest slew the simulator and demo take (constant rate, or a sinusoid's peak
@@ -208,13 +226,14 @@ DENOISE = Params(
     Param("method", str, "mr-ndsef", "denoising filter", choices=METHODS),
     Param("radius", float, 5, "NDSEF disk radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
     Param("threshold", int, AUTO, "NDSEF density threshold (events in the disk)", low=1,
-          auto=True),
+          high=MAX_THRESHOLD, auto=True, valid=f"'auto' or an integer >= 1{_INT32}"),
     Param("radii", float, [3, 5, 7, 9, 11], "MR-NDSEF radii, increasing", low=0,
           high=MAX_RADIUS, open_low=True, many=True, increasing=True, unit="px"),
-    Param("thresholds", int, AUTO, "MR-NDSEF thresholds, one per radius", low=1, many=True,
-          auto=True),
-    Param("alpha", float, 1e-3, "false-alarm probability of auto thresholds", low=0, high=1,
-          open_low=True, open_high=True),
+    Param("thresholds", int, AUTO, "MR-NDSEF thresholds, one per radius", low=1,
+          high=MAX_THRESHOLD, many=True, auto=True,
+          valid=f"'auto' or a non-empty list of integers >= 1{_INT32}"),
+    Param("alpha", float, 1e-3, "false-alarm probability of auto thresholds" + _TAIL,
+          low=MIN_ALPHA, high=1, open_high=True),
     Param("rate_hz", float, None, "background rate for auto thresholds (default: measured; "
           f"at most {MAX_PIXEL_RATE_HZ:g}: no pixel fires faster than about one event per µs)",
           low=0, high=MAX_PIXEL_RATE_HZ, optional=True, unit="events/pixel/s"),
@@ -369,7 +388,7 @@ ESTIMATE = Params(
     Param("untracked_alpha", float, 0.01, "an untracked centroid (of no confirmed track) "
           "is reported only where background alone would form a cluster of as many events "
           "somewhere in its frame with at most this probability (the measured background "
-          "rate; none: report all)", low=0, high=1, open_low=True, optional=True),
+          "rate; none: report all)", low=MIN_ALPHA, high=1, optional=True),
     Param("field_min_stars", int, 4, "rigid-field refinement (evstar.field, needs the "
           "camera): in a frame with at least this many tracked stars, a star's position is "
           "the one the field's rotation and all its track's rows give (0: off)", low=0,
@@ -384,8 +403,8 @@ ESTIMATE = Params(
 
 HOTPIXELS = Params(
     "hotpixels",
-    Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test",
-          low=0, high=1, open_low=True, open_high=True, cli="--hot-alpha"),
+    Param("alpha", float, 1e-6, "false-alarm probability per pixel of the Poisson count test"
+          + _TAIL, low=MIN_ALPHA, high=1, open_high=True, cli="--hot-alpha"),
     Param("neighbour_ratio", float, 4.0, "a hot pixel's count is at least this x its "
           "second-brightest 8-neighbour's (a hot pair is found)", low=1),
     Param("remove", bool, True, "drop the events of hot pixels (found in the calibration "
@@ -510,7 +529,7 @@ SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MO
 
 def check_thresholds_per_radius(thresholds, radii, key="thresholds"):
     """The rule across two declarations: explicit MR-NDSEF thresholds come one per radius."""
-    if thresholds != AUTO and len(thresholds) != len(radii):
+    if not is_auto(thresholds) and len(thresholds) != len(radii):
         raise ParameterError(f"{key} must be 'auto' or one integer per radius ({len(radii)}), "
                              f"got {thresholds!r}")
     return thresholds

@@ -176,13 +176,19 @@ def mr_ndsef(frame, x, y, width, height, radii, thresholds, select=None, full=Tr
 
 # -- auto thresholds --------------------------------------------------------------------------
 def poisson_thresholds(rate_hz, dt_us, radii, alpha):
-    """th_k = smallest n with P[Poisson(λ·dt·A_k) >= n] <= α, A_k the disk's lattice area."""
+    """th_k = smallest n with P[Poisson(λ·dt·A_k) >= n] <= α, A_k the disk's lattice area.
+    ValueError where a threshold would not fit the kernels' int32 counts, or the quantile
+    is not computed (NaN: α below ~1e-16, where 1 − α rounds to 1, or λ·dt·A_k above ~1e11)."""
     mu = np.array([float(rate_hz) * float(dt_us) * 1e-6 * disk_area(r) for r in radii])
     out = np.ones(len(mu), np.int64)
     busy = mu > 0
     # P[X >= n] = sf(n - 1); isf gives the smallest m with sf(m) <= alpha, so n = m + 1
     # (one vectorised call: scipy's per-call overhead dominates on short streams)
-    out[busy] = poisson.isf(alpha, mu[busy]).astype(np.int64) + 1
+    m = poisson.isf(alpha, mu[busy])
+    if not np.all(m + 1 <= np.iinfo(np.int32).max):     # NaN fails too
+        raise ValueError(f"alpha={alpha} at {mu.max():g} background events per disk gives no "
+                         f"threshold below 2**31 (Poisson quantile {np.max(m)})")
+    out[busy] = m.astype(np.int64) + 1
     return out
 
 
