@@ -21,7 +21,7 @@ from . import lobes
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
-from .parameters import AUTO
+from .parameters import AUTO, MIN_ALPHA
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
@@ -284,7 +284,9 @@ def untracked_min_events(config, sensor, rate_hz):
     area = np.pi * config.extract.eps ** 2
     spots = sensor[0] * sensor[1] / area
     mu = rate_hz * config.dt_us * 1e-6 * area
-    return int(poisson.isf(min(config.estimate.untracked_alpha / spots, 1.0), mu)) + 1
+    # per spot no stricter than MIN_ALPHA, where the quantile is still computed (NaN below)
+    per_spot = min(max(config.estimate.untracked_alpha / spots, MIN_ALPHA), 1.0)
+    return int(poisson.isf(per_spot, mu)) + 1
 
 
 def _bracketed(rows):

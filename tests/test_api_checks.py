@@ -99,3 +99,19 @@ def test_attitude_arguments(run):
             identify(xy, run.camera, bad)
     with pytest.raises(evstar.ParameterTypeError, match="identifier must be a function"):
         AttitudeEstimator(run.camera, identifier="x")
+
+
+def test_tiny_untracked_alpha_and_sparse_centroid_times(run):
+    """untracked_alpha at its floor still gives a count (the per-spot probability fell below
+    what the Poisson quantile computes: NaN); centroid times 1e15 µs apart are a DataError,
+    not a 745 GiB allocation."""
+    from evstar import estimation
+    from evstar.attitude import estimate
+
+    cfg = evstar.Config().replace(**{"estimate.untracked_alpha": 1e-12})
+    assert estimation.untracked_min_events(cfg, (1280, 720), 1.0) > \
+        estimation.untracked_min_events(evstar.Config(), (1280, 720), 1.0)
+    c = Extractor().centroids(run.events[:4000])[:2].copy()
+    c["t"] = [0, 10**15]
+    with pytest.raises(evstar.DataError, match="centroids span"):
+        estimate(c, run.camera, identifier=lambda xy, t, weight=None: None)

@@ -130,7 +130,11 @@ class AttitudeEstimator:
         self._last_used, self._n_used, self._bad = -math.inf, 0, 0
         step = 1e6 / self.o["rate_hz"]
         t0, t_end = (int(c["t"][0]), int(c["t"][-1])) if len(c) else (0, -1)
-        self._out_t = t0 + np.rint(np.arange(int((t_end - t0) / step) + 1) * step).astype(np.int64)
+        n_out = int((t_end - t0) / step) + 1
+        if n_out > P.MAX_FRAMES:   # one output time each: a corrupt centroid time
+            raise DataError(f"the centroids span {t0} to {t_end} µs: {n_out} outputs at "
+                            f"{self.o['rate_hz']:g} Hz, more than {P.MAX_FRAMES:_}")
+        self._out_t = t0 + np.rint(np.arange(n_out) * step).astype(np.int64)
         self._next_out = 0
         self._chains = []      # per filter run: its nodes (updates and rows) for the smoother
         for idx in _frames(c, self.frame_us) if len(c) else []:
