@@ -261,6 +261,7 @@ class TrackSmoother:
         tids, est_rows = groups(est["track"])
         mine = dict(zip(*groups(owner)))
         tracks, both = [], []      # both: a reversing track's centroids of both lobes
+        lags = []                  # the median lag (s) its crossings were moved back by
         for tid, rows in zip(tids, est_rows):
             m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz)
             track = est[rows]
@@ -281,12 +282,15 @@ class TrackSmoother:
             tracks.append((full, z, s_cent, (t_c, q_got.take(m, 0), u.take(m, 0), r_c, pairs[m]),
                            turns))
             both.append(lobes.balanced(centroids[meas]) if turns else None)
+            lags.append(float(np.median(lag_us)) * 1e-6 if pixel_lag is not None and len(lag_us)
+                        else None)
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
         # a reversing track's centroids, less their along-motion bias measured against the
         # fit where crossings tell it, weigh fully at its turns where that bias's model
         # explains them (_debiased)
-        again = {i: _debiased(t, fitted[i][0], along_weight, both[i], pixel_lag is not None)
+        again = {i: _debiased(t, fitted[i][0], along_weight, both[i], pixel_lag is not None,
+                              lags[i])
                  for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None}
         redo = [i for i, a in again.items() if a is not None]
         if redo:
@@ -785,7 +789,7 @@ def _in_turns(t, turns):
     return inside
 
 
-def _debiased(track, fitted, along_weight, balanced, lagging):
+def _debiased(track, fitted, along_weight, balanced, lagging, crossing_lag_s=None):
     """(track with its centroids moved by their along-motion offset from `fitted`, their along
     weights: 1 in the turns' time for those `balanced` (bool per centroid: both lobes,
     evstar.lobes.balanced), along_weight elsewhere), or None where that offset's model does
@@ -817,7 +821,8 @@ def _debiased(track, fitted, along_weight, balanced, lagging):
         # too few to measure: a pixel's lag is unknown then, a lobe offset is small
         return None if lagging else ((full, z, s_cent, crossings, turns), w)
     sigma = np.median(s_cent[calm])
-    a, b = _speed_terms(speed[calm], off[calm], sigma)
+    a, b = _speed_terms(speed[calm], off[calm], sigma,
+                        None if crossing_lag_s is None else -crossing_lag_s)
     scatter = np.sqrt(np.mean((off[calm] - a - b * speed[calm]) ** 2))
     if scatter > _BIAS_FIT_SIGMAS * sigma:
         return None
@@ -839,8 +844,10 @@ def _moved(fitted, rows, b):
 
 #: fewest centroids outside a track's turns that measure its centroids' along bias
 _MIN_BIAS_ROWS = 5
-#: t statistic a bias's speed term needs (else the bias is the offsets' median)
+#: t statistic a bias's speed term needs (else the bias is the offsets' median), and one
+#: within 2 SE of the crossings' measured lag
 _BIAS_SLOPE_T = 3.0
+_BIAS_SLOPE_T_AGREEING = 2.0
 #: most RMS scatter of a track's calm centroids about their bias model, in their median σ,
 #: for the model to be trusted at the turns (honest σ: ~1; the low-pass sinusoids of
 #: perf/study_indep.py it helps: 0.7–1.1; the dark-sky 20 °/s Scorpius field's tracks 1.1–3.2,
@@ -848,9 +855,12 @@ _BIAS_SLOPE_T = 3.0
 _BIAS_FIT_SIGMAS = 1.5
 
 
-def _speed_terms(s, off, sigma):
+def _speed_terms(s, off, sigma, expected_b=None):
     """(a, b) of the along offsets `off` at speeds `s` as a + b·speed, where b is significant
-    (|b| ≥ _BIAS_SLOPE_T standard errors) and the line's value at rest, a, is known to within
+    (|b| ≥ _BIAS_SLOPE_T standard errors, or _BIAS_SLOPE_T_AGREEING where it lies within 2 of
+    `expected_b`, minus the lag the track's crossings were moved back by: scene 22 of
+    perf/study_indep.py, 2.9 SE, its bright star's turns 0.51 -> 0.39 px) and the line's
+    value at rest, a, is known to within
     `sigma` (the centroids' σ); else (their median, 0). A turn's speeds lie below the
     fitted ones: a line through a narrow range of noisy speeds, extended to them, moved a
     small sinusoid's centroids by up to 9 px (a low-pass sinusoid's 113–190 px/s: a = 3.8
@@ -861,7 +871,10 @@ def _speed_terms(s, off, sigma):
     res = np.sqrt(np.sum((off - a - b * s) ** 2) / (n - 2)) if n > 2 else np.inf
     se_b = res / np.sqrt(sxx)
     se_a = res * np.sqrt(1.0 / n + s.mean() ** 2 / sxx)
-    if abs(b) >= _BIAS_SLOPE_T * se_b and se_a <= sigma:
+    # a slope that agrees with the lag the crossings were moved back by (expected_b = −lag)
+    # needs less evidence of its own: the pixels' lag is what the centroids carry too
+    agrees = expected_b is not None and abs(b - expected_b) <= 2 * se_b
+    if se_a <= sigma and abs(b) >= (_BIAS_SLOPE_T_AGREEING if agrees else _BIAS_SLOPE_T) * se_b:
         return float(a), float(b)
     return float(np.median(off)), 0.0
 

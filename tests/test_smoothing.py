@@ -729,3 +729,23 @@ def test_a_bias_line_through_noisy_offsets_of_a_narrow_speed_range_is_not_extend
     wide = rng.uniform(5, 108, 50)
     a, b = _speed_terms(wide, steep(wide), 0.15)
     assert abs(a + 0.05) < 0.05 and abs(b + 2e-2) < 1e-3
+
+
+def test_a_lag_slope_the_crossings_measured_needs_less_evidence():
+    """Noisy offsets of a 2.35 ms lag over 40–250 px/s whose slope is ~2.5 SE from zero: the
+    median alone without a measured lag, the line where the crossings' lag agrees (within 2
+    SE), still the median where it does not (perf/study_indep.py scene 22: a bright star
+    behind slow pixels with unequal thresholds, 2.9 SE)."""
+    from evstar.smoothing import _speed_terms
+
+    rng = np.random.default_rng(15)
+    s = rng.uniform(40, 250, 60)
+    off = 0.2 - 2.35e-3 * s + rng.normal(0, 0.4, 60)
+    b_fit, _ = np.polyfit(s, off, 1)
+    res = np.sqrt(np.sum((off - np.polyval(np.polyfit(s, off, 1), s)) ** 2) / 58)
+    t = abs(b_fit) / (res / np.sqrt(np.sum((s - s.mean()) ** 2)))
+    assert 2.0 < t < 3.0                                   # the case: between the two rules
+    assert _speed_terms(s, off, 0.5)[1] == 0.0
+    a, b = _speed_terms(s, off, 0.5, expected_b=-2.35e-3)
+    assert b == pytest.approx(b_fit) and b < 0
+    assert _speed_terms(s, off, 0.5, expected_b=+5e-3)[1] == 0.0
