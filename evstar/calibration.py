@@ -223,7 +223,8 @@ def tracks_with_velocity(centroids):
     velocity by finite differences along each track (for assigning crossings to tracks)."""
     c = centroids[centroids["track"] >= 0]
     c = c[np.lexsort((c["t"], c["track"]))]
-    c = c[np.r_[True, (np.diff(c["track"]) != 0) | (np.diff(c["t"]) > 0)]]  # one row per time
+    if len(c):
+        c = c[np.r_[True, (np.diff(c["track"]) != 0) | (np.diff(c["t"]) > 0)]]  # one row per time
     out = np.zeros(len(c), [("t", "<f8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
                             ("vx", "<f8"), ("vy", "<f8")])
     for f in ("t", "track", "x", "y"):
@@ -256,6 +257,10 @@ def calibrate(events, imu, camera, config=None, progress=None):
     crossings, ratio = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
                                        config.estimate.threshold_ratio, with_ratio=True,
                                        refractory_us=config.estimate.refractory_us)
+    if not (result.centroids["track"] >= 0).any():
+        raise DataError("pixel lag: the calibration recording gave no star track (no star, or no "
+                        "motion: a still event camera sees none); calibrate on a star field "
+                        "slewing at a changing rate")
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
     # runs that read the file pair levels with this ratio unless told one: a faint star's

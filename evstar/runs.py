@@ -35,7 +35,17 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     pipe = Pipeline(config)
     big = os.path.isfile(input) and os.path.getsize(input) > stream_above_mb * 1e6
     if big:
+        if sort:   # a streamed run sees one chunk at a time: it cannot reorder the file
+            raise ParameterError(f"{input}: --sort (sort=True) orders a recording in memory, but "
+                                 f"it is {os.path.getsize(input) / 1e6:,.0f} MB, above "
+                                 f"stream_above_mb = {stream_above_mb:g}: raise --stream-above-mb "
+                                 "above its size, or sort it once (evstar convert --sort)")
         cam, imu_data = read_aux(camera, imu)
+        if cam is None or imu_data is None:   # the file's own, as an in-memory run reads them
+            from . import io
+
+            held_imu, held_cam = io.extras(input, format)
+            cam, imu_data = cam or held_cam, imu_data or held_imu
         result = pipe.run_file(input, imu_data, cam, truth=truth, format=format,
                                sensor_size=sensor_size, progress=progress)
         events = None                          # streamed: no pooled-window fallback

@@ -115,3 +115,40 @@ def test_tiny_untracked_alpha_and_sparse_centroid_times(run):
     c["t"] = [0, 10**15]
     with pytest.raises(evstar.DataError, match="centroids span"):
         estimate(c, run.camera, identifier=lambda xy, t, weight=None: None)
+
+
+def test_a_streamed_run_uses_the_files_imu_and_camera(run, tmp_path):
+    """Above stream_above_mb a run streams the file: it used to read only --imu/--camera,
+    so `--compensate imu` said the input held none and no attitude was written."""
+    from evstar import Config, runs
+
+    path = tmp_path / "e.h5"
+    io.write(path, run.events, imu=run.imu, camera=run.camera)
+    imu, cam = io.extras(path)
+    assert cam == run.camera and np.array_equal(imu.t, run.imu.t)
+    cfg = Config().replace(**{"motion.compensate": "imu"})
+    streamed = runs.run_recording(path, tmp_path / "s", cfg, stream_above_mb=0)
+    whole = runs.run_recording(path, tmp_path / "w", cfg)
+    assert len(streamed.centroids) == len(whole.centroids) > 0
+    with pytest.raises(evstar.ParameterError, match="--sort .* orders a recording in memory"):
+        runs.run_recording(path, tmp_path / "x", cfg, stream_above_mb=0, sort=True)
+
+
+def test_writes_that_would_lose_or_garble_data(run, tmp_path):
+    with pytest.raises(evstar.FormatError, match="a .npy file holds one array"):
+        io.write(tmp_path / "e.npy", run.events)
+    imu = evstar.Imu(run.imu.t, run.imu.gyro, run.imu.accel, time_offset_us=500)
+    with pytest.warns(evstar.EvstarWarning, match="R_cam_imu and time offset"):
+        io.write(tmp_path / "e.aedat4", run.events, imu=imu)
+    wide = evstar.Events([0, 1], [0, 40000], [0, 1], [1, 0], 40001, 10)
+    with pytest.raises(evstar.FormatError, match="AEDAT4 holds sensors below 32768"):
+        io.write(tmp_path / "w.aedat4", wide)
+    assert not (tmp_path / "w.aedat4").exists()
+
+
+def test_calibration_without_tracks_says_so(tmp_path):
+    from evstar.calibration import calibrate
+
+    still = sim.simulate(sim.paper_preset(0.0, duration_s=0.2), seed=1)
+    with pytest.raises(evstar.DataError, match="gave no star track"):
+        calibrate(still.events, still.imu, still.camera)

@@ -105,12 +105,29 @@ def write(path, events, imu=None, camera=None, format=None):
     fmt = format_of(path, format)
     if not FORMATS[fmt][2]:
         raise FormatError(path, f"writing {fmt} is not supported; write csv, npz, hdf5 or aedat4")
-    lost = [n for n, v, ok in (("IMU", imu, fmt != "csv"), ("camera", camera, fmt not in ("csv", "aedat4")))
-            if v is not None and not ok]
+    if fmt == "npz" and str(path).lower().endswith(".npy"):
+        raise FormatError(path, "a .npy file holds one array, not a recording: write .npz")
+    calibrated = imu is not None and (imu.time_offset_us != 0 or not np.allclose(imu.R_cam_imu, np.eye(3)))
+    lost = [n for n, held, ok in (("IMU", imu is not None, fmt != "csv"),
+                                  ("camera", camera is not None, fmt not in ("csv", "aedat4")),
+                                  ("IMU's R_cam_imu and time offset", calibrated, fmt != "aedat4"))
+            if held and not ok]
     if lost:  # never drop data silently
         warnings.warn(f"{path}: the {fmt} format holds no {' or '.join(lost)}; write it separately "
                       "(write_imu / write_camera)", EvstarWarning, stacklevel=2)
     _module(fmt).write(path, events, imu=imu, camera=camera)
+
+
+def extras(path, format=None):
+    """(Imu or None, Camera or None) that the recording at `path` holds, without its events
+    (what a streamed run uses where no --imu or --camera is given)."""
+    fmt = format_of(path, format)
+    check_readable(path)
+    mod = _module(fmt)
+    if not hasattr(mod, "extras"):     # formats without an IMU or camera
+        return None, None
+    with decoder_errors(path, f"{fmt} file"):
+        return mod.extras(path)
 
 
 def packets(path, format=None, sensor_size=None):

@@ -12,6 +12,7 @@ from .atomic import atomic_path
 from .guard import decoder_errors, int64_times, stored_size
 
 G = 9.80665  # standard gravity, m/s² per g
+AEDAT4_MAX_SIDE = 32768  # sizeX / sizeY are 16-bit signed in the format
 D = faery.aedat
 
 
@@ -40,6 +41,16 @@ def _imu_from(packets):
     gyro = np.radians(np.stack([a[f"gyroscope_{c}"] for c in "xyz"], 1).astype(np.float64))
     accel = G * np.stack([a[f"accelerometer_{c}"] for c in "xyz"], 1).astype(np.float64)
     return Imu(a["t"], gyro, accel)  # Imu range-checks the unsigned times before its cast
+
+
+def extras(path):
+    """(Imu or None, None): the IMU stream, in one pass that drops the event packets."""
+    dec = _decoder(path)
+    imu = [packet for tr, packet in _iterate(path, dec) if tr.data_type == "imus"]
+    try:
+        return _imu_from(imu), None
+    except DataError as exc:
+        raise FormatError(path, str(exc)) from None
 
 
 def read(path, sensor_size=None, sort=False):
@@ -91,6 +102,9 @@ def _stream(i, type_id, name, info):
 
 def write(path, events, imu=None, camera=None, packet_events=20_000):
     """Events as track 0 and IMU (°/s, g) as track 1, packets interleaved by time."""
+    if max(events.width, events.height) >= AEDAT4_MAX_SIDE:   # the format's int16 sizes
+        raise FormatError(path, f"AEDAT4 holds sensors below {AEDAT4_MAX_SIDE} px a side, got "
+                                f"{events.width}x{events.height}: write hdf5 or npz")
     i = lambda v: D.DescriptionAttribute(attribute_type="int", value=v)  # noqa: E731
     streams = [_stream(0, "EVTS", "events", {"sizeX": i(events.width), "sizeY": i(events.height)})]
     if imu is not None:

@@ -82,15 +82,30 @@ def read(path, sensor_size=None, sort=False):
         try:
             w, h = _size(path, g, sensor_size)
             rec = Recording(Events(*(g[k][:] for k in "txyp"), w, h, sort=sort))
-            if (i := _group(path, f, "imu")) is not None:
-                rec.imu = Imu(*(_array(path, i, k) for k in ("t", "gyro", "accel")),
-                              R_cam_imu=_attr(path, i, "R_cam_imu"),
-                              time_offset_us=_attr(path, i, "time_offset_us", 0))
-            if (c := _group(path, f, "camera")) is not None:
-                rec.camera = Camera(**{k: _attr(path, c, k) for k in c.attrs})
+            rec.imu, rec.camera = _extras(path, f)
         except DataError as exc:
             raise FormatError(path, str(exc)) from None
     return rec
+
+
+def extras(path):
+    """(Imu or None, Camera or None) the file holds, without reading its events."""
+    with decoder_errors(path, "HDF5 file", H5PY_ERRORS), _open(path) as f:
+        try:
+            return _extras(path, f)
+        except DataError as exc:
+            raise FormatError(path, str(exc)) from None
+
+
+def _extras(path, f):
+    imu = camera = None
+    if (i := _group(path, f, "imu")) is not None:
+        imu = Imu(*(_array(path, i, k) for k in ("t", "gyro", "accel")),
+                  R_cam_imu=_attr(path, i, "R_cam_imu"),
+                  time_offset_us=_attr(path, i, "time_offset_us", 0))
+    if (c := _group(path, f, "camera")) is not None:
+        camera = Camera(**{k: _attr(path, c, k) for k in c.attrs})
+    return imu, camera
 
 
 def packets(path, sensor_size=None, chunk_events=1_000_000):

@@ -77,20 +77,36 @@ def read(path, sensor_size=None, sort=False):
         cols = _columns(path, data)
         w, h = _size(path, data, cols, sensor_size)
         rec = Recording(Events(*cols, w, h, sort=sort))
-        if not isinstance(data, np.ndarray):
-            if "imu_t" in data.files:
-                missing = [k for k in ("imu_gyro", "imu_accel", "imu_R_cam_imu", "imu_time_offset_us")
-                           if k not in data.files]
-                if missing:
-                    raise FormatError(path, f"'imu_t' without {missing}")
-                rec.imu = Imu(data["imu_t"], data["imu_gyro"], data["imu_accel"],
-                              R_cam_imu=data["imu_R_cam_imu"],
-                              time_offset_us=_integers(path, data, "imu_time_offset_us", (1,))[0])
-            if "camera" in data.files:
-                rec.camera = Camera(*_integers(path, data, "camera", (6, 7, 8)))
+        rec.imu, rec.camera = _extras(path, data)
         return rec
     except DataError as exc:
         raise FormatError(path, str(exc)) from None
+
+
+def extras(path):
+    """(Imu or None, Camera or None) the file holds, without reading its events (an .npz
+    loads each array on access)."""
+    try:
+        return _extras(path, _load(path))
+    except DataError as exc:
+        raise FormatError(path, str(exc)) from None
+
+
+def _extras(path, data):
+    imu = camera = None
+    if isinstance(data, np.ndarray):
+        return imu, camera
+    if "imu_t" in data.files:
+        missing = [k for k in ("imu_gyro", "imu_accel", "imu_R_cam_imu", "imu_time_offset_us")
+                   if k not in data.files]
+        if missing:
+            raise FormatError(path, f"'imu_t' without {missing}")
+        imu = Imu(data["imu_t"], data["imu_gyro"], data["imu_accel"],
+                  R_cam_imu=data["imu_R_cam_imu"],
+                  time_offset_us=_integers(path, data, "imu_time_offset_us", (1,))[0])
+    if "camera" in data.files:
+        camera = Camera(*_integers(path, data, "camera", (6, 7, 8)))
+    return imu, camera
 
 
 def packets(path, sensor_size=None, chunk_events=1_000_000):
