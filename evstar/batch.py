@@ -7,27 +7,32 @@
 The summary (OUTDIR/summary.csv and summary.parquet) has one row per input: a recording
 that fails (corrupt, unreadable) is a row with status "failed" and its one-line error, and
 never stops the others. Reruns are resumable: a folder whose completion marker
-(.evstar-batch.json, written last) matches the input's fingerprint and the configuration is
-skipped (status ok, skipped true); force=True redoes it.
+(.evstar-batch.json, written last) matches the fingerprints of the input and of every other
+file the run reads (IMU, camera, truth, pixel-lag file, by resolved path) and the
+configuration is skipped (status ok, skipped true); force=True redoes it.
 """
 from __future__ import annotations
 
+import collections.abc
 import contextlib
 import glob
 import hashlib
 import json
+import math
 import numbers
 import os
 import pathlib
 import time
 import uuid
 
-from .errors import BackendError, EvstarError, ParameterError
+from .errors import BackendError, EvstarError, ParameterError, ParameterTypeError
 
 MARKER = ".evstar-batch.json"  # in each output folder; written once the run is complete
 SUMMARY = ("summary.csv", "summary.parquet")
 CONNECT_TIMEOUT_S = 5
 _HEAD_BYTES = 1 << 20  # the fingerprint hashes the first MiB (with size and mtime)
+OPTIONS = ("truth", "imu", "camera", "format", "sensor_size", "sort", "stream_above_mb")
+_FILES = ("truth", "imu", "camera")  # the options that name input files
 _FIRST = ["input", "output", "status", "error", "skipped", "events", "centroids", "tracks",
           "seconds"]
 
@@ -47,13 +52,19 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     from . import backends
     from .io.atomic import check_output_dir, check_outputs
 
+    paths, options = check_arguments(paths, config, outdir, client, workers, scheduler, options)
     inputs = expand_inputs(paths)
     if not inputs:
         raise ParameterError("no recordings given")
     outdir = check_output_dir(outdir).absolute()  # workers may run in other folders
     check_outputs([outdir / name for name in SUMMARY], inputs)
-    options = {k: os.path.abspath(v) if k in ("camera", "imu") and v else v
-               for k, v in (options or {}).items()}
+    # input files by their resolved paths: another spelling of a file is the same file
+    options = {k: _resolved(v) if k in _FILES and v else v for k, v in options.items()}
+    lag = config.estimate.pixel_lag_file
+    if lag is not None:
+        config = config.replace(**{"estimate.pixel_lag_file": _resolved(lag)})
+    files = {k: v for k, v in {**options, "pixel_lag_file": config.estimate.pixel_lag_file}.items()
+             if k in (*_FILES, "pixel_lag_file") and v is not None}
     spec = config.to_dict()
     key = config_key(config, options)
     names = output_names(inputs)
@@ -63,7 +74,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
         settings["cpu_threads"] = 1  # also for local workers restarted after a crash
     with _client(client, workers, scheduler) as c:
         futures = [c.submit(process, str(p.absolute()), str(outdir / n), spec, key, options,
-                            force, settings, key=f"evstar-run-{n}-{call}-{i}",
+                            force, settings, files, key=f"evstar-run-{n}-{call}-{i}",
                             pure=False)
                    for i, (p, n) in enumerate(zip(inputs, names))]
         rows = _gather(futures, [outdir / n for n in names], progress)
@@ -71,6 +82,68 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     table = table[[c for c in _FIRST if c in table] + [c for c in table if c not in _FIRST]]
     write_summary(outdir, table)
     return table
+
+
+def check_arguments(paths, config, outdir, client, workers, scheduler, options):
+    """ParameterTypeError / ParameterError for run_many's arguments before any work;
+    returns the paths as a list and the options as a dict."""
+    from distributed import Client
+
+    from .config import Config
+
+    path = (str, os.PathLike)
+    if isinstance(paths, path):
+        paths = [paths]
+    elif isinstance(paths, collections.abc.Iterable) and not isinstance(paths, (bytes, dict)):
+        paths = list(paths)
+    if not isinstance(paths, list) or not all(isinstance(p, path) for p in paths):
+        raise ParameterTypeError(f"run_many: paths must be a path or a list of paths, got {paths!r}")
+    checks = (("config", config, Config, "an evstar.Config"),
+              ("outdir", outdir, path, "a str or os.PathLike"),
+              ("client", client, (Client, type(None)), "a distributed.Client or None"),
+              ("scheduler", scheduler, (str, type(None)), "an address string or None"),
+              ("options", options, (dict, type(None)), "a dict or None"))
+    for name, value, types, want in checks:
+        if not isinstance(value, types):
+            raise ParameterTypeError(f"run_many: {name} must be {want}, got {value!r}")
+    if workers is not None and (not isinstance(workers, numbers.Integral)
+                                or isinstance(workers, bool)):
+        raise ParameterTypeError(f"run_many: workers must be an int or None, got {workers!r}")
+    if workers is not None and workers < 1:
+        raise ParameterError(f"run_many: workers must be >= 1, got {workers!r}")
+    options = dict(options or {})
+    for k, v in options.items():
+        if k not in OPTIONS:
+            raise ParameterError(f"run_many: unknown option {k!r}; known: {', '.join(OPTIONS)}")
+        want = _bad_option(k, v)
+        if want:
+            raise ParameterError(f"run_many: options[{k!r}] must be {want}, got {v!r}")
+    return paths, options
+
+
+def _bad_option(key, value):
+    """What option `key` must be where `value` is not that, else None."""
+    def count(n):
+        return isinstance(n, numbers.Integral) and not isinstance(n, bool) and n > 0
+
+    if key == "sort":
+        return None if isinstance(value, bool) else "True or False"
+    if key == "stream_above_mb":
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) \
+            and math.isfinite(value) and value >= 0
+        return None if ok else "a finite number >= 0"
+    if value is None:
+        return None
+    if key == "format":
+        from .io import FORMATS
+
+        return None if isinstance(value, str) and value in FORMATS else \
+            f"one of {', '.join(FORMATS)} or None"
+    if key == "sensor_size":
+        ok = isinstance(value, (list, tuple)) and len(value) == 2 and all(map(count, value))
+        return None if ok else "two positive integers (W, H) or None"
+    ok = isinstance(value, (str, os.PathLike)) and str(value).strip()  # truth, imu, camera
+    return None if ok else "a file path or None"
 
 
 def expand_inputs(paths):
@@ -109,6 +182,10 @@ def config_key(config, options):
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _resolved(path):
+    return str(pathlib.Path(path).expanduser().resolve())
+
+
 def fingerprint(path):
     """Size, mtime and the sha256 of the first MiB: cheap, and changes with any rewrite."""
     st = os.stat(path)
@@ -117,8 +194,10 @@ def fingerprint(path):
     return {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "head_sha256": head}
 
 
-def process(input, outdir, spec, key, options, force=False, settings=None):
-    """One recording (the task run on a worker): its summary row; errors become the row's."""
+def process(input, outdir, spec, key, options, force=False, settings=None, files=None):
+    """One recording (the task run on a worker): its summary row; errors become the row's.
+    `files` are the other input files by role (imu, camera, truth, pixel_lag_file): the
+    result is up to date only while they are unchanged too."""
     from .config import Config
 
     t = time.perf_counter()
@@ -128,7 +207,9 @@ def process(input, outdir, spec, key, options, force=False, settings=None):
         from .runs import run_recording
 
         check_readable(input)
-        stamp = {"input": fingerprint(input), "config": key}
+        stamp = {"input": fingerprint(input), "config": key,
+                 "inputs": {k: fingerprint(p) if os.path.isfile(p) else None  # missing: the run says
+                           for k, p in sorted((files or {}).items())}}
         done = None if force else completed(outdir, stamp)
         if done is not None:
             return {**done, "input": input, "output": outdir, "skipped": True}

@@ -158,3 +158,50 @@ def test_local_workers_use_one_kernel_thread_and_the_callers_cache_folder(client
     assert all(s["cpu_threads"] == 1 for s in settings.values())
     # the kernel caches: the libraries' per-user folders unless the caller configured one
     assert all(s["cache_dir"] == backends.settings()["cache_dir"] for s in settings.values())
+
+
+def test_an_edited_input_file_is_redone_and_another_spelling_is_the_same(client, tmp_path,
+                                                                          monkeypatch):
+    from evstar.calibration import PixelLag
+
+    run = sim.simulate(sim.paper_preset(16.0, duration_s=0.1), seed=3)
+    monkeypatch.chdir(tmp_path)
+    io.write("rec.h5", run.events, camera=run.camera)
+    io.write_imu("imu.csv", run.imu)
+    PixelLag([1, 2], [50.0, 200.0], [[9.0, 8.0], [5.0, 4.0]], [[1.0, 2.0], [1.0, 3.0]]).save("lag.json")
+
+    def skipped(lag, imu="imu.csv"):
+        config = Config().replace(**{"estimate.pixel_lag_file": lag})
+        table = batch.run_many(["rec.h5"], config, "out", client=client, options={"imu": imu})
+        assert table["status"].tolist() == ["ok"], table["error"].tolist()
+        return bool(table["skipped"].iloc[0])
+
+    assert not skipped("lag.json")
+    assert skipped("./lag.json", imu=str(tmp_path / "imu.csv"))  # the same files, spelt otherwise
+    io.write_imu("imu.csv", evstar.Imu(run.imu.t, run.imu.gyro * 1.01, run.imu.accel))
+    assert not skipped("lag.json")  # the IMU's contents changed: redone
+    assert skipped("lag.json")
+
+
+@pytest.mark.parametrize("change, error, match", [
+    ({"paths": None}, evstar.ParameterTypeError, "paths must be"),
+    ({"paths": [None]}, evstar.ParameterTypeError, "paths must be"),
+    ({"config": {}}, evstar.ParameterTypeError, "config must be an evstar.Config, got {}"),
+    ({"config": None}, evstar.ParameterTypeError, "config must be"),
+    ({"outdir": None}, evstar.ParameterTypeError, "outdir must be"),
+    ({"client": "x"}, evstar.ParameterTypeError, "client must be .*, got 'x'"),
+    ({"workers": "2"}, evstar.ParameterTypeError, "workers must be an int or None, got '2'"),
+    ({"workers": 0}, evstar.ParameterError, "workers must be >= 1, got 0"),
+    ({"options": [1]}, evstar.ParameterTypeError, r"options must be a dict or None, got \[1\]"),
+    ({"options": {"bogus": 1}}, evstar.ParameterError, "unknown option 'bogus'"),
+    ({"options": {"stream_above_mb": "0"}}, evstar.ParameterError,
+     r"options\['stream_above_mb'\] must be a finite number >= 0, got '0'"),
+    ({"options": {"imu": 3}}, evstar.ParameterError, r"options\['imu'\] must be a file path"),
+])
+def test_run_many_checks_its_arguments_before_any_work(tmp_path, change, error, match):
+    args = {"paths": [str(tmp_path / "x.h5")], "config": Config(), "outdir": tmp_path / "o",
+            **change}
+    with pytest.raises(error, match=match) as e:
+        batch.run_many(args.pop("paths"), args.pop("config"), args.pop("outdir"), **args)
+    assert len(str(e.value).splitlines()) == 1
+    assert not (tmp_path / "o").exists()
