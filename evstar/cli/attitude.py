@@ -46,8 +46,10 @@ def run(args):
     if is_centroid_file(args.input):
         from ..runs import read_aux
 
-        centroids = io.read_centroids(args.input)
         camera, imu = read_aux(args.camera, args.imu, bool(args.sort))
+        if camera is None:
+            raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
+        centroids = io.read_centroids(args.input, sensor=(camera.width, camera.height))
         events = None            # a centroid file: frames only, no pooled-window fallback
     else:
         centroids, camera, imu, events = _pipeline(args)
@@ -56,7 +58,7 @@ def run(args):
     est = AttitudeEstimator(camera, imu, epoch=args.epoch, **options)
     rows = est.run(centroids, events)
     if not len(rows):
-        raise DataError(f"no attitude: {fix_summary(est.fixes)}")
+        raise DataError(f"no attitude: {no_output_after_fix(est, centroids) or fix_summary(est.fixes)}")
     write_attitude(args.output, rows)
     print(f"{len(rows):,} attitudes {rows['t'][0]}..{rows['t'][-1]} µs "
           f"({'gyro' if imu is not None else 'constant-rate model'}), first fix at "
@@ -72,15 +74,19 @@ def _pipeline(args):
     return result.centroids, rec.camera, rec.imu, rec.events
 
 
+#: header names only a centroid table has (an event CSV has t, x, y and a polarity)
+CENTROID_ONLY = {"track", "n_events", "frame", "spread", "border", "split", "sigma", "source", "n_on"}
+
+
 def is_centroid_file(path):
-    """True for a centroid table (CSV header starting t,x,y,track; NPZ array or HDF5
-    dataset 'centroids'), False for anything else (read as a recording)."""
+    """True for a centroid table (NPZ array or HDF5 dataset 'centroids'; a CSV whose header
+    names a centroid column such as track, or has no polarity column), False for anything
+    else (read as a recording)."""
     path = pathlib.Path(path)
     ext = path.suffix.lower()
     try:
         if ext == ".csv":
-            with open(path, encoding="utf-8", errors="replace") as f:
-                return f.readline().replace(" ", "").startswith("t,x,y,track")
+            return _csv_is_centroids(path)
         if ext == ".npz":
             import numpy as np
             with np.load(path, allow_pickle=False) as z:
@@ -92,6 +98,46 @@ def is_centroid_file(path):
     except (OSError, ValueError):
         return False   # the recording reader reports what is wrong with it
     return False
+
+
+def _csv_is_centroids(path):
+    """A header (the first line that is not blank or a # comment) naming a centroid-only
+    column or no polarity column: meant as centroids (read_centroids says what is missing)."""
+    import re
+
+    from ..io.text import ALIASES
+
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        header = next((ln for ln in f if ln.strip() and not ln.startswith("#")), "")
+    names = {n.strip().strip("\"'").strip().lower() for n in re.split(r"[,;\s]+", header.strip())}
+    if not any(c.isalpha() and c not in "eE" for c in header):
+        return False     # headerless rows: the t x y p event layout
+    return bool(names & CENTROID_ONLY) or not names & set(ALIASES["p"])
+
+
+def no_output_after_fix(est, centroids):
+    """Why identification succeeded yet no row came: every output time (one each 1/rate_hz
+    from the first centroid) falls before the first fix. None when that is not the case."""
+    import numpy as np
+
+    ok = [t for t, status, _ in est.fixes if status.split()[-1] == "ok"]
+    c = centroids
+    if "source" in c.dtype.names:
+        c = c[c["source"] != "coasted"]
+    c = c[np.isfinite(c["x"]) & np.isfinite(c["y"])]
+    if not ok or not len(c):
+        return None
+    rate = est.o["rate_hz"]
+    step_us = 1e6 / rate
+    t0 = int(c["t"].min()) + int(round(est.o["centroid_delay_us"] or 0))
+    span_us = int(c["t"].max()) - int(c["t"].min())
+    last_out = t0 + int(span_us // step_us) * step_us
+    if last_out > min(ok):
+        return None
+    why = ("every centroid has the same t: nothing follows the fix" if span_us == 0 else
+           f"--rate-hz {rate:g} gives one output every {step_us / 1e3:g} ms from {t0} µs; raise --rate-hz")
+    return (f"{fix_summary(est.fixes)}, but no output time after the first fix at {min(ok)} µs: "
+            f"the centroids span {span_us / 1e3:g} ms, {why}")
 
 
 def fix_summary(fixes):

@@ -1,7 +1,10 @@
 """Centroid tables (``evstar.extract.CENTROID_DTYPE``) as CSV, HDF5 or NPZ, chosen by extension.
 
 CSV: header ``t,x,y,track,n_events,frame`` (t µs) then the other columns; HDF5: the compound
-dataset ``/centroids``; NPZ: the structured array ``centroids``.
+dataset ``/centroids``; NPZ: the structured array ``centroids``. Reading checks every value:
+x, y finite, n_events >= 0, and when the centroids are to be used with a camera
+(``sensor=(width, height)``) x, y on its sensor (within half a pixel of its edges) and sigma
+> 0 or NaN (unknown); errors name the row (CSV: also its line).
 """
 from __future__ import annotations
 
@@ -17,6 +20,9 @@ from .guard import H5PY_ERRORS, check_h5_numeric, check_path_type, check_readabl
 
 COLUMNS = ["t", "x", "y", "track", "n_events", "frame"]
 CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"}
+#: what a centroid file needs, for the messages of files without it
+NEEDS = ("a centroid file is a table like `evstar run`'s centroids.csv: comma-separated, "
+         "header t,x,y,track,n_events,frame (then optional spread,border,split,sigma,source,n_on)")
 
 
 def check_centroid_path(path):
@@ -55,12 +61,18 @@ def write_centroids(path, centroids):
             np.savez_compressed(tmp, centroids=centroids)
 
 
-def read_centroids(path):
+def read_centroids(path, sensor=None):
+    """The CENTROID_DTYPE table of `path`. With sensor=(width, height), the measurements of
+    that camera: every x, y on its sensor (pixel centres 0..width-1, 0..height-1, give or
+    take half a pixel) and every sigma > 0 or NaN (unknown)."""
     fmt = check_centroid_path(path)
     check_readable(path)
     with decoder_errors(path, f"centroid {fmt} file", H5PY_ERRORS if fmt == "hdf5" else ()):
-        columns = {"csv": _csv_columns, "hdf5": _hdf5_columns, "npz": _npz_columns}[fmt](path)
-        return _table(path, columns)
+        if fmt == "csv":
+            columns, lines = _csv_columns(path)
+        else:
+            columns, lines = {"hdf5": _hdf5_columns, "npz": _npz_columns}[fmt](path), None
+        return _table(path, columns, lines, sensor)
 
 
 def _csv_columns(path):
@@ -69,10 +81,20 @@ def _csv_columns(path):
     except pd.errors.EmptyDataError:
         raise FormatError(path, "file is empty") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    if len(frame.columns) == 1 and ";" in frame.columns[0]:
+        raise FormatError(path, f"the header {frame.columns[0]!r} is semicolon-separated; {NEEDS}")
     dup = sorted({c for c in frame.columns if f"{c}.1" in frame.columns})
     if dup:
         raise FormatError(path, f"column(s) {dup} appear more than once in the header")
-    return {k: frame[k].to_numpy() for k in frame.columns}
+    return {k: frame[k].to_numpy() for k in frame.columns}, _data_lines(path, len(frame))
+
+
+def _data_lines(path, n):
+    """The file line number (1-based) of each of the n rows pandas read (it skips blank
+    lines), or None when they cannot be told apart (quoted line breaks)."""
+    with open(path, encoding="utf-8", errors="replace") as f:
+        lines = [i for i, ln in enumerate(f, 1) if ln.strip()][1:]
+    return np.array(lines) if len(lines) == n else None
 
 
 def _hdf5_columns(path):
@@ -96,25 +118,51 @@ def _npz_columns(path):
     return {k: arr[k] for k in arr.dtype.names}
 
 
-def _table(path, columns):
-    """A CENTROID_DTYPE array from name -> values, every value checked against its field."""
+def _table(path, columns, lines=None, sensor=None):
+    """A CENTROID_DTYPE array from name -> values, every value checked against its field;
+    lines: the file line of each row (CSV), for the messages."""
     missing = [c for c in COLUMNS if c not in columns]
     if missing:
-        raise FormatError(path, f"missing centroid column(s) {missing}")
+        raise FormatError(path, f"missing centroid column(s) {missing} (has {list(columns)}); {NEEDS}")
     dtype = _dtype()
     n = len(columns["t"])
     out = np.zeros(n, dtype)
+
+    def at(i):
+        return f"row {i}" if lines is None else f"line {lines[i]}, row {i}"
+
     for k in dtype.names:
         if k in columns:
-            out[k] = _field(path, k, columns[k], dtype[k], n)
+            out[k] = _field(path, k, columns[k], dtype[k], n, at)
+
+    def fail(bad, message):
+        i = int(np.flatnonzero(bad)[0])
+        raise FormatError(path, f"{at(i)}: " + message(i))
+
+    shown = lambda k, i: str(columns[k][i]).strip() if k in columns else out[k][i]  # noqa: E731
     i = check_time_range(out["t"])
     if i is not None:
-        raise FormatError(path, f"row {i}: column 't' = {out['t'][i]} is outside ±{T_LIMIT_US} µs")
-    bad = np.flatnonzero((out["n_on"] < 0) | (out["n_on"] > np.maximum(out["n_events"], 0)))
-    if len(bad):   # the ON events are some of the cluster's events
-        i = int(bad[0])
-        raise FormatError(path, f"row {i}: column 'n_on' = {out['n_on'][i]} is not in 0..n_events "
-                                f"({out['n_events'][i]})")
+        raise FormatError(path, f"{at(i)}: column 't' = {out['t'][i]} is outside ±{T_LIMIT_US} µs")
+    for k in ("x", "y"):
+        if not np.isfinite(out[k]).all():
+            fail(~np.isfinite(out[k]), lambda i: f"column '{k}' = {shown(k, i)} is not a finite position")
+    if sensor is not None:
+        for k, size in zip(("x", "y"), sensor):
+            off = (out[k] < -0.5) | (out[k] > size - 0.5)
+            if off.any():
+                fail(off, lambda i: f"column '{k}' = {shown(k, i)} is off the camera's "
+                                    f"{sensor[0]}x{sensor[1]} sensor ({k} must be in -0.5..{size - 0.5:g}): "
+                                    f"centroids of another camera?")
+    if sensor is not None and "sigma" in columns:   # measurements: NaN is unknown (the
+        # estimator's default applies); 0 is left to tables made with np.zeros otherwise
+        bad = (out["sigma"] <= 0) | np.isinf(out["sigma"])
+        if bad.any():
+            fail(bad, lambda i: f"column 'sigma' = {shown('sigma', i)} must be > 0 px (or nan: unknown)")
+    if (out["n_events"] < 0).any():
+        fail(out["n_events"] < 0, lambda i: f"column 'n_events' = {shown('n_events', i)} is negative")
+    bad = (out["n_on"] < 0) | (out["n_on"] > np.maximum(out["n_events"], 0))
+    if bad.any():   # the ON events are some of the cluster's events
+        fail(bad, lambda i: f"column 'n_on' = {out['n_on'][i]} is not in 0..n_events ({out['n_events'][i]})")
     return out
 
 
@@ -133,7 +181,7 @@ def _coded(centroids):
     return out
 
 
-def _text_field(path, name, values):
+def _text_field(path, name, values, at):
     """source: a name of SOURCES, or its index (HDF5)."""
     from ..extract import SOURCES
 
@@ -146,16 +194,16 @@ def _text_field(path, name, values):
         bad = ~np.isin(text, SOURCES)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise FormatError(path, f"row {i}: column '{name}' holds {values[i]!r}, not one of {SOURCES}")
+        raise FormatError(path, f"{at(i)}: column '{name}' holds {values[i]!r}, not one of {SOURCES}")
     return text
 
 
-def _field(path, name, values, dtype, n):
+def _field(path, name, values, dtype, n, at):
     values = np.asarray(values)
     if values.shape != (n,):
         raise FormatError(path, f"column '{name}' has shape {values.shape}, expected ({n},)")
     if dtype.kind == "U":
-        return _text_field(path, name, values)
+        return _text_field(path, name, values, at)
     raw = values
     if values.dtype.kind in "OUS":  # CSV text: numbers, or True/False for the flags
         text = pd.Series(values).astype(str).str.strip()
@@ -163,7 +211,7 @@ def _field(path, name, values, dtype, n):
         bad = np.isnan(values) & ~text.str.lower().isin(["nan"]).to_numpy()
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise FormatError(path, f"row {i}: column '{name}' holds a non-numeric value {raw[i]!r}")
+            raise FormatError(path, f"{at(i)}: column '{name}' holds a non-numeric value {raw[i]!r}")
     if values.dtype.kind not in "biuf":
         raise FormatError(path, f"column '{name}' must be numeric, got dtype {values.dtype}")
     if dtype.kind == "f":
@@ -174,6 +222,6 @@ def _field(path, name, values, dtype, n):
         ok &= np.isfinite(values) & (values == np.round(values))
     if not ok.all():
         i = int(np.flatnonzero(~ok)[0])
-        raise FormatError(path, f"row {i}: column '{name}' holds an invalid value {raw[i]!r} "
+        raise FormatError(path, f"{at(i)}: column '{name}' holds an invalid value {raw[i]!r} "
                                 f"(expected {dtype} in {lo}..{hi})")
     return values.astype(dtype)
