@@ -538,11 +538,16 @@ def check_thresholds_per_radius(thresholds, radii, key="thresholds"):
 def markdown():
     """docs/parameters.md: every declared parameter as a table per section (a test keeps the
     file equal to this text)."""
-    lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
-             "> docs/parameters.md`). Config key `section.name`; command-line option in the last "
-             "column (`evstar extract`, `evstar run`; `evstar denoise` takes the denoise ones, "
-             "`evstar attitude` the attitude_filter ones).", ""]
     library = (KERNEL, PARTICLE_FILTER, REEXTRACT, HOTPIXEL_MAP, IDENTIFY, SMOOTHER)
+    config = ", ".join(f"`{k}`" for k in SECTIONS)
+    lines = ["# Parameters", "", "Generated from `evstar/parameters.py` (`python -m evstar.parameters "
+             "> docs/parameters.md`). The top level and the sections " + config + " are "
+             "`evstar.Config` keys (`section.name`; tables of a `--config` TOML or JSON file); "
+             "command-line option in the last column (`evstar extract`, `evstar run`; "
+             "`evstar denoise` takes the denoise ones). "
+             + ", ".join(f"`{p.section}`" for p in library) + " are library settings (keyword "
+             "arguments of their classes, no Config keys); `attitude_filter` holds the options "
+             "of `evstar attitude` and `evstar.attitude.estimate`, not of `--config`.", ""]
     for params in (GLOBAL, *SECTIONS.values(), *library, ATTITUDE_FILTER):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
