@@ -156,9 +156,13 @@ class Config:
         except RecursionError:
             raise FormatError(path, "cannot parse configuration (nested too deeply)") from None
         try:
-            return cls.from_dict(data)
+            config = cls.from_dict(data)
         except ParameterError as exc:
             raise ParameterError(f"{path}: {exc}") from None
+        lag = config.estimate.pixel_lag_file
+        if lag is not None and not os.path.isabs(lag):   # beside the file that names it
+            config = config.replace(**{"estimate.pixel_lag_file": str(path.parent / lag)})
+        return config
 
     def replace(self, **changes):
         """A copy with top-level or dotted keys changed, e.g. replace(**{"denoise.method": "ndsef"})."""

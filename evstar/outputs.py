@@ -71,6 +71,9 @@ def _write_all(folder, result, config, truth):
     track_table(result.centroids).to_csv(folder / "tracks.csv", index=False, float_format="%.4f")
     (folder / "metrics.json").write_text(json.dumps(result.metrics, indent=2, default=_json) + "\n")
     (folder / "profile.json").write_text(json.dumps(result.timings_s, indent=2) + "\n")
+    lag = config.estimate.pixel_lag_file
+    if lag is not None:   # Config.load reads a relative one beside the file: record it whole
+        config = config.replace(**{"estimate.pixel_lag_file": os.path.abspath(lag)})
     (folder / "config.toml").write_text(config.to_toml())
     figures(folder, result, truth)
 

@@ -34,3 +34,16 @@ def test_bad_file_names_file_and_key(tmp_path):
     p.write_text("[denoise\n")
     with pytest.raises(FormatError, match="cannot parse"):
         Config.load(p)
+
+
+def test_a_relative_pixel_lag_file_is_read_beside_the_config(tmp_path):
+    """A config file naming lag.json means the lag.json beside it, from any working folder
+    (it was resolved against the working folder: a rerun from elsewhere could not read it)."""
+    import evstar
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "cfg.toml").write_text('[estimate]\npixel_lag_file = "lag.json"\n')
+    cfg = evstar.Config.load(tmp_path / "sub" / "cfg.toml")
+    assert cfg.estimate.pixel_lag_file == str(tmp_path / "sub" / "lag.json")
+    (tmp_path / "abs.toml").write_text(f'[estimate]\npixel_lag_file = "{tmp_path / "x.json"}"\n')
+    assert evstar.Config.load(tmp_path / "abs.toml").estimate.pixel_lag_file == str(tmp_path / "x.json")
