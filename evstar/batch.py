@@ -321,7 +321,8 @@ def _gather(futures, outputs, progress):
     from distributed import as_completed
     from tqdm import tqdm
 
-    with tqdm(total=len(futures), unit="recording", disable=not progress) as bar:
+    # disable=None: no bar where stderr is no terminal (a log)
+    with tqdm(total=len(futures), unit="recording", disable=None if progress else True) as bar:
         for _ in as_completed(futures):
             bar.update()
     return [f.result() if f.status == "finished" else

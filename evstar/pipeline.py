@@ -482,7 +482,8 @@ def _with_context(windows, dt_us, desc, progress):
     """(events, context) per chunk: context = the previous chunk's events of its last dt."""
     from tqdm import tqdm
 
-    bar = tqdm(desc=desc, unit="ev", unit_scale=True, disable=not progress, leave=False)
+    # disable=None: no bar where stderr is no terminal (a log)
+    bar = tqdm(desc=desc, unit="ev", unit_scale=True, disable=None if progress else True, leave=False)
     prev = None
     for _, events in windows:
         context = None if prev is None else prev.time_window(int(events.t[0]) - dt_us, int(events.t[0]))

@@ -69,3 +69,15 @@ def test_a_recording_without_stars_runs_without_warnings(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "warning" not in res.stderr.lower(), res.stderr
     assert (tmp_path / "out" / "tracks.png").exists()
+
+
+def test_a_streamed_run_draws_no_progress_bar_into_a_log(tmp_path):
+    """stderr is not a terminal here (a log, CI): the streaming progress bar stays off
+    without --no-progress (it filled logs with carriage-return frames)."""
+    (tmp_path / "ev.csv").write_text("t,x,y,p\n" + "".join(f"{i * 100},{i % 7},{i % 5},{i % 2}\n"
+                                                           for i in range(2000)))
+    res = subprocess.run([sys.executable, "-m", "evstar", "run", "ev.csv", "-o", "out",
+                          "--sensor-size", "10", "10", "--stream-above-mb", "0"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "\r" not in res.stderr and "ev/s" not in res.stderr, res.stderr
