@@ -361,6 +361,8 @@ class Pipeline:
             accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])
         t0 = int(first[1].t[0])
         rate, hot = self.calibration(first[1], t0)
+        # the size the first look found (or inferred, warning once): not inferred again
+        sensor_size = (first[1].width, first[1].height)
 
         def chunks(desc):
             return _with_context(io.windows(path, span, format=format, sensor_size=sensor_size,

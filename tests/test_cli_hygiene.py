@@ -81,3 +81,12 @@ def test_a_streamed_run_draws_no_progress_bar_into_a_log(tmp_path):
                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert res.returncode == 0, res.stderr
     assert "\r" not in res.stderr and "ev/s" not in res.stderr, res.stderr
+
+
+def test_a_streamed_file_without_a_size_warns_once(tmp_path):
+    (tmp_path / "hl.txt").write_text("0.000001 1 1 1\n0.000002 2 2 0\n0.000003 3 3 1\n")
+    res = subprocess.run([sys.executable, "-m", "evstar", "run", "hl.txt", "-o", "out",
+                          "--stream-above-mb", "0", "--no-progress"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("no sensor size given") == 1, res.stderr
