@@ -18,7 +18,6 @@ import contextlib
 import glob
 import hashlib
 import json
-import math
 import numbers
 import os
 import pathlib
@@ -129,9 +128,9 @@ def _bad_option(key, value):
     if key == "sort":
         return None if isinstance(value, bool) else "True or False"
     if key == "stream_above_mb":
-        ok = isinstance(value, numbers.Real) and not isinstance(value, bool) \
-            and math.isfinite(value) and value >= 0
-        return None if ok else "a finite number >= 0"
+        from .runs import valid_stream_above_mb
+
+        return None if valid_stream_above_mb(value) else "a finite number >= 0"
     if value is None:
         return None
     if key == "format":

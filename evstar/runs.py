@@ -7,6 +7,7 @@ as a library function that `evstar run` and `evstar batch` (evstar.batch) share.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 
 from .errors import ParameterError
@@ -26,8 +27,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     from .pipeline import Pipeline
     from .sim import load_truth
 
-    if not (isinstance(stream_above_mb, (int, float)) and math.isfinite(stream_above_mb)
-            and stream_above_mb >= 0):
+    if not valid_stream_above_mb(stream_above_mb):
         raise ParameterError(f"stream_above_mb must be a finite number >= 0, got {stream_above_mb!r}")
     check_output_dir(outdir)
     check_outputs(outputs.run_files(outdir), [input, imu, camera, truth])
@@ -59,6 +59,13 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     outputs.write_run(outdir, result, config, truth,
                       attitude=attitude_rows(result, cam, imu_data, events))
     return result
+
+
+def valid_stream_above_mb(value):
+    """Whether `value` is a stream_above_mb run_recording takes: a finite number >= 0 (not a
+    bool; evstar batch checks its options with this before any work)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) \
+        and math.isfinite(value) and value >= 0
 
 
 def _check_imu_span(imu, events, config, source):
