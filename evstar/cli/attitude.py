@@ -17,7 +17,7 @@ from __future__ import annotations
 import pathlib
 
 from .. import parameters as P
-from .common import add_input_options, check_file_output, load
+from .common import add_input_options, load
 from .options import add_options, checked
 
 
@@ -35,9 +35,9 @@ def run(args):
     from .. import io
     from ..attitude import AttitudeEstimator, write_attitude
     from ..errors import DataError, FormatError, ParameterError
-    from ..io.atomic import check_outputs
+    from ..io.atomic import check_output_file, check_outputs
 
-    check_file_output(args.output, "-o/--output")
+    check_output_file(args.output, "-o/--output")
     if pathlib.Path(args.output).suffix.lower() != ".csv":
         raise FormatError(args.output, "the attitude is written as CSV; give a .csv name")
     check_outputs([args.output], [args.input, args.imu, args.camera, args.config])

@@ -28,9 +28,9 @@ def check_results_path(path):
     """Before any work: a .json name (ParameterError) where no other file would be replaced
     (OutputError)."""
     from ..errors import OutputError, ParameterError
-    from .common import check_file_output
+    from ..io.atomic import check_output_file
 
-    check_file_output(path, "-o/--output")   # the raw text: "x.json/" is a folder path
+    check_output_file(path, "-o/--output")   # the raw text: "x.json/" is a folder path
     path = pathlib.Path(path)
     if path.suffix.lower() != ".json":
         raise ParameterError(f"-o/--output must name a .json file (bench writes JSON), got {str(path)!r}")

@@ -11,7 +11,7 @@ Calibrate once per camera, lens and bias settings.
 """
 from __future__ import annotations
 
-from .common import add_input_options, check_file_output, load
+from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -26,9 +26,9 @@ def run(args):
     import numpy as np
 
     from ..calibration import calibrate
-    from ..io.atomic import check_outputs
+    from ..io.atomic import check_output_file, check_outputs
 
-    check_file_output(args.output, "-o/--output")
+    check_output_file(args.output, "-o/--output")
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)
     rec = load(args)

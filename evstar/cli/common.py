@@ -5,7 +5,7 @@ import argparse
 import os
 import re
 
-from ..errors import OutputError, ParameterError
+from ..errors import ParameterError
 from .options import checked
 
 MAX_SENSOR_SIDE = 65536  # pixels: evstar.Events holds x, y as uint16
@@ -37,11 +37,16 @@ def format_name(text):
     return text
 
 
-def writable_format_name(text):
-    """argparse `type` of --to: a format evstar writes."""
+def _writable_formats():
+    """The formats evstar writes (evstar.io.FORMATS), sorted."""
     from ..io import FORMATS
 
-    names = sorted(n for n, (_, _, can_write) in FORMATS.items() if can_write)
+    return sorted(n for n, (_, _, can_write) in FORMATS.items() if can_write)
+
+
+def writable_format_name(text):
+    """argparse `type` of --to: a format evstar writes."""
+    names = _writable_formats()
     if text not in names:
         raise argparse.ArgumentTypeError(f"must be one of {', '.join(names)}, got {text!r}")
     return text
@@ -53,7 +58,7 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
     from .. import io
     from ..errors import FormatError
 
-    names = sorted(n for n, (_, _, can_write) in io.FORMATS.items() if can_write)
+    names = _writable_formats()
     try:
         fmt = io.format_of(path, out_format)
     except FormatError:
@@ -65,14 +70,6 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
         raise ParameterError(f"{option} {path}: evstar reads {fmt} files but cannot write them; "
                              f"write {', '.join(names[:-1])} or {names[-1]}")
     return fmt
-
-
-def check_file_output(path, option):
-    """The checks of a file output before any work (io.atomic.check_output_file: not a
-    folder, in a writable place); OutputError (exit 4) naming `option` otherwise."""
-    from ..io.atomic import check_output_file
-
-    return check_output_file(path, option)
 
 
 def load(args):

@@ -1,8 +1,7 @@
 """`evstar convert IN OUT`: change a recording's format (events, with IMU where both hold it)."""
 from __future__ import annotations
 
-from .common import add_input_options, add_output_format_option, check_events_output, \
-    check_file_output, load
+from .common import add_input_options, add_output_format_option, check_events_output, load
 
 
 def add_arguments(p):
@@ -14,9 +13,9 @@ def add_arguments(p):
 
 def run(args):
     from .. import io
-    from ..io.atomic import check_outputs
+    from ..io.atomic import check_output_file, check_outputs
 
-    check_file_output(args.output, "OUT")
+    check_output_file(args.output, "OUT")
     check_events_output(args.output, args.out_format)  # the format, before any work
     check_outputs([args.output], [args.input, args.imu, args.camera])
     rec = load(args)

@@ -12,8 +12,7 @@ import time
 
 from .. import parameters as P
 from ..errors import OutputError, ParameterError
-from .common import add_input_options, add_output_format_option, check_events_output, \
-    check_file_output, load
+from .common import add_input_options, add_output_format_option, check_events_output, load
 from .options import add_options, config_from_args
 
 METHODS = P.METHODS[1:]  # every filter; "none" is for the pipeline
@@ -54,11 +53,11 @@ def run(args):
     import numpy as np
 
     from .. import io
-    from ..io.atomic import atomic_path, check_outputs
+    from ..io.atomic import atomic_path, check_output_file, check_outputs
 
     for out, option in ((args.output, "OUT"), (args.mask_out, "--mask-out")):
         if out is not None:
-            check_file_output(out, option)
+            check_output_file(out, option)
     check_events_output(args.output, args.out_format)  # the format, before any work
     try:  # the two outputs must differ: the mask would replace the kept events
         check_outputs([args.mask_out], [args.output])

@@ -6,7 +6,7 @@ CSV header `t,x,y,track,n_events,frame` (t in µs; track -1 = unconfirmed) follo
 """
 from __future__ import annotations
 
-from .common import add_input_options, check_file_output, load
+from .common import add_input_options, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -19,10 +19,10 @@ def add_arguments(p):
 
 def run(args):
     from .. import io
-    from ..io.atomic import check_outputs
+    from ..io.atomic import check_output_file, check_outputs
     from ..pipeline import Pipeline
 
-    check_file_output(args.output, "-o/--output")
+    check_output_file(args.output, "-o/--output")
     io.check_centroid_path(args.output)  # the format, before any work
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)
