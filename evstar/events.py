@@ -7,6 +7,8 @@ import numpy as np
 
 from .errors import DataError, ParameterError, ParameterTypeError
 
+#: the widest sensor side (px): x, y are stored as uint16
+MAX_SENSOR_SIDE = 65536
 #: The structured-array convention of tonic / Metavision (field names x, y, t, p).
 STRUCTURED_DTYPE = np.dtype([("x", "<u2"), ("y", "<u2"), ("t", "<i8"), ("p", "<i1")])
 
@@ -118,8 +120,8 @@ class Events:
 
     def __init__(self, t, x, y, p, width, height, *, sort=False):
         width, height = _sensor_dims(width, height)
-        if not (0 < width <= 65536 and 0 < height <= 65536):
-            raise DataError(f"sensor size must be positive and <= 65536, got {width}x{height}")
+        if not (0 < width <= MAX_SENSOR_SIDE and 0 < height <= MAX_SENSOR_SIDE):
+            raise DataError(f"sensor size must be positive and <= {MAX_SENSOR_SIDE}, got {width}x{height}")
         t = as_int_array("t", t)
         _check_times(t)
         n = len(t)

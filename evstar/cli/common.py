@@ -6,9 +6,9 @@ import os
 import re
 
 from ..errors import ParameterError
+from ..events import MAX_SENSOR_SIDE
 from .options import checked
 
-MAX_SENSOR_SIDE = 65536  # pixels: evstar.Events holds x, y as uint16
 
 
 def add_input_options(p):
