@@ -105,9 +105,15 @@ class TrackSmoother:
     ``evstar.parameters.SMOOTHER``.
     """
 
-    def __init__(self, dt_us=10_000, *, process_noise=AUTO, process_noise_min=1.0,
-                 coast_ms=30.0, sigma_floor_px=0.02, psf_sigma_px=None, min_events=8,
-                 outlier_sigma=4.0, coast_ends=ESTIMATE["coast_ends"].default,
+    # defaults: the declarations' (a coast_ms of 30 here had drifted from [estimate]'s 60)
+    def __init__(self, dt_us=10_000, *, process_noise=ESTIMATE["process_noise"].default,
+                 process_noise_min=ESTIMATE["process_noise_min"].default,
+                 coast_ms=ESTIMATE["coast_ms"].default,
+                 sigma_floor_px=ESTIMATE["sigma_floor_px"].default,
+                 psf_sigma_px=ESTIMATE["psf_sigma_px"].default,
+                 min_events=ESTIMATE["min_events"].default,
+                 outlier_sigma=ESTIMATE["outlier_sigma"].default,
+                 coast_ends=ESTIMATE["coast_ends"].default,
                  speed_change=ESTIMATE["speed_change"].default, engine=SMOOTHER["engine"].default):
         from .frames import check_dt
 

@@ -749,3 +749,16 @@ def test_a_lag_slope_the_crossings_measured_needs_less_evidence():
     a, b = _speed_terms(s, off, 0.5, expected_b=-2.35e-3)
     assert b == pytest.approx(b_fit) and b < 0
     assert _speed_terms(s, off, 0.5, expected_b=+5e-3)[1] == 0.0
+
+
+def test_smoother_defaults_are_the_declared_ones():
+    """A stage class's defaults come from evstar.parameters (coast_ms had drifted to 30)."""
+    import inspect
+
+    from evstar.parameters import ESTIMATE
+
+    sig = inspect.signature(TrackSmoother.__init__)
+    for name, p in sig.parameters.items():
+        if name in ESTIMATE:
+            assert p.default == ESTIMATE[name].default, name
+    assert TrackSmoother(DT).coast_ms == ESTIMATE["coast_ms"].default
