@@ -38,8 +38,8 @@ def edited(d, name, column, value, row=2):
 @pytest.mark.parametrize("column,value,says", [
     ("x", "nan", "not a finite position"), ("y", "-inf", "not a finite position"),
     ("sigma", "-1", "must be > 0"), ("sigma", "0", "must be > 0"),
-    ("x", "5000", r"off the camera's 346x260 sensor \(x must be in -0.5..345.5\)"),
-    ("y", "-0.6", "off the camera's 346x260 sensor"), ("n_events", "-3", "is negative")])
+    ("x", "5000", r"off the camera's 346x260 sensor \(x must be in -8.5..353.5, 8 px beyond"),
+    ("y", "-9", "off the camera's 346x260 sensor"), ("n_events", "-3", "is negative")])
 def test_impossible_centroids_name_file_line_column_and_value(files, capsys, column, value, says):
     name = edited(files, f"bad_{column}.csv", column, value)
     assert attitude(files, name) == 3
@@ -49,9 +49,11 @@ def test_impossible_centroids_name_file_line_column_and_value(files, capsys, col
     assert re.search(says, err)
 
 
-def test_positions_within_half_a_pixel_of_the_edges_and_unknown_sigma_are_accepted(files):
+def test_positions_just_beyond_the_edges_and_unknown_sigma_are_accepted(files):
+    """`evstar run` reports stars whose centre has just left the sensor (x = -1.9 and 347.7
+    on DAVIS346 fields): its own files must read back."""
     frame = pd.read_csv(files / "cents.csv", dtype=str, keep_default_na=False)
-    frame.loc[0, "x"], frame.loc[1, "y"], frame.loc[2, "sigma"] = "-0.5", "259.5", "nan"
+    frame.loc[0, "x"], frame.loc[1, "y"], frame.loc[2, "sigma"] = "-1.9", "262.2", "nan"
     frame.to_csv(files / "edges.csv", index=False)
     assert attitude(files, "edges.csv") == 0
 

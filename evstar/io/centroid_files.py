@@ -19,6 +19,10 @@ from .atomic import atomic_path
 from .guard import H5PY_ERRORS, check_h5_numeric, check_path_type, check_readable, decoder_errors
 
 COLUMNS = ["t", "x", "y", "track", "n_events", "frame"]
+#: px a position may lie beyond the sensor's edge: a star whose centre has left the sensor
+#: still has events on it, and `evstar run` reports its estimate (up to ~2 px out on a
+#: DAVIS346 field); another camera's centroids lie far beyond
+OFF_SENSOR_PX = 8.0
 CENTROID_FORMATS = {".csv": "csv", ".h5": "hdf5", ".hdf5": "hdf5", ".npz": "npz"}
 #: what a centroid file needs, for the messages of files without it
 NEEDS = ("a centroid file is a table like `evstar run`'s centroids.csv: comma-separated, "
@@ -148,11 +152,12 @@ def _table(path, columns, lines=None, sensor=None):
             fail(~np.isfinite(out[k]), lambda i: f"column '{k}' = {shown(k, i)} is not a finite position")
     if sensor is not None:
         for k, size in zip(("x", "y"), sensor):
-            off = (out[k] < -0.5) | (out[k] > size - 0.5)
+            lo, hi = -0.5 - OFF_SENSOR_PX, size - 0.5 + OFF_SENSOR_PX
+            off = (out[k] < lo) | (out[k] > hi)
             if off.any():
                 fail(off, lambda i: f"column '{k}' = {shown(k, i)} is off the camera's "
-                                    f"{sensor[0]}x{sensor[1]} sensor ({k} must be in -0.5..{size - 0.5:g}): "
-                                    f"centroids of another camera?")
+                                    f"{sensor[0]}x{sensor[1]} sensor ({k} must be in {lo:g}..{hi:g}, "
+                                    f"{OFF_SENSOR_PX:g} px beyond its edges): centroids of another camera?")
     if sensor is not None and "sigma" in columns:   # measurements: NaN is unknown (the
         # estimator's default applies); 0 is left to tables made with np.zeros otherwise
         bad = (out["sigma"] <= 0) | np.isinf(out["sigma"])
