@@ -14,19 +14,23 @@ import numpy as np
 
 
 def time_call(fn, repeats=5, warmup=1):
-    """Run fn() warmup + repeats times: {'first_s', 'median_s', 'runs_s'}; the first call
-    (kernel compilation included) is timed separately."""
+    """Run fn() warmup + repeats times: {'first_s', 'median_s', 'runs_s', 'cpu_median_s'};
+    the first call (kernel compilation included) is timed separately. cpu_median_s: the
+    process's CPU time per run (every thread), whose ratio to the wall time is the cores
+    the call kept busy."""
     t0 = time.perf_counter()
     fn()
     first = time.perf_counter() - t0
     for _ in range(max(warmup - 1, 0)):
         fn()
-    runs = []
+    runs, cpu = [], []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         fn()
         runs.append(time.perf_counter() - t0)
-    return {"first_s": first, "median_s": float(np.median(runs)), "runs_s": runs}
+        cpu.append(time.process_time() - c0)
+    return {"first_s": first, "median_s": float(np.median(runs)), "runs_s": runs,
+            "cpu_median_s": float(np.median(cpu))}
 
 
 def machine():

@@ -121,3 +121,24 @@ def test_write_report_writes_the_table_page_and_its_json(tmp_path):
     assert page == "# A study (seed 1)\n\n| k | lag ms |\n|---|---|\n| 2 | 3.2 |\n"
     doc = json.loads((tmp_path / "results" / "study_x.json").read_text())
     assert doc["rows"] == rows and doc["meta"] == {"seed": 1}
+
+
+def test_time_call_reports_the_cpu_time_of_its_runs():
+    from evstar import profiling
+
+    def burn():
+        return sum(i * i for i in range(20_000))
+
+    r = profiling.time_call(burn, repeats=3)
+    assert set(r) == {"first_s", "median_s", "runs_s", "cpu_median_s"}
+    assert len(r["runs_s"]) == 3 and r["cpu_median_s"] > 0
+
+
+def test_field_bench_rows_carry_cpu_time_and_render():
+    from evstar import bench, profiling
+
+    rows = bench.field_run("--preset davis346 --stars 3 --rate 10 --duration 0.2".split(),
+                           modes=("none",), repeats=2, progress=lambda *_: None)
+    (row,) = rows
+    assert row["events"] > 0 and row["cpu_s"] > 0 and row["realtime"] > 0
+    assert "CPU s" in profiling.table(rows, bench.FIELD_COLUMNS)
