@@ -80,8 +80,12 @@ def taichi(device="cpu"):
                 kwargs["cpu_max_num_threads"] = int(_settings["cpu_threads"])
             if _settings["cache_dir"]:
                 kwargs["offline_cache_file_path"] = os.path.join(_settings["cache_dir"], "taichi")
-            # ti.init prints "[Taichi] Starting on arch=..." on stdout; evstar reports the arch
-            with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
+            # ti.init prints "[Taichi] Starting on arch=..." on stdout; evstar reports the arch.
+            # Without a GPU its C++ logger writes "libcuda.so lib not found" and "falling back
+            # to CPU" to stderr: evstar's BackendError below says that in one line instead
+            quiet = TAICHI_NO_CUDA if want == "cuda" else ()
+            with open(os.devnull, "w") as null, contextlib.redirect_stdout(null), \
+                    _stderr_without(quiet):
                 ti.init(**kwargs)
             if os.environ.get("EVSTAR_TAICHI_SOURCE_INFO") != "full":
                 _short_taichi_source_info()
@@ -132,7 +136,7 @@ def warp(device="cpu"):
             if _settings["cache_dir"]:
                 wp.config.kernel_cache_dir = os.path.join(_settings["cache_dir"], "warp")
             wp.config.log_level = wp.LOG_WARNING  # no start-up banner on stdout
-            with _without_cuda_warning():
+            with _stderr_without(WARP_NO_CUDA):
                 wp.init()
             _warp_ready = True
     names = [str(d) for d in wp.get_devices()]
@@ -143,11 +147,21 @@ def warp(device="cpu"):
     return wp, device
 
 
+#: what the libraries' native code writes to stderr on a machine without a usable CUDA GPU;
+#: evstar reports a missing GPU itself (BackendError) when one is asked for. Warp prints its
+#: line on every CPU-only start; Taichi prints its lines when asked for CUDA (then falls back)
+WARP_NO_CUDA = ("Could not find or load the NVIDIA CUDA driver",)
+TAICHI_NO_CUDA = ("libcuda.so lib not found", "is not supported, falling back to CPU",
+                  "[cuda_driver.cpp:")
+
+
 @contextlib.contextmanager
-def _without_cuda_warning():
-    """Warp's native code prints "Could not find or load the NVIDIA CUDA driver" on every
-    CPU-only start; evstar reports a missing GPU itself (BackendError) when one is asked for.
-    The C-level stderr is captured meanwhile and everything else in it is passed on."""
+def _stderr_without(texts):
+    """Capture the C-level stderr (fd 2) during the block and pass on every line that holds
+    none of `texts` (no capture at all when `texts` is empty)."""
+    if not texts:
+        yield
+        return
     try:
         saved = os.dup(2)
     except OSError:  # no usable stderr descriptor (embedded interpreters)
@@ -163,7 +177,7 @@ def _without_cuda_warning():
             os.close(saved)
             tmp.seek(0)
             kept = [ln for ln in tmp.read().decode(errors="replace").splitlines(keepends=True)
-                    if "Could not find or load the NVIDIA CUDA driver" not in ln]
+                    if not any(t in ln for t in texts)]
             sys.stderr.write("".join(kept))
 
 

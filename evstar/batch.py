@@ -32,6 +32,10 @@ CONNECT_TIMEOUT_S = 5
 _HEAD_BYTES = 1 << 20  # the fingerprint hashes the first MiB (with size and mtime)
 OPTIONS = ("truth", "imu", "camera", "format", "sensor_size", "sort", "stream_above_mb")
 _FILES = ("truth", "imu", "camera")  # the options that name input files
+#: the Dask comm schemes a scheduler address may name (distributed.comm.registry less inproc,
+#: which only a client in the scheduler's own process reaches: pass client= there; ucx needs
+#: its package)
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 _FIRST = ["input", "output", "status", "error", "skipped", "events", "centroids", "tracks",
           "seconds"]
 
@@ -55,6 +59,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     inputs = expand_inputs(paths)
     if not inputs:
         raise ParameterError("no recordings given")
+    backends.require(config.device)   # once, not one failed row per recording
     outdir = check_output_dir(outdir).absolute()  # workers may run in other folders
     check_outputs([outdir / name for name in SUMMARY], inputs)
     # input files by their resolved paths: another spelling of a file is the same file
@@ -97,6 +102,9 @@ def check_arguments(paths, config, outdir, client, workers, scheduler, options):
         paths = list(paths)
     if not isinstance(paths, list) or not all(isinstance(p, path) for p in paths):
         raise ParameterTypeError(f"run_many: paths must be a path or a list of paths, got {paths!r}")
+    for p in paths:
+        if not str(p).strip():   # Path("") is the current folder: never meant as a recording
+            raise ParameterError(f"run_many: paths must name recordings, got an empty name {str(p)!r}")
     checks = (("config", config, Config, "an evstar.Config"),
               ("outdir", outdir, path, "a str or os.PathLike"),
               ("client", client, (Client, type(None)), "a distributed.Client or None"),
@@ -105,6 +113,9 @@ def check_arguments(paths, config, outdir, client, workers, scheduler, options):
     for name, value, types, want in checks:
         if not isinstance(value, types):
             raise ParameterTypeError(f"run_many: {name} must be {want}, got {value!r}")
+    why = scheduler_address_error(scheduler) if isinstance(scheduler, str) else None
+    if why:
+        raise ParameterError(f"run_many: scheduler {why}")
     if workers is not None and (not isinstance(workers, numbers.Integral)
                                 or isinstance(workers, bool)):
         raise ParameterTypeError(f"run_many: workers must be an int or None, got {workers!r}")
@@ -118,6 +129,27 @@ def check_arguments(paths, config, outdir, client, workers, scheduler, options):
         if want:
             raise ParameterError(f"run_many: options[{k!r}] must be {want}, got {v!r}")
     return paths, options
+
+
+def scheduler_address_error(address):
+    """Why `address` is no Dask scheduler address ([SCHEME://]HOST:PORT, SCHEME one of
+    SCHEMES, default tcp; HOST may be [IPv6]), or None for a well-formed one (reachable or not)."""
+    scheme, sep, loc = address.strip().partition("://")
+    if not sep:
+        scheme, loc = "tcp", address.strip()
+    want = (f"must be a Dask scheduler address [SCHEME://]HOST:PORT with SCHEME one of "
+            f"{', '.join(SCHEMES)} (default tcp), e.g. tcp://host:8786, got {address!r}")
+    if scheme not in SCHEMES:
+        return want
+    if loc.startswith("["):                         # [IPv6]:PORT
+        host, _, rest = loc[1:].partition("]")
+        port = rest[1:] if rest.startswith(":") else ""
+    else:
+        host, _, port = loc.rpartition(":")
+        if ":" in host:                             # an IPv6 address needs its brackets
+            return want
+    ok = host.strip() and "/" not in host + port and port.isdigit() and 0 < int(port) < 65536
+    return None if ok else want
 
 
 def _bad_option(key, value):

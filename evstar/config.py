@@ -143,16 +143,28 @@ class Config:
         if not isinstance(path, (str, os.PathLike)):
             raise ParameterTypeError(f"config path must be a str or os.PathLike, got {path!r}")
         path = pathlib.Path(path)
+        kind = path.suffix.lower()
+        if kind not in (".toml", ".json"):   # the format is the extension's: no guessing
+            raise FormatError(path, f"a configuration file is .toml or .json, got "
+                                    f"{repr(path.suffix) if path.suffix else 'no extension'}")
+        if path.is_dir():
+            raise FormatError(path, "is a folder, not a configuration file")
         try:
-            text = path.read_text()
+            text = path.read_text(encoding="utf-8")
         except FileNotFoundError:
             raise FormatError(path, "no such file") from None
         except (OSError, UnicodeDecodeError) as exc:
             raise FormatError(path, f"cannot read configuration ({exc})") from None
+        if kind == ".json" and not text.strip():
+            raise FormatError(path, "the file is empty; an empty JSON configuration is {}")
         try:
-            data = tomllib.loads(text) if path.suffix.lower() == ".toml" else json.loads(text)
+            data = tomllib.loads(text) if kind == ".toml" else \
+                json.loads(text, object_pairs_hook=_unique_keys)
         except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
             raise FormatError(path, f"cannot parse configuration ({exc})") from None
+        except _DuplicateKey as exc:      # TOML refuses these itself; json keeps the last
+            raise FormatError(path, f"cannot parse configuration (key {exc.args[0]!r} appears "
+                                    "twice in one object)") from None
         except RecursionError:
             raise FormatError(path, "cannot parse configuration (nested too deeply)") from None
         try:
@@ -173,6 +185,20 @@ class Config:
                 raise ParameterError(f"unknown config section '{section}' in '{key}'")
             (data[section] if section else data)[name] = value
         return Config.from_dict(data)
+
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _unique_keys(pairs):
+    """json's object_pairs_hook: a dict, refusing a key given twice."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
 
 
 def _section(name, value):

@@ -22,7 +22,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     larger than `stream_above_mb` MB are processed in chunks with bounded memory. Output
     paths are checked before any work: an output that is one of the inputs is an OutputError.
     """
-    from . import outputs
+    from . import backends, outputs
     from .io.atomic import check_output_dir, check_outputs
     from .pipeline import Pipeline
     from .sim import load_truth
@@ -32,6 +32,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     check_output_dir(outdir)
     check_outputs(outputs.run_files(outdir), [input, imu, camera, truth])
     truth = load_truth(truth) if truth else None
+    backends.require(config.device)    # a missing GPU before the recording is read
     pipe = Pipeline(config)
     big = os.path.isfile(input) and os.path.getsize(input) > stream_above_mb * 1e6
     if big:

@@ -113,8 +113,8 @@ def test_never_overwrites_an_input_and_wants_csv(files, capsys):
     assert "never overwrites" in one_line_error(capsys)
     assert (d / "cents.csv").read_bytes() == before
     assert main(["attitude", str(d / "cents.csv"), "-o", str(d / "a.json"), "--camera",
-                 str(d / "camera.json")]) == 3
-    assert ".csv" in one_line_error(capsys)
+                 str(d / "camera.json")]) == 2            # a usage error, as convert's
+    assert "-o/--output" in (err := one_line_error(capsys)) and ".csv" in err
 
 
 def test_run_writes_attitude_csv_when_the_camera_is_known(tmp_path, capsys):

@@ -41,7 +41,7 @@ CASES = [  # argv (with {d}: the case folder, {r}: the real recordings), exit co
     ("simulate {d}/sim0 --duration 0", 2, "--duration"),
     ("run {d}/a.h5 -o {d}/out1 --truth {d}/other_truth.npz", 3, "another recording"),
     ("info {d}/two_x.csv", 3, "'x' appears 2 times"),
-    ("extract {d}/a.h5 -o {d}/cent.xyz", 3, "unknown centroid file extension"),
+    ("extract {d}/a.h5 -o {d}/cent.xyz", 2, "-o/--output"),
     ("extract {r}/expelliarmus_evt2_sample.raw -o {d}/c2.csv --compensate imu", 2, "--imu FILE"),
     ("extract {r}/emlb_demo-01.aedat4 -o {d}/c3.csv --compensate imu", 2, "--camera FILE"),
     ("denoise {d}/a.h5 {d}/o.h5 --method ndsef --radius 100000", 2, "--radius"),

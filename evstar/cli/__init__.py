@@ -7,7 +7,7 @@ that says what went wrong (no traceback unless --debug):
     4  output cannot be written       5  compute backend or device missing
     1  other evstar error             6  out of memory
     70 internal error (a bug: please report it with --debug's traceback)
-    130 interrupted
+    130 interrupted          141 stdout closed early (e.g. `evstar info F | head -1`), silently
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ COMMANDS = {
     "demo": "simulate the default scene and run the whole pipeline",
     "bench": "measure throughput per stage and backend",
 }
-EXIT_MEMORY, EXIT_INTERNAL, EXIT_INTERRUPTED = 6, 70, 130
+EXIT_MEMORY, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_PIPE = 6, 70, 130, 141
 
 
 class Parser(argparse.ArgumentParser):
@@ -86,7 +86,12 @@ def _one_line_warning(command):
 
 def _run(args):
     try:
-        return args._run(args) or 0
+        code = args._run(args) or 0
+        sys.stdout.flush()    # a closed pipe shows here, not at interpreter exit
+        return code
+    except BrokenPipeError:   # the reader of stdout went away (head, less quit): nothing to say
+        _stdout_to_devnull()
+        return EXIT_PIPE
     except EvstarError as exc:
         return _fail(args, exc, exc.exit_code)
     except KeyboardInterrupt:
@@ -101,6 +106,19 @@ def _run(args):
     except Exception as exc:
         return _fail(args, f"internal error: {type(exc).__name__}: {exc} (rerun with --debug "
                            "for the traceback)", EXIT_INTERNAL, exc)
+
+
+def _stdout_to_devnull():
+    """Point stdout at /dev/null, so that the interpreter's final flush of what is still
+    buffered for a closed pipe raises nothing (Python's documented remedy)."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):   # no real stdout descriptor (captured)
+        pass
 
 
 def _fail(args, message, code, exc=None):

@@ -17,7 +17,7 @@ from __future__ import annotations
 import pathlib
 
 from .. import parameters as P
-from .common import add_input_options, load
+from .common import add_input_options, check_output_suffix, load
 from .options import add_options, checked
 
 
@@ -34,12 +34,11 @@ def add_arguments(p):
 def run(args):
     from .. import io
     from ..attitude import AttitudeEstimator, write_attitude
-    from ..errors import DataError, FormatError, ParameterError
+    from ..errors import DataError, ParameterError
     from ..io.atomic import check_output_file, check_outputs
 
     check_output_file(args.output, "-o/--output")
-    if pathlib.Path(args.output).suffix.lower() != ".csv":
-        raise FormatError(args.output, "the attitude is written as CSV; give a .csv name")
+    check_output_suffix(args.output, "-o/--output", [".csv"], "CSV")
     check_outputs([args.output], [args.input, args.imu, args.camera, args.config])
     options = {k.split(".", 1)[1]: v for k, v in vars(args).items()
                if k.startswith("attitude_filter.") and v is not None}
@@ -66,11 +65,14 @@ def run(args):
 
 
 def _pipeline(args):
+    from .. import backends
     from ..pipeline import Pipeline
     from .options import config_from_args
 
+    cfg = config_from_args(args)
+    backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)
-    result = Pipeline(config_from_args(args)).run(rec.events, rec.imu, rec.camera)
+    result = Pipeline(cfg).run(rec.events, rec.imu, rec.camera)
     return result.centroids, rec.camera, rec.imu, rec.events
 
 

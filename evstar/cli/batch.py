@@ -13,6 +13,7 @@ machine; every worker needs evstar and the same paths to the inputs and OUTDIR).
 """
 from __future__ import annotations
 
+import argparse
 import sys
 
 from .options import checked, config_from_args
@@ -20,15 +21,33 @@ from .run import add_run_options, recording_options
 
 
 def add_arguments(p):
-    p.add_argument("inputs", nargs="+", metavar="INPUT", help="recordings or glob patterns")
+    p.add_argument("inputs", nargs="+", metavar="INPUT", type=input_name,
+                   help="recordings or glob patterns")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=checked(int, 1), metavar="N",
                        help="local worker processes (default: the CPU count)")
-    where.add_argument("--scheduler", metavar="ADDRESS",
+    where.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                        help="a running Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--force", action="store_true", help="redo recordings already done")
     add_run_options(p)
+
+
+def input_name(text):
+    """argparse `type` of INPUT: a name (an empty one would be the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"must name a recording or a glob pattern, got {text!r}")
+    return text
+
+
+def scheduler_address(text):
+    """argparse `type` of --scheduler: a well-formed Dask address (reachable or not)."""
+    from ..batch import scheduler_address_error
+
+    why = scheduler_address_error(text)
+    if why:
+        raise argparse.ArgumentTypeError(why)
+    return text.strip()
 
 
 def run(args):

@@ -16,10 +16,11 @@ RESULT_KEYS = {"machine", "meta", "rows"}
 
 def add_arguments(p):
     p.add_argument("--events", type=checked(int, 1000, 10**9), default=1_000_000,
-                   help="scene size in events, 1000 to 1e9 (1e6)")
+                   help="scene size in events, 1000 to 1e9; the scene lasts at least 0.5 s, "
+                        "about 70,000 events (1e6)")
     add_options(p, P.GLOBAL, ["device"], device={"default": "cpu"})
     p.add_argument("--repeats", type=checked(int, 1, 1000), default=3,
-                   help="timed runs per stage (median reported)")
+                   help="timed runs per stage, 1 to 1000, the median reported (3)")
     p.add_argument("-o", "--output", default="bench.json", metavar="RESULTS.json",
                    help="JSON results (bench.json)")
 
@@ -27,13 +28,13 @@ def add_arguments(p):
 def check_results_path(path):
     """Before any work: a .json name (ParameterError) where no other file would be replaced
     (OutputError)."""
-    from ..errors import OutputError, ParameterError
+    from ..errors import OutputError
     from ..io.atomic import check_output_file
+    from .common import check_output_suffix
 
     check_output_file(path, "-o/--output")   # the raw text: "x.json/" is a folder path
+    check_output_suffix(path, "-o/--output", [".json"], "JSON")
     path = pathlib.Path(path)
-    if path.suffix.lower() != ".json":
-        raise ParameterError(f"-o/--output must name a .json file (bench writes JSON), got {str(path)!r}")
     if path.exists() and not _is_results(path):
         raise OutputError(path, "exists and is not an evstar bench result; evstar bench replaces "
                                 "only its own results, choose another name")

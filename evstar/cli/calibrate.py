@@ -11,7 +11,7 @@ Calibrate once per camera, lens and bias settings.
 """
 from __future__ import annotations
 
-from .common import add_input_options, load
+from .common import add_input_options, check_output_suffix, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -25,12 +25,15 @@ def add_arguments(p):
 def run(args):
     import numpy as np
 
+    from .. import backends
     from ..calibration import calibrate
     from ..io.atomic import check_output_file, check_outputs
 
     check_output_file(args.output, "-o/--output")
+    check_output_suffix(args.output, "-o/--output", [".json"], "JSON")
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)
+    backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)
     lag = calibrate(rec.events, rec.imu, rec.camera, cfg, progress=print)
     lag.meta["recording"] = str(args.input)

@@ -64,12 +64,24 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
     except FormatError:
         ext = os.path.splitext(str(path))[1]
         known = sorted(e for n in names for e in io.FORMATS[n][1])
-        raise ParameterError(f"{option} {path}: unknown extension {ext!r}; give one of "
+        raise ParameterError(f"{option} {path}: {f'unknown extension {ext!r}' if ext else 'no extension'}; give one of "
                              f"{', '.join(known)}" + (f" (or {override})" if override else "")) from None
     if not io.FORMATS[fmt][2]:
         raise ParameterError(f"{option} {path}: evstar reads {fmt} files but cannot write them; "
                              f"write {', '.join(names[:-1])} or {names[-1]}")
     return fmt
+
+
+def check_output_suffix(path, option, suffixes, what):
+    """ParameterError (a usage error, exit 2) unless `path` ends in one of `suffixes` (any
+    case): the format a command writes `option` in, checked before any work. what: the
+    format's name in the message, e.g. "JSON"."""
+    ext = os.path.splitext(str(path))[1]
+    if ext.lower() not in suffixes:
+        names = ", ".join(suffixes[:-1]) + (" or " if len(suffixes) > 1 else "") + suffixes[-1]
+        raise ParameterError(f"{option} {path}: this output is {what}; give a {names} name, not "
+                             f"{repr(ext) if ext else 'one without an extension'}")
+    return ext.lower()
 
 
 def load(args):

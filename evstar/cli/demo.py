@@ -33,8 +33,11 @@ def run(args):
 
     from ..io.atomic import check_output_dir
 
+    from .. import backends
+
     out = pathlib.Path(args.output)
     check_output_dir(out)
+    backends.require(args.device)   # a missing GPU before the simulation
     bias = tuple(np.radians([0.3, -0.2, 0.25]))   # a realistic MEMS gyro bias, °/s -> rad/s
     scenario = sim.paper_preset(args.rate, imu=sim.ImuSpec(gyro_bias=bias))
     run_ = sim.simulate(scenario, seed=args.seed)

@@ -12,7 +12,8 @@ import time
 
 from .. import parameters as P
 from ..errors import OutputError, ParameterError
-from .common import add_input_options, add_output_format_option, check_events_output, load
+from .common import (add_input_options, add_output_format_option, check_events_output,
+                     check_output_suffix, load)
 from .options import add_options, config_from_args
 
 METHODS = P.METHODS[1:]  # every filter; "none" is for the pipeline
@@ -52,7 +53,7 @@ def method_of(args):
 def run(args):
     import numpy as np
 
-    from .. import io
+    from .. import backends, io
     from ..io.atomic import atomic_path, check_output_file, check_outputs
 
     for out, option in ((args.output, "OUT"), (args.mask_out, "--mask-out")):
@@ -64,8 +65,11 @@ def run(args):
     except OutputError:
         raise ParameterError(f"--mask-out {args.mask_out} is OUT {args.output}; give the mask "
                              "its own file") from None
+    if args.mask_out is not None:
+        check_output_suffix(args.mask_out, "--mask-out", [".npy"], "a NumPy array")
     check_outputs([args.output, args.mask_out], [args.input, args.imu, args.camera])
     flt = make_filter(args)
+    backends.require(config_from_args(args).device)   # a missing GPU before the recording is read
     rec = load(args)
     start = time.perf_counter()
     keep = flt.apply(rec.events)

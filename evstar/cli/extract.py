@@ -6,7 +6,7 @@ CSV header `t,x,y,track,n_events,frame` (t in µs; track -1 = unconfirmed) follo
 """
 from __future__ import annotations
 
-from .common import add_input_options, load
+from .common import add_input_options, check_output_suffix, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -18,14 +18,17 @@ def add_arguments(p):
 
 
 def run(args):
-    from .. import io
+    from .. import backends, io
     from ..io.atomic import check_output_file, check_outputs
+    from ..io.centroid_files import CENTROID_FORMATS
     from ..pipeline import Pipeline
 
     check_output_file(args.output, "-o/--output")
-    io.check_centroid_path(args.output)  # the format, before any work
+    check_output_suffix(args.output, "-o/--output", list(CENTROID_FORMATS),   # before any work
+                        "a centroid table (CSV, HDF5 or NPZ)")
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     cfg = config_from_args(args)
+    backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)
     result = Pipeline(cfg).run(rec.events, rec.imu, rec.camera)
     io.write_centroids(args.output, result.centroids)

@@ -19,9 +19,12 @@ PIPELINE = {"": P.GLOBAL, **P.SECTIONS}
 def add_options(p, params, names=None, section=None, **overrides):
     """One option per parameter of `params` (or of `names` only). The dest is the config key
     ("denoise.radius"), so a Namespace maps onto Config.replace directly. `overrides` are
-    argparse keywords per name, e.g. method={"required": True}."""
+    argparse keywords per name, e.g. method={"required": True}. Options of several calls
+    with the same section share one help group."""
     section = params.section if section is None else section
-    group = p.add_argument_group(f"[{section}] options" if section else "general options")
+    title = f"[{section}] options" if section else "general options"
+    group = next((g for g in p._action_groups if g.title == title), None) \
+        or p.add_argument_group(title)
     for name in names or params:
         param = params[name]
         kw = dict(dest=f"{section}.{name}" if section else name, default=None,

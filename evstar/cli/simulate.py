@@ -19,6 +19,12 @@ from ..errors import OutputError, ParameterError
 from .common import check_events_output
 from .options import checked
 
+#: the most simulation time steps a run may take: the simulator holds several arrays of one
+#: entry per step (about 40 bytes a step at its peak, so 2e8 steps ≈ 8 GB)
+MAX_GRID_STEPS = 2e8
+#: the most background and hot-pixel events a run may expect (each costs the simulator some
+#: 60 bytes at its peak, measured: 7.7e7 events took 4.8 GB; so 1e8 events ≈ 6 GB)
+MAX_NOISE_EVENTS = 1e8
 #: the files simulate writes besides the events (fixed names)
 OTHER_FILES = ("imu.csv", "camera.json", "truth.npz")
 DEFAULT_EVENTS_NAME = "events.h5"
@@ -79,6 +85,10 @@ def scenario_from(args):
     from .. import sim
 
     check_motion(args)
+    if not any(args.axis):
+        raise ParameterError(f"--axis must be a non-zero 3-vector, got {' '.join(f'{v:g}' for v in args.axis)}")
+    big = max(abs(v) for v in args.axis)       # only the direction counts: 1e308 1e308 1e308
+    args.axis = tuple(v / big for v in args.axis)  # would overflow its norm
     cam = sim.camera_preset(args.preset, args.focal_length)
     if args.hot_pixels > cam.width * cam.height:
         raise ParameterError(f"--hot-pixels must be at most the {args.preset} sensor's "
@@ -97,7 +107,39 @@ def scenario_from(args):
         motion = _motion(sim, args, R0)
         stars = sim.hipparcos_field_along(cam, motion, duration, mag_limit=args.mag_limit,
                                           max_stars=args.stars)
-    return sim.Scenario(cam, stars, motion, duration, sensor=sensor, imu=imu, psf_sigma_px=args.psf_sigma)
+    scenario = sim.Scenario(cam, stars, motion, duration, sensor=sensor, imu=imu,
+                            psf_sigma_px=args.psf_sigma)
+    check_grid(args, scenario)
+    return scenario
+
+
+def check_grid(args, scenario):
+    """ParameterError when the simulation would make more than MAX_NOISE_EVENTS noise events
+    or take more than MAX_GRID_STEPS time steps:
+    the simulator steps so that no star moves more than grid_step_px (half the PSF sigma)
+    per step, at least one step per ms, so a tiny --psf-sigma or --focal-length, or a long
+    fast run, needs more memory than any machine has (it was killed, not refused)."""
+    cam = scenario.camera
+    rate_dps = 2 * math.pi * args.sine[0] * args.sine[1] if args.sine else \
+        abs(10.0 if args.rate is None else args.rate)
+    f = max(cam.fx, cam.fy)
+    widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
+    px_per_s = math.radians(rate_dps) * f * widen
+    steps_per_s = max(1e3, px_per_s / scenario.grid_step_px)
+    steps = steps_per_s * max(scenario.duration_s, 0.01)
+    spec, pixels = scenario.sensor, cam.width * cam.height
+    noise = (spec.noise_hz * pixels + spec.hot_pixels * spec.hot_pixel_hz) * scenario.duration_s
+    if noise > MAX_NOISE_EVENTS:
+        raise ParameterError(
+            f"the simulation would make about {noise:.3g} noise events (at most {MAX_NOISE_EVENTS:g}): "
+            f"--noise-hz {args.noise_hz:g} on {pixels:,} pixels and {spec.hot_pixels} hot pixels "
+            f"for {scenario.duration_s:g} s; lower --duration or --noise-hz")
+    if steps > MAX_GRID_STEPS:
+        raise ParameterError(
+            f"the simulation would take {steps:.3g} time steps (at most {MAX_GRID_STEPS:g}): stars "
+            f"move {px_per_s:.3g} px/s on this {args.preset} sensor and {args.focal_length:g} mm lens "
+            f"and are stepped every {scenario.grid_step_px:.3g} px (half the --psf-sigma "
+            f"{args.psf_sigma:g}); lower --duration or the rate, or raise --psf-sigma or --focal-length")
 
 
 def check_motion(args):

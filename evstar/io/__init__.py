@@ -81,8 +81,15 @@ def read(path, format=None, **options):
     fmt = format_of(path, format)
     options = _options(options)
     check_readable(path)
-    with decoder_errors(path, f"{fmt} file"):
-        return _module(fmt).read(path, **options)
+    # the reader's warnings (an inferred sensor size, rounded timestamps) only once the file
+    # proved readable: a file that fails ends in its error alone
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with decoder_errors(path, f"{fmt} file"):
+            rec = _module(fmt).read(path, **options)
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+    return rec
 
 
 def _recording_parts(data, imu, camera):

@@ -66,6 +66,29 @@ def _decoder(path, sensor_size):
     return dec
 
 
+#: faery's error for an event beyond the sensor size it decodes with
+_OVERFLOW = re.compile(r"([xy]) overflow \(\1=(\d+) must be strictly smaller than (?:width|height)=(\d+)\)")
+
+
+def _outside(path, exc, size, sensor_size):
+    """FormatError for an event beyond the sensor (a sensor_size smaller than the camera's,
+    or a header's camera plugin guessing wrong) instead of "truncated or corrupt", else None."""
+    m = _OVERFLOW.search(str(exc))
+    if m is None:
+        return None
+    stated, plugin = _header_size(path)
+    if stated is not None:
+        source = "that the header states"
+    elif sensor_size is not None:
+        source = ("given as sensor_size (command line: --sensor-size, or the --camera's width and "
+                  "height)" + (f"; the header's camera plugin implies {plugin[0]}x{plugin[1]}"
+                               if plugin else ""))
+    else:
+        source = "that the header's camera plugin implies; pass sensor_size=(W, H)"
+    return FormatError(path, f"an event has {m.group(1)} = {m.group(2)}, outside the "
+                             f"{size[0]}x{size[1]} sensor {source}")
+
+
 def packets(path, sensor_size=None, **_):
     dec = _decoder(path, sensor_size)
     if dec.dimensions is None:
@@ -73,13 +96,21 @@ def packets(path, sensor_size=None, **_):
     w, h = dec.dimensions
 
     def gen():
-        with decoder_errors(path, "Prophesee file: truncated or corrupt data", (Exception,)):
-            for packet in dec:
-                ev = packet.get("events") if isinstance(packet, dict) else packet
-                if ev is not None and len(ev):
-                    p = ev["on"] if "on" in ev.dtype.names else ev["payload"]
-                    yield int64_times(path, ev["t"]), ev["x"], ev["y"], p.astype(np.int8)
+        try:
+            yield from _decoded(path, dec)
+        except FormatError as exc:
+            raise _outside(path, exc, (w, h), sensor_size) or exc from None
     return w, h, gen()
+
+
+def _decoded(path, dec):
+    """(t, x, y, p) per packet of the decoder; its errors as FormatError."""
+    with decoder_errors(path, "Prophesee file: truncated or corrupt data", (Exception,)):
+        for packet in dec:
+            ev = packet.get("events") if isinstance(packet, dict) else packet
+            if ev is not None and len(ev):
+                p = ev["on"] if "on" in ev.dtype.names else ev["payload"]
+                yield int64_times(path, ev["t"]), ev["x"], ev["y"], p.astype(np.int8)
 
 
 def read(path, sensor_size=None, sort=False):

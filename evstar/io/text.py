@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import DataError, EvstarWarning, FormatError
-from ..events import T_LIMIT_US, Events, check_time_range
+from ..events import MAX_SENSOR_SIDE, T_LIMIT_US, Events, check_time_range
 from ..recording import Recording
 from .atomic import atomic_path
 from .guard import check_no_implicit_index, csv_parser_error, one_line, stored_size
@@ -118,6 +118,19 @@ def _integers(path, frame, column, name, offset):
     return v.astype(np.int64)
 
 
+def _check_values(path, frame, cols, label, offset, x, y, p):
+    """FormatError naming the line of the first x or y that is no pixel index of any sensor
+    (negative, or beyond MAX_SENSOR_SIDE) and of the first p other than 0, 1 or -1: said
+    here, before a sensor size is inferred from such values."""
+    for k, v, bad, want in (("x", x, (x < 0) | (x >= MAX_SENSOR_SIDE), f"0..{MAX_SENSOR_SIDE - 1}"),
+                            ("y", y, (y < 0) | (y >= MAX_SENSOR_SIDE), f"0..{MAX_SENSOR_SIDE - 1}"),
+                            ("p", p, (p != 0) & (p != 1) & (p != -1), "0, 1 or -1")):
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise FormatError(path, f"line {offset + i}: column {label[k]} = {v[i]} is not "
+                                    f"{'a pixel index' if k != 'p' else 'a polarity'} ({want})")
+
+
 class _Rounding:
     """Counts timestamps rounded to whole µs, to warn once per file."""
 
@@ -176,6 +189,7 @@ def packets(path, chunk_rows=1_000_000):
                     raise FormatError(path, f"cannot find column(s) {missing} in the rows")
                 t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
                 xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
+                _check_values(path, frame, cols, label, line, *xyp)
                 line += len(frame)
                 yield (t, *xyp)
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OverflowError) as exc:
@@ -199,6 +213,11 @@ def sensor_size_from(path, arrays, sensor_size):
         if a.dtype.kind not in "biuf" or (a.dtype.kind == "f" and not np.all(np.isfinite(a))):
             raise FormatError(path, f"events field '{name}' must hold finite numbers (dtype {a.dtype}) "
                                     "to infer the sensor size; pass sensor_size=(W, H)")
+        bad = (a < 0) | (a >= MAX_SENSOR_SIDE)   # no size to infer from these: say which
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise FormatError(path, f"events field '{name}' = {a[i]} at index {i} is not a pixel "
+                                    f"index (0..{MAX_SENSOR_SIDE - 1})")
     size = (int(x.max()) + 1 if len(x) else 1, int(y.max()) + 1 if len(y) else 1)
     warnings.warn(f"{path}: no sensor size given; inferred {size[0]}x{size[1]} from the "
                   "largest coordinates (pass sensor_size=(W, H) or a camera)", EvstarWarning,
