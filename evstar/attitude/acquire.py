@@ -56,8 +56,11 @@ def detect(x, y, width, height, alpha):
         sub = counts[y0:cy + r + 1, x0:cx + r + 1]
         yy, xx = np.mgrid[y0:y0 + sub.shape[0], x0:x0 + sub.shape[1]]
         weight[i] = sub.sum()
-        xy[i] = (sub * xx).sum() / weight[i], (sub * yy).sum() / weight[i]
-    order = np.argsort(-weight, kind="stable")
+        if weight[i] > 0:
+            xy[i] = (sub * xx).sum() / weight[i], (sub * yy).sum() / weight[i]
+    # a plateau shaped as a ring (busy scenes, not stars) has its centre of mass on no event
+    kept = np.flatnonzero(weight > 0)
+    order = kept[np.argsort(-weight[kept], kind="stable")]
     return xy[order], weight[order]
 
 
