@@ -269,6 +269,11 @@ class Pipeline:
         _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,
                                     return_inverse=True, return_counts=True)
         obs = obs[count[where.ravel()] == 1]
+        if len(obs):   # a last frame's centroid can sit past the IMU's end, as events may
+            from .motion import hold_ends
+
+            imu = hold_ends(imu, int(obs["t"].min()), int(obs["t"].max()),
+                            self.config.motion.extrapolate_us)
         t = time.perf_counter()
         pf = ParticleFilter(self.config.motion.n_particles, seed=self.config.seed,
                             device=self.config.device)
