@@ -13,7 +13,7 @@ import tempfile
 import threading
 
 from . import parameters
-from .errors import BackendError, ParameterError
+from .errors import BackendError, ParameterError, ParameterTypeError
 
 DEVICES = parameters.DEVICES
 _lock = threading.Lock()
@@ -27,9 +27,13 @@ def configure(*, cpu_threads=None, cache_dir=None):
     if cpu_threads is not None and (isinstance(cpu_threads, bool) or int(cpu_threads) != cpu_threads
                                     or cpu_threads < 1):
         raise ParameterError(f"cpu_threads must be a positive integer, got {cpu_threads!r}")
+    if cache_dir is not None and not isinstance(cache_dir, (str, os.PathLike)):
+        raise ParameterTypeError(f"cache_dir must be a str or os.PathLike, got {cache_dir!r}")
     if initialised():
         raise BackendError("configure() must be called before any backend is initialised")
-    _settings.update(cpu_threads=cpu_threads, cache_dir=cache_dir)
+    # "~/.cache/evstar" means the home folder's (the libraries would make a folder named ~)
+    _settings.update(cpu_threads=cpu_threads,
+                     cache_dir=None if cache_dir is None else os.path.expanduser(os.fspath(cache_dir)))
 
 
 def settings():

@@ -109,3 +109,23 @@ def test_taichis_class_body_check_is_patched_and_still_tells_classes_apart():
     a = np.ones(4, np.int32)
     Counter().zero(a)                   # a class kernel still binds to its instance
     assert not a.any()
+
+
+def test_configure_expands_a_home_cache_dir(tmp_path):
+    """README's own example, cache_dir="~/.cache/evstar", made a folder named "~"."""
+    import os
+
+    env = {**os.environ, "HOME": str(tmp_path / "home")}
+    r = subprocess.run([sys.executable, "-c",
+                        "from evstar import backends\n"
+                        "backends.configure(cache_dir='~/.cache/evstar')\n"
+                        "print(backends.settings()['cache_dir'])\n"],
+                       capture_output=True, text=True, timeout=300, cwd=tmp_path, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == str(tmp_path / "home" / ".cache" / "evstar")
+    assert not (tmp_path / "~").exists()
+
+
+def test_configure_rejects_a_cache_dir_that_is_no_path():
+    with pytest.raises(TypeError, match="cache_dir"):
+        backends.configure(cache_dir=3)
