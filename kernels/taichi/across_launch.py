@@ -18,8 +18,8 @@ def across_counts(ti, t, x, y, t0_us, dt_us, cell_shift, cells_w, start, pair_tr
     size = len(tracks) * nb
     total = np.zeros(size, np.int64)
     tables = [arrays.put(np.asarray(a, d)) for a, d in
-              ((start, np.int32), (pair_track, np.int32), (tracks, np.int64), (table, np.int32),
-               (rows, np.float64))]
+              ((start, np.int32), (pair_track, np.int32), (tracks, np.int64),
+               (_slots(table, rows), np.float64))]
     kernel = across_counts_kernel(not arrays.on_device)
     with launch.RUNTIME_LOCK:
         for f0, f1 in launch.frame_launches(offsets):
@@ -35,6 +35,17 @@ def across_counts(ti, t, x, y, t0_us, dt_us, cell_shift, cells_w, start, pair_tr
                    float(bin_px), int(nb), size, counts)
             total += (counts.to_numpy() if arrays.on_device else counts).reshape(-1, size).sum(0)
     return total.reshape(len(tracks), nb)
+
+
+def _slots(table, rows):
+    """rows at the table's slots (a track's row of each of its frames), zeros (away 0: no
+    count) where it has none."""
+    rows = np.asarray(rows, np.float64)
+    table = np.asarray(table)
+    out = np.zeros((len(table), rows.shape[1]))
+    have = table >= 0
+    out[have] = rows[table[have]]
+    return out
 
 
 def _lanes(ti, offsets, on_device):
