@@ -84,7 +84,7 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
                      with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
     """pixel_crossings of events in the pixel-then-time order: their times ts (int64),
     pixel_keys and polarities. engine "taichi": the level pairs by Taichi kernels
-    (evstar_kernels.taichi.crossings); "numpy": their specification (the same bits).
+    (evstar_kernels.taichi.crossings); "numpy": their specification (the same integers; times within 1e-6 µs).
     threshold_ratio: C_off / C_on of the sensor, or "auto" (measured from the
     runs: threshold_ratio_of). refractory_us: the pixels' refractory period; > 0 counts the
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the

@@ -5,8 +5,10 @@ pairs' midpoint times and of their squares.
 Specification: evstar.crossings.key_crossings with engine "numpy", which handles all changes
 together, pair i = 1, 2, ... in turn; here one thread per change sums its pairs in the same
 order i = 1 .. k with the same operations (where the rising level falls on an ON event, an
-int64 sum of the two times, then × 0.5; else the interpolated rising time), so the floats
-are the same bits. The events come in the pixel-then-time order (times ts): a change's
+int64 sum of the two times, then × 0.5; else the interpolated rising time); with a
+refractory period or a threshold ratio the interpolation divides, and Taichi's fast math
+may round those divisions' last bits otherwise (times within 1e-6 µs of the specification,
+tests/test_crossings.py; the integer outputs are identical). The events come in the pixel-then-time order (times ts): a change's
 reads are its neighbours in memory, where reads through an order missed the cache each.
 """
 import taichi as ti
