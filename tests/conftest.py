@@ -20,3 +20,16 @@ def random_events(n=1000, width=64, height=48, seed=0, duration_us=100_000):
     t = np.sort(rng.integers(0, duration_us, n))
     return evstar.Events(t, rng.integers(0, width, n), rng.integers(0, height, n),
                          rng.integers(0, 2, n), width, height)
+
+
+def cli_fails(capsys, argv, code, *texts):
+    """Run `evstar argv` in-process: its exit code is `code`, stderr one line holding every
+    text, no traceback; returns that line."""
+    from evstar.cli import main
+
+    assert main([str(a) for a in argv]) == code
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for text in texts:
+        assert text in err, err
+    return err

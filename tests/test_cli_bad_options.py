@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from conftest import cli_fails as fails
 from evstar.cli import main
 
 
@@ -24,14 +25,6 @@ def digest(folder):
             for f in sorted(folder.iterdir()) if f.is_file()}
 
 
-def fails(capsys, argv, code, *texts):
-    """Run argv in-process: the exit code, one stderr line holding every text, no traceback."""
-    assert main([str(a) for a in argv]) == code
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    for text in texts:
-        assert text in err, err
-    return err
 
 
 # -- 1: --dt-ms inf / 1e400 / nan: a range error, no OverflowError ------------------------------

@@ -12,6 +12,7 @@ import pytest
 
 import evstar.pipeline  # noqa: F401 (its libraries' import-time warnings before the tests)
 from evstar import Config, FormatError, ParameterError, backends, batch, io
+from conftest import cli_fails as fails
 from evstar.cli import main
 
 REAL = "/work/shared/data/real"
@@ -25,14 +26,6 @@ def rec(tmp_path_factory):
     return d
 
 
-def fails(capsys, argv, code, *texts):
-    """Run argv in-process: its exit code, one stderr line holding every text, no traceback."""
-    assert main([str(a) for a in argv]) == code
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    for text in texts:
-        assert text in err, err
-    return err
 
 
 # -- part 1.1: an output format a command cannot write is a usage error, as convert's -------------
