@@ -157,6 +157,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     rows = rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
+    rows = without_shadows(rows)
     if near is not None and sensor is not None and e.across_kernel_px:
         from . import across
 
@@ -174,6 +175,46 @@ def largest_lag_us(e, measured_lag):
     0 where they move by none (no lag measured or calibrated, or no crossings estimator)."""
     lag = _run_lag(e, measured_lag) if e.estimator == "crossings" else None
     return 0.0 if lag is None else float(np.max(lag.lag_us))
+
+
+#: a track whose every row lies this near another track's position at its time shadows it:
+#: two stars this close share one DBSCAN cluster (eps 2.5 px) in most frames, and the
+#: accuracy studies match a row to a star within the same 3 px
+SHADOW_PX = 3.0
+#: ... and is that track's outliers when its rows' median σ is this many times the other's
+#: (perf/study_indep.py --fresh F12: a faint star's 6 frame centroids 0.7–2.7 px off, which
+#: its track's gate had refused, σ 0.3–0.6 px, formed a second track beside its own, σ 0.06;
+#: the grid's only other overlapping pair, scene 23's, has σ within 2×)
+SHADOW_SIGMA_RATIO = 3.0
+
+
+def without_shadows(rows):
+    """`rows` less the tracks that shadow a longer one: a star has one track, and a shorter,
+    much less certain one lying on it over its whole span (SHADOW_PX, SHADOW_SIGMA_RATIO) is
+    made of that star's outlier centroids."""
+    tracked = rows["track"] >= 0
+    ids, counts = np.unique(rows["track"][tracked], return_counts=True)
+    if len(ids) < 2:
+        return rows
+    by = {int(t): rows[rows["track"] == t] for t in ids}
+    by = {t: r[np.argsort(r["t"], kind="stable")] for t, r in by.items()}
+    sigma = {t: float(np.median(r["sigma"])) for t, r in by.items()}
+    longest_first = [int(t) for t in ids[np.argsort(-counts, kind="stable")]]
+    drop = set()
+    for i, b in enumerate(longest_first):
+        rb = by[b]
+        for a in longest_first[:i]:
+            ra = by[a]
+            if a in drop or len(ra) <= len(rb) or sigma[b] < SHADOW_SIGMA_RATIO * sigma[a]:
+                continue
+            if rb["t"][0] < ra["t"][0] or rb["t"][-1] > ra["t"][-1]:
+                continue
+            dx = rb["x"] - np.interp(rb["t"], ra["t"], ra["x"])
+            dy = rb["y"] - np.interp(rb["t"], ra["t"], ra["y"])
+            if np.all(np.hypot(dx, dy) <= SHADOW_PX):
+                drop.add(b)
+                break
+    return rows if not drop else rows[~np.isin(rows["track"], list(drop))]
 
 
 #: a measured or calibrated pixel lag is known to about this fraction of itself (the level
