@@ -90,3 +90,12 @@ def test_a_streamed_file_without_a_size_warns_once(tmp_path):
                          text=True, cwd=tmp_path, timeout=300)
     assert res.returncode == 0, res.stderr
     assert res.stderr.count("no sensor size given") == 1, res.stderr
+
+
+def test_an_unknown_option_is_named_with_its_command(capsys):
+    from evstar.cli import main
+
+    assert main(["attitude", "c.csv", "-o", "a.csv", "--bogus", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("evstar attitude: error: unrecognized arguments: --bogus 1")
+    assert "see evstar attitude --help" in err and err.count("\n") == 1

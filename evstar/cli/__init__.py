@@ -61,12 +61,16 @@ def build_parser(argv=None):
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
         p.set_defaults(_run=module.run)
+        parser.chosen = p     # its errors name the command
     return parser
 
 
 def main(argv=None):
     try:
-        args = build_parser(argv).parse_args(argv)
+        parser = build_parser(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:   # argparse leaves them to the top level, whose message names no command
+            getattr(parser, "chosen", parser).error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # --help, --version, or a usage error already printed
         return exc.code
     with warnings.catch_warnings():
