@@ -99,3 +99,11 @@ def test_an_unknown_option_is_named_with_its_command(capsys):
     err = capsys.readouterr().err
     assert err.startswith("evstar attitude: error: unrecognized arguments: --bogus 1")
     assert "see evstar attitude --help" in err and err.count("\n") == 1
+
+
+def test_bench_refuses_a_scene_no_machine_holds(capsys):
+    from evstar.cli import main
+    from evstar.cli.bench import MAX_EVENTS
+
+    assert main(["bench", "--events", str(10 * MAX_EVENTS)]) == 2
+    assert "--events" in capsys.readouterr().err

@@ -12,11 +12,14 @@ from .options import add_options, checked
 
 #: the top-level keys of a results file (evstar.profiling.write_results)
 RESULT_KEYS = {"machine", "meta", "rows"}
+#: the largest --events (memory: see add_arguments)
+MAX_EVENTS = 10**8
 
 
 def add_arguments(p):
-    p.add_argument("--events", type=checked(int, 1000, 10**9), default=1_000_000,
-                   help="scene size in events, 1000 to 1e9; the scene lasts at least 0.5 s, "
+    # the scene and its copies hold ~60 bytes an event: 1e8 is ~6 GB (1e9 asked for 60)
+    p.add_argument("--events", type=checked(int, 1000, MAX_EVENTS), default=1_000_000,
+                   help="scene size in events, 1000 to 1e8; the scene lasts at least 0.5 s, "
                         "about 70,000 events (1e6)")
     add_options(p, P.GLOBAL, ["device"], device={"default": "cpu"})
     p.add_argument("--repeats", type=checked(int, 1, 1000), default=3,
