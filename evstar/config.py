@@ -87,8 +87,10 @@ TrackConfig = _section_class("TrackConfig", P.TRACK)
 MotionConfig = _section_class("MotionConfig", P.MOTION)
 EstimateConfig = _section_class("EstimateConfig", P.ESTIMATE)
 HotPixelsConfig = _section_class("HotPixelsConfig", P.HOTPIXELS)
+AttitudeFilterConfig = _section_class("AttitudeFilterConfig", P.ATTITUDE_FILTER)
 _SECTIONS = {"denoise": DenoiseConfig, "extract": ExtractConfig, "track": TrackConfig,
-             "motion": MotionConfig, "estimate": EstimateConfig, "hotpixels": HotPixelsConfig}
+             "motion": MotionConfig, "estimate": EstimateConfig, "hotpixels": HotPixelsConfig,
+             "attitude_filter": AttitudeFilterConfig}
 
 
 @_known_keys_only
@@ -104,6 +106,7 @@ class Config:
     motion: MotionConfig = field(default_factory=MotionConfig)
     estimate: EstimateConfig = field(default_factory=EstimateConfig)
     hotpixels: HotPixelsConfig = field(default_factory=HotPixelsConfig)
+    attitude_filter: AttitudeFilterConfig = field(default_factory=AttitudeFilterConfig)
 
     def __post_init__(self):
         self.validate()
@@ -116,6 +119,11 @@ class Config:
                 raise ParameterError(f"{_key('', name)} must be a {cls.__name__}, got {section!r}")
             section.validate()
         return self
+
+    def attitude_options(self):
+        """[attitude_filter] as the keywords of evstar.attitude.estimate / AttitudeEstimator:
+        what `evstar run`, `evstar batch` and `evstar attitude` all estimate with."""
+        return asdict(self.attitude_filter)
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self):

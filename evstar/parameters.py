@@ -455,7 +455,11 @@ IDENTIFY = Params(
           "first) until one identifies", low=0, high=1, open_low=True, many=True),
 )
 
-# -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator); not part of Config ----
+# -- [attitude_filter]: the attitude MEKF (evstar.attitude.estimator) -----------------------
+#: `evstar run` and `evstar batch` name these options with this prefix (--attitude-rate-hz):
+#: their bare names (--rate-hz, --gyro-noise, --sigma-floor-px) are pipeline options there;
+#: `evstar attitude`, which has no pipeline options, takes the bare names
+ATTITUDE_PREFIX = "attitude-"
 ATTITUDE_FILTER = Params(
     "attitude_filter",
     Param("rate_hz", float, 100.0, "attitude output rate (predictions between updates)",
@@ -523,8 +527,14 @@ SMOOTHER = Params(
           "track and step at a time (the reference; slow)", choices=("taichi", "numpy", "filterpy")),
 )
 
+#: the sections of evstar.Config: the pipeline's stages, and the attitude written after it
 SECTIONS = {"denoise": DENOISE, "extract": EXTRACT, "track": TRACK, "motion": MOTION,
-            "estimate": ESTIMATE, "hotpixels": HOTPIXELS}
+            "estimate": ESTIMATE, "hotpixels": HOTPIXELS, "attitude_filter": ATTITUDE_FILTER}
+
+
+def run_option(param):
+    """An [attitude_filter] parameter's option in `evstar run` / `evstar batch`."""
+    return "--" + ATTITUDE_PREFIX + param.option[2:]
 
 
 def check_thresholds_per_radius(thresholds, radii, key="thresholds"):
@@ -546,15 +556,19 @@ def markdown():
              "command-line option in the last column (`evstar extract`, `evstar run`; "
              "`evstar denoise` takes the denoise ones). "
              + ", ".join(f"`{p.section}`" for p in library) + " are library settings (keyword "
-             "arguments of their classes, no Config keys); `attitude_filter` holds the options "
-             "of `evstar attitude` and `evstar.attitude.estimate`, not of `--config`.", ""]
-    for params in (GLOBAL, *SECTIONS.values(), *library, ATTITUDE_FILTER):
+             "arguments of their classes, no Config keys). `attitude_filter` sets the attitude "
+             "`evstar attitude` (options: the first name) and `evstar run` / `evstar batch` "
+             f"(the second, prefixed `--{ATTITUDE_PREFIX}`) write; its keys are also the "
+             "keywords of `evstar.attitude.estimate`.", ""]
+    for params in (GLOBAL, *SECTIONS.values(), *library):
         title = params.section or "top level"
         lines += [f"## {title}", "", "| name | default | valid | unit | meaning | option |",
                   "|---|---|---|---|---|---|"]
         for name, p in params.items():
             cli = params not in library or (params is KERNEL and name == "backend")
             option = f"`{p.option}`" if cli else "—"
+            if params is ATTITUDE_FILTER:
+                option += f", `{run_option(p)}`"
             lines.append(f"| `{name}` | `{p.default!r}` | {p.expected()} | {p.unit or '—'} | "
                          f"{p.doc} | {option} |")
         lines.append("")

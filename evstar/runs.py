@@ -58,7 +58,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
         cam, imu_data, events = rec.camera, rec.imu, rec.events
     outputs.write_run(outdir, result, config, truth,
-                      attitude=attitude_rows(result, cam, imu_data, events))
+                      attitude=attitude_rows(result, cam, imu_data, events, config))
     return result
 
 
@@ -82,15 +82,17 @@ def _check_imu_span(imu, events, config, source):
         raise DataError(f"{source}: {exc}") from None
 
 
-def attitude_rows(result, camera, imu=None, events=None):
-    """The attitude of a run's centroids (evstar.attitude.estimate; with the run's events,
-    its pooled-window fallback too) when the camera is known, else None; empty when nothing
-    could be identified."""
+def attitude_rows(result, camera, imu=None, events=None, config=None):
+    """The attitude of a run's centroids (evstar.attitude.estimate with `config`'s
+    [attitude_filter], default Config(); with the run's events, its pooled-window fallback
+    too) when the camera is known, else None; empty when nothing could be identified."""
     if camera is None:
         return None
     from .attitude import estimate
+    from .config import Config
 
-    return estimate(result.centroids, camera, imu, events=events)
+    return estimate(result.centroids, camera, imu, events=events,
+                    **(config or Config()).attitude_options())
 
 
 def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False):

@@ -6,7 +6,9 @@ the Hipparcos catalogue (epoch --epoch, a decimal year), then a multiplicative E
 the attitude with the identified tracks, driven by the gyro when there is an IMU (--imu,
 or the recording's own), else by a constant-rate model. From a recording, when no frame's
 centroids identify within --pooled-window-ms, the window's events pooled into one image are
-identified (evstar.attitude.identify_events); a centroid file has frames only.
+identified (evstar.attitude.identify_events); a centroid file has frames only. The
+filter's settings are --config's [attitude_filter] table, the options overriding it (the
+same section `evstar run` writes its attitude.csv with).
 
 CSV header `t,qw,qx,qy,qz` (t µs; unit quaternion, scalar first, camera -> ICRS) followed
 by `ra_deg,dec_deg,roll_deg,wx,wy,wz,n_stars,status`; one row every 1/--rate-hz after the
@@ -18,7 +20,7 @@ import pathlib
 
 from .. import parameters as P
 from .common import add_input_options, check_output_suffix, load
-from .options import add_options, checked
+from .options import add_options, checked, config_from_args
 
 
 def add_arguments(p):
@@ -26,7 +28,8 @@ def add_arguments(p):
     p.add_argument("-o", "--output", required=True, metavar="ATTITUDE.csv")
     p.add_argument("--epoch", type=checked(float, 1000, 3000), metavar="YEAR",
                    help="epoch of the star positions, decimal year (default: the catalogue's)")
-    p.add_argument("--config", help="pipeline configuration file (.toml or .json) for a recording")
+    p.add_argument("--config", help="configuration file (.toml or .json): its [attitude_filter] "
+                   "(the options below override it) and, for a recording, the pipeline's settings")
     add_input_options(p)
     add_options(p, P.ATTITUDE_FILTER)
 
@@ -40,8 +43,7 @@ def run(args):
     check_output_file(args.output, "-o/--output")
     check_output_suffix(args.output, "-o/--output", [".csv"], "CSV")
     check_outputs([args.output], [args.input, args.imu, args.camera, args.config])
-    options = {k.split(".", 1)[1]: v for k, v in vars(args).items()
-               if k.startswith("attitude_filter.") and v is not None}
+    cfg = config_from_args(args)   # the options' dests are its attitude_filter.* keys
     if is_centroid_file(args.input):
         from ..runs import read_aux
 
@@ -51,10 +53,10 @@ def run(args):
         centroids = io.read_centroids(args.input, sensor=(camera.width, camera.height))
         events = None            # a centroid file: frames only, no pooled-window fallback
     else:
-        centroids, camera, imu, events = _pipeline(args)
+        centroids, camera, imu, events = _pipeline(args, cfg)
     if camera is None:
         raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
-    est = AttitudeEstimator(camera, imu, epoch=args.epoch, **options)
+    est = AttitudeEstimator(camera, imu, epoch=args.epoch, **cfg.attitude_options())
     rows = est.run(centroids, events)
     if not len(rows):
         raise DataError(f"no attitude: {no_output_after_fix(est, centroids) or fix_summary(est.fixes)}")
@@ -64,12 +66,10 @@ def run(args):
           f"{rows['t'][0]} µs, {fix_summary(est.fixes)}; wrote {args.output}")
 
 
-def _pipeline(args):
+def _pipeline(args, cfg):
     from .. import backends
     from ..pipeline import Pipeline
-    from .options import config_from_args
 
-    cfg = config_from_args(args)
     backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)
     result = Pipeline(cfg).run(rec.events, rec.imu, rec.camera)

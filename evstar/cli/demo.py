@@ -84,7 +84,7 @@ def _field(out, args):
     run_ = sim.simulate(sim.Scenario(cam, stars, motion, 0.5), seed=args.seed)
     cfg = Config(device=args.device)
     result = Pipeline(cfg).run(run_.events, run_.imu, run_.camera, truth=run_.truth)
-    rows = attitude_rows(result, run_.camera, run_.imu, run_.events)   # + the pooled fallback
+    rows = attitude_rows(result, run_.camera, run_.imu, run_.events, cfg)  # + pooled fallback
     outputs.write_run(out, result, cfg, run_.truth, attitude=rows)
     print(f"star field    {len(stars)} Hipparcos stars (Orion), DAVIS346 16 mm, "
           f"{args.rate:g} °/s: {result.metrics['tracks']} tracks")

@@ -12,15 +12,18 @@ import math
 from .. import parameters as P
 from ..errors import EvstarError, ParameterError
 
+#: every Config parameter set, by config section (an option's dest names its key)
+CONFIG = {"": P.GLOBAL, **P.SECTIONS}
 #: the stages' parameter sets that `evstar extract` and `evstar run` expose, by config section
-PIPELINE = {"": P.GLOBAL, **P.SECTIONS}
+PIPELINE = {k: v for k, v in CONFIG.items() if v is not P.ATTITUDE_FILTER}
 
 
-def add_options(p, params, names=None, section=None, **overrides):
+def add_options(p, params, names=None, section=None, option=None, **overrides):
     """One option per parameter of `params` (or of `names` only). The dest is the config key
-    ("denoise.radius"), so a Namespace maps onto Config.replace directly. `overrides` are
-    argparse keywords per name, e.g. method={"required": True}. Options of several calls
-    with the same section share one help group."""
+    ("denoise.radius"), so a Namespace maps onto Config.replace directly. `option` names a
+    parameter's option (default its declared one). `overrides` are argparse keywords per
+    name, e.g. method={"required": True}. Options of several calls with the same section
+    share one help group."""
     section = params.section if section is None else section
     title = f"[{section}] options" if section else "general options"
     group = next((g for g in p._action_groups if g.title == title), None) \
@@ -39,14 +42,18 @@ def add_options(p, params, names=None, section=None, **overrides):
         kw.update(overrides.get(name, {}))
         if "default" in overrides.get(name, {}) and "help" not in overrides[name]:
             kw["help"] = _help(param, kw["default"])  # the help names the default used
-        group.add_argument(param.option, **kw)
+        group.add_argument(option(param) if option else param.option, **kw)
 
 
-def add_pipeline_options(p):
-    """--config plus every parameter of every stage; --auto sets both threshold kinds to auto."""
+def add_pipeline_options(p, attitude=False):
+    """--config plus every parameter of every stage; --auto sets both threshold kinds to auto.
+    attitude: also [attitude_filter]'s, as --attitude-* (for the commands that write the
+    attitude after the pipeline)."""
     p.add_argument("--config", help="configuration file (.toml or .json); options override it")
     for section, params in PIPELINE.items():
         add_options(p, params, section=section)
+    if attitude:
+        add_options(p, P.ATTITUDE_FILTER, option=P.run_option)
     p.add_argument("--auto", action="store_true", help="auto thresholds (the default)")
 
 
@@ -73,7 +80,7 @@ def checked(kind, low=None, high=None, open_low=False):
 def _param(dest):
     """The declaration behind an option's dest (a config key), None for other options."""
     section, _, name = dest.rpartition(".")
-    return PIPELINE.get(section, {}).get(name)
+    return CONFIG.get(section, {}).get(name)
 
 
 def _parser(param):

@@ -4,8 +4,9 @@ Writes centroids.csv, tracks.csv, metrics.json (deterministic for the same input
 seed), profile.json (seconds per stage), config.toml (the configuration used) and PNG
 figures: denoise.png (accumulated events before/after), tracks.png, per_frame.png and,
 with --truth, errors.png; with a camera (--camera or the recording's) also attitude.csv,
-the inertial attitude as `evstar attitude` writes it, when a frame, or the pooled events of
-a window (not when streamed), could be identified. Files appear only when the run
+the inertial attitude as `evstar attitude` writes it (the [attitude_filter] settings of
+--config, or the --attitude-* options), when a frame, or the pooled events of a window (not
+when streamed), could be identified. Files appear only when the run
 completes; a rerun into the same
 folder replaces these files and no others. Inputs larger than --stream-above-mb are
 processed in chunks with bounded memory.
@@ -26,13 +27,14 @@ def add_arguments(p):
 
 
 def add_run_options(p):
-    """What `evstar run` and `evstar batch` share: streaming, progress, inputs, pipeline."""
+    """What `evstar run` and `evstar batch` share: streaming, progress, inputs, pipeline,
+    attitude."""
     p.add_argument("--stream-above-mb", type=checked(float, 0, MAX_STREAM_ABOVE_MB), default=1024.0,
                    metavar="MB", help="stream inputs larger than this many MB in chunks (1024; "
                    "0: always; at most 1e9, a petabyte)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_input_options(p)
-    add_pipeline_options(p)
+    add_pipeline_options(p, attitude=True)
 
 
 def run(args):
