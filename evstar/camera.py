@@ -1,6 +1,7 @@
 """Camera: pinhole intrinsics with optional radial distortion (x right, y down, z forward)."""
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 
@@ -41,6 +42,31 @@ class Camera:
             object.__setattr__(self, name, v)
         if self.fx <= 0 or self.fy <= 0:
             raise DataError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
+        if self.has_distortion:
+            self._check_distortion()
+
+    def _check_distortion(self):
+        """DataError where the radial distortion folds back inside the sensor: beyond the
+        normalised radius where r·(1 + k1·r² + k2·r⁴) stops growing, two rays share a pixel,
+        so no pixel there has one ray (a wrong sign or a miscalibrated k1, k2)."""
+        rf = fold_radius(self.k1, self.k2)
+        if not math.isfinite(rf):
+            return
+        reach = radial(rf, self.k1, self.k2)
+        corner = self.corner_radius()
+        if corner >= reach:
+            raise DataError(
+                f"camera distortion k1={self.k1:g}, k2={self.k2:g} folds back inside the "
+                f"{self.width}x{self.height} sensor: the distorted radius stops growing at "
+                f"{reach:.4g} (normalised) but the sensor's corners lie at {corner:.4g}; no "
+                f"pixel beyond has one ray (check the signs and scale of k1, k2)")
+
+    def corner_radius(self):
+        """The largest normalised distorted radius of the sensor's area (its pixels' outer
+        corners, -0.5 .. width - 0.5)."""
+        xs = ((-0.5 - self.cx) / self.fx, (self.width - 0.5 - self.cx) / self.fx)
+        ys = ((-0.5 - self.cy) / self.fy, (self.height - 0.5 - self.cy) / self.fy)
+        return max(math.hypot(x, y) for x in xs for y in ys)
 
     @classmethod
     def from_fov(cls, width, height, hfov_deg):
@@ -87,22 +113,89 @@ class Camera:
             xn, yn = xn * s, yn * s
         return self.fx * xn + self.cx, self.fy * yn + self.cy
 
-    def unproject(self, uv, iterations=5):
-        """Pixel coordinates (N, 2) -> unit camera-frame rays (N, 3), distortion removed."""
+    def unproject(self, uv, iterations=None):
+        """Pixel coordinates (N, 2) -> unit camera-frame rays (N, 3), distortion removed.
+        iterations: None (default) inverts the distortion to machine precision (project
+        gives uv back); an integer runs that many fixed-point steps instead, the motion
+        kernels' inversion (5 steps are 0.03 px off at the corners of a 346x260 sensor
+        behind fx 300 px with k1 -0.3, k2 0.1)."""
         uv = _points("uv", uv, 2)
         return np.stack(self.unproject_columns(uv[..., 0], uv[..., 1], iterations), axis=-1)
 
-    def unproject_columns(self, u, v, iterations=5):
+    def unproject_columns(self, u, v, iterations=None):
         """unproject of pixel coordinates given as two (N,) columns: (x, y, z) columns (no
         (N, 3) temporaries: the velocity prior unprojects every crossing)."""
         xd, yd = (u - self.cx) / self.fx, (v - self.cy) / self.fy
         xn, yn = xd, yd
-        if self.has_distortion:  # fixed-point inversion, ample for mild radial distortion
+        if self.has_distortion and iterations is not None:   # the kernels' fixed point
             for _ in range(iterations):
                 r2 = xn * xn + yn * yn
                 s = 1 + self.k1 * r2 + self.k2 * r2 * r2
                 xn, yn = xd / s, yd / s
+        elif self.has_distortion:
+            rd = np.sqrt(xd * xd + yd * yd)
+            r = undistorted_radius(rd, self.k1, self.k2, self.corner_radius())
+            with np.errstate(divide="ignore", invalid="ignore"):
+                scale = np.where(rd > 0, r / rd, 1.0)
+            xn, yn = xd * scale, yd * scale
         return unit(xn, yn, np.ones_like(xn))
+
+
+def radial(r, k1, k2):
+    """The distorted normalised radius r·(1 + k1·r² + k2·r⁴) of an undistorted one."""
+    s = r * r
+    return r * (1 + k1 * s + k2 * s * s)
+
+
+def fold_radius(k1, k2):
+    """The smallest undistorted radius > 0 where radial() stops growing (its slope
+    1 + 3·k1·r² + 5·k2·r⁴ reaches 0), or inf where it grows everywhere."""
+    a, b = 5.0 * k2, 3.0 * k1            # a·s² + b·s + 1 = 0 in s = r²
+    if a == 0:
+        roots = [-1.0 / b] if b < 0 else []
+    else:
+        disc = b * b - 4 * a
+        q = math.sqrt(disc) if disc >= 0 else None
+        roots = [] if q is None else [s for s in ((-b - q) / (2 * a), (-b + q) / (2 * a)) if s > 0]
+    return math.sqrt(min(roots)) if roots else math.inf
+
+
+#: samples of the radial distortion that undistorted_radius interpolates before Newton
+_TABLE = 4097
+
+
+@functools.lru_cache(maxsize=32)
+def _inverse_table(k1, k2, reach):
+    """(distorted, undistorted) radii sampled over the monotone range 0 .. r_end that covers
+    distorted radii up to `reach` (or up to the fold)."""
+    rf = fold_radius(k1, k2)
+    r_end = max(reach, 1e-6)
+    while radial(r_end, k1, k2) < reach and r_end < rf:
+        r_end = min(2 * r_end, rf)
+    r_end = min(r_end, rf)
+    r = np.linspace(0.0, r_end, _TABLE)
+    return np.maximum.accumulate(radial(r, k1, k2)), r
+
+
+def undistorted_radius(rd, k1, k2, reach=1.0, newton=3):
+    """The undistorted normalised radius r >= 0 with radial(r) = rd, per element: from a
+    table of the monotone branch covering radii up to `reach` (the sensor's corners), then
+    Newton steps (a fixed number: each element's result depends on itself alone). Radii
+    beyond a fold (off the sensor) stay at the fold."""
+    rd = np.asarray(rd, np.float64)
+    fd, fr = _inverse_table(float(k1), float(k2), float(reach))
+    rf = fold_radius(k1, k2)
+    r = np.interp(rd, fd, fr)
+    beyond = rd > fd[-1]
+    if beyond.any() and not math.isfinite(rf):     # off the table, still monotone
+        r = np.where(beyond, rd * (fr[-1] / fd[-1]), r)
+    for _ in range(newton):
+        s = r * r
+        slope = 1 + 3 * k1 * s + 5 * k2 * s * s
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = (r * (1 + k1 * s + k2 * s * s) - rd) / slope
+        r = np.clip(np.where(slope > 0, r - step, r), 0.0, rf)
+    return r
 
 
 def _points(name, values, k):

@@ -124,7 +124,20 @@ def roc_auc_from_scores(is_signal, scores):
     """Area under the ROC of 'keep iff score >= threshold' over every threshold (sklearn)."""
     from sklearn.metrics import roc_auc_score
 
-    return float(roc_auc_score(np.asarray(is_signal, bool), np.asarray(scores, np.float64)))
+    try:
+        scores = np.asarray(scores, np.float64)
+    except (TypeError, ValueError) as exc:      # strings, ragged lists
+        raise DataError(f"scores must be numbers, one per event ({exc})") from None
+    is_signal = np.asarray(is_signal, bool)
+    if is_signal.shape != scores.shape or is_signal.ndim != 1:
+        raise DataError(f"is_signal and scores must be 1-D and of equal length, got "
+                        f"{is_signal.shape} and {scores.shape}")
+    if not np.all(np.isfinite(scores)):
+        i = int(np.flatnonzero(~np.isfinite(scores))[0])
+        raise DataError(f"scores must be finite, got {scores[i]} at index {i}")
+    if is_signal.all() or not is_signal.any():  # sklearn: nan and a warning, or a ValueError
+        raise DataError("an ROC needs both signal and noise events")
+    return float(roc_auc_score(is_signal, scores))
 
 
 def threshold_sweep(make_filter, events, is_signal, thresholds):

@@ -391,9 +391,43 @@ def _measured(centroids):
     if missing:
         raise ParameterTypeError(f"centroids must be a structured array with fields t, x, y, track "
                                  f"(CENTROID_DTYPE); missing {missing}")
-    c = centroids[centroids["source"] != "coasted"] if "source" in names else centroids
+    c = _numeric_fields(centroids)
+    c = c[c["source"] != "coasted"] if "source" in names else c
     c = c[np.isfinite(c["x"]) & np.isfinite(c["y"])]
     return c[np.argsort(c["t"], kind="stable")]
+
+
+def _numeric_fields(centroids):
+    """A copy of `centroids` whose t and track are int64 and x, y (and sigma, frame where
+    present) numeric: a table read by hand (floats with NaN, strings) fails here with the
+    field and value named, not deep in the filter."""
+    from ..events import T_LIMIT_US
+
+    names = centroids.dtype.names
+    kinds = {"t": "i", "track": "i", "frame": "i", "x": "f", "y": "f", "sigma": "f"}
+    cols = {}
+    for name, kind in kinds.items():
+        if name not in names:
+            continue
+        col = np.asarray(centroids[name])
+        if col.dtype.kind not in "biuf":
+            raise DataError(f"centroids field '{name}' must hold numbers, got dtype {col.dtype}")
+        if kind == "i" and col.dtype.kind == "f":
+            bad = ~np.isfinite(col) | (col != np.round(col)) if len(col) else np.zeros(0, bool)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise DataError(f"centroids field '{name}' = {col[i].item()!r} at row {i} is not a whole "
+                                f"number")
+        if name == "t" and len(col) and np.any(np.abs(col) > T_LIMIT_US):
+            i = int(np.flatnonzero(np.abs(col) > T_LIMIT_US)[0])
+            raise DataError(f"centroids field 't' = {col[i].item()!r} at row {i} is outside the valid "
+                            f"range ±{T_LIMIT_US} µs")
+        cols[name] = col.astype(np.int64 if kind == "i" else np.float64)
+    dtype = [(n, cols[n].dtype if n in cols else centroids.dtype[n]) for n in names]
+    out = np.empty(len(centroids), dtype)
+    for n in names:
+        out[n] = cols[n] if n in cols else centroids[n]
+    return out
 
 
 def _delayed(c, delay_us):

@@ -69,6 +69,9 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
     if not io.FORMATS[fmt][2]:
         raise ParameterError(f"{option} {path}: evstar reads {fmt} files but cannot write them; "
                              f"write {', '.join(names[:-1])} or {names[-1]}")
+    if fmt == "npz" and str(path).lower().endswith(".npy"):   # io.write refuses it, after the work
+        raise ParameterError(f"{option} {path}: a .npy file holds one array, not a recording; "
+                             f"give a .npz name")
     return fmt
 
 

@@ -20,4 +20,5 @@ def run(args):
     check_outputs([args.output], [args.input, args.imu, args.camera])
     rec = load(args)
     io.write(args.output, rec, format=args.out_format)
-    print(f"wrote {len(rec.events):,} events to {args.output}")
+    n = len(rec.events)
+    print(f"wrote {n:,} event{'' if n == 1 else 's'} to {args.output}")

@@ -47,7 +47,10 @@ def run(args):
         print(f"event rate   {s['event_rate_hz'] / 1e6:.3f} M events/s")
     if s["on_fraction"] is not None:
         print(f"polarity     {100 * s['on_fraction']:.1f} % ON / {100 * (1 - s['on_fraction']):.1f} % OFF")
-    if s.get("gap_floor_us") is not None:
+    if s.get("gap_floor_us") == 0:     # no refractory period shows through repeated times
+        print("gap floor    0 µs (a pixel's same-polarity events repeat within one µs: "
+              "duplicate timestamps, no refractory period to read)")
+    elif s.get("gap_floor_us") is not None:
         print(f"gap floor    {s['gap_floor_us']:.0f} µs (0.1 % of a pixel's same-polarity gaps are "
               "shorter: near its refractory period, --refractory-us)")
     if s.get("threshold_ratio") is not None:

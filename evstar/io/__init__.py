@@ -13,7 +13,7 @@ from importlib import import_module
 import numpy as np
 
 from ..camera import Camera
-from ..errors import EvstarWarning, FormatError, ParameterError, ParameterTypeError
+from ..errors import DataError, EvstarWarning, FormatError, ParameterError, ParameterTypeError
 from ..events import Events
 from ..imu import Imu
 from ..recording import Recording
@@ -165,4 +165,9 @@ def windows(path, window_us, format=None, sensor_size=None, t_origin_us=None):
     window_us = P.GLOBAL.check("dt_us", window_us, "window_us")      # whole µs, as frames
     t_origin_us = P.KERNEL.check("t0_us", t_origin_us, "t_origin_us")
     w, h, gen = packets(path, format, sensor_size)
-    yield from _windows(gen, w, h, window_us, t_origin_us)
+    try:
+        yield from _windows(gen, w, h, window_us, t_origin_us)
+    except DataError as exc:     # name the file, as read() does
+        if isinstance(exc, FormatError) or str(path) in str(exc):
+            raise
+        raise FormatError(path, str(exc)) from None
