@@ -217,7 +217,8 @@ GLOBAL = Params(
     Param("dt_us", int, 10_000, "pseudo-frame length", low=1, high=MAX_DT_US, unit="µs",
           cli="--dt-ms", cli_scale=1000, cli_unit="ms"),
     Param("seed", int, 0, "random seed (particle filter)", low=0, high=2**32 - 1),
-    Param("chunk_frames", int, 200, "frames per streaming chunk (also the calibration "
+    Param("chunk_frames", int, 200, "frames per streaming chunk, rounded up to whole pooled "
+          "frames (extract.pool_frames; also the calibration "
           "window of the background rate)", low=1, high=10**7),
 )
 

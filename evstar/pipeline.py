@@ -350,6 +350,13 @@ class Pipeline:
         return out
 
     # -- recordings larger than memory ---------------------------------------------------
+    def _stream_frames(self):
+        """Frames per streamed chunk: chunk_frames rounded up to whole pooled frames
+        (extract.pool_frames), which must not straddle chunks (with --chunk-frames 5 and
+        pool_frames 4 a real recording's streamed run found 147 centroids, the whole run 148)."""
+        pool = self.config.extract.pool_frames
+        return -(-self.config.chunk_frames // pool) * pool
+
     def run_file(self, path, imu=None, camera=None, truth=None, progress=True, format=None,
                  sensor_size=None):
         """Stream a file chunk by chunk (bounded memory); same results as run()."""
@@ -357,7 +364,7 @@ class Pipeline:
 
         mode = self.config.motion.compensate
         check_parts(None, imu, camera, mode)
-        span = self.config.chunk_frames * self.config.dt_us
+        span = self._stream_frames() * self.config.dt_us
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:
             raise DataError(f"{path}: no events")

@@ -142,3 +142,17 @@ def test_demo_runs_the_whole_job(tmp_path, capsys):
     assert rms and float(rms.group(1)) < 0.1, out
     att = (tmp_path / "demo" / "field" / "attitude.csv").read_text().splitlines()
     assert att[0].startswith("t,qw,qx,qy,qz") and len(att) > 30
+
+
+@pytest.mark.parametrize("chunk_frames", [2, 5])
+def test_streaming_equals_whole_run_when_chunks_cut_pooled_frames(real_dir, chunk_frames):
+    """Chunks of a number of frames that is no multiple of extract.pool_frames (4) are
+    rounded up to whole pooled frames: a pooled frame cut by a chunk edge lost or split a
+    faint cluster (a real recording: 147 against 148 centroids at 5, 190 against 197 at 2)."""
+    path = real_dir / "expelliarmus_evt2_sample.raw"
+    cfg = Config(chunk_frames=chunk_frames, dt_us=1000).replace(**{"estimate.estimator": "mean"})
+    whole = Pipeline(cfg).run(io.read(path).events)
+    streamed = Pipeline(cfg).run_file(path, progress=False)
+    assert len(whole.centroids) > 100
+    for f in whole.centroids.dtype.names:
+        np.testing.assert_array_equal(whole.centroids[f], streamed.centroids[f])
