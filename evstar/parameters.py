@@ -217,9 +217,9 @@ GLOBAL = Params(
     Param("dt_us", int, 10_000, "pseudo-frame length", low=1, high=MAX_DT_US, unit="µs",
           cli="--dt-ms", cli_scale=1000, cli_unit="ms"),
     Param("seed", int, 0, "random seed (particle filter)", low=0, high=2**32 - 1),
-    Param("chunk_frames", int, 200, "frames per streaming chunk, rounded up to whole pooled "
-          "frames (extract.pool_frames; also the calibration "
-          "window of the background rate)", low=1, high=10**7),
+    Param("chunk_frames", int, 200, "frames of the calibration window of the background "
+          "rate, and per streaming chunk (there rounded up to whole extract.pool_frames)",
+          low=1, high=10**7),
 )
 
 DENOISE = Params(
