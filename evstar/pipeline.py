@@ -27,7 +27,7 @@ from .errors import DataError, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
 from .frames import accumulated, frame_offsets, images, on_pixels
-from .parameters import AUTO
+from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .recording import check_parts
 from .tracking import Tracker
 from evstar_kernels.taichi.scratch import Scratch
@@ -126,12 +126,17 @@ class Pipeline:
         taichi(self.config.device)
         return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
 
-    @staticmethod
-    def _rate(window, counts):
+    def _rate(self, window, counts):
+        """The window's background rate, over at least one frame: events that all share a
+        timestamp (a recording shorter than a frame) measured 1.6 MHz a pixel over the 1 µs
+        floor, which the filter refused as its rate_hz; and no pixel fires faster than
+        MAX_PIXEL_RATE_HZ."""
         from evstar_kernels.reference.denoise import background_rate
 
-        return background_rate(window.t, window.x, window.y, window.width, window.height,
-                               counts=counts)
+        span_us = int(window.t[-1]) - int(window.t[0]) if len(window) else 0
+        rate = background_rate(window.t, window.x, window.y, window.width, window.height,
+                               counts=counts, duration_s=max(span_us, self.config.dt_us) * 1e-6)
+        return min(rate, MAX_PIXEL_RATE_HZ)
 
     def _hot_pixels(self, counts):
         h = self.config.hotpixels

@@ -80,3 +80,15 @@ def test_compensation_without_imu_or_camera_says_how_to_give_it(real_dir, tmp_pa
         assert missing in err, err
     assert list(tmp_path.iterdir()) == []
 
+
+
+def test_events_that_all_share_one_timestamp_run():
+    """Their background rate is measured over one frame, not the 1 µs floor (1.6 MHz a pixel,
+    which the filter refused as a rate_hz the user never set)."""
+    rng = np.random.default_rng(0)
+    n = 5000
+    ev = evstar.Events(np.zeros(n, np.int64), rng.integers(0, 64, n), rng.integers(0, 48, n),
+                rng.integers(0, 2, n), 64, 48)
+    pipe = Pipeline(Config())
+    assert 0 < pipe.calibration_rate(ev, 0) == pytest.approx(n / (64 * 48) / 0.01, rel=0.05)
+    assert pipe.run(ev).metrics["events"] == n
