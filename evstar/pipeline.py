@@ -371,8 +371,9 @@ class Pipeline:
         check_parts(None, imu, camera, mode)
         span = self._stream_frames() * self.config.dt_us
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
-        if first is None:
-            raise DataError(f"{path}: no events")
+        if first is None:   # no events: as a whole run of them (nothing to hold in memory)
+            rec = io.read(path, format=format, sensor_size=sensor_size)
+            return self.run(rec.events, imu, camera, truth)
         check_parts(first[1], imu, camera, mode)
         if truth is not None:  # the event count is known only at the end (checked there)
             accuracy.check_truth(truth, None, first[1].width, first[1].height, first[1].t[[0]])

@@ -92,3 +92,14 @@ def test_events_that_all_share_one_timestamp_run():
     pipe = Pipeline(Config())
     assert 0 < pipe.calibration_rate(ev, 0) == pytest.approx(n / (64 * 48) / 0.01, rel=0.05)
     assert pipe.run(ev).metrics["events"] == n
+
+
+def test_a_file_without_events_streams_as_it_runs_whole(tmp_path):
+    """Streamed, an empty recording said "no events" (exit 3) where the whole run gave empty
+    results (exit 0)."""
+    io.write(tmp_path / "e0.h5", evstar.Events(np.zeros(0, np.int64), np.zeros(0, int),
+                                              np.zeros(0, int), np.zeros(0, int), 64, 48))
+    whole = Pipeline(Config()).run(io.read(tmp_path / "e0.h5").events)
+    streamed = Pipeline(Config()).run_file(tmp_path / "e0.h5", progress=False)
+    assert len(whole.centroids) == len(streamed.centroids) == 0
+    assert whole.metrics == streamed.metrics
