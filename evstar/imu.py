@@ -82,6 +82,10 @@ class Imu:
                 raise DataError(f"IMU timestamps decrease at sample {i + 1}; {SORT_HINT}")
             order = np.argsort(self.t, kind="stable")
             self.t, self.gyro, self.accel = self.t[order], self.gyro[order], self.accel[order]
+        if n > 1 and np.any(np.diff(self.t) == 0):   # integration needs a time between samples
+            i = int(np.flatnonzero(np.diff(self.t) == 0)[0]) + 1
+            raise DataError(f"IMU timestamps repeat at sample {i} ({self.t[i]} µs): each sample "
+                            "needs its own time")
 
     def __len__(self):
         return len(self.t)

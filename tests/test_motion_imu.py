@@ -89,8 +89,12 @@ def test_coverage_errors_are_clear():
     imu.gyro[4, 1] = np.nan  # corrupted after validation
     with pytest.raises(DataError, match="non-finite value at sample 4"):
         check_coverage(imu, 0, 10_000)
+    with pytest.raises(DataError, match="IMU timestamps repeat at sample 2"):
+        Imu([0, 5, 5, 9], np.zeros((4, 3)))               # refused as it is made
+    imu.gyro[4, 1] = 0.0
+    imu.t[3] = imu.t[2]                                     # ... or corrupted after
     with pytest.raises(DataError, match="increase strictly"):
-        check_coverage(Imu([0, 5, 5, 9], np.zeros((4, 3))), 0, 9)
+        check_coverage(imu, 0, 9_000)
 
 
 def test_constant_acceleration_double_integration():
@@ -124,3 +128,19 @@ def test_around_keeps_the_samples_bracketing_an_interval():
     assert imu.around(2_500, 3_500).t_cam.tolist() == [2_500, 3_500]
     assert imu.around(-5_000, 0).t_cam.tolist() == [500, 1_500]          # before: the first two
     assert imu.around(20_000, 30_000).t_cam.tolist() == [8_500, 9_500]   # after: the last two
+
+
+def test_a_long_gap_in_the_imu_is_warned_about():
+    import warnings
+
+    from evstar.errors import EvstarWarning
+
+    imu = constant_rate_imu(np.zeros(3), duration_s=1.0)
+    keep = (imu.t < 300_000) | (imu.t > 500_000)
+    gap = Imu(imu.t[keep], imu.gyro[keep], imu.accel[keep])
+    with pytest.warns(EvstarWarning, match=r"no sample for 0\.2.* s \(299000\.\.501000 µs\)"):
+        check_coverage(gap, 0, 1_000_000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_coverage(imu, 0, 1_000_000)          # a regular IMU: nothing to say
+        check_coverage(gap, 600_000, 900_000)      # the gap outside the span: nothing either

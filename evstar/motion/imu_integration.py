@@ -17,8 +17,36 @@ from ..errors import DataError, ParameterError, ParameterTypeError
 from ..imu import Imu
 
 
+#: a gap between IMU samples longer than this many median sample intervals (and than
+#: GAP_MIN_US) inside the span is warned about: the rotation across it is interpolated from
+#: its two ends, which a real turn need not follow (a 5 s gap passed silently)
+GAP_INTERVALS = 10
+GAP_MIN_US = 50_000
+
+
+def warn_gaps(imu, t_start_us, t_stop_us):
+    """An EvstarWarning naming the IMU's longest gap within [t_start_us, t_stop_us] where it
+    exceeds GAP_INTERVALS median intervals and GAP_MIN_US."""
+    import warnings
+
+    from ..errors import EvstarWarning
+
+    tc = imu.t_cam
+    if len(tc) < 3:
+        return
+    step = np.diff(tc)
+    inside = (tc[1:] > t_start_us) & (tc[:-1] < t_stop_us)
+    if not inside.any():
+        return
+    i = int(np.flatnonzero(inside)[np.argmax(step[inside])])
+    if step[i] > max(GAP_INTERVALS * float(np.median(step)), GAP_MIN_US):
+        warnings.warn(f"the IMU has no sample for {step[i] / 1e6:.3g} s ({tc[i]}..{tc[i + 1]} µs); "
+                      "the rotation across that gap is interpolated", EvstarWarning)   # once per run
+
+
 def check_coverage(imu, t_start_us, t_stop_us, what="the events"):
-    """Raise DataError unless the IMU (camera clock) spans [t_start_us, t_stop_us] with finite data."""
+    """Raise DataError unless the IMU (camera clock) spans [t_start_us, t_stop_us] with finite
+    data; warn of a long gap inside the span (warn_gaps)."""
     if not isinstance(imu, Imu):
         raise ParameterTypeError(f"imu must be an evstar.Imu, got {type(imu).__name__}")
     if len(imu) < 2:
@@ -33,6 +61,7 @@ def check_coverage(imu, t_start_us, t_stop_us, what="the events"):
     if np.any(np.diff(imu.t) <= 0):
         i = int(np.flatnonzero(np.diff(imu.t) <= 0)[0]) + 1
         raise DataError(f"IMU timestamps must increase strictly; sample {i} repeats {imu.t[i]} µs")
+    warn_gaps(imu, t_start_us, t_stop_us)
 
 
 def hold_ends(imu, t_start_us, t_stop_us, extrapolate_us):
