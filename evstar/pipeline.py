@@ -355,13 +355,6 @@ class Pipeline:
         return out
 
     # -- recordings larger than memory ---------------------------------------------------
-    def _stream_frames(self):
-        """Frames per streamed chunk: chunk_frames rounded up to whole pooled frames
-        (extract.pool_frames), which must not straddle chunks (with --chunk-frames 5 and
-        pool_frames 4 a real recording's streamed run found 147 centroids, the whole run 148)."""
-        pool = self.config.extract.pool_frames
-        return -(-self.config.chunk_frames // pool) * pool
-
     def run_file(self, path, imu=None, camera=None, truth=None, progress=True, format=None,
                  sensor_size=None):
         """Stream a file chunk by chunk (bounded memory); same results as run()."""
@@ -369,7 +362,7 @@ class Pipeline:
 
         mode = self.config.motion.compensate
         check_parts(None, imu, camera, mode)
-        span = self._stream_frames() * self.config.dt_us
+        span = chunk_span_us(self.config)
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:   # no events: as a whole run of them (nothing to hold in memory)
             rec = io.read(path, format=format, sensor_size=sensor_size)
@@ -407,6 +400,15 @@ class Pipeline:
                             span_us=first_last)
 
 
+def chunk_span_us(config):
+    """µs of a streamed chunk, and of the spans a whole run gathers its crossings in (the
+    same, so both gather the same): chunk_frames rounded up to whole pooled frames
+    (extract.pool_frames), which must not straddle chunks (with --chunk-frames 5 and
+    pool_frames 4 a real recording's streamed run found 147 centroids, the whole run 148)."""
+    pool = config.extract.pool_frames
+    return -(-config.chunk_frames // pool) * pool * config.dt_us
+
+
 def _warp(mode):
     """How a run's events are warped: 'pf' as 'imu' (the filter corrects the attitude the
     run reports and the estimator's prior, not the warp within a frame: _particle_filter)."""
@@ -418,9 +420,9 @@ def _warp(mode):
 class _RunState:
     """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their
     events are dropped before extraction) and the pixel crossings it gathers for its
-    estimator, span by span of the calibration window's length (chunk_frames frames; a
-    crossing whose flanks fall in two spans is lost), the sensor's OFF/ON threshold ratio
-    measured on the first span (the calibration window) unless configured, and the
+    estimator, span by span of a streamed chunk's length (chunk_span_us; a crossing whose
+    flanks fall in two spans is lost), the sensor's OFF/ON threshold ratio
+    measured on the first span unless configured, and the
     crossings' level profiles for the lag estimate (evstar.level_lag), and the events about
     each span's frame centroids for the across step (evstar.across: 12 bytes an event, kept
     for the run). A streamed run's chunks are those spans, so it gathers the same crossings
@@ -431,7 +433,7 @@ class _RunState:
         hot = hot if hot is not None and hot.any() else None
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
         self._near = []
-        self.t0_us, self.span_us = t0_us, config.chunk_frames * config.dt_us
+        self.t0_us, self.span_us = t0_us, chunk_span_us(config)
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
         # where too few changes measure it: the calibration recording's (a bright moving
