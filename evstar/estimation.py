@@ -192,13 +192,15 @@ def without_shadows(rows):
     """`rows` less the tracks that shadow a longer one: a star has one track, and a shorter,
     much less certain one lying on it over its whole span (SHADOW_PX, SHADOW_SIGMA_RATIO) is
     made of that star's outlier centroids."""
-    tracked = rows["track"] >= 0
-    ids, counts = np.unique(rows["track"][tracked], return_counts=True)
+    from .frames import groups
+
+    tracked = rows[rows["track"] >= 0]
+    ids, each = groups(tracked["track"])
     if len(ids) < 2:
         return rows
-    by = {int(t): rows[rows["track"] == t] for t in ids}
-    by = {t: r[np.argsort(r["t"], kind="stable")] for t, r in by.items()}
+    by = {int(t): tracked[i[np.argsort(tracked["t"][i], kind="stable")]] for t, i in zip(ids, each)}
     sigma = {t: float(np.median(r["sigma"])) for t, r in by.items()}
+    counts = np.array([len(i) for i in each])
     longest_first = [int(t) for t in ids[np.argsort(-counts, kind="stable")]]
     drop = set()
     for i, b in enumerate(longest_first):

@@ -275,10 +275,7 @@ class Pipeline:
                                     return_inverse=True, return_counts=True)
         obs = obs[count[where.ravel()] == 1]
         if len(obs):   # a last frame's centroid can sit past the IMU's end, as events may
-            from .motion import hold_ends
-
-            imu = hold_ends(imu, int(obs["t"].min()), int(obs["t"].max()),
-                            self.config.motion.extrapolate_us)
+            imu = self._held(imu, (int(obs["t"].min()), int(obs["t"].max())))
         t = time.perf_counter()
         pf = ParticleFilter(self.config.motion.n_particles, seed=self.config.seed,
                             device=self.config.device)
@@ -415,7 +412,6 @@ def _warp(mode):
     return "imu" if mode == "pf" else mode
 
 
-# -- input checks ------------------------------------------------------------------------
 # -- helpers -----------------------------------------------------------------------------
 class _RunState:
     """What a run carries chunk to chunk: the hot-pixel mask of its calibration window (their
