@@ -33,3 +33,17 @@ def cli_fails(capsys, argv, code, *texts):
     for text in texts:
         assert text in err, err
     return err
+
+
+def write_orion_pan(d, camera):
+    """cents.csv and camera.json in folder d: a 0.3 s, 15 °/s pan over Orion's stars through
+    `camera`, centroids from the simulator's truth (σ 0.05 px, magnitude <= 5); returns the
+    run's (truth, imu)."""
+    from evstar import io, sim
+    from evstar.attitude.oracle import synthetic_run
+
+    traj = sim.ConstantRate(15.0, R0=sim.attitude_from_radec(83.8, -5.4, 10.0))
+    c, truth, imu = synthetic_run(traj, camera, 0.3, sigma_px=0.05, mag_limit=5.0)
+    io.write_centroids(d / "cents.csv", c)
+    io.write_camera(d / "camera.json", camera)
+    return truth, imu

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from evstar import io, sim
 from evstar.attitude import COLUMNS, read_attitude, rotation
-from evstar.attitude.oracle import synthetic_run
+from conftest import write_orion_pan
 from evstar.cli import main
 
 HEADER = "t,qw,qx,qy,qz,ra_deg,dec_deg,roll_deg,wx,wy,wz,n_stars,status"
@@ -21,10 +21,7 @@ CAM = sim.camera_preset("davis346", 16.0)
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("attitude")
-    traj = sim.ConstantRate(15.0, R0=sim.attitude_from_radec(83.8, -5.4, 10.0))
-    c, truth, imu = synthetic_run(traj, CAM, 0.3, sigma_px=0.05, mag_limit=5.0)
-    io.write_centroids(d / "cents.csv", c)
-    io.write_camera(d / "camera.json", CAM)
+    truth, imu = write_orion_pan(d, CAM)
     io.write_imu(d / "imu.csv", imu)
     return d, truth
 

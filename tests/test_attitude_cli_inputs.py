@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from evstar import Camera, io, sim
-from evstar.attitude.oracle import synthetic_run
+from conftest import write_orion_pan
 from evstar.cli import main
 
 CAM = sim.camera_preset("davis346", 16.0)     # 346 x 260
@@ -16,10 +16,7 @@ CAM = sim.camera_preset("davis346", 16.0)     # 346 x 260
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("attitude_inputs")
-    traj = sim.ConstantRate(15.0, R0=sim.attitude_from_radec(83.8, -5.4, 10.0))
-    c, _, _ = synthetic_run(traj, CAM, 0.3, sigma_px=0.05, mag_limit=5.0)
-    io.write_centroids(d / "cents.csv", c)
-    io.write_camera(d / "camera.json", CAM)
+    write_orion_pan(d, CAM)
     io.write_camera(d / "small.json", Camera(64, 48, CAM.fx, CAM.fy, 31.5, 23.5))
     return d
 
