@@ -28,6 +28,8 @@ MAX_NOISE_EVENTS = 1e8
 #: the files simulate writes besides the events (fixed names)
 OTHER_FILES = ("imu.csv", "camera.json", "truth.npz")
 DEFAULT_EVENTS_NAME = "events.h5"
+#: the constant rate without --rate or --sine (°/s)
+DEFAULT_RATE_DPS = 10.0
 
 
 def add_arguments(p):
@@ -40,7 +42,8 @@ def add_arguments(p):
                    help="lens focal length (12)")
     motion = p.add_mutually_exclusive_group()
     motion.add_argument("--rate", type=checked(float, -P.MAX_SLEW_DPS, P.MAX_SLEW_DPS), metavar="DPS",
-                        help=f"constant turntable rate, °/s, at most {P.MAX_SLEW_DPS} in size (default 10)")
+                        help=f"constant turntable rate, °/s, at most {P.MAX_SLEW_DPS} in size "
+                             f"(default {DEFAULT_RATE_DPS:g})")
     motion.add_argument("--sine", type=checked(float, 0), nargs=2, metavar=("AMP_DEG", "FREQ_HZ"),
                         help="sinusoidal motion, e.g. 10 1 (the paper's); its peak rate "
                              f"2π·FREQ_HZ·AMP_DEG at most {P.MAX_SLEW_DPS} °/s")
@@ -121,7 +124,7 @@ def check_grid(args, scenario):
     fast run, needs more memory than any machine has (it was killed, not refused)."""
     cam = scenario.camera
     rate_dps = 2 * math.pi * args.sine[0] * args.sine[1] if args.sine else \
-        abs(10.0 if args.rate is None else args.rate)
+        abs(constant_rate(args))
     f = max(cam.fx, cam.fy)
     widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
     px_per_s = math.radians(rate_dps) * f * widen
@@ -173,7 +176,12 @@ def pointing(args):
 def _motion(sim, args, R0=None):
     if args.sine:
         return sim.Sinusoid(*args.sine, axis=args.axis, R0=R0)
-    return sim.ConstantRate(10.0 if args.rate is None else args.rate, axis=args.axis, R0=R0)
+    return sim.ConstantRate(constant_rate(args), axis=args.axis, R0=R0)
+
+
+def constant_rate(args):
+    """--rate, or DEFAULT_RATE_DPS where it is not given (°/s)."""
+    return DEFAULT_RATE_DPS if args.rate is None else args.rate
 
 
 def run(args):
