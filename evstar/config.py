@@ -32,8 +32,7 @@ def _check_keys(keys, cls, section=""):
     known = sorted(f.name for f in fields(cls))
     for key in keys:
         if key not in known:
-            raise ParameterError(f"unknown config key '{section + '.' if section else ''}{key}' "
-                                 f"(known: {known})")
+            raise ParameterError(f"unknown {_key(section, key)} (known: {known})")
 
 
 def _known_keys_only(cls, section=""):
