@@ -27,7 +27,10 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)]
+        [--quick (recordings shortened to 0.3 s)] [--imu] [--fresh | --fresh2]
+
+--fresh and --fresh2 run the held-out grids instead (F1–F12, written in the thirtieth
+session; G1–G14, in the thirty-first), each run once before any change made after seeing it.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -65,6 +68,14 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                       c_off=0.2, refractory_us=300.0, jitter_us=50.0),
     "coarse": dict(pixel="ideal", c_on=0.35, c_off=0.35, refractory_us=500.0),
     "fine": dict(pixel="ideal", c_on=0.12, c_off=0.15, mismatch=0.08),
+    # the second fresh grid's (--fresh2; written in the thirty-first session, never tuned on):
+    # timestamps jittered by 200 µs, a 15 % threshold mismatch, a low-pass that reaches its
+    # ceiling early (I_half 2), background mostly OFF events
+    "jittery": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=50.0, jitter_us=200.0),
+    "mismatch15": dict(pixel="ideal", c_on=0.22, c_off=0.22, mismatch=0.15),
+    "early-ceiling": dict(pixel="lowpass", f_min_hz=60.0, f_max_hz=600.0, i_half=2.0, c_on=0.2,
+                          c_off=0.25),
+    "off-noise": dict(pixel="ideal", c_on=0.18, c_off=0.18, noise_on_fraction=0.2),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -111,6 +122,26 @@ FRESH = [
     ("davis", ("lin", 8, 170), [4, 5], ("moffat", 3.0, 2.8), "fine", 2.0, 5, 1.0),
 ]
 FRESH_SEED = 5000
+#: held out (--fresh2, written in the thirty-first session and run once before any change):
+#: a crowded noisy field, a very slow star, diagonal and fast motion, an undersampled PSF, a
+#: very bright star beside a faint one, a slow acceleration, new sensors; seeds 6000 + i
+FRESH2 = [
+    ("vga", ("lin", 5, 15), [3, 3.5, 4, 4.5, 5, 5.5, 6, 4], ("gauss", 1.0), "ideal", 5.0, 10, 1.0),
+    ("davis", ("lin", 0.5, 70), [3], ("gauss", 1.3), "ideal", 0.5, 0, 1.0),
+    ("hd", ("lin", 15, 45), [4, 5], ("moffat", 2.5, 2.5), "lowpass", 1.0, 0, 0.6),
+    ("vga", ("sine", 3, 2.0, 100), [3.5, 5], ("gauss", 1.2), "jittery", 1.0, 0, 1.0),
+    ("davis", ("acc", 60, -45), [3, 4.5], ("ellip", 1.3, 0.9, 20), "coarse", 1.0, 0, 0.8),
+    ("hd", ("lin", 4, 160), [5, 5.5, 6], ("defocus", 2.0, 0.5), "ideal", 0.2, 0, 1.0),
+    ("vga", ("lin", 25, 200), [2.5, 4], ("gauss", 0.7), "ideal", 1.0, 2, 0.5),
+    ("davis", ("sine", 15, 0.5, 30), [3, 4], ("gauss", 1.0), "lowpass-asym", 1.0, 0, 1.0),
+    ("hd", ("lin", 8, -100), [3, 4], ("gauss", 1.5), "mismatch15", 1.0, 0, 1.0),
+    ("vga", ("lin", 1.5, 10), [4, 5], ("gauss", 2.0), "dark-asym", 2.0, 0, 1.0),
+    ("davis", ("lin", 12, 135), [2, 5], ("gauss", 1.0), "early-ceiling", 1.0, 0, 1.0),
+    ("vga", ("acc", 10, 250), [3.5, 4.5], ("moffat", 3.0, 3.0), "ideal", 1.0, 0, 1.0),
+    ("hd", ("sine", 8, 1.5, 60), [3.5, 4.5], ("gauss", 1.1), "fine", 1.0, 0, 1.0),
+    ("vga", ("lin", 6, 300), [4, 4.5], ("gauss", 1.2), "off-noise", 3.0, 3, 1.0),
+]
+FRESH2_SEED = 6000
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
@@ -151,7 +182,7 @@ def start_positions(width, height, f, motion, duration, n, rng, margin=12.0, sep
 
 
 def scene_of(i, spec, duration_scale=1.0):
-    """Scene i of the grid (i >= FRESH_SEED: FRESH[i - FRESH_SEED])."""
+    """Scene i of the grid (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED: FRESH2's)."""
     cam, motion, mags, psf, sensor, noise, hot, dur = spec
     w, h, f = CAMERAS[cam]
     dur = dur * duration_scale
@@ -216,7 +247,8 @@ def run_scene(i, spec, duration_scale=1.0, imu=False):
     per_frame = [n / frames_s for n in run.info["per_star_events"]]
     sig = math.sqrt(scene.psf.sigma_eff() ** 2 + 1 / 12)
     cam, motion, mags, psf, sens, noise, hot, dur = spec
-    label = f"F{i - FRESH_SEED + 1}" if i >= FRESH_SEED else i + 1
+    label = (f"G{i - FRESH2_SEED + 1}" if i >= FRESH2_SEED else
+             f"F{i - FRESH_SEED + 1}" if i >= FRESH_SEED else i + 1)
     out = {"scene": label, "camera": cam, "motion": scene.motion.label(),
            "direction": motion[-1], "mags": list(mags), "psf": scene.psf.label(),
            "sigma_eff_px": sig, "sensor": sens, "noise_hz": noise, "hot_pixels": hot,
@@ -262,6 +294,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", help="comma-separated scene numbers (1-based) to run")
     ap.add_argument("--only", choices=list(SUBSETS), help="a subset of the grid")
+    ap.add_argument("--fresh2", action="store_true", help="the second held-out grid FRESH2 "
+                    "instead (scenes G1..G14)")
     ap.add_argument("--fresh", action="store_true", help="the held-out grid FRESH instead "
                     "(scenes F1..F12; --scenes and --only pick among them)")
     ap.add_argument("--quick", action="store_true", help="recordings shortened to 0.3 s")
@@ -270,7 +304,8 @@ def main(argv=None):
     ap.add_argument("--name", help="results: study_indep_NAME.* (e.g. an older evstar on "
                     "PYTHONPATH, side by side)")
     args = ap.parse_args(argv)
-    grid = FRESH if args.fresh else GRID
+    grid = FRESH2 if args.fresh2 else FRESH if args.fresh else GRID
+    seed0 = FRESH2_SEED if args.fresh2 else FRESH_SEED if args.fresh else 0
     pick = list(range(len(grid)))
     if args.scenes:
         pick = [int(v) - 1 for v in args.scenes.split(",")]
@@ -279,12 +314,12 @@ def main(argv=None):
     rows = []
     for i in pick:
         scale = 1.0 if not args.quick else 0.3 / grid[i][-1]
-        r = run_scene(i + (FRESH_SEED if args.fresh else 0), grid[i], scale, args.imu)
+        r = run_scene(i + seed0, grid[i], scale, args.imu)
         d = r["default"]
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
         rows.append(r)
-    subset = "".join(f"_{v}" for v in ("fresh" if args.fresh else None, args.only, "scenes-" + args.scenes.replace(",", "-")
+    subset = "".join(f"_{v}" for v in ("fresh2" if args.fresh2 else "fresh" if args.fresh else None, args.only, "scenes-" + args.scenes.replace(",", "-")
                                        if args.scenes else None, "quick" if args.quick else None,
                                        "imu" if args.imu else None, args.name) if v)
     name = "study_indep" + subset
