@@ -350,9 +350,11 @@ ESTIMATE = Params(
           "than 5 level pairs to agree with the brighter crossings along the same tracks, "
           "and carry it to faint stars by each crossing's outer width "
           "(evstar.level_lag.track_consistent; only where the lag is measured)"),
-    Param("speed_change", bool, True, "with an IMU velocity prior, move each pixel crossing "
-          "to when the star passed its pixel where the track speeds up or slows down (a level "
-          "pair's flanks are equally far from the pixel, not equally long before and after)"),
+    Param("speed_change", bool, True, "move each pixel crossing to when the star passed its "
+          "pixel where the track speeds up or slows down (a level pair's flanks are equally "
+          "far from the pixel, not equally long before and after): with an IMU velocity prior "
+          "on every track, without one on the tracks that never reverse (the speed change "
+          "read off their first fit with the crossings)"),
     Param("gyro_noise", float, AUTO, "with an IMU velocity prior, the gyro's white-noise "
           "density, whose integral the track smoother lets each track's positions wander by "
           "(auto: measured from the gyro's samples; set a datasheet value for a gyro filtered "

@@ -268,6 +268,7 @@ class TrackSmoother:
         mine = dict(zip(*groups(owner)))
         tracks, both = [], []      # both: a reversing track's centroids of both lobes
         lags = []                  # the median lag (s) its crossings were moved back by
+        flanks = []                # per track its crossings' (RMS half-widths, lags µs)
         for tid, rows in zip(tids, est_rows):
             m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz)
             track = est[rows]
@@ -281,6 +282,7 @@ class TrackSmoother:
             if self.speed_change and velocity_prior is not None and len(t_c):
                 t_c, r_c = _speed_change_corrected(t_c, half[m], q_got.take(m, 0), u.take(m, 0),
                                                    r_c, track, turns, lag_us)
+            flanks.append((half[m], lag_us))
             full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
             z = np.column_stack([centroids["x"][meas], centroids["y"][meas]])
@@ -303,10 +305,39 @@ class TrackSmoother:
             for i, f in zip(redo, self._fit_along([again[i][0] for i in redo],
                                                   [again[i][1] for i in redo], velocity_prior)):
                 fitted[i] = f
+        if self.speed_change and velocity_prior is None:
+            self._refit_speed_changes(tracks, fitted, w, flanks)
         parts = [est[rows] if r is None else r for rows, (r, _) in zip(est_rows, fitted)]
         used = sum(n for _, n in fitted)
         out = np.concatenate(parts) if parts else est
         return out[np.lexsort((out["t"], out["track"]))], used
+
+    def _refit_speed_changes(self, tracks, fitted, weights, flanks):
+        """Without a velocity prior: the tracks that change speed but never reverse (a slew
+        speeding up or slowing down) refitted with their crossings moved to when the star
+        passed each pixel (_speed_change_corrected), the speed change read off their first
+        fit with the crossings — which pin it, where the centroids' smoothed speed wanders by
+        ±25 % on a slow faint star (held-out accelerations from rest of perf/study_indep.py
+        --fresh2: 0.208 -> 0.107 px and 0.138 -> 0.102; a 10 °/s constant-rate pan moves no
+        crossing by 0.004 px, and is not refitted). Not where a track reverses: its first
+        fit there is the least sure, and following its bend took a faint star of a dark-sky
+        sinusoid 1.3 px off at a turn (--fresh F4: 0.177 -> 0.266). `fitted`, per track
+        (rows, crossings used), is updated in place."""
+        redo = []
+        for i, ((full, z, s_cent, cr, turns), (rows, _)) in enumerate(zip(tracks, fitted)):
+            t_c = cr[0]
+            if rows is None or turns or len(t_c) < MIN_CROSSINGS:
+                continue
+            half, lag_us = flanks[i]
+            t_new, r_new = _speed_change_corrected(t_c, half, cr[1], cr[2], cr[3], rows, turns, lag_us)
+            speed = np.hypot(np.interp(t_c, rows["t"], rows["vx"]), np.interp(t_c, rows["t"], rows["vy"]))
+            if np.max(np.abs(t_new - t_c) * speed) * 1e-6 >= _SPEED_CHANGE_REFIT_PX:
+                tracks[i] = (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns)
+                redo.append(i)
+        if redo:
+            for i, f in zip(redo, self._fit_along([tracks[i] for i in redo],
+                                                  [weights[i] for i in redo], None)):
+                fitted[i] = f
 
     def _fit_along(self, tracks, weights, velocity_prior):
         """Per track (full rows, centroid positions, their σ, crossings, turns) and its
@@ -848,6 +879,10 @@ def _moved(fitted, rows, b):
     return moved
 
 
+#: a track whose crossings the speed-change correction moves less than this (px along the
+#: motion) is not refitted for it (no IMU: a constant-rate pan's move by <= 0.004 px)
+_SPEED_CHANGE_REFIT_PX = 0.01
+
 #: fewest centroids outside a track's turns that measure its centroids' along bias
 _MIN_BIAS_ROWS = 5
 #: t statistic a bias's speed term needs (else the bias is the offsets' median), and one
@@ -905,9 +940,11 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
     motion's direction at each, lag_us: the pixel lag already taken off). Only where the
     star keeps its direction and its speed within a factor 1.5 over the passage, within
     the track's rows and outside its turns' time (there the crossings are not passages:
-    _single_passes). refine calls this only with a velocity prior: without one, a slow faint star's smoothed
-    speed wanders by ±25 % on a constant-rate slew, and following that bend moved its
-    crossings by noise (0.13 → 0.17 px)."""
+    _single_passes). `track`: the prior-informed smoothed rows where there is a velocity
+    prior; without one, the track's first fit with the crossings (TrackSmoother.
+    _refit_speed_changes): the centroids' smoothed speed of a slow faint star wanders by
+    ±25 % on a constant-rate slew, and following that bend moved its crossings by noise
+    (0.13 → 0.17 px)."""
     ts = track["t"].astype(np.float64)
     if len(ts) < 3 or np.any(np.diff(ts) <= 0):
         return t_c, resid

@@ -706,6 +706,31 @@ def test_on_a_sinusoid_with_imu_the_speed_change_correction_brings_the_star_clos
     assert err["none", True][1] == err["none", False][1]
 
 
+def test_without_imu_an_accelerating_star_is_corrected_from_its_crossings_first_fit():
+    """A magnitude-3.5 star speeding up from rest (a slew's first half, no IMU): its
+    crossings, moved by the speed change its first fit with them shows, beat the flanks'
+    mean times (which put it ahead); at a constant rate nothing moves."""
+    from evstar import Config, Pipeline, accuracy
+    from evstar.sim.motion import Slew
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = sim.camera_preset("dvxplorer-lite")
+    move = Slew(8.0, 1.2)
+    star = star_at_pixel(cam, move.rotation(0.0)[0], (cam.cx - 40, cam.cy), 3.5)
+    speeding = sim.simulate(Scenario(cam, star, move, 0.6, psf_sigma_px=1.2), seed=3)
+    steady = sim.simulate(sim.paper_preset(8.0, magnitude=3.5, duration_s=0.3), seed=3)
+    err, x = {}, {}
+    for name, run in (("speeding", speeding), ("steady", steady)):
+        for on in (True, False):
+            cfg = Config().replace(**{"estimate.speed_change": on})
+            rows = Pipeline(cfg).run(run.events, run.imu, run.camera).centroids
+            star_of, e = accuracy.match(rows, run.truth.star_position)
+            err[name, on], x[name, on] = e[star_of >= 0].mean(), rows["x"].tobytes()
+    assert err["speeding", True] < 0.8 * err["speeding", False]
+    assert x["steady", True] == x["steady", False]
+
+
 def test_a_bias_line_through_noisy_offsets_of_a_narrow_speed_range_is_not_extended():
     """Offsets of one constant bias, noisy, at speeds 95–108 px/s: a fitted line's chance
     slope extended to a turn's speeds would move the centroids there by ~1 px; the
