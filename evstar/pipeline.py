@@ -372,9 +372,12 @@ class Pipeline:
         # the size the first look found (or inferred, warning once): not inferred again
         sensor_size = (first[1].width, first[1].height)
 
+        total = io.event_count(path, format) if progress else None
+
         def chunks(desc):
             return _with_context(io.windows(path, span, format=format, sensor_size=sensor_size,
-                                            t_origin_us=t0), self.config.dt_us, desc, progress)
+                                            t_origin_us=t0), self.config.dt_us, desc, progress,
+                                 total)
         timings, filter_result = {}, None
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
@@ -496,12 +499,14 @@ class _RunState:
         return None if self.profiles is None else self.profiles.lag()
 
 
-def _with_context(windows, dt_us, desc, progress):
-    """(events, context) per chunk: context = the previous chunk's events of its last dt."""
+def _with_context(windows, dt_us, desc, progress, total=None):
+    """(events, context) per chunk: context = the previous chunk's events of its last dt.
+    total: the recording's events where known (the bar then shows how far along it is)."""
     from tqdm import tqdm
 
     # disable=None: no bar where stderr is no terminal (a log)
-    bar = tqdm(desc=desc, unit="ev", unit_scale=True, disable=None if progress else True, leave=False)
+    bar = tqdm(desc=desc, total=total, unit="ev", unit_scale=True,
+               disable=None if progress else True, leave=False)
     prev = None
     for _, events in windows:
         context = None if prev is None else prev.time_window(int(events.t[0]) - dt_us, int(events.t[0]))

@@ -116,6 +116,20 @@ def test_windows_equal_whole_read(tmp_path, ext):
     assert Events.concatenate(parts) == ev
 
 
+@pytest.mark.parametrize("ext, counted", [("h5", True), ("npy", True), ("npz", False),
+                                           ("csv", False), ("aedat4", False)])
+def test_a_stream_knows_its_event_count_where_the_format_tells_it(tmp_path, ext, counted):
+    """A streamed run's progress bar has a total where the file says how many events it
+    holds without decoding them (HDF5, .npy), and none elsewhere."""
+    ev = random_events(3000, seed=5)
+    path = tmp_path / f"n.{ext}"
+    if ext == "npy":
+        np.save(path, ev.to_structured())
+    else:
+        io.write(path, ev)
+    assert io.event_count(path) == (len(ev) if counted else None)
+
+
 def test_written_files_get_the_usual_permissions(tmp_path):
     old = os.umask(0o022)
     try:

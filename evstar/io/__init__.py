@@ -137,6 +137,18 @@ def extras(path, format=None):
         return mod.extras(path)
 
 
+def event_count(path, format=None):
+    """The number of events in the recording at `path` where its format tells it without
+    decoding the events (HDF5, NumPy), else None (a progress bar's total)."""
+    fmt = format_of(path, format)
+    check_readable(path)
+    mod = _module(fmt)
+    if not hasattr(mod, "count"):
+        return None
+    with decoder_errors(path, f"{fmt} file"):
+        return mod.count(path)
+
+
 def packets(path, format=None, sensor_size=None):
     """(width, height, iterator of (t, x, y, p) packets) without loading the whole file."""
     fmt = format_of(path, format)

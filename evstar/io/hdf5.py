@@ -108,6 +108,12 @@ def _extras(path, f):
     return imu, camera
 
 
+def count(path):
+    """The number of events in the file (its datasets' length; nothing read)."""
+    with _open(path) as f:
+        return int(_datasets(path, f)["t"].shape[0])
+
+
 def packets(path, sensor_size=None, chunk_events=1_000_000):
     """(width, height, iterator) reading `chunk_events` rows at a time."""
     f = _open(path)

@@ -109,6 +109,14 @@ def _extras(path, data):
     return imu, camera
 
 
+def count(path):
+    """The number of events in a .npy file (memory-mapped: nothing read); None for a .npz
+    archive (its columns are decompressed whole to be counted)."""
+    if not str(path).endswith(".npy"):
+        return None
+    return int(len(_columns(path, _load(path))[0]))
+
+
 def packets(path, sensor_size=None, chunk_events=1_000_000):
     """(width, height, iterator): .npy files are memory-mapped, so chunks stay bounded."""
     data = _load(path)
