@@ -105,7 +105,7 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
     # pairs as without a refractory period: the profiles' and the outer width's
     plain = _pair_counts(on_before, off_after, r, max_pairs)
     if profiles is not None:
-        _add_profiles(profiles, ts, change, plain, r, on_before)
+        _add_profiles(profiles, ts, change, plain, r, on_before, pixel, width)
     if refractory_us > 0:
         args = (change, on_before, off_after, r, refractory_us)
         k, sums, sq, h2 = (kern.refractory_sums(*args, MAX_LEVEL_STEP, max_pairs) if kern is not None
@@ -333,11 +333,14 @@ def _midpoint(ts, c, nb, j, ratio):
     return 0.5 * (rise + fall), fall
 
 
-def _add_profiles(profiles, ts, change, k, ratio, on_before):
-    """Give `profiles` the level midpoints of the changes it wants."""
+def _add_profiles(profiles, ts, change, k, ratio, on_before, pixel, width):
+    """Give `profiles` the level midpoints of the changes it wants, with their pairs'
+    half-widths, times and pixels (pixel: each change's pixel key)."""
     sel = profiles.wanted(k)
     if len(sel):
-        profiles.add(k[sel], level_midpoints(ts, change[sel], k[sel], ratio, on_before[sel]))
+        mids, falls = _level_pairs(ts, change[sel], k[sel], ratio, on_before[sel])
+        profiles.add(k[sel], mids, falls - mids, ts[change[sel]],
+                     np.column_stack([pixel[sel] % width, pixel[sel] // width]))
 
 
 #: most reference levels one event may stand for: a gap within r/3 of the refractory period

@@ -67,29 +67,42 @@ class LevelProfiles:
         order, first = stable_order(k), np.cumsum(per_k) - per_k
         return np.sort(np.concatenate([order[first[kk]:first[kk] + n] for kk, n in take.items()]))
 
-    def add(self, k, mids):
+    def add(self, k, mids, halves=None, t=None, xy=None):
         """k (n,) pairs and mids (n, max k) level midpoints (µs; beyond k ignored) of
-        crossings the caller found wanted."""
+        crossings the caller found wanted; halves: their pairs' half-widths (µs, as mids),
+        t: their times (µs) and xy: their pixels (n, 2), for speed_changes (or None)."""
         for kk in np.unique(k[k >= 2]):
-            rows = mids[k == kk, :kk]
-            self._by_k.setdefault(int(kk), []).append(rows - rows.mean(axis=1, keepdims=True))
+            m = k == kk
+            rows = mids[m, :kk]
+            part = {"D": rows - rows.mean(axis=1, keepdims=True)}
+            if halves is not None:
+                part.update(h=halves[m, :kk], t=np.asarray(t, np.float64)[m],
+                            xy=np.asarray(xy, np.float64)[m])
+            self._by_k.setdefault(int(kk), []).append(part)
 
     def _count(self, kk):
-        return sum(len(a) for a in self._by_k.get(int(kk), []))
+        return sum(len(a["D"]) for a in self._by_k.get(int(kk), []))
 
-    def medians(self):
-        """{k: (median demeaned profile (k,), crossings)} for each k with MIN_PROFILES."""
+    def medians(self, speed_change=None):
+        """{k: (median demeaned profile (k,), crossings)} for each k with MIN_PROFILES.
+        speed_change: κ(t, xy), the relative speed change a/v (1/s) of the star passing
+        each crossing (NaN: none known; speed_changes): each level's midpoint moved by
+        κ·h²/2 first, h its pair's half-width — speeding up, the star reaches a pair's far
+        flank early, by more the wider the pair, which took a low-pass sensor's accelerating
+        star's profiles (perf/study_indep.py --fresh F10) to R² 0.9896 and a lag of 1.0–2.0
+        ms against a true 2.5–3.3 (corrected with the true κ: 0.9968, 2.2–2.9 ms)."""
         out = {}
         for kk, parts in sorted(self._by_k.items()):
-            rows = np.concatenate(parts)
+            rows = np.concatenate([_moved(p, speed_change) for p in parts])
             if len(rows) >= MIN_PROFILES:
                 out[kk] = (np.median(rows, axis=0), len(rows))
         return out
 
-    def lag(self):
+    def lag(self, speed_change=None):
         """The measured PixelLag (one speed column: the lag of a level is a time), or None
-        when the profiles are too few or not a low-pass's (fit_lag)."""
-        fit = fit_lag(self.medians())
+        when the profiles are too few or not a low-pass's (fit_lag); speed_change: as
+        medians takes it."""
+        fit = fit_lag(self.medians(speed_change))
         if fit is None:
             return None
         from .calibration import PixelLag
@@ -97,6 +110,88 @@ class LevelProfiles:
         ks, lag_us, r2, rho = fit
         return PixelLag(ks, [1.0], lag_us[:, None], np.zeros((len(ks), 1)),
                         {"source": "level profiles", "r2": round(r2, 4), "rho": round(rho, 4)})
+
+
+#: a crossing is a track's where it lies within this (px) of the track's position at its time
+MATCH_PX = 2.0
+#: a track's speed change at a row: quadratic fits to its centroids within this (µs) of it
+FIT_HALF_US = 100_000
+#: ... of at least this many of them
+MIN_FIT_ROWS = 5
+
+
+def speed_changes(centroids):
+    """κ(t, xy) for LevelProfiles.medians: the relative speed change a/v (1/s) of the track
+    of the linked `centroids` that passes each pixel xy (n, 2) at time t (µs), from local
+    quadratic fits to its centroids; NaN where no track passes within MATCH_PX that changes
+    speed by evstar.smoothing.SPEED_CHANGE_RATIO and never reverses (as the crossings'
+    refit without an IMU: at a constant rate κ is noise, and a turn's fits the least sure)."""
+    from .frames import groups
+
+    tracked = centroids[centroids["track"] >= 0]
+    fits = []
+    for i in (groups(tracked["track"])[1] if len(tracked) else []):
+        fit = _speed_profile(tracked[i[np.argsort(tracked["t"][i], kind="stable")]])
+        if fit is not None:
+            fits.append(fit)
+
+    def kappa(t, xy):
+        out = np.full(len(t), np.nan)
+        for tt, x, y, k in fits:
+            near = (t >= tt[0]) & (t <= tt[-1]) & np.isnan(out)
+            near &= np.hypot(np.interp(t, tt, x) - xy[:, 0], np.interp(t, tt, y) - xy[:, 1]) <= MATCH_PX
+            out[near] = np.interp(t[near], tt, k)
+        return out
+
+    return kappa
+
+
+def _speed_profile(rows):
+    """(t, x, y, κ) at a track's time-sorted rows, or None where its speed (local fits)
+    spans less than SPEED_CHANGE_RATIO or it reverses."""
+    from .smoothing import SPEED_CHANGE_RATIO
+
+    t = rows["t"].astype(np.float64)
+    if len(t) < 2 * MIN_FIT_ROWS or t[-1] - t[0] < 2 * FIT_HALF_US:
+        return None
+    p = np.column_stack([rows["x"], rows["y"]]).astype(np.float64)
+    lo = np.searchsorted(t, t - FIT_HALF_US)
+    hi = np.searchsorted(t, t + FIT_HALF_US, side="right")
+    if np.any(hi - lo < MIN_FIT_ROWS):
+        return None
+    # first the windows' mean velocities (cheap): most tracks keep their speed
+    v = (p[hi - 1] - p[lo]) / np.maximum(t[hi - 1] - t[lo], 1.0)[:, None]
+    speed = np.linalg.norm(v, axis=1)
+    if speed.max() < SPEED_CHANGE_RATIO * max(speed.min(), 1e-12) or np.any(v @ v.mean(axis=0) <= 0):
+        return None
+    # then quadratic fits at ~every 20 ms (interpolated between)
+    at = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], FIT_HALF_US / 5)))
+    kappa = np.empty(len(at))
+    for n, i in enumerate(at):
+        c = np.polyfit((t[lo[i]:hi[i]] - t[i]) * 1e-6, p[lo[i]:hi[i]], 2)   # (3, 2): a/2, v, p
+        kappa[n] = 2 * (c[0] @ c[1]) / max(c[1] @ c[1], 1e-18)
+    return t, p[:, 0], p[:, 1], np.interp(t, t[at], kappa)
+
+
+#: a level pair's midpoint is moved for its star's speed change only where that speed
+#: changes by at most this fraction over the pair's half-width (the shift's expansion holds)
+MAX_SPEED_CHANGE = 0.5
+
+
+def _moved(part, speed_change):
+    """A part's demeaned rows, each level moved by κ·h²/2 where speed_change knows κ."""
+    D = part["D"]
+    if speed_change is None or "h" not in part or not len(D):
+        return D
+    kappa = speed_change(part["t"], part["xy"])
+    h = part["h"] * 1e-6                                      # s
+    ok = np.isfinite(kappa) & (np.abs(np.nan_to_num(kappa)) * h.max(axis=1) <= MAX_SPEED_CHANGE)
+    if not ok.any():
+        return D
+    out = D.copy()
+    out[ok] += 0.5 * kappa[ok, None] * h[ok] ** 2 * 1e6       # µs
+    out[ok] -= out[ok].mean(axis=1, keepdims=True)
+    return out
 
 
 def fit_lag(profiles):

@@ -302,7 +302,7 @@ class Pipeline:
         e = self.config.estimate
 
         def positions(cents):
-            lag = state.measured_lag()
+            lag = state.measured_lag(cents)
             rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
                                        state.sensor, lag, rate, state.near_events())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
@@ -493,10 +493,15 @@ class _RunState:
             return np.zeros(0, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16)
         return tuple(np.concatenate(c) for c in zip(*self._near))
 
-    def measured_lag(self):
+    def measured_lag(self, centroids=None):
         """The pixels' lag measured from the crossings' level profiles (None: not measured,
-        or no low-pass found)."""
-        return None if self.profiles is None else self.profiles.lag()
+        or no low-pass found), their midpoints moved for the speed changes of the tracks of
+        the linked `centroids` (evstar.level_lag.speed_changes) where given."""
+        if self.profiles is None:
+            return None
+        from .level_lag import speed_changes
+
+        return self.profiles.lag(None if centroids is None else speed_changes(centroids))
 
 
 def _with_context(windows, dt_us, desc, progress, total=None):

@@ -319,7 +319,7 @@ class TrackSmoother:
         fit with the crossings — which pin it, where the centroids' smoothed speed wanders by
         ±25 % on a slow faint star (held-out accelerations from rest of perf/study_indep.py
         --fresh2: 0.208 -> 0.107 px and 0.138 -> 0.102); not where the speed changes less
-        than _SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX
+        than SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX
         (a constant-rate pan). Not where a track reverses: its first
         fit there is the least sure, and following its bend took a faint star of a dark-sky
         sinusoid 1.3 px off at a turn (--fresh F4: 0.177 -> 0.266). `fitted`, per track
@@ -330,7 +330,7 @@ class TrackSmoother:
             if rows is None or turns or len(t_c) < MIN_CROSSINGS:
                 continue
             speed = np.hypot(np.interp(t_c, rows["t"], rows["vx"]), np.interp(t_c, rows["t"], rows["vy"]))
-            if speed.max() < _SPEED_CHANGE_RATIO * speed.min():
+            if speed.max() < SPEED_CHANGE_RATIO * speed.min():
                 continue
             half, lag_us = flanks[i]
             t_new, r_new = _speed_change_corrected(t_c, half, cr[1], cr[2], cr[3], rows, turns, lag_us)
@@ -886,7 +886,7 @@ def _moved(fitted, rows, b):
 #: speed at its crossings spans this factor (a slow faint star's at a constant rate wandered
 #: by up to 1.3: 18–23 px/s, its crossings moved by up to 0.14 px, and following that noise
 #: took the grid's constant-rate rows 0.002–0.015 px either way) ...
-_SPEED_CHANGE_RATIO = 1.5
+SPEED_CHANGE_RATIO = 1.5
 #: ... and its crossings move by at least this (px along the motion)
 _SPEED_CHANGE_REFIT_PX = 0.01
 

@@ -340,3 +340,59 @@ def test_a_lag_s_uncertainty_widens_sigma_along_the_motion_by_speed():
     np.testing.assert_allclose(out["sigma"][:10], np.sqrt(0.05 ** 2 + 0.2 ** 2 / 2))
     assert out["sigma"][10] == 0.05 and out["sigma"][11] == 0.05   # alone: no speed; untracked
     np.testing.assert_array_equal(out["x"], rows["x"])
+
+
+def _track(x_of_t, track=0, n=100, dt_us=10_000, y=50.0):
+    """Linked centroids of one track at frame mid-times, x = x_of_t(t s)."""
+    from evstar.extract import CENTROID_DTYPE
+
+    rows = np.zeros(n, CENTROID_DTYPE)
+    rows["t"] = np.arange(n) * dt_us + dt_us // 2
+    rows["x"], rows["y"], rows["track"], rows["frame"] = x_of_t(rows["t"] * 1e-6), y, track, np.arange(n)
+    return rows
+
+
+def test_speed_changes_are_told_by_tracks_that_speed_up_but_never_reverse():
+    """κ = a / v of a star accelerating from 20 px/s at 100 px/s² (at t: 100 / (20 + 100 t)),
+    at pixels on its path; none at a constant rate, on a reversing track, or off the path."""
+    from evstar.level_lag import speed_changes
+
+    speeding = _track(lambda t: 10 + 20 * t + 50 * t ** 2)
+    kappa = speed_changes(speeding)
+    t = np.array([300_000.0, 600_000.0])
+    x = 10 + 20 * t * 1e-6 + 50 * (t * 1e-6) ** 2
+    np.testing.assert_allclose(kappa(t, np.column_stack([x, [50.0, 50.0]])),
+                               100 / (20 + 100 * t * 1e-6), rtol=0.02)
+    assert np.all(np.isnan(kappa(t, np.column_stack([x, [55.0, 55.0]]))))       # 5 px off
+    steady = _track(lambda t: 10 + 40 * t)
+    turning = _track(lambda t: 50 + 30 * np.sin(2 * np.pi * t))
+    for rows in (steady, turning):
+        assert np.all(np.isnan(speed_changes(rows)(t, np.column_stack([rows["x"][[30, 60]], [50.0] * 2]))))
+
+
+def test_a_speed_change_is_taken_off_the_level_profiles_before_the_lag_is_fitted():
+    """Crossings of a low-pass (m_j = a·ρ^j) on a star speeding up: each level's midpoint
+    comes κ·h_j²/2 early (h_j its pair's half-width), which bends the profiles off the
+    geometric model; told κ, the profiles give the lag without it."""
+    rng = np.random.default_rng(4)
+    rho, amp, kappa = 1.3, 4000.0, 4.0              # κ 4 /s: 100 px/s² at 25 px/s
+    clean, bent = LevelProfiles(), LevelProfiles()
+    for k in range(4, 11):
+        n = 60
+        j = np.arange(1, k + 1)
+        h = np.tile(4000.0 * np.sqrt(j), (n, 1))    # deeper pairs are wider (µs)
+        lag = (amp / k) * rho ** j + rng.normal(0, 20.0, (n, k)) + rng.uniform(0, 1e6, (n, 1))
+        t, xy = rng.uniform(0, 1e6, n), np.zeros((n, 2))
+        clean.add(np.full(n, k), lag, h, t, xy)
+        bent.add(np.full(n, k), lag - 0.5 * kappa * (h * 1e-6) ** 2 * 1e6, h, t, xy)
+    told = lambda t, xy: np.full(len(t), kappa)
+    unknown = lambda t, xy: np.full(len(t), np.nan)
+    want = clean.lag()
+    assert want is not None
+    for kk, (D, _) in bent.medians(told).items():
+        np.testing.assert_allclose(D, clean.medians()[kk][0], atol=1e-6)
+    got = bent.lag(told)
+    np.testing.assert_allclose(got.lag_us, want.lag_us)
+    for kk, (D, _) in bent.medians(unknown).items():      # κ unknown: as they were
+        np.testing.assert_allclose(D, bent.medians()[kk][0])
+    assert not np.allclose(bent.medians()[6][0], clean.medians()[6][0], atol=50.0)
