@@ -320,10 +320,10 @@ class TrackSmoother:
         ±25 % on a slow faint star (held-out accelerations from rest of perf/study_indep.py
         --fresh2: 0.208 -> 0.107 px and 0.138 -> 0.102); not where the speed changes less
         than SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX
-        (a constant-rate pan). Not where a track reverses: its first
-        fit there is the least sure, and following its bend took a faint star of a dark-sky
-        sinusoid 1.3 px off at a turn (--fresh F4: 0.177 -> 0.266). `fitted`, per track
-        (rows, crossings used), is updated in place."""
+        (a constant-rate pan). Not where a track reverses: its first fit there is the least
+        sure, and following its bend took a faint star of a dark-sky sinusoid 1.3 px off at
+        a turn (--fresh F4: 0.177 -> 0.266). `fitted`, per track (rows, crossings used), is
+        updated in place."""
         redo = []
         for i, ((full, z, s_cent, cr, turns), (rows, _)) in enumerate(zip(tracks, fitted)):
             t_c = cr[0]
