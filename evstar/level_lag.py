@@ -133,16 +133,19 @@ def speed_changes(centroids):
     refit without an IMU: at a constant rate κ is noise, and a turn's fits the least sure)."""
     from .frames import groups
 
-    tracked = centroids[centroids["track"] >= 0]
-    fits = []
-    for i in (groups(tracked["track"])[1] if len(tracked) else []):
-        fit = _speed_profile(tracked[i[np.argsort(tracked["t"][i], kind="stable")]])
-        if fit is not None:
-            fits.append(fit)
+    fits = {}
+
+    def tracks():   # fitted on the first call only: most runs' profiles need no κ
+        if "all" not in fits:
+            tracked = centroids[centroids["track"] >= 0]
+            each = [_speed_profile(tracked[i[np.argsort(tracked["t"][i], kind="stable")]])
+                    for i in (groups(tracked["track"])[1] if len(tracked) else [])]
+            fits["all"] = [f for f in each if f is not None]
+        return fits["all"]
 
     def kappa(t, xy):
         out = np.full(len(t), np.nan)
-        for tt, x, y, k in fits:
+        for tt, x, y, k in tracks():
             near = (t >= tt[0]) & (t <= tt[-1]) & np.isnan(out)
             near &= np.hypot(np.interp(t, tt, x) - xy[:, 0], np.interp(t, tt, y) - xy[:, 1]) <= MATCH_PX
             out[near] = np.interp(t[near], tt, k)
