@@ -128,25 +128,25 @@ def write(path, events, imu=None, camera=None, format=None):
 def extras(path, format=None):
     """(Imu or None, Camera or None) that the recording at `path` holds, without its events
     (what a streamed run uses where no --imu or --camera is given)."""
-    fmt = format_of(path, format)
-    check_readable(path)
-    mod = _module(fmt)
-    if not hasattr(mod, "extras"):     # formats without an IMU or camera
-        return None, None
-    with decoder_errors(path, f"{fmt} file"):
-        return mod.extras(path)
+    return _without_events(path, format, "extras", (None, None))  # None: no IMU or camera
 
 
 def event_count(path, format=None):
     """The number of events in the recording at `path` where its format tells it without
     decoding the events (HDF5, NumPy), else None (a progress bar's total)."""
+    return _without_events(path, format, "count", None)
+
+
+def _without_events(path, format, name, default):
+    """The format module's `name`(path), read without the events, or `default` for formats
+    without one; decoder errors as FormatError naming the file."""
     fmt = format_of(path, format)
     check_readable(path)
     mod = _module(fmt)
-    if not hasattr(mod, "count"):
-        return None
+    if not hasattr(mod, name):
+        return default
     with decoder_errors(path, f"{fmt} file"):
-        return mod.count(path)
+        return getattr(mod, name)(path)
 
 
 def packets(path, format=None, sensor_size=None):
