@@ -131,17 +131,16 @@ def speed_changes(centroids):
     quadratic fits to its centroids; NaN where no track passes within MATCH_PX that changes
     speed by evstar.smoothing.SPEED_CHANGE_RATIO and never reverses (as the crossings'
     refit without an IMU: at a constant rate κ is noise, and a turn's fits the least sure)."""
+    import functools
+
     from .frames import groups
 
-    fits = {}
-
+    @functools.cache
     def tracks():   # fitted on the first call only: most runs' profiles need no κ
-        if "all" not in fits:
-            tracked = centroids[centroids["track"] >= 0]
-            each = [_speed_profile(tracked[i[np.argsort(tracked["t"][i], kind="stable")]])
-                    for i in (groups(tracked["track"])[1] if len(tracked) else [])]
-            fits["all"] = [f for f in each if f is not None]
-        return fits["all"]
+        tracked = centroids[centroids["track"] >= 0]
+        each = [_speed_profile(tracked[i[np.argsort(tracked["t"][i], kind="stable")]])
+                for i in (groups(tracked["track"])[1] if len(tracked) else [])]
+        return [f for f in each if f is not None]
 
     def kappa(t, xy):
         out = np.full(len(t), np.nan)

@@ -118,7 +118,7 @@ def _integers(path, frame, column, name, offset):
     return v.astype(np.int64)
 
 
-def _check_values(path, frame, cols, label, offset, x, y, p):
+def _check_values(path, label, offset, x, y, p):
     """FormatError naming the line of the first x or y that is no pixel index of any sensor
     (negative, or beyond MAX_SENSOR_SIDE) and of the first p other than 0, 1 or -1: said
     here, before a sensor size is inferred from such values."""
@@ -189,7 +189,7 @@ def packets(path, chunk_rows=1_000_000):
                     raise FormatError(path, f"cannot find column(s) {missing} in the rows")
                 t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
                 xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
-                _check_values(path, frame, cols, label, line, *xyp)
+                _check_values(path, label, line, *xyp)
                 line += len(frame)
                 yield (t, *xyp)
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OverflowError) as exc:
