@@ -288,6 +288,43 @@ class Accelerating:
         return f"accel {self.accel_dps2:g}°/s²"
 
 
+@dataclass
+class Circle:
+    """Coning: the boresight circles at `radius_deg`, `freq_hz` turns a second — a constant
+    image speed whose direction turns all the time. The offset is planar (no single
+    direction): the "rotate" projection turns about a new in-image axis at every time."""
+    radius_deg: float
+    freq_hz: float
+    planar = True
+
+    def offset(self, t_s, f):
+        a, w = math.radians(self.radius_deg) * f, 2 * np.pi * self.freq_hz * np.asarray(t_s, float)
+        return np.column_stack([a * np.sin(w), a * (1 - np.cos(w))])
+
+    def velocity(self, t_s, f):
+        a, w = math.radians(self.radius_deg) * f, 2 * np.pi * self.freq_hz
+        ph = w * np.asarray(t_s, float)
+        return np.column_stack([a * w * np.cos(ph), a * w * np.sin(ph)])
+
+    def label(self):
+        return f"circle {self.radius_deg:g}°/{self.freq_hz:g} Hz"
+
+
+def turn_matrices(off, f):
+    """(T, 3, 3) camera-frame rotations of fixed star directions for image offsets off (T, 2)
+    at the principal point: about the in-image axis perpendicular to each offset, by
+    |offset| / f (Rodrigues)."""
+    n = np.hypot(off[:, 0], off[:, 1])
+    u = off / np.maximum(n, 1e-300)[:, None]
+    a = np.column_stack([u[:, 1], -u[:, 0], np.zeros(len(n))])
+    th = -n / f
+    K = np.zeros((len(n), 3, 3))
+    K[:, 0, 2], K[:, 1, 2], K[:, 2, 0], K[:, 2, 1] = a[:, 1], -a[:, 0], -a[:, 1], a[:, 0]
+    K[:, 0, 1], K[:, 1, 0] = -a[:, 2], a[:, 2]
+    s, c = np.sin(th)[:, None, None], np.cos(th)[:, None, None]
+    return np.eye(3)[None] + s * K + (1 - c) * (K @ K)
+
+
 # --------------------------------------------------------------------------- scene, sensor
 @dataclass
 class Scene:
@@ -321,6 +358,10 @@ class Scene:
         # a turn about the in-image axis a = (u_y, −u_x, 0) by θ = |offset| / f (signed):
         # fixed stars r0 become Rot(a, −θ) r0 in the camera frame, projected by the pinhole
         f, (cx, cy) = self.focal_px, self.principal_point
+        if getattr(self.motion, "planar", False):
+            r0 = np.stack([(p0[0, :, 0] - cx) / f, (p0[0, :, 1] - cy) / f, np.ones(p0.shape[1])], 1)
+            r = np.einsum("tij,sj->tsi", turn_matrices(off, f), r0)
+            return np.stack([cx + f * r[..., 0] / r[..., 2], cy + f * r[..., 1] / r[..., 2]], axis=-1)
         u = _unit(self.motion.direction_deg)
         theta = (off @ u) / f                                    # (T,)
         a = np.array([u[1], -u[0], 0.0])
@@ -366,6 +407,8 @@ class Sensor:
     noise_on_fraction: float = 0.6
     hot_pixels: int = 0             # single pixels at 100–1000 Hz
     jitter_us: float = 0.0          # per-event timestamp jitter (std)
+    leak_hz: float = 0.0            # leak: ON events at a steady per-pixel rate (log-normal)
+    gaps_s: tuple = ()              # readout gaps: (t0, t1) spans whose events are all lost
     random_reference: bool = True   # initial references uniform in (V − C_on, V + C_off)
 
     def cutoff_hz(self, intensity):
@@ -555,6 +598,15 @@ def _noise_events(scene, sensor, rng):
         ix.append(np.repeat(where, n))
         ts.append(rng.uniform(0, T, n.sum()))
         ps.append((rng.random(n.sum()) < 0.5).astype(np.int8))
+    if sensor.leak_hz > 0:   # periodic per pixel, random phase, rates spread ×/÷ 1.6
+        rates = sensor.leak_hz * np.exp(0.5 * rng.standard_normal(npx))
+        n = np.floor(rates * T + rng.random(npx)).astype(np.int64)
+        first = rng.random(npx) / rates
+        pix = np.repeat(np.arange(npx), n)
+        k = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        t = first[pix] + k / rates[pix]
+        keep = t < T
+        ix.append(pix[keep]), ts.append(t[keep]), ps.append(np.ones(keep.sum(), np.int8))
     if not ts:
         return np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int8)
     return np.concatenate(ts), np.concatenate(ix), np.concatenate(ps)
@@ -572,6 +624,9 @@ def simulate(scene, sensor=None, seed=0, imu=False):
     i = np.concatenate([si, ni]).astype(np.int64)
     p = np.concatenate([sp, np_]).astype(np.int8)
     lab = np.concatenate([ss, np.full(len(nt), -1)]).astype(np.int64)
+    for g0, g1 in sensor.gaps_s:   # the readout lost everything in a gap
+        kept = (t < g0) | (t >= g1)
+        t, i, p, lab = t[kept], i[kept], p[kept], lab[kept]
     t_us = t * 1e6
     if sensor.jitter_us > 0:
         t_us = np.maximum(t_us + sensor.jitter_us * rng.standard_normal(len(t_us)), 0.0)
@@ -598,5 +653,11 @@ def make_imu(scene, rate_hz=1000.0):
     t = np.arange(0.0, scene.duration_s + 2 / rate_hz, 1 / rate_hz)
     v = scene.motion.velocity(t, scene.focal_px)           # px/s of the stars
     f = scene.focal_px
+    if getattr(scene.motion, "planar", False):   # ω from the turns themselves: Ṙ Rᵀ = −[ω]×
+        h = 1e-6
+        R0, R1 = (turn_matrices(scene.motion.offset(t + d, f), f) for d in (-h, h))
+        W = (R1 - R0) / (2 * h) @ turn_matrices(scene.motion.offset(t, f), f).transpose(0, 2, 1)
+        gyro = -np.column_stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]])
+        return evstar.Imu(np.round(t * 1e6).astype(np.int64), gyro)
     gyro = np.column_stack([v[:, 1] / f, -v[:, 0] / f, np.zeros(len(t))])
     return evstar.Imu(np.round(t * 1e6).astype(np.int64), gyro)

@@ -27,10 +27,12 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu] [--fresh | --fresh2]
+        [--quick (recordings shortened to 0.3 s)] [--imu] [--fresh | --fresh2 | --fresh3]
 
---fresh and --fresh2 run the held-out grids instead (F1–F12, written in the thirtieth
-session; G1–G14, in the thirty-first), each run once before any change made after seeing it.
+--fresh, --fresh2 and --fresh3 run the held-out grids instead (F1–F12, written in the
+thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
+events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
+after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md).
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -76,6 +78,13 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "early-ceiling": dict(pixel="lowpass", f_min_hz=60.0, f_max_hz=600.0, i_half=2.0, c_on=0.2,
                           c_off=0.25),
     "off-noise": dict(pixel="ideal", c_on=0.18, c_off=0.18, noise_on_fraction=0.2),
+    # the third fresh grid's (--fresh3; written in the thirty-second session, never tuned
+    # on): leak events, readout gaps, coarse thresholds on a dark sky, a 2 ms refractory period
+    "leaky": dict(pixel="ideal", c_on=0.2, c_off=0.2, leak_hz=0.5),
+    "gappy": dict(pixel="ideal", c_on=0.2, c_off=0.2, gaps_s=((0.30, 0.33), (0.62, 0.64))),
+    "dark-coarse": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=1000.0, i_half=30.0, c_on=0.4,
+                        c_off=0.4),
+    "slow-refractory": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=2000.0),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -142,6 +151,26 @@ FRESH2 = [
     ("vga", ("lin", 6, 300), [4, 4.5], ("gauss", 1.2), "off-noise", 3.0, 3, 1.0),
 ]
 FRESH2_SEED = 6000
+#: held out (--fresh3, written in the thirty-second session and run once before any change):
+#: coning (a constant speed whose direction turns), leak events, readout gaps, coarse
+#: thresholds on a dark sky, a long refractory period, a close pair, 50 hot pixels, a
+#: defocus ring, 10 Hz of background; seeds 7000 + i. An optional 9th entry: {"pair_px": d}
+#: places the stars in a row d px apart
+FRESH3 = [
+    ("vga", ("circle", 2.0, 1.0), [3.5, 5], ("gauss", 1.1), "ideal", 1.0, 0, 1.0),
+    ("davis", ("circle", 4.0, 0.5), [3, 4.5], ("gauss", 1.0), "lowpass", 1.0, 0, 1.0),
+    ("hd", ("lin", 10, 30), [3.5, 4.5], ("gauss", 1.2), "leaky", 0.5, 0, 0.6),
+    ("vga", ("lin", 6, 0), [3, 4], ("gauss", 1.0), "gappy", 1.0, 0, 1.0),
+    ("davis", ("sine", 8, 1.0, 90), [3.5], ("gauss", 1.0), "gappy", 1.0, 0, 1.0),
+    ("vga", ("lin", 12, 210), [3.5, 4.5], ("gauss", 1.2), "dark-coarse", 1.0, 0, 1.0),
+    ("davis", ("lin", 15, 60), [3, 4.5], ("gauss", 1.0), "slow-refractory", 1.0, 0, 0.8),
+    ("vga", ("lin", 4, 120), [3.5, 4], ("gauss", 1.2), "ideal", 1.0, 0, 1.0, {"pair_px": 5.0}),
+    ("hd", ("lin", 2, 300), [4.5, 5], ("moffat", 2.8, 2.5), "ideal", 2.0, 50, 1.0),
+    ("davis", ("lin", 25, 15), [2.5, 4], ("defocus", 2.5, 0.3), "ideal", 1.0, 0, 0.5),
+    ("vga", ("circle", 1.5, 2.0), [4, 5], ("gauss", 1.3), "dark", 1.0, 0, 1.0),
+    ("davis", ("lin", 1, 45), [4], ("gauss", 0.9), "ideal", 10.0, 0, 1.0),
+]
+FRESH3_SEED = 7000
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
@@ -160,6 +189,8 @@ def make_motion(spec):
         return S.Linear(a[0], a[1])
     if kind == "sine":
         return S.Sinusoid(a[0], a[1], a[2])
+    if kind == "circle":
+        return S.Circle(a[0], a[1])
     return S.Accelerating(a[0], a[1])
 
 
@@ -181,15 +212,26 @@ def start_positions(width, height, f, motion, duration, n, rng, margin=12.0, sep
     raise ValueError("no room for the stars")
 
 
+def pair_positions(width, height, f, motion, duration, n, rng, d):
+    """n start centres in a row d px apart at a random angle, all staying inside."""
+    p0 = start_positions(width, height, f, motion, duration, 1, rng, margin=12.0 + n * d)[0]
+    a = rng.uniform(0, math.pi)
+    return [tuple(map(float, np.asarray(p0) + k * d * np.array([math.cos(a), math.sin(a)])))
+            for k in range(n)]
+
+
 def scene_of(i, spec, duration_scale=1.0):
-    """Scene i of the grid (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED: FRESH2's)."""
-    cam, motion, mags, psf, sensor, noise, hot, dur = spec
+    """Scene i of the grid (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED: FRESH2's;
+    >= FRESH3_SEED: FRESH3's)."""
+    cam, motion, mags, psf, sensor, noise, hot, dur, *extra = spec
+    extra = extra[0] if extra else {}
     w, h, f = CAMERAS[cam]
     dur = dur * duration_scale
     rng = np.random.default_rng(1000 + i)
     mot = make_motion(motion)
-    scene = S.Scene(w, h, f, start_positions(w, h, f, mot, dur, len(mags), rng), list(mags),
-                    mot, make_psf(psf), dur, PROJECTION)
+    starts = (pair_positions(w, h, f, mot, dur, len(mags), rng, extra["pair_px"])
+              if "pair_px" in extra else start_positions(w, h, f, mot, dur, len(mags), rng))
+    scene = S.Scene(w, h, f, starts, list(mags), mot, make_psf(psf), dur, PROJECTION)
     sens = S.Sensor(**{**SENSORS[sensor], "noise_hz": noise, "hot_pixels": hot})
     return scene, sens
 
@@ -246,11 +288,12 @@ def run_scene(i, spec, duration_scale=1.0, imu=False):
     frames_s = scene.duration_s / (cfg.dt_us * 1e-6)
     per_frame = [n / frames_s for n in run.info["per_star_events"]]
     sig = math.sqrt(scene.psf.sigma_eff() ** 2 + 1 / 12)
-    cam, motion, mags, psf, sens, noise, hot, dur = spec
-    label = (f"G{i - FRESH2_SEED + 1}" if i >= FRESH2_SEED else
+    cam, motion, mags, psf, sens, noise, hot, dur, *_ = spec
+    label = (f"H{i - FRESH3_SEED + 1}" if i >= FRESH3_SEED else
+             f"G{i - FRESH2_SEED + 1}" if i >= FRESH2_SEED else
              f"F{i - FRESH_SEED + 1}" if i >= FRESH_SEED else i + 1)
     out = {"scene": label, "camera": cam, "motion": scene.motion.label(),
-           "direction": motion[-1], "mags": list(mags), "psf": scene.psf.label(),
+           "direction": motion[-1] if motion[0] != "circle" else 0, "mags": list(mags), "psf": scene.psf.label(),
            "sigma_eff_px": sig, "sensor": sens, "noise_hz": noise, "hot_pixels": hot,
            "duration_s": scene.duration_s, "events": int(len(ev)), "sim_s": sim_s,
            "events_per_frame": per_frame,
@@ -294,6 +337,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", help="comma-separated scene numbers (1-based) to run")
     ap.add_argument("--only", choices=list(SUBSETS), help="a subset of the grid")
+    ap.add_argument("--fresh3", action="store_true", help="the third held-out grid FRESH3 "
+                    "instead (scenes H1..H12)")
     ap.add_argument("--fresh2", action="store_true", help="the second held-out grid FRESH2 "
                     "instead (scenes G1..G14)")
     ap.add_argument("--fresh", action="store_true", help="the held-out grid FRESH instead "
@@ -304,8 +349,9 @@ def main(argv=None):
     ap.add_argument("--name", help="results: study_indep_NAME.* (e.g. an older evstar on "
                     "PYTHONPATH, side by side)")
     args = ap.parse_args(argv)
-    grid = FRESH2 if args.fresh2 else FRESH if args.fresh else GRID
-    seed0 = FRESH2_SEED if args.fresh2 else FRESH_SEED if args.fresh else 0
+    grid = FRESH3 if args.fresh3 else FRESH2 if args.fresh2 else FRESH if args.fresh else GRID
+    seed0 = (FRESH3_SEED if args.fresh3 else FRESH2_SEED if args.fresh2 else FRESH_SEED
+             if args.fresh else 0)
     pick = list(range(len(grid)))
     if args.scenes:
         pick = [int(v) - 1 for v in args.scenes.split(",")]
@@ -319,7 +365,7 @@ def main(argv=None):
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
         rows.append(r)
-    subset = "".join(f"_{v}" for v in ("fresh2" if args.fresh2 else "fresh" if args.fresh else None, args.only, "scenes-" + args.scenes.replace(",", "-")
+    subset = "".join(f"_{v}" for v in ("fresh3" if args.fresh3 else "fresh2" if args.fresh2 else "fresh" if args.fresh else None, args.only, "scenes-" + args.scenes.replace(",", "-")
                                        if args.scenes else None, "quick" if args.quick else None,
                                        "imu" if args.imu else None, args.name) if v)
     name = "study_indep" + subset
