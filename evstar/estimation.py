@@ -22,6 +22,7 @@ from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
 from .parameters import AUTO, MIN_ALPHA
+from .tracking import BLENDED
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
@@ -108,8 +109,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     across their motion (evstar.across; needs `sensor`)."""
     from .smoothing import TrackSmoother
 
-    # a pooled centroid no track took is noise that once pooled into a cluster (evstar.pooling)
-    centroids = centroids[(centroids["track"] >= 0) | (centroids["source"] != "pooled")]
+    # a pooled centroid no track took is noise that once pooled into a cluster
+    # (evstar.pooling); a blend of two tracks' stars is neither's position
+    centroids = centroids[((centroids["track"] >= 0) | (centroids["source"] != "pooled"))
+                          & (centroids["track"] != BLENDED)]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)

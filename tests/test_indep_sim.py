@@ -113,3 +113,40 @@ def test_background_noise_counts_match_the_poisson_rate():
     counts = np.bincount(hot.y.astype(int) * w + hot.x, minlength=w * h)
     busy = np.sort(counts)[::-1]
     assert busy[3] == 0 and np.all((busy[:3] > 70) & (busy[:3] < 1100))
+
+
+def test_a_planar_turn_matches_the_single_axis_one_and_its_gyro():
+    # Linear as a planar motion (a new axis every time): the same positions and gyro
+    class Planar(S.Linear):
+        planar = True
+
+    stars = [(100.0, 100.0), (500.0, 400.0)]
+    runs = [S.Scene(640, 480, 540.0, stars, [3, 4], m, S.Gaussian(1.0), 1.0, "rotate")
+            for m in (S.Linear(10, 30), Planar(10, 30))]
+    t = [0.0, 0.3, 0.9]
+    np.testing.assert_allclose(runs[1].positions(t), runs[0].positions(t), atol=1e-9)
+    np.testing.assert_allclose(S.make_imu(runs[1]).gyro, S.make_imu(runs[0]).gyro, atol=1e-7)
+
+
+def test_coning_keeps_its_speed_and_comes_back():
+    scene = S.Scene(640, 480, 540.0, [(320.0, 240.0)], [3], S.Circle(2.0, 1.0), S.Gaussian(1.0),
+                    1.0, "rotate")
+    p = scene.positions(np.linspace(0, 1, 2001))[:, 0]
+    speed = np.hypot(*np.diff(p, axis=0).T) * 2000
+    expected = math.radians(2.0) * 540.0 * 2 * math.pi
+    assert np.allclose(speed, expected, rtol=0.01)
+    np.testing.assert_allclose(p[-1], p[0], atol=1e-6)
+    gyro = S.make_imu(scene).gyro
+    np.testing.assert_allclose(np.hypot(gyro[:, 0], gyro[:, 1]), math.radians(2.0) * 2 * math.pi,
+                               rtol=0.01)
+
+
+def test_readout_gaps_lose_every_event_and_leak_fires_on():
+    scene = S.Scene(64, 48, 100.0, [(20.0, 24.0)], [3.0], S.Linear(20.0), S.Gaussian(1.0), 0.5)
+    run = S.simulate(scene, S.Sensor(noise_hz=0.0, leak_hz=2.0, gaps_s=((0.2, 0.25),)), seed=3)
+    t = run.events.t
+    assert not np.any((t >= 200_000) & (t < 250_000)) and np.any(t >= 250_000)
+    leak = run.labels < 0
+    assert np.all(run.events.p[leak] == 1)
+    # 2 Hz over 64 x 48 pixels for 0.5 s, less the gap's 10 %
+    assert 0.8 * 2 * 64 * 48 * 0.45 < leak.sum() < 1.25 * 2 * 64 * 48 * 0.45
