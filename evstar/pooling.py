@@ -6,8 +6,9 @@ no frame centroid used are filtered again among themselves (NDSEF at ``denoise.r
 whatever the frame filter) in frames ``extract.pool_frames`` (k) times as long (its
 threshold for that length: the noise per frame grows k-fold, but so does the star's count,
 and a slow star stays compact), and those it keeps are clustered in the long frames; a
-cluster needs k - 1 times the frame clusters' smallest size, or, where neither a frame
-centroid nor such a cluster lies near, more events than the measured background puts in a
+cluster needs k - 1 times the frame clusters' smallest size (or _min_size's, where the
+background makes that larger: at 10 Hz, 15-43-event noise clumps had pooled into false
+tracks), or, where neither a frame centroid nor such a cluster lies near, more events than the measured background puts in a
 DBSCAN disk of a long frame but about once a second over the sensor (_faint: stars of 2-3
 events a frame). "Not used" are the events the
 frame filter dropped and those it kept that no reported cluster holds: on a quiet sensor
@@ -73,10 +74,10 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     if not len(rest):
         return np.zeros(0, CENTROID_DTYPE)
     long_us = config.dt_us * k
-    strict = _strict_size(e)
+    small = _min_size(e, flt.rate_hz_, long_us, events.width * events.height)
+    strict = max(_strict_size(e), small)
     cents = _clusters(config, rest, t0_us, strict)
     cents["frame"] = (cents["t"] - t0_us) // config.dt_us
-    small = _min_size(e, flt.rate_hz_, long_us, events.width * events.height)
     if small < strict:   # ... unless it lies where nothing else was seen (_faint)
         faint = _faint(_clusters(config, rest, t0_us, small), strict, k, config.track.gate_px,
                        e.lobe_gap_px)

@@ -9,7 +9,7 @@ from evstar.extract import CENTROID_DTYPE
 from evstar.io import read_centroids, write_centroids
 from evstar.pooling import (_FALSE_CLUSTERS_PER_S, _LOBE_GAP_SHARE, _LOBE_OFFSET_PER_SPREAD,
                             _MIN_FAINT_EVENTS, _PAIR_LONG_FRAMES, _faint, _lobes_joined,
-                            _merged, _min_size, _seen, kept)
+                            _merged, _min_size, _seen, kept, pooled_centroids)
 from evstar_kernels.reference.denoise import disk_area
 from scipy.stats import poisson
 
@@ -256,3 +256,19 @@ def test_the_pooled_source_survives_the_centroid_files(tmp_path, suffix):
 def test_bad_pool_frames_is_rejected_by_name(bad):
     with pytest.raises(ParameterError, match="pool_frames"):
         Config().replace(**{"extract.pool_frames": bad})
+
+
+def test_a_noisy_sensor_s_background_alone_pools_into_no_cluster():
+    # 10 Hz of background: _min_size (~23 events in a 40 ms disk) exceeds the usual pooled
+    # size (15), which alone let 15-43-event noise clumps into tracks (study_indep H12)
+    rng = np.random.default_rng(7)
+    w, h, dur_us, rate = 346, 260, 400_000, 10.0
+    n = rng.poisson(rate * w * h * dur_us * 1e-6)
+    t = np.sort(rng.integers(0, dur_us, n))
+    from evstar import Events
+
+    ev = Events(t, rng.integers(0, w, n), rng.integers(0, h, n), rng.integers(0, 2, n), w, h)
+    cfg = Config()
+    assert _min_size(cfg.extract, rate, cfg.dt_us * cfg.extract.pool_frames, w * h) > 15
+    rows = pooled_centroids(cfg, ev, np.ones(n, bool), 0, rate, np.zeros(0, CENTROID_DTYPE))
+    assert len(rows) <= 1
