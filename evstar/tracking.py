@@ -62,23 +62,25 @@ class Tracker:
         order = np.argsort(out["frame"], kind="stable")
         frames, starts, stops = frame_bounds(out["frame"][order])
         xy, track = np.column_stack([out["x"], out["y"]])[order], out["track"]
+        spread2 = (out["spread"][order] ** 2 if "spread" in fields
+                   else np.full(len(out), np.nan))
         st = _Tracks(len(out))
         live = np.zeros(0, np.int64)  # the tracks that can still take a centroid, in creation order
         for f, a, b in zip(frames, starts, stops):
             rows = order[a:b]
             # frames only grow: a track past its gap never comes back
             live = live[f - st.last_f[live] <= self.max_gap + 1]
-            pts = xy[a:b]
+            pts, s2 = xy[a:b], spread2[a:b]
             t, r = self._assign(st, live, pts, f)
-            t, r, blends = self._without_blends(st, live, pts, f, t, r)
-            st.extend(live[t], f, pts[r])
+            t, r, blends = self._without_blends(st, live, (pts, s2), f, t, r)
+            st.extend(live[t], f, pts[r], s2[r])
             track[rows[r]] = live[t]             # a track's id is its index
             track[rows[blends]] = BLENDED
             if len(r) + len(blends) < len(rows):  # the others start tracks
                 new = np.ones(len(rows), bool)
                 new[r] = False
                 new[blends] = False
-                born = st.start(f, pts[new])
+                born = st.start(f, pts[new], s2[new])
                 track[rows[new]] = born
                 live = np.concatenate([live, born])
         _join(out, st.as_dicts(), self.gate_px, self.max_gap, velocity_prior, self.min_length)
@@ -111,39 +113,48 @@ class Tracker:
         return ti[ok], ri[ok]
 
 
-    def _without_blends(self, st, live, pts, f, t, r):
+    def _without_blends(self, st, live, frame_rows, f, t, r):
         """(t, r, blended rows of pts): the assignment less the centroids that are two
         confirmed tracks' blend — a centroid between the predictions of two confirmed
         tracks (BLEND_SHARE of the way from each at least) and within gate_px of both, one
         of which took it while the other took none: two stars close enough to share a
         DBSCAN cluster in some frames (a close pair, stars whose paths cross). Both tracks
         coast through it; given to either, it pulled that track halfway to the other star
-        and the two swapped (perf/study_indep.py --fresh3 H8: 5 px apart, 0.72 px)."""
+        and the two swapped (perf/study_indep.py --fresh3 H8: 5 px apart, 0.72 px). A blend
+        is also wider than the taker's own clusters: its spread² exceeds their mean by
+        BLEND_SPREAD_SHARE of what two stars a share w and L apart add, w(1 − w)L² (on a
+        crowded field a track's noisy prediction put its own star's centroid "between" it
+        and a faint neighbour's track)."""
+        pts, s2 = frame_rows
         none = np.zeros(0, np.int64)
+        if len(t) == len(live) or not len(t):
+            return t, r, none
         confirmed = st.n[live] >= self.min_length
-        idle = np.ones(len(live), bool)
+        idle = confirmed.copy()
         idle[t] = False
-        lonely = np.flatnonzero(confirmed & idle)
-        if not len(t) or not len(lonely):
+        lonely = np.flatnonzero(idle)
+        mine = np.flatnonzero(confirmed[t])
+        if not len(lonely) or not len(mine):
             return t, r, none
-        mine = confirmed[t]
-        if not mine.any():
-            return t, r, none
-        pa = st.predict(live[t[mine]], f)                          # takers' predictions
         pb = st.predict(live[lonely], f)                           # idle tracks'
         c = pts[r[mine]]
-        ab = pb[None] - pa[:, None]                                # (takers, idle, 2)
-        length2 = np.maximum((ab * ab).sum(2), 1e-12)
-        share = ((c[:, None] - pa[:, None]) * ab).sum(2) / length2
-        d_b = np.linalg.norm(c[:, None] - pb[None], axis=2)
+        d_b = _distances(c, pb)                                    # (takers, idle)
+        near = d_b <= self.gate_px
+        if not near.any():   # most frames: no idle track near a taken centroid
+            return t, r, none
+        i, j = np.nonzero(near)
+        pa = st.predict(live[t[mine[i]]], f)                       # takers' predictions
+        ab = pb[j] - pa
+        length2 = np.maximum((ab * ab).sum(1), 1e-12)
+        share = ((c[i] - pa) * ab).sum(1) / length2
+        wider = s2[r[mine[i]]] - st.mean_spread2(live[t[mine[i]]])
         blend = ((share >= BLEND_SHARE) & (share <= 1 - BLEND_SHARE)
-                 & (d_b <= self.gate_px)).any(1)
+                 & (wider >= BLEND_SPREAD_SHARE * share * (1 - share) * length2))
         if not blend.any():
             return t, r, none
-        drop = np.flatnonzero(mine)[blend]
         keep = np.ones(len(t), bool)
-        keep[drop] = False
-        return t[keep], r[keep], r[drop]
+        keep[mine[i[blend]]] = False
+        return t[keep], r[keep], r[~keep]
 
 
 #: the track field of a centroid that is two confirmed tracks' blend (Tracker._without_blends)
@@ -151,6 +162,8 @@ BLENDED = -2
 #: a blend lies at least this share of the way from each of the two tracks' predictions
 #: (two stars' flux-weighted mean: 0.38 for a magnitude 3.5 and 4 pair)
 BLEND_SHARE = 0.2
+#: ... and its spread² exceeds the taker's mean by this share of w(1 − w)L² (H8: ~0.9)
+BLEND_SPREAD_SHARE = 0.5
 
 
 def _gated(pred, gates, pts, big):
@@ -221,21 +234,28 @@ class _Tracks:
         self.first_f, self.last_f, self.prev_f, self.n = (np.zeros(capacity, np.int64)
                                                           for _ in range(4))
         self.first_xy, self.last_xy, self.prev_xy = (np.zeros((capacity, 2)) for _ in range(3))
+        self.spread2 = np.zeros(capacity)     # the sum of its clusters' spread²
 
-    def start(self, f, pts):
-        """New tracks at pts in frame f; their ids."""
+    def start(self, f, pts, spread2):
+        """New tracks at pts in frame f (their clusters' spread², NaN: unknown); their ids."""
         ids = np.arange(self.m, self.m + len(pts))
         self.m += len(pts)
         self.first_f[ids] = self.last_f[ids] = f
         self.prev_f[ids] = f - 1      # a one-centroid track stands still (see predict)
         self.first_xy[ids] = self.last_xy[ids] = self.prev_xy[ids] = pts
         self.n[ids] = 1
+        self.spread2[ids] = spread2
         return ids
 
-    def extend(self, ids, f, pts):
+    def extend(self, ids, f, pts, spread2):
         self.prev_f[ids], self.prev_xy[ids] = self.last_f[ids], self.last_xy.take(ids, 0)
         self.last_f[ids], self.last_xy[ids] = f, pts
         self.n[ids] += 1
+        self.spread2[ids] += spread2
+
+    def mean_spread2(self, ids):
+        """Each track's mean cluster spread² (NaN where any was unknown)."""
+        return self.spread2[ids] / self.n[ids]
 
     def velocity(self, ids):
         """(n, 2) px per frame from each track's last two centroids (0 for one centroid)."""
