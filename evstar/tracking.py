@@ -124,7 +124,8 @@ class Tracker:
         is also wider than the taker's own clusters: its spread² exceeds their mean by
         BLEND_SPREAD_SHARE of what two stars a share w and L apart add, w(1 − w)L² (on a
         crowded field a track's noisy prediction put its own star's centroid "between" it
-        and a faint neighbour's track)."""
+        and a faint neighbour's track); and the two tracks were last seen in one frame (a slow
+        wide star's two tracks, never seen together, are one star: study_indep scene 23)."""
         pts, s2 = frame_rows
         none = np.zeros(0, np.int64)
         if len(t) == len(live) or not len(t):
@@ -139,7 +140,9 @@ class Tracker:
         pb = st.predict(live[lonely], f)                           # idle tracks'
         c = pts[r[mine]]
         d_b = _distances(c, pb)                                    # (takers, idle)
-        near = d_b <= self.gate_px
+        # ... and last seen in one frame with the taker: two stars, not one star's two tracks
+        seen = st.last_f[live[t[mine]]][:, None] == st.last_f[live[lonely]][None]
+        near = (d_b <= self.gate_px) & seen
         if not near.any():   # most frames: no idle track near a taken centroid
             return t, r, none
         i, j = np.nonzero(near)
