@@ -57,8 +57,6 @@ def pooled_centroids(config, events, unused, t0_us, rate_hz, frame_centroids, sc
     config.extract.pool_frames times config.dt_us long, aligned to t0_us, less those a
     frame centroid (frame_centroids) already covers. scratch: a Scratch its filter shares
     (the caller's, kept between calls), None for its own."""
-    from .pipeline import Pipeline
-
     k = config.extract.pool_frames
     if k <= 1 or config.dt_us * k > MAX_DT_US or not unused.any():
         return np.zeros(0, CENTROID_DTYPE)
