@@ -52,7 +52,8 @@ def run(args):
               "duplicate timestamps, no refractory period to read)")
     elif s.get("gap_floor_us") is not None:
         print(f"gap floor    {s['gap_floor_us']:.0f} µs (0.1 % of a pixel's same-polarity gaps are "
-              "shorter: near its refractory period, --refractory-us)")
+              "shorter: a hint for --refractory-us, near the period where bright stars cross "
+              "pixels fast on a quiet background; background and slow stars move it)")
     if s.get("threshold_ratio") is not None:
         print(f"OFF/ON ratio {s['threshold_ratio']:.3f} (from the pixels' ON and OFF runs, as "
               "--threshold-ratio auto measures it; meaningful for stars passing pixels)")
