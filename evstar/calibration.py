@@ -252,15 +252,15 @@ def calibrate(events, imu, camera, config=None, progress=None):
                                              "estimate.estimator": "crossings",
                                              "estimate.pixel_lag_file": None})
     result = Pipeline(config).run(events, imu, camera)
+    if not (result.centroids["track"] >= 0).any():   # the error alone, before any progress
+        raise DataError("pixel lag: the calibration recording gave no star track (no star, or no "
+                        "motion: a still event camera sees none); calibrate on a star field "
+                        "slewing at a changing rate")
     if progress:
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
     crossings, ratio = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
                                        config.estimate.threshold_ratio, with_ratio=True,
                                        refractory_us=config.estimate.refractory_us)
-    if not (result.centroids["track"] >= 0).any():
-        raise DataError("pixel lag: the calibration recording gave no star track (no star, or no "
-                        "motion: a still event camera sees none); calibrate on a star field "
-                        "slewing at a changing rate")
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
     # runs that read the file pair levels with this ratio unless told one: a faint star's

@@ -150,5 +150,7 @@ def test_calibration_without_tracks_says_so(tmp_path):
     from evstar.calibration import calibrate
 
     still = sim.simulate(sim.paper_preset(0.0, duration_s=0.2), seed=1)
+    said = []
     with pytest.raises(evstar.DataError, match="gave no star track"):
-        calibrate(still.events, still.imu, still.camera)
+        calibrate(still.events, still.imu, still.camera, progress=said.append)
+    assert said == []          # the error alone: no "0 track(s)" line before it
