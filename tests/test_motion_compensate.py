@@ -138,8 +138,10 @@ def test_input_errors(scene):
     ev, imu = scene["events"], scene["imu"]
     with pytest.raises(ValueError, match="mode"):
         compensate(ev, imu, CAMERA, DT_US, mode="dv")
-    with pytest.raises(ValueError, match="needs an imu and a camera"):
+    with pytest.raises(ValueError, match="'imu' needs an IMU"):
         compensate(ev, None, CAMERA, DT_US, mode="imu")
+    with pytest.raises(ValueError, match="'pf' needs a camera"):
+        compensate(ev, imu, None, DT_US, mode="pf")
     with pytest.raises(ValueError, match="observations"):
         compensate(ev, imu, CAMERA, DT_US, mode="pf")
     short = Imu(imu.t[:200], imu.gyro[:200])

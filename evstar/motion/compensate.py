@@ -151,9 +151,8 @@ def compensate(events, imu=None, camera=None, dt_us=10_000, mode="imu", *, obser
         raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__}")
     if mode == "none":
         return Compensation.identity(events, dt_us, t0_us, reference)
-    if imu is None or camera is None:
-        raise ParameterError(f"mode={mode!r} needs an imu and a camera")
-    check_parts(events, imu, camera, mode)   # their types, the camera's size against the events'
+    # their types, the IMU and camera the mode needs, the camera's size against the events'
+    check_parts(events, imu, camera, mode)
     if len(imu) < 2:
         raise DataError(f"the IMU has {len(imu)} sample(s); compensation needs at least 2")
     refs, ref_index = frame_references(events.t, dt_us, t0_us, reference)
