@@ -36,7 +36,7 @@ def test_unproject_inverts_project_over_the_whole_sensor(k1, k2, f):
 
 
 def test_five_fixed_point_steps_stay_available_and_are_what_they_were():
-    # the motion kernels invert with 5 fixed-point steps; iterations=5 still gives those
+    # a fixed number of fixed-point steps (the motion kernels': 10) gives exactly those
     cam = Camera(346, 260, 300, 300, 173, 130, -0.3, 0.1)
     uv = _grid(cam)
     xd, yd = (uv[:, 0] - cam.cx) / cam.fx, (uv[:, 1] - cam.cy) / cam.fy
