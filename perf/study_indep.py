@@ -171,6 +171,10 @@ FRESH3 = [
     ("davis", ("lin", 1, 45), [4], ("gauss", 0.9), "ideal", 10.0, 0, 1.0),
 ]
 FRESH3_SEED = 7000
+#: the held-out grids by command-line flag (the later grid first where flags are combined):
+#: (scenes, seed index of the first, label prefix)
+HELD_OUT = {"fresh3": (FRESH3, FRESH3_SEED, "H"), "fresh2": (FRESH2, FRESH2_SEED, "G"),
+            "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
@@ -220,9 +224,25 @@ def pair_positions(width, height, f, motion, duration, n, rng, d):
             for k in range(n)]
 
 
+def scene_label(i):
+    """The label of the scene of seed index i: its held-out grid's prefix and place (F1, G1,
+    H1 ...), else its 1-based place in GRID."""
+    for _, seed0, prefix in HELD_OUT.values():
+        if i >= seed0:
+            return f"{prefix}{i - seed0 + 1}"
+    return i + 1
+
+
+def held_out_scene(label):
+    """(seed index, spec) of a held-out scene's label (F1..F12, G1..G14, H1..H12)."""
+    grid, seed0 = next(v[:2] for v in HELD_OUT.values() if v[2] == label[0])
+    i = int(label[1:]) - 1
+    return seed0 + i, grid[i]
+
+
 def scene_of(i, spec, duration_scale=1.0):
-    """Scene i of the grid (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED: FRESH2's;
-    >= FRESH3_SEED: FRESH3's)."""
+    """Scene of seed index i (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED:
+    FRESH2's; >= FRESH3_SEED: FRESH3's) and spec."""
     cam, motion, mags, psf, sensor, noise, hot, dur, *extra = spec
     extra = extra[0] if extra else {}
     w, h, f = CAMERAS[cam]
@@ -289,10 +309,7 @@ def run_scene(i, spec, duration_scale=1.0, imu=False):
     per_frame = [n / frames_s for n in run.info["per_star_events"]]
     sig = math.sqrt(scene.psf.sigma_eff() ** 2 + 1 / 12)
     cam, motion, mags, psf, sens, noise, hot, dur, *_ = spec
-    label = (f"H{i - FRESH3_SEED + 1}" if i >= FRESH3_SEED else
-             f"G{i - FRESH2_SEED + 1}" if i >= FRESH2_SEED else
-             f"F{i - FRESH_SEED + 1}" if i >= FRESH_SEED else i + 1)
-    out = {"scene": label, "camera": cam, "motion": scene.motion.label(),
+    out = {"scene": scene_label(i), "camera": cam, "motion": scene.motion.label(),
            "direction": motion[-1] if motion[0] != "circle" else 0, "mags": list(mags), "psf": scene.psf.label(),
            "sigma_eff_px": sig, "sensor": sens, "noise_hz": noise, "hot_pixels": hot,
            "duration_s": scene.duration_s, "events": int(len(ev)), "sim_s": sim_s,
@@ -349,9 +366,8 @@ def main(argv=None):
     ap.add_argument("--name", help="results: study_indep_NAME.* (e.g. an older evstar on "
                     "PYTHONPATH, side by side)")
     args = ap.parse_args(argv)
-    grid = FRESH3 if args.fresh3 else FRESH2 if args.fresh2 else FRESH if args.fresh else GRID
-    seed0 = (FRESH3_SEED if args.fresh3 else FRESH2_SEED if args.fresh2 else FRESH_SEED
-             if args.fresh else 0)
+    held = next((flag for flag in HELD_OUT if getattr(args, flag)), None)
+    grid, seed0 = HELD_OUT[held][:2] if held else (GRID, 0)
     pick = list(range(len(grid)))
     if args.scenes:
         pick = [int(v) - 1 for v in args.scenes.split(",")]
@@ -365,7 +381,7 @@ def main(argv=None):
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
         rows.append(r)
-    subset = "".join(f"_{v}" for v in ("fresh3" if args.fresh3 else "fresh2" if args.fresh2 else "fresh" if args.fresh else None, args.only, "scenes-" + args.scenes.replace(",", "-")
+    subset = "".join(f"_{v}" for v in (held, args.only, "scenes-" + args.scenes.replace(",", "-")
                                        if args.scenes else None, "quick" if args.quick else None,
                                        "imu" if args.imu else None, args.name) if v)
     name = "study_indep" + subset

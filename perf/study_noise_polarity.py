@@ -36,13 +36,6 @@ COLUMNS = [("scene", "scene", ""), ("noise_hz", "background Hz", "g"), ("on", "O
            ("rows", "rows", "")]
 
 
-def spec_of(label):
-    """(seed, grid spec) of a held-out scene label (F1..F12, G1..G14)."""
-    grid, seed0 = (SI.FRESH2, SI.FRESH2_SEED) if label[0] == "G" else (SI.FRESH, SI.FRESH_SEED)
-    i = int(label[1:]) - 1
-    return seed0 + i, grid[i]
-
-
 def errors(rows, truth):
     """(mean error, mean signed error along the motion) of the rows within 3 px of a star."""
     t = rows["t"].astype(np.float64)
@@ -59,7 +52,7 @@ def errors(rows, truth):
 
 
 def run(label, rate_hz, on_fraction):
-    seed, spec = spec_of(label)
+    seed, spec = SI.held_out_scene(label)
     scene, sensor = SI.scene_of(seed, spec)
     sensor = dataclasses.replace(sensor, noise_hz=rate_hz, noise_on_fraction=on_fraction)
     sim = S.simulate(scene, sensor, seed=seed)
