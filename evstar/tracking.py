@@ -112,7 +112,6 @@ class Tracker:
         ok = cost[ti, ri] < big
         return ti[ok], ri[ok]
 
-
     def _without_blends(self, st, live, frame_rows, f, t, r):
         """(t, r, blended rows of pts): the assignment less the centroids that are two
         confirmed tracks' blend — a centroid between the predictions of two confirmed
@@ -133,24 +132,25 @@ class Tracker:
         confirmed = st.n[live] >= self.min_length
         idle = confirmed.copy()
         idle[t] = False
-        lonely = np.flatnonzero(idle)
+        lonely = live[idle]
         mine = np.flatnonzero(confirmed[t])
         if not len(lonely) or not len(mine):
             return t, r, none
-        pb = st.predict(live[lonely], f)                           # idle tracks'
+        takers = live[t[mine]]
+        pb = st.predict(lonely, f)                                 # idle tracks'
         c = pts[r[mine]]
         d_b = _distances(c, pb)                                    # (takers, idle)
         # ... and last seen in one frame with the taker: two stars, not one star's two tracks
-        seen = st.last_f[live[t[mine]]][:, None] == st.last_f[live[lonely]][None]
+        seen = st.last_f[takers][:, None] == st.last_f[lonely][None]
         near = (d_b <= self.gate_px) & seen
         if not near.any():   # most frames: no idle track near a taken centroid
             return t, r, none
         i, j = np.nonzero(near)
-        pa = st.predict(live[t[mine[i]]], f)                       # takers' predictions
+        pa = st.predict(takers[i], f)                              # takers' predictions
         ab = pb[j] - pa
         length2 = np.maximum((ab * ab).sum(1), 1e-12)
         share = ((c[i] - pa) * ab).sum(1) / length2
-        wider = s2[r[mine[i]]] - st.mean_spread2(live[t[mine[i]]])
+        wider = s2[r[mine[i]]] - st.mean_spread2(takers[i])
         blend = ((share >= BLEND_SHARE) & (share <= 1 - BLEND_SHARE)
                  & (wider >= BLEND_SPREAD_SHARE * share * (1 - share) * length2))
         if not blend.any():
