@@ -485,6 +485,13 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     track id, unit motion direction (n, 2), along residual px = (pixel − track
     position)·direction) for the assigned crossings.
     """
+    ci, track, dx, dy, ux, uy = near_tracks(crossings, tracks, max_offset_px, min_speed_px_s)
+    return ci, track, np.column_stack([ux, uy]), dx * ux + dy * uy
+
+
+def near_tracks(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
+    """along_track's assignment: (index into crossings, track id, dx, dy = pixel − track
+    position (px), ux, uy = the track's unit motion direction) per assigned crossing."""
     # plain arrays: fields of packed records are slow to index
     crossings = {f: np.ascontiguousarray(crossings[f]) for f in ("t", "x", "y")}
     tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
@@ -496,9 +503,8 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     speed, dist = np.sqrt(vx * vx + vy * vy), np.sqrt(dx * dx + dy * dy)
     ok = np.flatnonzero((dist < max_offset_px) & (speed >= min_speed_px_s))
     first = ok[_nearest(ci[ok], dist[ok], tracks["track"][seg[ok]], len(crossings["t"]))]
-    ux, uy = vx[first] / speed[first], vy[first] / speed[first]
-    return (ci[first], tracks["track"][seg[first]], np.column_stack([ux, uy]),
-            dx[first] * ux + dy[first] * uy)
+    return (ci[first], tracks["track"][seg[first]], dx[first], dy[first],
+            vx[first] / speed[first], vy[first] / speed[first])
 
 
 def _nearest(ci, dist, tid, n):

@@ -165,6 +165,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         from . import across
 
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
+    if e.split_pairs and e.estimator == "crossings" and crossings is not None:
+        from . import pairs
+
+        rows = pairs.split(rows, crossings)
     return rows if lag_sigma is None else with_lag_sigma(rows, lag_sigma)
 
 

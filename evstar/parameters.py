@@ -402,6 +402,10 @@ ESTIMATE = Params(
           "profile's width, the second with a kernel matched to it (0: the centroids' own)",
           low=0, high=10,
           unit="px"),
+    Param("split_pairs", bool, True, "a track whose pixel crossings spread across its "
+          "motion far wider than the other tracks' (by brightness) is two stars closer than "
+          "DBSCAN separates: reported as the two stars of a two-star fit (evstar.pairs; needs "
+          "the crossings estimator and 3 other measured tracks)"),
 )
 
 HOTPIXELS = Params(

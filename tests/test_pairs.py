@@ -1,0 +1,113 @@
+"""evstar.pairs: unresolved close pairs split by their crossings' spread across the motion.
+
+Synthetic crossings: stars moving along +x at SPEED px/s, one crossing per pixel whose peak
+log contrast reaches a level pair (A·exp(−d²/2σ²) ≥ 0.5, d the pixel's distance across),
+weighted by that many level pairs, at the time the star passed the pixel's column. The
+tracks' rows follow each track's (flux-weighted) centre every 10 ms.
+"""
+import numpy as np
+import pytest
+
+from evstar import pairs
+from evstar.crossings import CROSSING_DTYPE
+from evstar.extract import CENTROID_DTYPE
+
+SPEED, SIGMA, DT_US, SPAN_US = 400.0, 1.2, 10_000, 500_000
+
+
+def star_crossings(x0, y0, amp):
+    """One star's crossings: the pixels of each column it passes while in view."""
+    xs = np.arange(int(np.ceil(x0)), int(x0 + SPEED * SPAN_US / 1e6))
+    ys = np.arange(int(y0) - 8, int(y0) + 9)
+    levels = np.floor(amp * np.exp(-0.5 * ((ys - y0) / SIGMA) ** 2) + 0.5).astype(int)
+    ys, levels = ys[levels > 0], levels[levels > 0]
+    out = np.zeros(len(xs) * len(ys), CROSSING_DTYPE)
+    out["x"] = np.repeat(xs, len(ys))
+    out["y"] = np.tile(ys, len(xs))
+    out["t"] = (out["x"] - x0) / SPEED * 1e6
+    out["pairs"] = np.tile(levels, len(xs))
+    return out
+
+
+def track_rows(track, x0, y0):
+    t = np.arange(0, SPAN_US, DT_US)
+    rows = np.zeros(len(t), CENTROID_DTYPE)
+    rows["t"], rows["frame"], rows["track"] = t, t // DT_US, track
+    rows["x"], rows["y"] = x0 + SPEED * t / 1e6, y0
+    rows["n_events"], rows["sigma"], rows["source"] = 20, 0.05, "measured"
+    return rows
+
+
+def field(stars):
+    """(rows, crossings) of tracks; each track a list of stars (dx, dy, amplitude) about
+    its start (the track follows the stars' amplitude-weighted centre)."""
+    rows, cross = [], []
+    for k, members in enumerate(stars):
+        x0, y0 = 10.0, 20.0 + 30 * k
+        amp = np.array([a for _, _, a in members], float)
+        cx = x0 + np.average([dx for dx, _, _ in members], weights=amp)
+        cy = y0 + np.average([dy for _, dy, _ in members], weights=amp)
+        rows.append(track_rows(k, cx, cy))
+        cross += [star_crossings(x0 + dx, y0 + dy, a) for dx, dy, a in members]
+    rows = np.concatenate(rows)
+    cross = np.concatenate(cross)
+    return rows[np.lexsort((rows["x"], rows["t"]))], cross[np.argsort(cross["t"], kind="stable")]
+
+
+SINGLES = [[(0.0, 0.3, a)] for a in (4.0, 6.0, 9.0, 13.0, 20.0)]
+
+
+def positions(rows, track):
+    mine = rows[rows["track"] == track]
+    return mine["x"] - SPEED * mine["t"] / 1e6, mine["y"]
+
+
+def test_single_stars_are_left_as_they_were():
+    rows, cross = field(SINGLES)
+    out = pairs.split(rows, cross)
+    assert np.array_equal(out, rows)
+
+
+@pytest.mark.parametrize("dx, dy", [(0.0, 4.0), (1.5, 3.5), (0.0, -5.0)])
+def test_a_pair_across_the_motion_becomes_its_two_stars(dx, dy):
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (dx, dy, 7.0)]])
+    out = pairs.split(rows, cross)
+    tracks = np.unique(out["track"])
+    assert len(tracks) == len(SINGLES) + 2
+    x0, y0 = 10.0, 20.0 + 30 * len(SINGLES)
+    for track, (tx, ty) in ((len(SINGLES), (x0, y0)), (tracks.max(), (x0 + dx, y0 + dy))):
+        x, y = positions(out, track)
+        assert np.all(np.hypot(x - tx, y - ty) < 0.35), (track, x[0] - tx, y[0] - ty)
+        assert np.all(out["split"][out["track"] == track])
+    # the brighter keeps the track and most events; the other tracks are untouched
+    brighter = out[out["track"] == len(SINGLES)]["n_events"]
+    fainter = out[out["track"] == tracks.max()]["n_events"]
+    assert np.all(brighter > fainter)
+    assert np.array_equal(out[out["track"] < len(SINGLES)], rows[rows["track"] < len(SINGLES)])
+
+
+def test_no_split_without_enough_other_tracks_to_measure_a_single_star():
+    rows, cross = field(SINGLES[:pairs.MIN_REFERENCES - 1] + [[(0.0, 0.0, 12.0), (0.0, 4.0, 7.0)]])
+    assert np.array_equal(pairs.split(rows, cross), rows)
+
+
+def test_three_stars_in_one_track_are_not_split_into_two():
+    rows, cross = field(SINGLES + [[(0.0, -4.5, 8.0), (0.0, 0.0, 12.0), (0.0, 4.5, 8.0)]])
+    assert np.array_equal(pairs.split(rows, cross), rows)
+
+
+def test_pairs_closer_than_the_least_separation_are_not_split():
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (0.0, 1.0, 12.0)]])
+    assert np.array_equal(pairs.split(rows, cross), rows)
+
+
+def test_the_estimator_splits_unless_told_not_to():
+    from evstar import Config, estimation
+
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (0.0, 4.0, 7.0)]])
+    n_tracks = []
+    for on in (True, False):
+        cfg = Config().replace(**{"estimate.split_pairs": on})
+        out = estimation.estimate(rows, cfg, 0, crossings=cross)
+        n_tracks.append(len(np.unique(out["track"][out["track"] >= 0])))
+    assert n_tracks == [len(SINGLES) + 2, len(SINGLES) + 1]
