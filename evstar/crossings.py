@@ -485,8 +485,17 @@ def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     track id, unit motion direction (n, 2), along residual px = (pixel − track
     position)·direction) for the assigned crossings.
     """
-    ci, track, dx, dy, ux, uy = near_tracks(crossings, tracks, max_offset_px, min_speed_px_s)
-    return ci, track, np.column_stack([ux, uy]), dx * ux + dy * uy
+    return within(near_tracks(crossings, tracks, max_offset_px, min_speed_px_s), max_offset_px)
+
+
+def within(near, max_offset_px):
+    """along_track's result from a near_tracks result of a reach >= max_offset_px: its
+    crossings within max_offset_px (the nearest track within that reach is the nearest
+    within any larger one, so the assignment is the same)."""
+    ci, track, dx, dy, ux, uy = near
+    k = np.flatnonzero(np.sqrt(dx * dx + dy * dy) < max_offset_px)
+    ux, uy = ux[k], uy[k]
+    return ci[k], track[k], np.column_stack([ux, uy]), dx[k] * ux + dy[k] * uy
 
 
 def near_tracks(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):

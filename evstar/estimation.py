@@ -126,11 +126,15 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
                                            "process_noise": e.process_noise_min})
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
-    lag_sigma = None
+    lag_sigma = near_cross = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
-        from .crossings import along_track
+        from .crossings import near_tracks, within
+        from .pairs import REACH_PX
 
-        every = along_track(crossings, _by_track(ests))
+        # one assignment serves both: the estimator's within 3 px, the pair split's wider
+        assigned_to = _by_track(ests)
+        near_cross = near_tracks(crossings, assigned_to, REACH_PX if e.split_pairs else 3.0)
+        every = within(near_cross, 3.0)
         mine = _by_group(every, ests)
         lag = _run_lag(e, measured_lag)
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
@@ -165,10 +169,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         from . import across
 
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
-    if e.split_pairs and e.estimator == "crossings" and crossings is not None:
+    if near_cross is not None and e.split_pairs:
         from . import pairs
 
-        rows = pairs.split(rows, crossings)
+        rows = pairs.split(rows, crossings, near_cross, assigned_to)
     return rows if lag_sigma is None else with_lag_sigma(rows, lag_sigma)
 
 

@@ -30,8 +30,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frames import groups
-
 #: crossings within this distance of a track's position count for its spread: a pair 5 px
 #: apart has each star 2.5 px off its blend and a profile reaching ~4 px further
 REACH_PX = 7.0
@@ -55,101 +53,143 @@ EM_STEPS, MIN_ALONG_VAR_PX2 = 30, 0.25
 SIGMA_PER_SEPARATION = 0.05
 
 
-def split(rows, crossings):
+def split(rows, crossings, near, tracks):
     """`rows` (CENTROID_DTYPE, time-sorted) with each track that is an unresolved pair
     replaced by the pair's two stars (a new array, time-sorted; the new tracks' ids follow
-    the largest)."""
-    from .crossings import near_tracks
-
+    the largest). near: evstar.crossings.near_tracks of the crossings to `tracks` (rows
+    with t, track, x, y sorted by track then time: the estimator's, before its last
+    steps moved them into `rows`) with reach REACH_PX."""
     tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
-    if not len(tracked) or crossings is None or not len(crossings):
+    if not len(tracked) or not len(near[0]):
         return rows
-    paths = _paths(rows[tracked])
-    ci, track, dx, dy, _, _ = near_tracks(crossings, paths, REACH_PX)
-    stats = _track_stats(paths, track, dx, dy, crossings["pairs"][ci])
-    found = _pairs(stats)
-    if not found:
-        return rows
-    return _with_pairs(rows, found)
+    path = _paths(rows[tracked])
+    found = _pairs(_track_stats(path, crossings["pairs"], near, _moved_by(path, tracks)))
+    return _with_pairs(rows, found) if found else rows
 
 
 def _paths(rows):
-    """The tracks' rows with velocities (px/s: central differences), sorted by track then
-    time, as near_tracks takes them."""
+    """The tracks' rows sorted by track then time: (t, x, y) float arrays, g (a track's
+    index among `ids`, its distinct ids), and velocities (px/s: central differences
+    within a track, one-sided at its ends; 0 for a one-row track)."""
     rows = rows[np.lexsort((rows["t"], rows["track"]))]
-    out = np.zeros(len(rows), [("t", "<f8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
-                               ("vx", "<f8"), ("vy", "<f8")])
-    for f in ("t", "track", "x", "y"):
-        out[f] = rows[f]
-    for idx in groups(out["track"])[1]:
-        if len(idx) > 1:
-            t = out["t"][idx]
-            out["vx"][idx] = np.gradient(out["x"][idx], t) * 1e6
-            out["vy"][idx] = np.gradient(out["y"][idx], t) * 1e6
-    return out
+    t, x, y = (np.asarray(rows[f], np.float64) for f in ("t", "x", "y"))
+    ids, g = np.unique(rows["track"], return_inverse=True)
+    i = np.arange(len(t))
+    nxt = np.where(np.r_[g[1:] == g[:-1], False], i + 1, i)
+    prv = np.where(np.r_[False, g[1:] == g[:-1]], i - 1, i)
+    dt = t[nxt] - t[prv]
+    vx, vy = (np.divide(a[nxt] - a[prv], dt, out=np.zeros(len(t)), where=dt > 0) * 1e6
+              for a in (x, y))
+    return {"t": t, "x": x, "y": y, "g": g, "ids": ids, "vx": vx, "vy": vy}
 
 
-def _track_stats(paths, track, dx, dy, levels):
-    """Per track with MIN_CROSSINGS crossings: its id, main direction (unit), whether it
-    holds that direction, brightness (_brightness), and its crossings' level pairs (weight)
-    and offsets (along, across that direction)."""
-    out = []
-    cos_turn = np.cos(np.radians(MAX_TURN_DEG))
-    mine = dict(zip(*groups(track)))
-    for tid, rows in zip(*groups(paths["track"])):
-        got = mine.get(tid)
-        if got is None or len(got) < MIN_CROSSINGS:
-            continue
-        v = np.column_stack([paths["vx"][rows], paths["vy"][rows]])
-        speed = np.linalg.norm(v, axis=1)
-        u = v[speed > 0] / speed[speed > 0, None]
-        if not len(u):
-            continue
-        _, vec = np.linalg.eigh(u.T @ u)      # the main axis of the directions (either sign)
-        p = vec[:, -1]
-        ox, oy = dx[got], dy[got]
-        out.append({"track": int(tid), "axis": p,
-                    "steady": bool(np.all(np.abs(u @ p) >= cos_turn)),
-                    "bright": _brightness(paths[rows], levels[got]), "weight": levels[got],
-                    "along": ox * p[0] + oy * p[1], "across": -ox * p[1] + oy * p[0]})
-    return out
+def _moved_by(path, tracks):
+    """Per track of path (_paths), the mean move of its rows from `tracks`' positions at
+    their times (the estimator's last steps: a shift across the motion, the lag's along
+    it), (n_tracks, 2); 0 for a track `tracks` lacks."""
+    n_tr = len(path["ids"])
+    earlier = _paths(tracks)
+    lut = _lookup(earlier["ids"], path["ids"])
+    has = np.flatnonzero(lut[path["g"]] >= 0)
+    g = path["g"][has]
+    ex, ey = _at(earlier, lut[g], path["t"][has])
+    n = np.maximum(np.bincount(g, None, n_tr), 1)
+    return np.column_stack([np.bincount(g, path["x"][has] - ex, n_tr) / n,
+                            np.bincount(g, path["y"][has] - ey, n_tr) / n])
 
 
-def _brightness(path, levels):
-    """A star's brightness: its crossings' level pairs per px of its path (a pixel's
-    count of level pairs grows with the star's log contrast there)."""
-    length = np.hypot(np.diff(path["x"]), np.diff(path["y"])).sum()
-    return float(levels.sum() / max(length, 1e-9))
+def _lookup(ids, wanted):
+    """Per id of `wanted`, its index in `ids` (-1: absent)."""
+    lut = np.full(int(max(ids.max(initial=0), wanted.max(initial=0))) + 1, -1, np.int64)
+    lut[ids] = np.arange(len(ids))
+    return np.where(wanted < len(lut), lut[np.minimum(wanted, len(lut) - 1)], -1)
 
 
-def _pairs(stats):
+def _track_stats(path, levels, near, moved):
+    """Per track (path: _paths): its id, main direction of motion (axis, unit, either
+    sign), whether it holds it (steady), brightness (level pairs per px of path),
+    crossings and the level-pair-weighted variances of their offsets from it along and
+    across the axis (var_al, var_ac); and per crossing near one of these tracks (near:
+    evstar.crossings.near_tracks, its offsets less the track's `moved`) its track's index
+    (g) and level pairs (w) and its offset (along, across)."""
+    n_tr = len(path["ids"])
+    g, vx, vy = path["g"], path["vx"], path["vy"]
+    speed = np.hypot(vx, vy)
+    moving = speed > 0
+    ux, uy = (np.divide(v, speed, out=np.zeros(len(v)), where=moving) for v in (vx, vy))
+    # the main axis of the directions: the 2 x 2 second-moment matrix's top eigenvector
+    sxx, syy, sxy = (np.bincount(g, a, n_tr) for a in (ux * ux, uy * uy, ux * uy))
+    angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)
+    axis = np.column_stack([np.cos(angle), np.sin(angle)])
+    turned = moving & (np.abs(ux * axis[g, 0] + uy * axis[g, 1]) < np.cos(np.radians(MAX_TURN_DEG)))
+    same = g[1:] == g[:-1]
+    step = np.hypot(np.diff(path["x"]), np.diff(path["y"]))
+    length = np.bincount(g[1:][same], step[same], n_tr)
+    ci, track, dx, dy = near[:4]
+    gc = _lookup(path["ids"], track)
+    keep = np.flatnonzero(gc >= 0)
+    gc, w = gc[keep], np.asarray(levels, np.float64)[ci[keep]]
+    ox, oy = dx[keep] - moved[gc, 0], dy[keep] - moved[gc, 1]
+    along = ox * axis[gc, 0] + oy * axis[gc, 1]
+    across = oy * axis[gc, 0] - ox * axis[gc, 1]
+    total = np.bincount(gc, w, n_tr)
+    return {"ids": path["ids"], "axis": axis, "steady": np.bincount(g, turned, n_tr) == 0,
+            "crossings": np.bincount(gc, None, n_tr),
+            "bright": total / np.maximum(length, 1e-9),
+            "var_al": _weighted_var(along, w, gc, total), "var_ac": _weighted_var(across, w, gc, total),
+            "g": gc, "w": w, "along": along, "across": across}
+
+
+def _at(path, g, t):
+    """Positions of tracks g (indices into path's ids) at times t (np.interp on the
+    track's rows: linear between them, held beyond its ends)."""
+    tr, x, y, gr = path["t"], path["x"], path["y"], path["g"]
+    first = np.searchsorted(gr, np.arange(len(path["ids"])))
+    last = np.r_[first[1:], len(gr)] - 1
+    # the row at or before each time within its track: one sorted search on (track, time)
+    base = min(float(tr.min()), float(t.min()))
+    span = max(float(tr.max()), float(t.max())) - base + 2.0
+    j = np.searchsorted(gr * span + (tr - base), g * span + (t - base), "right") - 1
+    j = np.clip(j, first[g], np.maximum(last[g] - 1, first[g]))
+    k = np.minimum(j + 1, last[g])
+    dt = tr[k] - tr[j]
+    f = np.clip(np.divide(t - tr[j], dt, out=np.zeros(len(t)), where=dt > 0), 0.0, 1.0)
+    return x[j] + f * (x[k] - x[j]), y[j] + f * (y[k] - y[j])
+
+
+def _weighted_var(v, w, g, total):
+    """Per track the w-weighted variance of v (g: each value's track, total: its weights'
+    sum)."""
+    n = len(total)
+    mean = np.bincount(g, w * v, n) / np.maximum(total, 1e-12)
+    return np.bincount(g, w * (v - mean[g]) ** 2, n) / np.maximum(total, 1e-12)
+
+
+def _pairs(st):
     """{track: (axis, offset of the brighter, offset of the fainter (along, across px),
-    the fainter's share, separation px)} of the tracks that are unresolved pairs."""
-    var_al = np.array([_var(s["along"], s["weight"]) for s in stats])
-    var_ac = np.array([_var(s["across"], s["weight"]) for s in stats])
-    logb = np.log(np.maximum([s["bright"] for s in stats], 1.0))
+    the fainter's share, separation px)} of the tracks that are unresolved pairs (st:
+    _track_stats)."""
+    measured = np.flatnonzero(st["crossings"] >= MIN_CROSSINGS)
+    var_al, var_ac = st["var_al"][measured], st["var_ac"][measured]
+    logb = np.log(np.maximum(st["bright"][measured], 1e-3))
     ref = _singles(var_ac, logb)
     if ref.sum() < MIN_REFERENCES:
         return {}
     width = _power_law(var_ac[ref], logb[ref])
     scale = _robust_scale(np.log(var_ac[ref] / width(logb[ref])))
     along = max(float(np.median(var_al[ref])), MIN_ALONG_VAR_PX2)
+    wide = (st["steady"][measured] & _stands_out(var_ac, width(logb))
+            & (np.log(var_ac / width(logb)) >= EXCESS_MADS * scale))
     found = {}
-    for s, v, lb in zip(stats, var_ac, logb):
-        if (not s["steady"] or not _stands_out(v, width(lb))
-                or np.log(v / width(lb)) < EXCESS_MADS * scale):
-            continue
-        z = np.column_stack([s["along"], s["across"]])
-        got = _two_stars(z, s["weight"], _moment_start(z, s["weight"], along, width(lb)),
+    for k, lb in zip(measured[wide], logb[wide]):
+        mine = st["g"] == k
+        z = np.column_stack([st["along"][mine], st["across"][mine]])
+        w = st["w"][mine]
+        got = _two_stars(z, w, _moment_start(z, w, along, width(lb)),
                          lambda share: np.array([along, width(lb + np.log(share))]))
         if got is not None:
-            found[s["track"]] = (s["axis"], *got)
+            found[int(st["ids"][k])] = (st["axis"][k], *got)
     return found
-
-
-def _var(x, w):
-    m = np.average(x, weights=w)
-    return float(np.average((x - m) ** 2, weights=w))
 
 
 def _moment_start(z, wt, var_al, var_ac):
@@ -194,13 +234,18 @@ def _two_stars(z, wt, start, variance):
 
 
 def _power_law(var, logb):
-    """var against brightness as a power law (Theil–Sen in log–log; flat at the median
-    where it would fall): the function of log brightness it gives."""
-    from scipy.stats import theilslopes
-
-    slope, icpt, _, _ = theilslopes(np.log(var), logb)
+    """var against brightness as a power law (Theil–Sen in log–log: the median of the
+    pairwise slopes, scipy.stats.theilslopes' estimate without its input checks, which
+    cost ~15 ms a call; flat at the median where it would fall): the function of log
+    brightness it gives."""
+    logv = np.log(var)
+    i, j = np.triu_indices(len(logb), 1)
+    run = logb[j] - logb[i]
+    ok = run != 0
+    slope = float(np.median((logv[j] - logv[i])[ok] / run[ok])) if ok.any() else 0.0
     if not slope > 0:
-        slope, icpt = 0.0, float(np.median(np.log(var)))
+        slope = 0.0
+    icpt = float(np.median(logv) - slope * np.median(logb))
     return lambda lb: np.exp(icpt + slope * lb)
 
 

@@ -355,6 +355,13 @@ def test_along_track_equals_the_per_track_reference():
     assert len(ref[0]) > 1000 and 12 not in ref[1] and 3 not in ref[1]
     for a, b in zip(got, ref):
         np.testing.assert_array_equal(a, b)
+    # the same from a wider assignment (the estimator's, shared with evstar.pairs)
+    from evstar.crossings import near_tracks, within
+
+    wide = near_tracks(c, tracks, 7.0)
+    assert len(wide[0]) > len(ref[0])
+    for a, b in zip(within(wide, 3.0), ref):
+        np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize("n_keys", [1, 7, 70_000, 921_600])
