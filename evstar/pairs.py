@@ -35,8 +35,9 @@ import numpy as np
 REACH_PX = 7.0
 #: the fewest crossings that measure a track's spread (and a reference track's)
 MIN_CROSSINGS = 60
-#: the fewest other measured tracks that give the single-star width
-MIN_REFERENCES = 3
+#: the fewest other measured tracks that give the single-star width, and the nearest in
+#: brightness that give it locally (_expected)
+MIN_REFERENCES, LOCAL_REFERENCES = 3, 8
 #: a split's excess variance must reach this (px²; w(1 − w)s² of a 1:3 pair 2.3 px apart)
 MIN_EXCESS_PX2 = 1.0
 #: ... and this many times a single star's (the reference tracks' spread about their power
@@ -176,10 +177,11 @@ def _pairs(st):
     if ref.sum() < MIN_REFERENCES:
         return {}
     width = _power_law(var_ac[ref], logb[ref])
-    scale = _robust_scale(np.log(var_ac[ref] / width(logb[ref])))
+    single = _expected(var_ac, logb, ref)
+    scale = _robust_scale(np.log(var_ac[ref] / single[ref]))
     along = max(float(np.median(var_al[ref])), MIN_ALONG_VAR_PX2)
-    wide = (st["steady"][measured] & _stands_out(var_ac, width(logb))
-            & (np.log(var_ac / width(logb)) >= EXCESS_MADS * scale))
+    wide = (st["steady"][measured] & _stands_out(var_ac, single)
+            & (np.log(var_ac / single) >= EXCESS_MADS * scale))
     found = {}
     for k, lb in zip(measured[wide], logb[wide]):
         mine = st["g"] == k
@@ -249,13 +251,36 @@ def _power_law(var, logb):
     return lambda lb: np.exp(icpt + slope * lb)
 
 
+def _expected(var, logb, ref):
+    """Each track's variance as a single star of its brightness: the larger of the power
+    law of all references and that of the LOCAL_REFERENCES nearest it in brightness (not
+    itself): the law steepens towards bright stars (a faint star's width is its PSF's, a
+    bright one's grows with its log contrast), and one line through the faint bulk would
+    call the brightest single stars wide."""
+    out = _power_law(var[ref], logb[ref])(logb)
+    idx = np.flatnonzero(ref)
+    k = min(LOCAL_REFERENCES, len(idx) - 1)
+    if k < 2:
+        return out
+    lv = np.log(var)
+    dist = np.abs(logb[:, None] - logb[idx][None]) + np.where(idx[None] == np.arange(len(var))[:, None], np.inf, 0.0)
+    near = idx[np.argsort(dist, axis=1)[:, :k]]                       # (n, k)
+    i, j = np.triu_indices(k, 1)
+    run = logb[near[:, j]] - logb[near[:, i]]
+    rise = lv[near[:, j]] - lv[near[:, i]]
+    slope = np.nanmedian(np.where(run != 0, rise / np.where(run != 0, run, 1.0), np.nan), axis=1)
+    slope = np.where(slope > 0, slope, 0.0)
+    icpt = np.median(lv[near], axis=1) - slope * np.median(logb[near], axis=1)
+    return np.maximum(out, np.exp(icpt + slope * logb))
+
+
 def _singles(var, logb):
     """Which tracks measure a single star's width: all but those standing MIN_EXCESS_PX2
     above the power law of the rest, dropped one at a time from the highest (one pair among
     four tracks tilts their line)."""
     ref = np.ones(len(var), bool)
     while ref.sum() >= MIN_REFERENCES:
-        width = _power_law(var[ref], logb[ref])(logb)
+        width = _expected(var, logb, ref)
         ratio = np.where(ref & _stands_out(var, width), var / width, 0.0)
         worst = int(np.argmax(ratio))
         if not ratio[worst]:
