@@ -47,6 +47,9 @@ MIN_RATIO, EXCESS_MADS = 1.4, 4.0
 MIN_SEPARATION_PX, MIN_SHARE = 2.0, 0.1
 #: a track whose motion turns further than this from its main direction is not split
 MAX_TURN_DEG = 20.0
+#: the two stars' mean along the motion at most this far from the track (px): a short track
+#: at a sinusoid's turn had its crossings 3.5 px behind it, and a third star beside it
+MAX_ALONG_PX = 1.0
 #: the EM fit's steps, and the least along-motion variance of a star's crossings it assumes
 #: (px²: crossings are timed so well that a single star's along spread is ~0.01)
 EM_STEPS, MIN_ALONG_VAR_PX2 = 30, 0.25
@@ -212,8 +215,9 @@ def _two_stars(z, wt, start, variance):
     """(brighter's offset, fainter's offset, fainter's share, separation) of the two-star
     mixture of the crossings z (along, across) fitted by EM from start = (offsets, share),
     each star's profile Gaussian with variance(its share) per axis; None where the fit
-    leaves the two closer than MIN_SEPARATION_PX, the fainter under MIN_SHARE, or either
-    spread across wider than MIN_RATIO single stars of its share (three stars or more)."""
+    leaves the two closer than MIN_SEPARATION_PX, the fainter under MIN_SHARE, their mean
+    more than MAX_ALONG_PX off the track along the motion, or either spread across wider
+    than MIN_RATIO single stars of its share (three stars or more)."""
     mu, share = start
     w = np.array([1 - share, share])
     for _ in range(EM_STEPS):
@@ -230,7 +234,10 @@ def _two_stars(z, wt, start, variance):
     mu, w, spread = mu[order], w[order], spread[order]
     sep = float(np.linalg.norm(mu[1] - mu[0]))
     single = [variance(max(k, MIN_SHARE / 2))[1] for k in w]
-    if sep < MIN_SEPARATION_PX or w[1] < MIN_SHARE or np.any(spread > MIN_RATIO * np.array(single)):
+    # the track's own timing: their crossings centred on it along the motion
+    off_track = abs(float(w @ mu[:, 0])) > MAX_ALONG_PX
+    if (sep < MIN_SEPARATION_PX or w[1] < MIN_SHARE or off_track
+            or np.any(spread > MIN_RATIO * np.array(single))):
         return None
     return mu[0], mu[1], float(w[1]), sep
 
