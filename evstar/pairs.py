@@ -47,9 +47,10 @@ MIN_RATIO, EXCESS_MADS = 1.4, 4.0
 MIN_SEPARATION_PX, MIN_SHARE = 2.0, 0.1
 #: a track whose motion turns further than this from its main direction is not split
 MAX_TURN_DEG = 20.0
-#: the two stars' mean along the motion at most this far from the track (px): a short track
+#: the two stars' mean along the motion at most this far from the track (px; a 5 px pair at 45°
+#: to the motion whose track follows the brighter: 1.4 px): a short track
 #: at a sinusoid's turn had its crossings 3.5 px behind it, and a third star beside it
-MAX_ALONG_PX = 1.0
+MAX_ALONG_PX = 2.0
 #: the EM fit's steps, and the least along-motion variance of a star's crossings it assumes
 #: (px²: crossings are timed so well that a single star's along spread is ~0.01)
 EM_STEPS, MIN_ALONG_VAR_PX2 = 30, 0.25
