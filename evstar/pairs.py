@@ -43,8 +43,11 @@ MIN_EXCESS_PX2 = 1.0
 #: ... and this many times a single star's (the reference tracks' spread about their power
 #: law is ~10 %), and this many robust scales (1.4826 MAD) of their log residuals
 MIN_RATIO, EXCESS_MADS = 1.4, 4.0
-#: the split stars at least this far apart (px) and the fainter with at least this share
-MIN_SEPARATION_PX, MIN_SHARE = 2.0, 0.1
+#: the split stars at least this far apart (px) and the fainter with at least this share;
+#: at most MAX_SEPARATION_PX: pairs further apart have tracks of their own in most frames,
+#: and a star that far off the track has its profile cut by the REACH_PX window (an EVK4
+#: sinusoid's short track took a neighbour 9.7 px away, 0.43 px off, as its pair)
+MIN_SEPARATION_PX, MIN_SHARE, MAX_SEPARATION_PX = 2.0, 0.1, 6.0
 #: a track whose motion turns further than this from its main direction is not split
 MAX_TURN_DEG = 20.0
 #: the two stars' mean along the motion at most this far from the track (px; a 5 px pair at 45°
@@ -216,7 +219,8 @@ def _two_stars(z, wt, start, variance):
     """(brighter's offset, fainter's offset, fainter's share, separation) of the two-star
     mixture of the crossings z (along, across) fitted by EM from start = (offsets, share),
     each star's profile Gaussian with variance(its share) per axis; None where the fit
-    leaves the two closer than MIN_SEPARATION_PX, the fainter under MIN_SHARE, their mean
+    leaves the two closer than MIN_SEPARATION_PX or further than MAX_SEPARATION_PX, the
+    fainter under MIN_SHARE, their mean
     more than MAX_ALONG_PX off the track along the motion, or either spread across wider
     than MIN_RATIO single stars of its share (three stars or more)."""
     mu, share = start
@@ -237,7 +241,7 @@ def _two_stars(z, wt, start, variance):
     single = [variance(max(k, MIN_SHARE / 2))[1] for k in w]
     # the track's own timing: their crossings centred on it along the motion
     off_track = abs(float(w @ mu[:, 0])) > MAX_ALONG_PX
-    if (sep < MIN_SEPARATION_PX or w[1] < MIN_SHARE or off_track
+    if (not MIN_SEPARATION_PX <= sep <= MAX_SEPARATION_PX or w[1] < MIN_SHARE or off_track
             or np.any(spread > MIN_RATIO * np.array(single))):
         return None
     return mu[0], mu[1], float(w[1]), sep

@@ -110,8 +110,9 @@ def test_three_stars_in_one_track_are_not_split_into_two():
     assert np.array_equal(split(rows, cross), rows)
 
 
-def test_pairs_closer_than_the_least_separation_are_not_split():
-    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (0.0, 1.0, 12.0)]])
+@pytest.mark.parametrize("dy", [1.0, 6.6])
+def test_pairs_closer_or_further_than_the_split_takes_are_not_split(dy):
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (0.0, dy, 8.0)]])
     assert np.array_equal(split(rows, cross), rows)
 
 
