@@ -169,11 +169,13 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         from . import across
 
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
-    if near_cross is not None and e.split_pairs:
+    if lag_sigma is not None:
+        rows = with_lag_sigma(rows, lag_sigma)
+    if near_cross is not None and e.split_pairs:   # a pair's two stars share its track's σ
         from . import pairs
 
         rows = pairs.split(rows, crossings, near_cross, assigned_to)
-    return rows if lag_sigma is None else with_lag_sigma(rows, lag_sigma)
+    return rows
 
 
 def _run_lag(e, measured_lag):

@@ -10,13 +10,15 @@ w(1 − w)·s² (s: the separation across, w: the fainter star's share).
 
 A single star's spread is measured on the recording itself: it grows with brightness (a
 brighter star's log response reaches further out), so the other tracks' across variances
-against their brightness (level pairs per px of path) give a power law (scipy's Theil–Sen
-in log–log; tracks far above it left out one at a time, _singles). A track standing far
+against their brightness (level pairs per px of path) give a power law (Theil–Sen in
+log–log, over all tracks and over the LOCAL_REFERENCES nearest in brightness, the larger;
+tracks far above it left out one at a time, _singles). A track standing far
 above it (MIN_EXCESS_PX2, MIN_RATIO and EXCESS_MADS robust scales of the others' scatter)
 is fitted as two stars: EM on its crossings' offsets (along, across its main direction),
 each star's profile a Gaussian as wide across as a single star of its share's brightness,
 started from the moments' closed-form solution (_moment_start). The fit is kept where the
-two lie MIN_SEPARATION_PX apart, the fainter holds MIN_SHARE, and neither is wider than
+two lie MIN_SEPARATION_PX to MAX_SEPARATION_PX apart, the fainter holds MIN_SHARE, their
+mean lies within MAX_ALONG_PX of the track along the motion, and neither is wider than
 MIN_RATIO single stars (three stars or more are left as they were). Each star's rows are
 the track's rows moved by its offset; the brighter keeps the track, the fainter gets a
 new one, both flagged `split`, σ widened by SIGMA_PER_SEPARATION per px apart.
