@@ -3,8 +3,7 @@
 Synthetic crossings: stars moving along +x at SPEED px/s, one crossing per pixel whose peak
 log contrast ln(1 + A·exp(−d²/2σ²)) (d: the pixel's distance across) reaches a level pair
 of contrast C, weighted by that many level pairs, at the time the star passed the pixel's
-column. The
-tracks' rows follow each track's (flux-weighted) centre every 10 ms.
+column. The tracks' rows follow each track's (amplitude-weighted) centre every 10 ms.
 """
 import numpy as np
 import pytest
