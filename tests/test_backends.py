@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from evstar import BackendError, backends
+from evstar import backends
 
 
 def test_bad_device_string():

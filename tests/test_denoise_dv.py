@@ -4,7 +4,6 @@ import datetime
 import numpy as np
 import pytest
 
-import evstar
 from evstar import denoise, io
 from evstar.interop import to_dv_store
 

@@ -1,5 +1,4 @@
 """The numpy reference filters against their definitions, written as plainly as possible."""
-import math
 
 import numpy as np
 import pytest

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import evstar
-from evstar import Camera, DataError, Events, FormatError, attitude, io, metrics
+from evstar import Camera, DataError, FormatError, attitude, io, metrics
 from evstar.camera import fold_radius, radial
 from evstar.extract import CENTROID_DTYPE
 from evstar.io.chunks import windows as packet_windows

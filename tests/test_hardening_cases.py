@@ -2,7 +2,6 @@
 bad input ends in one line on stderr with its exit code, and no input file is modified."""
 import hashlib
 
-import numpy as np
 import pytest
 
 from evstar import io, sim

@@ -1,6 +1,5 @@
 """Reader and writer checks found by outside testing: time range, rounding, duplicate columns,
 sensor size in CSV, writing a Recording, centroid formats, and only evstar errors on bad input."""
-import os
 import warnings
 
 import h5py

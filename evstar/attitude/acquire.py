@@ -19,7 +19,6 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage, stats
 
-from .. import parameters as P
 from ..camera import Camera
 from ..errors import ParameterError, ParameterTypeError
 from ..events import Events
