@@ -154,6 +154,8 @@ def _at(path, g, t):
     """Positions of tracks g (indices into path's ids) at times t (np.interp on the
     track's rows: linear between them, held beyond its ends)."""
     tr, x, y, gr = path["t"], path["x"], path["y"], path["g"]
+    if not len(t):
+        return np.zeros(0), np.zeros(0)
     first = np.searchsorted(gr, np.arange(len(path["ids"])))
     last = np.r_[first[1:], len(gr)] - 1
     # the row at or before each time within its track: one sorted search on (track, time)

@@ -150,3 +150,10 @@ def test_the_brightest_single_star_is_not_called_wide():
     wide = pairs._stands_out(var, single)
     assert not wide[-1] and wide[15]
     assert pairs._stands_out(var, pairs._power_law(var[ref], logb[ref])(logb))[-1]
+
+
+def test_tracks_the_estimator_never_held_are_not_moved():
+    rows = track_rows(5, 10.0, 20.0)
+    earlier = np.zeros(2, [("t", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8")])
+    earlier["track"], earlier["t"] = 1, [0, DT_US]
+    assert np.array_equal(pairs._moved_by(pairs._paths(rows), earlier), np.zeros((1, 2)))
