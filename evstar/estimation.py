@@ -272,13 +272,12 @@ def with_lag_sigma(rows, lag_sigma_us):
 def _row_speeds(track, t, x, y):
     """Per row (sorted by track, then time) its track's speed (px/s) between its neighbours
     in the track (one side at the ends; 0 for a row alone)."""
-    n = len(t)
-    idx = np.arange(n)
-    a = np.where(np.r_[False, track[1:] == track[:-1]], idx - 1, idx)
-    b = np.where(np.r_[track[:-1] == track[1:], False], idx + 1, idx)
+    from .frames import run_neighbours
+
+    a, b = run_neighbours(track)
     dt = (t[b] - t[a]) * 1e-6
     dist = np.hypot(x[b] - x[a], y[b] - y[a])
-    return np.divide(dist, dt, out=np.zeros(n), where=dt > 0)
+    return np.divide(dist, dt, out=np.zeros(len(t)), where=dt > 0)
 
 
 def _refined(smoother, ests, mine, groups, crossings, along_weight, t0_us, lag, background_hz):

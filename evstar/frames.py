@@ -55,6 +55,15 @@ def groups(ids):
     return (ids[order][np.r_[0, cut]] if len(ids) else ids[:0]), np.split(order, cut)
 
 
+def run_neighbours(ids):
+    """(previous, next): per element of `ids` (equal ids adjacent, e.g. rows sorted by track
+    then time), the index of the element before and after it in its run; its own index at
+    the run's ends."""
+    i = np.arange(len(ids))
+    same = ids[1:] == ids[:-1]
+    return np.where(np.r_[False, same], i - 1, i), np.where(np.r_[same, False], i + 1, i)
+
+
 def ranks(counts, starts=0):
     """s, s + 1, ..., s + c − 1 for each count c and start s, concatenated (one repeat):
     e.g. each member's place in its group, or (starts) its index in the sorted whole."""

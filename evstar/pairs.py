@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frames import run_neighbours
+
 #: crossings within this distance of a track's position count for its spread: a pair 5 px
 #: apart has each star 2.5 px off its blend and a profile reaching ~4 px further
 REACH_PX = 7.0
@@ -84,9 +86,7 @@ def _paths(rows):
     rows = rows[np.lexsort((rows["t"], rows["track"]))]
     t, x, y = (np.asarray(rows[f], np.float64) for f in ("t", "x", "y"))
     ids, g = np.unique(rows["track"], return_inverse=True)
-    i = np.arange(len(t))
-    nxt = np.where(np.r_[g[1:] == g[:-1], False], i + 1, i)
-    prv = np.where(np.r_[False, g[1:] == g[:-1]], i - 1, i)
+    prv, nxt = run_neighbours(g)
     dt = t[nxt] - t[prv]
     vx, vy = (np.divide(a[nxt] - a[prv], dt, out=np.zeros(len(t)), where=dt > 0) * 1e6
               for a in (x, y))

@@ -157,3 +157,11 @@ def test_tracks_the_estimator_never_held_are_not_moved():
     earlier = np.zeros(2, [("t", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8")])
     earlier["track"], earlier["t"] = 1, [0, DT_US]
     assert np.array_equal(pairs._moved_by(pairs._paths(rows), earlier), np.zeros((1, 2)))
+
+
+def test_run_neighbours_are_the_rows_before_and_after_in_a_track():
+    from evstar.frames import run_neighbours
+
+    prv, nxt = run_neighbours(np.array([3, 3, 3, 5, 7, 7]))
+    assert prv.tolist() == [0, 0, 1, 3, 4, 4]
+    assert nxt.tolist() == [1, 2, 2, 3, 5, 5]

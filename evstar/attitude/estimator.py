@@ -38,6 +38,7 @@ from .. import parameters as P
 from ..camera import Camera
 from ..errors import DataError, ParameterError, ParameterTypeError
 from ..events import Events
+from ..frames import run_neighbours
 from ..imu import Imu
 from .filter import Mekf, hat, smooth
 from .output import ATTITUDE_DTYPE, rotation, rows
@@ -445,11 +446,9 @@ def _track_velocity(c):
     order = np.lexsort((c["t"], c["track"]))
     tr, t = c["track"][order], c["t"][order].astype(float)
     xy = np.stack([c["x"], c["y"]], 1)[order]
-    same_prev = np.r_[False, tr[1:] == tr[:-1]] & (tr >= 0)
-    same_next = np.r_[tr[:-1] == tr[1:], False] & (tr >= 0)
+    a, b = run_neighbours(tr)
     i = np.arange(len(c))
-    a = np.where(same_prev, i - 1, i)
-    b = np.where(same_next, i + 1, i)
+    a, b = np.where(tr >= 0, a, i), np.where(tr >= 0, b, i)     # unconfirmed: none
     dt = (t[b] - t[a]) * 1e-6
     ok = dt > 0
     v[order[ok]] = (xy[b[ok]] - xy[a[ok]]) / dt[ok, None]
