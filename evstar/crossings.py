@@ -32,9 +32,11 @@ from .parameters import AUTO
 
 #: t: the mean of the level pairs' midpoints (µs); t_spread: their std; t_outer: the deepest
 #: pair's half-width (outer_half_width); t_half: the pairs' RMS half-width (OFF time less
-#: midpoint, µs)
+#: midpoint, µs); t_top: the top pair's midpoint (µs; the brighter star's passage where
+#: two stars along the motion pass the pixel in one pulse: evstar.blends)
 CROSSING_DTYPE = np.dtype([("x", "<i4"), ("y", "<i4"), ("t", "<f8"), ("pairs", "<i4"),
-                           ("t_spread", "<f8"), ("t_outer", "<f8"), ("t_half", "<f8")])
+                           ("t_spread", "<f8"), ("t_outer", "<f8"), ("t_half", "<f8"),
+                           ("t_top", "<f8")])
 
 
 def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
@@ -118,6 +120,7 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
         sums, sq, h2 = (kern.sums(change, k, r, nb) if kern is not None
                         else _pair_sums(ts, change, k, r, nb))
     outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
+    top = top_midpoint(ts, change, plain[keep], r, on_before[keep])
     mean = sums / k
     t_c = ts[change].astype(np.float64)             # sq is about the change's time
     spread = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
@@ -129,6 +132,7 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
     out["t"], out["pairs"], out["t_spread"], out["t_outer"] = (mean[by_t], k[by_t],
                                                                spread[by_t], outer[by_t])
     out["t_half"] = np.sqrt(h2[by_t] / k[by_t])
+    out["t_top"] = top[by_t]
     return (out, r if threshold_ratio != AUTO else measured) if with_ratio else out
 
 
@@ -305,6 +309,14 @@ def outer_half_width(ts, change, k, ratio, on_before):
     m = np.flatnonzero(k > 0)
     mid, fall = _midpoint(ts, change[m], on_before[m], k[m], ratio)
     out[m] = fall - mid
+    return out
+
+
+def top_midpoint(ts, change, k, ratio, on_before):
+    """Per change, its top level pair's midpoint (µs; NaN where k is 0)."""
+    out = np.full(len(change), np.nan)
+    m = np.flatnonzero(np.asarray(k) > 0)
+    out[m] = _midpoint(ts, change[m], np.asarray(on_before)[m], 1, ratio)[0]
     return out
 
 

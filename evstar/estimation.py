@@ -126,7 +126,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
                                            "process_noise": e.process_noise_min})
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
-    lag_sigma = near_cross = None
+    lag = lag_sigma = near_cross = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
         from .crossings import near_tracks, within
         from .pairs import REACH_PX
@@ -171,6 +171,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
     if lag_sigma is not None:
         rows = with_lag_sigma(rows, lag_sigma)
+    if near_cross is not None and e.along_blends and lag is None:
+        from . import blends
+
+        rows = blends.shifted(rows, crossings, near_cross, assigned_to)
     if near_cross is not None and e.split_pairs:   # a pair's two stars share its track's σ
         from . import pairs
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frames import run_neighbours
+from . import paths
 
 #: crossings within this distance of a track's position count for its spread: a pair 5 px
 #: apart has each star 2.5 px off its blend and a profile reaching ~4 px further
@@ -74,99 +74,36 @@ def split(rows, crossings, near, tracks):
     tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
     if not len(tracked) or not len(near[0]):
         return rows
-    path = _paths(rows[tracked])
-    found = _pairs(_track_stats(path, crossings["pairs"], near, _moved_by(path, tracks)))
+    path = paths.of(rows[tracked])
+    found = _pairs(_track_stats(path, crossings["pairs"], near, paths.moved_by(path, tracks)))
     return _with_pairs(rows, found) if found else rows
 
 
-def _paths(rows):
-    """The tracks' rows sorted by track then time: (t, x, y) float arrays, g (a track's
-    index among `ids`, its distinct ids), and velocities (px/s: central differences
-    within a track, one-sided at its ends; 0 for a one-row track)."""
-    rows = rows[np.lexsort((rows["t"], rows["track"]))]
-    t, x, y = (np.asarray(rows[f], np.float64) for f in ("t", "x", "y"))
-    ids, g = np.unique(rows["track"], return_inverse=True)
-    prv, nxt = run_neighbours(g)
-    dt = t[nxt] - t[prv]
-    vx, vy = (np.divide(a[nxt] - a[prv], dt, out=np.zeros(len(t)), where=dt > 0) * 1e6
-              for a in (x, y))
-    return {"t": t, "x": x, "y": y, "g": g, "ids": ids, "vx": vx, "vy": vy}
-
-
-def _moved_by(path, tracks):
-    """Per track of path (_paths), the mean move of its rows from `tracks`' positions at
-    their times (the estimator's last steps: a shift across the motion, the lag's along
-    it), (n_tracks, 2); 0 for a track `tracks` lacks."""
-    n_tr = len(path["ids"])
-    earlier = _paths(tracks)
-    lut = _lookup(earlier["ids"], path["ids"])
-    has = np.flatnonzero(lut[path["g"]] >= 0)
-    g = path["g"][has]
-    ex, ey = _at(earlier, lut[g], path["t"][has])
-    n = np.maximum(np.bincount(g, None, n_tr), 1)
-    return np.column_stack([np.bincount(g, path["x"][has] - ex, n_tr) / n,
-                            np.bincount(g, path["y"][has] - ey, n_tr) / n])
-
-
-def _lookup(ids, wanted):
-    """Per id of `wanted`, its index in `ids` (-1: absent)."""
-    lut = np.full(int(max(ids.max(initial=0), wanted.max(initial=0))) + 1, -1, np.int64)
-    lut[ids] = np.arange(len(ids))
-    return np.where(wanted < len(lut), lut[np.minimum(wanted, len(lut) - 1)], -1)
-
-
 def _track_stats(path, levels, near, moved):
-    """Per track (path: _paths): its id, main direction of motion (axis, unit, either
+    """Per track (path: evstar.paths.of): its id, main direction of motion (axis, unit, either
     sign), whether it holds it (steady), brightness (level pairs per px of path),
     crossings and the level-pair-weighted variances of their offsets from it along and
     across the axis (var_al, var_ac); and per crossing near one of these tracks (near:
     evstar.crossings.near_tracks, its offsets less the track's `moved`) its track's index
     (g) and level pairs (w) and its offset (along, across)."""
-    n_tr = len(path["ids"])
-    g, vx, vy = path["g"], path["vx"], path["vy"]
-    speed = np.hypot(vx, vy)
-    moving = speed > 0
-    ux, uy = (np.divide(v, speed, out=np.zeros(len(v)), where=moving) for v in (vx, vy))
-    # the main axis of the directions: the 2 x 2 second-moment matrix's top eigenvector
-    sxx, syy, sxy = (np.bincount(g, a, n_tr) for a in (ux * ux, uy * uy, ux * uy))
-    angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)
-    axis = np.column_stack([np.cos(angle), np.sin(angle)])
-    turned = moving & (np.abs(ux * axis[g, 0] + uy * axis[g, 1]) < np.cos(np.radians(MAX_TURN_DEG)))
+    n_tr, g = len(path["ids"]), path["g"]
+    axis, steady = paths.directions(path, MAX_TURN_DEG)
     same = g[1:] == g[:-1]
     step = np.hypot(np.diff(path["x"]), np.diff(path["y"]))
     length = np.bincount(g[1:][same], step[same], n_tr)
     ci, track, dx, dy = near[:4]
-    gc = _lookup(path["ids"], track)
+    gc = paths.lookup(path["ids"], track)
     keep = np.flatnonzero(gc >= 0)
     gc, w = gc[keep], np.asarray(levels, np.float64)[ci[keep]]
     ox, oy = dx[keep] - moved[gc, 0], dy[keep] - moved[gc, 1]
     along = ox * axis[gc, 0] + oy * axis[gc, 1]
     across = oy * axis[gc, 0] - ox * axis[gc, 1]
     total = np.bincount(gc, w, n_tr)
-    return {"ids": path["ids"], "axis": axis, "steady": np.bincount(g, turned, n_tr) == 0,
+    return {"ids": path["ids"], "axis": axis, "steady": steady,
             "crossings": np.bincount(gc, None, n_tr),
             "bright": total / np.maximum(length, 1e-9),
             "var_al": _weighted_var(along, w, gc, total), "var_ac": _weighted_var(across, w, gc, total),
             "g": gc, "w": w, "along": along, "across": across}
-
-
-def _at(path, g, t):
-    """Positions of tracks g (indices into path's ids) at times t (np.interp on the
-    track's rows: linear between them, held beyond its ends)."""
-    tr, x, y, gr = path["t"], path["x"], path["y"], path["g"]
-    if not len(t):
-        return np.zeros(0), np.zeros(0)
-    first = np.searchsorted(gr, np.arange(len(path["ids"])))
-    last = np.r_[first[1:], len(gr)] - 1
-    # the row at or before each time within its track: one sorted search on (track, time)
-    base = min(float(tr.min()), float(t.min()))
-    span = max(float(tr.max()), float(t.max())) - base + 2.0
-    j = np.searchsorted(gr * span + (tr - base), g * span + (t - base), "right") - 1
-    j = np.clip(j, first[g], np.maximum(last[g] - 1, first[g]))
-    k = np.minimum(j + 1, last[g])
-    dt = tr[k] - tr[j]
-    f = np.clip(np.divide(t - tr[j], dt, out=np.zeros(len(t)), where=dt > 0), 0.0, 1.0)
-    return x[j] + f * (x[k] - x[j]), y[j] + f * (y[k] - y[j])
 
 
 def _weighted_var(v, w, g, total):

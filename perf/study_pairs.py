@@ -12,7 +12,7 @@ that evstar.pairs compares a track's with (study_pairs_companions*: the thirty-t
 session's split of unresolved pairs, before and after).
 
     python perf/study_pairs.py [--rates 4,12] [--seps 2,3,4,5,6,8] [--angles 0,45,90]
-        [--companions] [--name pairs]
+        [--companions] [--set estimate.along_blends=false] [--name pairs]
 
 Writes perf/results/study_<name>.json and .md; prints the table.
 """
@@ -28,6 +28,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import indep_sim as S  # noqa: E402
+from study_field import settings_of  # noqa: E402
 
 from evstar import Config, Pipeline, accuracy  # noqa: E402
 
@@ -60,10 +61,10 @@ def scene(rate, sep, angle, companions=False):
     return sc, S.Sensor(pixel="ideal", noise_hz=1.0)
 
 
-def run_one(rate, sep, angle, seed, companions=False):
+def run_one(rate, sep, angle, seed, companions=False, settings=None):
     sc, sensor = scene(rate, sep, angle, companions)
     run = S.simulate(sc, sensor, seed=seed)
-    cfg = Config()
+    cfg = Config().replace(**(settings or {}))
     rows = Pipeline(cfg).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth)
     ev = run.events
@@ -99,13 +100,16 @@ def main(argv=None):
     ap.add_argument("--companions", action="store_true",
                     help="three isolated stars beside the pair (COMPANIONS)")
     ap.add_argument("--name", default="pairs")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a Config setting, e.g. estimate.along_blends=false (repeatable)")
     a = ap.parse_args(argv)
     rows = []
     for i, (rate, sep, angle) in enumerate((float(r), float(s), float(g))
                                            for r in a.rates.split(",")
                                            for s in a.seps.split(",")
                                            for g in a.angles.split(",")):
-        rows.append(run_one(rate, sep, angle, seed=8000 + i, companions=a.companions))
+        rows.append(run_one(rate, sep, angle, seed=8000 + i, companions=a.companions,
+                            settings=settings_of(a.set)))
         print(markdown(rows[-1:]).splitlines()[-1], flush=True)
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"study_{a.name}.json").write_text(json.dumps(rows, indent=1) + "\n")

@@ -158,12 +158,13 @@ def crossings_reference(t, x, y, p, max_pairs=16, ratio=1.0):
                     rise = float(tt[i - j0]) * (1 - f) + float(tt[i - j0 - 1]) * f
                     mid = 0.5 * (rise + float(tt[b]))
                 d = mid - float(tt[i])             # squares about the change's time
+                top = mid if k == 0 else top        # the top pair's midpoint
                 s, sq, k = s + mid, sq + d * d, k + 1
                 outer = float(tt[b]) - mid          # the deepest pair's half-width
                 h2 += outer * outer
             if k:
                 spread = np.sqrt(max(sq / k - (s / k - float(tt[i])) ** 2, 0.0))
-                rows.append((px, py, s / k, k, spread, outer, np.sqrt(h2 / k)))
+                rows.append((px, py, s / k, k, spread, outer, np.sqrt(h2 / k), top))
     out = np.array(rows, CROSSING_DTYPE) if rows else np.zeros(0, CROSSING_DTYPE)
     return out[np.argsort(out["t"], kind="stable")]
 
@@ -187,6 +188,7 @@ def test_pixel_crossings_equal_the_per_pixel_reference(time_sorted):
     np.testing.assert_allclose(got["t_spread"], ref["t_spread"], rtol=0, atol=1e-6)
     np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_top"], ref["t_top"], rtol=0, atol=1e-9)
 
 
 def test_the_pairs_follow_the_ratio_continuously_across_one():
@@ -216,6 +218,7 @@ def test_pixel_crossings_of_a_simulated_star_equal_the_reference(ratio):
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_outer"], ref["t_outer"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["t_half"], ref["t_half"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got["t_top"], ref["t_top"], rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("engine", ["taichi", "numpy"])

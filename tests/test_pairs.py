@@ -8,7 +8,7 @@ column. The tracks' rows follow each track's (amplitude-weighted) centre every 1
 import numpy as np
 import pytest
 
-from evstar import pairs
+from evstar import pairs, paths
 from evstar.crossings import CROSSING_DTYPE, near_tracks
 from evstar.extract import CENTROID_DTYPE
 
@@ -156,7 +156,7 @@ def test_tracks_the_estimator_never_held_are_not_moved():
     rows = track_rows(5, 10.0, 20.0)
     earlier = np.zeros(2, [("t", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8")])
     earlier["track"], earlier["t"] = 1, [0, DT_US]
-    assert np.array_equal(pairs._moved_by(pairs._paths(rows), earlier), np.zeros((1, 2)))
+    assert np.array_equal(paths.moved_by(paths.of(rows), earlier), np.zeros((1, 2)))
 
 
 def test_run_neighbours_are_the_rows_before_and_after_in_a_track():

@@ -1,0 +1,162 @@
+"""Two stars along the motion in one pulse: the brighter star placed by its crossings' top
+levels.
+
+Two stars 2–4 px apart along their motion pass each pixel of their common path in one
+pulse, so each such pixel gives one crossing (evstar.crossings) whose mean level-pair
+midpoint lies between them, and the fainter star's own crossings beside the path pull the
+track further: the track follows their blend, 0.4–1.5 px from the brighter star (an Orion
+pan's close stars, docs/measurements.md). The crossing's top level pair is the brighter
+star's peak alone, so its midpoint is when that star passed the pixel.
+
+Per crossing near a track's centre line (within CENTRE_PX across, at least 2 level pairs)
+the pixel's offset along the motion from the track at that top midpoint's time, less the
+median of every steady track's crossings with as many pairs (what the sensor does to a
+single star's top level: a pixel's lag, its thresholds), is where the brighter star lies
+off the track. Per track the median of these: a single star's sits within ~0.04 px of 0,
+a blend's 0.2–1.4 px off. A track whose median stands MIN_SHIFT_PX and SHIFT_SES standard
+errors off is moved by it along its motion, its σ widened by SIGMA_SHARE of the move (the
+top pair still feels the fainter star: 20–45 % of the offset is left).
+
+Only where it holds: tracks with MIN_CROSSINGS such crossings that keep their direction
+(evstar.pairs.MAX_TURN_DEG) and speed (STEADY_SPEED: a sinusoid's tracks are left out),
+MIN_REFERENCES other such tracks, and runs whose crossings are not moved for a pixel lag
+(estimation's PixelLag: on a low-pass sensor the top level lags less than the mean by an
+amount that differs star by star, which moved single stars 0.2–0.4 px the wrong way on an
+EVK4 dark-sky pan at 20 °/s). The fainter star is not found.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import paths
+from .pairs import MAX_TURN_DEG
+
+#: crossings within this of a track's path across its motion (px): its centre line
+CENTRE_PX = 1.0
+#: the fewest level pairs of a crossing whose top pair is not its mean
+MIN_LEVELS = 2
+#: the fewest centre-line crossings that place a track's brighter star; the fewest other
+#: tracks, each with PER_LEVEL crossings of a number of level pairs, that give the reference
+#: at that number
+MIN_CROSSINGS, MIN_REFERENCES, PER_LEVEL = 60, 3, 5
+#: the reference at k level pairs pools k ± this (a field's stars differ in brightness)
+LEVEL_WINDOW = 1
+#: a track moves only by at least this (px) and this many standard errors of its median
+MIN_SHIFT_PX, SHIFT_SES = 0.15, 4.0
+#: a steady track's 10th-percentile speed is at least this share of its 90th
+STEADY_SPEED = 0.8
+#: added in quadrature to a moved track's σ, per px it moved
+SIGMA_SHARE = 0.5
+
+
+def shifted(rows, crossings, near, tracks):
+    """`rows` (CENTROID_DTYPE) with each track that is an along-motion blend moved onto
+    its brighter star (a new array, same order). near: evstar.crossings.near_tracks of
+    `crossings` to `tracks` (the estimator's positions before its last steps moved them
+    into `rows`)."""
+    tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
+    if not len(tracked) or not len(near[0]):
+        return rows
+    path = paths.of(rows[tracked])
+    shift = track_shifts(path, crossings, near, paths.moved_by(path, tracks))
+    moving = np.flatnonzero(shift != 0)
+    if not len(moving):
+        return rows
+    out = rows.copy()
+    g = paths.lookup(path["ids"], rows["track"][tracked])
+    u = _mean_direction(path)[g]
+    s = shift[g]
+    out["x"][tracked] += s * u[:, 0]
+    out["y"][tracked] += s * u[:, 1]
+    out["sigma"][tracked] = np.hypot(out["sigma"][tracked], SIGMA_SHARE * s)
+    return out
+
+
+def track_shifts(path, crossings, near, moved):
+    """Per track of `path` (evstar.paths.of), how far its brighter star lies ahead of it
+    along its motion (px; 0: not moved). moved: evstar.paths.moved_by of `near`'s tracks."""
+    n_tr = len(path["ids"])
+    ci, tid, dx, dy, ux, uy = near[:6]
+    g = paths.lookup(path["ids"], tid)
+    keep = np.flatnonzero(g >= 0)
+    ci, g, ux, uy = ci[keep], g[keep], ux[keep], uy[keep]
+    ox, oy = dx[keep] - moved[g, 0], dy[keep] - moved[g, 1]
+    vx, vy = paths.at(path, g, crossings["t"][ci], ("vx", "vy"))
+    speed = np.hypot(vx, vy) * 1e-6                                  # px/µs
+    k = crossings["pairs"][ci]
+    # the pixel's offset from the track at the top pair's time, along the motion
+    off = ox * ux + oy * uy + speed * (crossings["t"][ci] - crossings["t_top"][ci])
+    use = ((k >= MIN_LEVELS) & (np.abs(oy * ux - ox * uy) < CENTRE_PX) & _steady(path)[g]
+           & np.isfinite(off))
+    g, k, off = g[use], k[use], off[use]
+    off = off - _reference(g, k, off)
+    ok = np.isfinite(off)
+    g, off = g[ok], off[ok]
+    ids, inv, n = np.unique(g, return_inverse=True, return_counts=True)
+    med = _group_medians(inv, off, len(ids))
+    se = 1.4826 * _group_medians(inv, np.abs(off - med[inv]), len(ids)) / np.sqrt(n)
+    moves = (n >= MIN_CROSSINGS) & (np.abs(med) >= MIN_SHIFT_PX) & (np.abs(med) >= SHIFT_SES * se)
+    shift = np.zeros(n_tr)
+    shift[ids[moves]] = med[moves]
+    return shift
+
+
+def _reference(g, k, off):
+    """Per crossing (of track g, with k level pairs), the median over the other tracks of
+    their median offset at k ± LEVEL_WINDOW (those with PER_LEVEL crossings there; NaN
+    where fewer than MIN_REFERENCES other tracks have as many: one track's own crossings
+    would be its reference)."""
+    ref = np.full(len(off), np.nan)
+    for level in np.unique(k):
+        near = np.flatnonzero(np.abs(k - level) <= LEVEL_WINDOW)
+        ids, inv, n = np.unique(g[near], return_inverse=True, return_counts=True)
+        full = n >= PER_LEVEL
+        if np.count_nonzero(full) <= MIN_REFERENCES:
+            continue
+        med = np.full(len(ids), np.nan)
+        med[full] = _medians_without_each(_group_medians(inv, off[near], len(ids))[full])
+        at = np.flatnonzero(k == level)
+        ref[at] = med[np.searchsorted(ids, g[at])]
+    return ref
+
+
+def _group_medians(group, values, n_groups):
+    """The median of `values` per group (0 .. n_groups − 1, each non-empty)."""
+    order = np.lexsort((values, group))
+    start = np.searchsorted(group[order], np.arange(n_groups))
+    n = np.diff(np.r_[start, len(group)])
+    v = values[order]
+    return 0.5 * (v[start + (n - 1) // 2] + v[start + n // 2])
+
+
+def _medians_without_each(v):
+    """Per element of v, the median of the others."""
+    order = np.argsort(v)
+    rank = np.empty(len(v), np.int64)
+    rank[order] = np.arange(len(v))
+    s = v[order]
+    m = len(v) - 1                                   # the others' count
+    lo, hi = (m - 1) // 2, m // 2                    # their middle positions
+    pick = lambda p: s[np.where(p < rank, p, p + 1)]
+    return 0.5 * (pick(lo) + pick(hi))
+
+
+def _steady(path):
+    """Per track: it keeps its direction (MAX_TURN_DEG) and its speed (STEADY_SPEED)."""
+    n_tr, g = len(path["ids"]), path["g"]
+    _, steady = paths.directions(path, MAX_TURN_DEG)
+    speed = np.hypot(path["vx"], path["vy"])
+    order = np.lexsort((speed, g))                            # each track's speeds, ascending
+    first = np.searchsorted(g[order], np.arange(n_tr))
+    n = np.bincount(g, None, n_tr)
+    lo = speed[order][first + (0.1 * (n - 1)).astype(np.int64)]
+    hi = speed[order][first + (0.9 * (n - 1)).astype(np.int64)]
+    return steady & (hi > 0) & (lo >= STEADY_SPEED * hi)
+
+
+def _mean_direction(path):
+    """Per track, the unit vector of its mean velocity."""
+    n_tr, g = len(path["ids"]), path["g"]
+    v = np.column_stack([np.bincount(g, path["vx"], n_tr), np.bincount(g, path["vy"], n_tr)])
+    norm = np.linalg.norm(v, axis=1, keepdims=True)
+    return np.divide(v, norm, out=np.zeros_like(v), where=norm > 0)
