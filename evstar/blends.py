@@ -10,15 +10,18 @@ star's peak alone, so its midpoint is when that star passed the pixel.
 
 Per crossing near a track's centre line (within CENTRE_PX across, at least 2 level pairs)
 the pixel's offset along the motion from the track at that top midpoint's time, less the
-median of every steady track's crossings with as many pairs (what the sensor does to a
-single star's top level: a pixel's lag, its thresholds), is where the brighter star lies
-off the track. Per track the median of these: a single star's sits within ~0.04 px of 0,
-a blend's 0.2–1.4 px off. A track whose median stands MIN_SHIFT_PX and SHIFT_SES standard
-errors off is moved by it along its motion, its σ widened by SIGMA_SHARE of the move (the
-top pair still feels the fainter star: 20–45 % of the offset is left).
+median over the other steady tracks of theirs at as many pairs (± LEVEL_WINDOW; what the
+sensor does to a single star's top level: its thresholds, its timing), is where the
+brighter star lies off the track. Per track the median of these: a single star's sits
+within ~0.04 px of 0, a blend's 0.2–1.5 px off. A track whose median stands MIN_SHIFT_PX
+and SHIFT_SES standard errors off, but no further than MAX_SHIFT_PX, is moved by it along
+its motion, its σ widened by SIGMA_SHARE of the move (the top pair still feels the fainter
+star: 20–45 % of the offset is left).
 
 Only where it holds: tracks with MIN_CROSSINGS such crossings that keep their direction
-(evstar.pairs.MAX_TURN_DEG) and speed (STEADY_SPEED: a sinusoid's tracks are left out),
+(evstar.pairs.MAX_TURN_DEG) and speed (STEADY_SPEED: a sinusoid's and a slew's tracks are
+left out; with a changing speed single stars' top levels stood off too, and the isolated
+stars' 90th percentile on Orion DAVIS346 8 mm slews went 0.13–0.21 → 0.18–0.29 px),
 MIN_REFERENCES other such tracks, and runs whose crossings are not moved for a pixel lag
 (estimation's PixelLag: on a low-pass sensor the top level lags less than the mean by an
 amount that differs star by star, which moved single stars 0.2–0.4 px the wrong way on an
@@ -41,21 +44,25 @@ MIN_LEVELS = 2
 MIN_CROSSINGS, MIN_REFERENCES, PER_LEVEL = 60, 3, 5
 #: the reference at k level pairs pools k ± this (a field's stars differ in brightness)
 LEVEL_WINDOW = 1
-#: a track moves only by at least this (px) and this many standard errors of its median
-MIN_SHIFT_PX, SHIFT_SES = 0.15, 4.0
+#: a track moves only by at least this (px) and this many standard errors of its median,
+#: and at most MAX_SHIFT_PX: two stars 2–4 px apart put the brighter 0.4–1.5 px off their
+#: blend; a track's crossings 4.3 px off it are no blend's (a track among three stars of a
+#: Pleiades pan)
+MIN_SHIFT_PX, SHIFT_SES, MAX_SHIFT_PX = 0.15, 4.0, 2.0
 #: a steady track's 10th-percentile speed is at least this share of its 90th
 STEADY_SPEED = 0.8
 #: added in quadrature to a moved track's σ, per px it moved
 SIGMA_SHARE = 0.5
 
 
-def shifted(rows, crossings, near, tracks):
+def shifted(rows, crossings, near, tracks, lag=None):
     """`rows` (CENTROID_DTYPE) with each track that is an along-motion blend moved onto
     its brighter star (a new array, same order). near: evstar.crossings.near_tracks of
     `crossings` to `tracks` (the estimator's positions before its last steps moved them
-    into `rows`)."""
+    into `rows`); lag: the PixelLag the crossings were moved back by (not None: `rows` as
+    they are, see the module doc)."""
     tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
-    if not len(tracked) or not len(near[0]):
+    if lag is not None or not len(tracked) or not len(near[0]):
         return rows
     path = paths.of(rows[tracked])
     shift = track_shifts(path, crossings, near, paths.moved_by(path, tracks))
@@ -95,7 +102,8 @@ def track_shifts(path, crossings, near, moved):
     ids, inv, n = np.unique(g, return_inverse=True, return_counts=True)
     med = _group_medians(inv, off, len(ids))
     se = 1.4826 * _group_medians(inv, np.abs(off - med[inv]), len(ids)) / np.sqrt(n)
-    moves = (n >= MIN_CROSSINGS) & (np.abs(med) >= MIN_SHIFT_PX) & (np.abs(med) >= SHIFT_SES * se)
+    moves = ((n >= MIN_CROSSINGS) & (np.abs(med) >= MIN_SHIFT_PX) & (np.abs(med) <= MAX_SHIFT_PX)
+             & (np.abs(med) >= SHIFT_SES * se))
     shift = np.zeros(n_tr)
     shift[ids[moves]] = med[moves]
     return shift

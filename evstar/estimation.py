@@ -171,10 +171,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         rows = across.refine(rows, *near, t0_us, config.dt_us, sensor, e.across_kernel_px)
     if lag_sigma is not None:
         rows = with_lag_sigma(rows, lag_sigma)
-    if near_cross is not None and e.along_blends and lag is None:
+    if near_cross is not None and e.along_blends:
         from . import blends
 
-        rows = blends.shifted(rows, crossings, near_cross, assigned_to)
+        rows = blends.shifted(rows, crossings, near_cross, assigned_to, lag)
     if near_cross is not None and e.split_pairs:   # a pair's two stars share its track's σ
         from . import pairs
 

@@ -68,14 +68,14 @@ def field(tracks):
 SINGLES = [[(0.0, 0.3, a)] for a in (12.0, 14.0, 17.0, 20.0, 24.0)]
 
 
-def run(rows, cross):
+def run(rows, cross, lag=None):
     """blends.shifted with the crossings assigned to the rows' own tracks."""
     srt = rows[np.lexsort((rows["t"], rows["track"]))]
     tracks = np.zeros(len(srt), ESTIMATE_DTYPE)
     for f in ("t", "track", "x", "y"):
         tracks[f] = srt[f]
     tracks["vx"] = SPEED
-    return blends.shifted(rows, cross, near_tracks(cross, tracks, 3.0), tracks)
+    return blends.shifted(rows, cross, near_tracks(cross, tracks, 3.0), tracks, lag)
 
 
 def offset(rows, track, star_x):
@@ -127,3 +127,13 @@ def test_a_track_that_changes_speed_is_not_moved(blend_field):
     path["vx"] = np.where(path["t"] < SPAN_US / 2, SPEED, 0.5 * SPEED)
     assert not blends._steady(path).any()
     assert blends._steady(paths.of(rows)).all()
+
+
+def test_no_move_where_the_crossings_were_moved_for_a_pixel_lag(blend_field):
+    from evstar.calibration import PixelLag
+
+    rows, cross = blend_field
+    lag = PixelLag(pairs=np.arange(1, 4), speed_px_s=np.array([SPEED]),
+                   lag_us=np.full((3, 1), 500.0), se_us=np.full((3, 1), 50.0))
+    assert np.array_equal(run(rows, cross, lag), rows)
+    assert not np.array_equal(run(rows, cross), rows)
