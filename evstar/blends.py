@@ -81,31 +81,32 @@ def shifted(rows, crossings, near, tracks, lag=None):
 
 def track_shifts(path, crossings, near, moved):
     """Per track of `path` (evstar.paths.of), how far its brighter star lies ahead of it
-    along its motion (px; 0: not moved). moved: evstar.paths.moved_by of `near`'s tracks."""
+    along its motion (px; 0: not moved). near: evstar.crossings.near_tracks' (its tracks'
+    directions and speeds at the crossings); moved: evstar.paths.moved_by of its tracks."""
     n_tr = len(path["ids"])
-    ci, tid, dx, dy, ux, uy = near[:6]
+    ci, tid, dx, dy, ux, uy, speed = near[:7]
     g = paths.lookup(path["ids"], tid)
-    keep = np.flatnonzero(g >= 0)
-    ci, g, ux, uy = ci[keep], g[keep], ux[keep], uy[keep]
-    ox, oy = dx[keep] - moved[g, 0], dy[keep] - moved[g, 1]
-    vx, vy = paths.at(path, g, crossings["t"][ci], ("vx", "vy"))
-    speed = np.hypot(vx, vy) * 1e-6                                  # px/µs
     k = crossings["pairs"][ci]
+    # the centre-line crossings of steady tracks with a top pair that is not their mean
+    use = np.flatnonzero(g >= 0)
+    use = use[(k[use] >= MIN_LEVELS) & _steady(path)[g[use]]]
+    ox, oy = dx[use] - moved[g[use], 0], dy[use] - moved[g[use], 1]
+    ux, uy = ux[use], uy[use]
+    centre = np.abs(oy * ux - ox * uy) < CENTRE_PX
+    use, ox, oy, ux, uy = use[centre], ox[centre], oy[centre], ux[centre], uy[centre]
+    ci, g, k = ci[use], g[use], k[use]
     # the pixel's offset from the track at the top pair's time, along the motion
-    off = ox * ux + oy * uy + speed * (crossings["t"][ci] - crossings["t_top"][ci])
-    use = ((k >= MIN_LEVELS) & (np.abs(oy * ux - ox * uy) < CENTRE_PX) & _steady(path)[g]
-           & np.isfinite(off))
-    g, k, off = g[use], k[use], off[use]
+    off = ox * ux + oy * uy + speed[use] * 1e-6 * (crossings["t"][ci] - crossings["t_top"][ci])
     off = off - _reference(g, k, off)
     ok = np.isfinite(off)
     g, off = g[ok], off[ok]
-    ids, inv, n = np.unique(g, return_inverse=True, return_counts=True)
-    med = _group_medians(inv, off, len(ids))
-    se = 1.4826 * _group_medians(inv, np.abs(off - med[inv]), len(ids)) / np.sqrt(n)
-    moves = ((n >= MIN_CROSSINGS) & (np.abs(med) >= MIN_SHIFT_PX) & (np.abs(med) <= MAX_SHIFT_PX)
-             & (np.abs(med) >= SHIFT_SES * se))
+    ids, med, n = _group_medians(g, off)
+    maybe = (n >= MIN_CROSSINGS) & (np.abs(med) >= MIN_SHIFT_PX) & (np.abs(med) <= MAX_SHIFT_PX)
     shift = np.zeros(n_tr)
-    shift[ids[moves]] = med[moves]
+    for j in np.flatnonzero(maybe):                 # a few tracks: their scatter one by one
+        mine = off[g == ids[j]]
+        se = 1.4826 * np.median(np.abs(mine - med[j])) / np.sqrt(n[j])
+        shift[ids[j]] = med[j] if abs(med[j]) >= SHIFT_SES * se else 0.0
     return shift
 
 
@@ -114,27 +115,34 @@ def _reference(g, k, off):
     their median offset at k ± LEVEL_WINDOW (those with PER_LEVEL crossings there; NaN
     where fewer than MIN_REFERENCES other tracks have as many: one track's own crossings
     would be its reference)."""
-    ref = np.full(len(off), np.nan)
+    table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
+    order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
+    k_sorted = k[order]
     for level in np.unique(k):
-        near = np.flatnonzero(np.abs(k - level) <= LEVEL_WINDOW)
-        ids, inv, n = np.unique(g[near], return_inverse=True, return_counts=True)
+        near = order[np.abs(k_sorted - level) <= LEVEL_WINDOW]
+        ids, med, n = _group_medians(g[near], off[near], presorted=True)
         full = n >= PER_LEVEL
-        if np.count_nonzero(full) <= MIN_REFERENCES:
-            continue
-        med = np.full(len(ids), np.nan)
-        med[full] = _medians_without_each(_group_medians(inv, off[near], len(ids))[full])
-        at = np.flatnonzero(k == level)
-        ref[at] = med[np.searchsorted(ids, g[at])]
-    return ref
+        if np.count_nonzero(full) > MIN_REFERENCES:
+            table[level, ids[full]] = _medians_without_each(med[full])
+    return table[k, g]
 
 
-def _group_medians(group, values, n_groups):
-    """The median of `values` per group (0 .. n_groups − 1, each non-empty)."""
-    order = np.lexsort((values, group))
-    start = np.searchsorted(group[order], np.arange(n_groups))
-    n = np.diff(np.r_[start, len(group)])
-    v = values[order]
-    return 0.5 * (v[start + (n - 1) // 2] + v[start + n // 2])
+def _by_group(g, v):
+    """The order that sorts by group g (non-negative integers), then by value v (finite)."""
+    lo, hi = float(v.min(initial=0.0)), float(v.max(initial=0.0))
+    return np.argsort(g * (hi - lo + 1.0) + (v - lo))
+
+
+def _group_medians(g, v, presorted=False):
+    """(groups, the median of v in each, its count): g, v in _by_group order if presorted."""
+    if not len(g):
+        return g, np.zeros(0), np.zeros(0, np.int64)
+    if not presorted:
+        order = _by_group(g, v)
+        g, v = g[order], v[order]
+    start = np.r_[0, np.flatnonzero(np.diff(g)) + 1]
+    n = np.diff(np.r_[start, len(g)])
+    return g[start], 0.5 * (v[start + (n - 1) // 2] + v[start + n // 2]), n
 
 
 def _medians_without_each(v):
