@@ -21,7 +21,7 @@ star: 20–45 % of the offset is left).
 Only where it holds: tracks with MIN_CROSSINGS such crossings that keep their direction
 (evstar.pairs.MAX_TURN_DEG) and speed (STEADY_SPEED: a sinusoid's and a slew's tracks are
 left out; with a changing speed single stars' top levels stood off too, and the isolated
-stars' 90th percentile on Orion DAVIS346 8 mm slews went 0.13–0.21 → 0.18–0.29 px),
+stars' 90th percentile on Orion DAVIS346 8 mm slews went 0.13–0.26 → 0.18–0.29 px),
 MIN_REFERENCES other such tracks, and runs whose crossings are not moved for a pixel lag
 (estimation's PixelLag: on a low-pass sensor the top level lags less than the mean by an
 amount that differs star by star, which moved single stars 0.2–0.4 px the wrong way on an
