@@ -112,9 +112,9 @@ def track_shifts(path, crossings, near, moved):
 
 def _reference(g, k, off):
     """Per crossing (of track g, with k level pairs), the median over the other tracks of
-    their median offset at k ± LEVEL_WINDOW (those with PER_LEVEL crossings there; NaN
-    where fewer than MIN_REFERENCES other tracks have as many: one track's own crossings
-    would be its reference)."""
+    their median offset at k ± LEVEL_WINDOW, among the tracks with PER_LEVEL crossings
+    there; NaN for a track with fewer itself, and where fewer than MIN_REFERENCES other
+    tracks have as many (one track's own crossings would be its reference)."""
     table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
     order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
     k_sorted = k[order]
