@@ -131,7 +131,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         from .crossings import near_tracks, within
         from .pairs import REACH_PX
 
-        # one assignment serves both: the estimator's within 3 px, the pair split's wider
+        # one assignment serves all three: the estimator's within 3 px, the pair split's
+        # and the along blends' (evstar.blends) wider
         assigned_to = _by_track(ests)
         near_cross = near_tracks(crossings, assigned_to, REACH_PX if e.split_pairs else 3.0)
         every = within(near_cross, 3.0)
