@@ -301,23 +301,25 @@ def outer_half_width(ts, change, k, ratio, on_before):
     (NaN where k is 0). A pixel's low-pass stretches its falling flank, and the more it
     does, the later its midpoints: at one k the lag grows with this width alike for a
     bright star's flank pixels and a faint star's own (EVK4 dark sky, docs/measurements.md)."""
-    k, on_before = np.asarray(k), np.asarray(on_before)
-    if np.all(k > 0):     # the crossings' own changes: no selection to gather
-        mid, fall = _midpoint(ts, change, on_before, k, ratio)
-        return fall - mid
-    out = np.full(len(change), np.nan)
-    m = np.flatnonzero(k > 0)
-    mid, fall = _midpoint(ts, change[m], on_before[m], k[m], ratio)
-    out[m] = fall - mid
-    return out
+    mid, fall = _pair_where_any(ts, change, k, k, ratio, on_before)
+    return fall - mid
 
 
 def top_midpoint(ts, change, k, ratio, on_before):
     """Per change, its top level pair's midpoint (µs; NaN where k is 0)."""
-    out = np.full(len(change), np.nan)
-    m = np.flatnonzero(np.asarray(k) > 0)
-    out[m] = _midpoint(ts, change[m], np.asarray(on_before)[m], 1, ratio)[0]
-    return out
+    return _pair_where_any(ts, change, k, 1, ratio, on_before)[0]
+
+
+def _pair_where_any(ts, change, k, j, ratio, on_before):
+    """_midpoint's (midpoint, OFF time) of level pair j (a number, or one per change) of
+    each change with k > 0 pairs; NaN where k is 0."""
+    k, on_before = np.asarray(k), np.asarray(on_before)
+    if np.all(k > 0):     # the crossings' own changes: no selection to gather
+        return _midpoint(ts, change, on_before, j, ratio)
+    mid, fall = np.full(len(change), np.nan), np.full(len(change), np.nan)
+    m = np.flatnonzero(k > 0)
+    mid[m], fall[m] = _midpoint(ts, change[m], on_before[m], np.broadcast_to(j, k.shape)[m], ratio)
+    return mid, fall
 
 
 def _midpoint(ts, c, nb, j, ratio):
