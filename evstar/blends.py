@@ -9,23 +9,23 @@ pan's close stars, docs/measurements.md). The crossing's top level pair is the b
 star's peak alone, so its midpoint is when that star passed the pixel.
 
 Per crossing near a track's centre line (within CENTRE_PX across, at least 2 level pairs)
-the pixel's offset along the motion from the track at that top midpoint's time, less the
-median over the other steady tracks of theirs at as many pairs (± LEVEL_WINDOW; what the
-sensor does to a single star's top level: its thresholds, its timing), is where the
-brighter star lies off the track. Per track the median of these: a single star's sits
-within ~0.04 px of 0, a blend's 0.2–1.5 px off. A track whose median stands MIN_SHIFT_PX
-and SHIFT_SES standard errors off, but no further than MAX_SHIFT_PX, is moved by it along
-its motion, its σ widened by SIGMA_SHARE of the move (the top pair still feels the fainter
-star: 20–45 % of the offset is left).
+the pixel's offset along the motion from the track's own path where it was at that top
+midpoint's time, less the median over the other steady tracks of theirs at as many pairs
+(± LEVEL_WINDOW; what the sensor does to a single star's top level: its thresholds, its
+timing), is where the brighter star lies off the track. Per track the median of these: a
+single star's sits within ~0.04 px of 0, a blend's 0.2–1.5 px off. A track whose median
+stands MIN_SHIFT_PX and SHIFT_SES standard errors off, but no further than MAX_SHIFT_PX,
+is moved by it along its motion, its σ widened by SIGMA_SHARE of the move (the top pair
+still feels the fainter star: 20–45 % of the offset is left). The offsets are the path's
+own, not those of the estimator's earlier path that assigned the crossings to tracks: on a
+slew that one strays from the final path by up to ~1.5 px and back, and single stars had
+moved with it (why an earlier form of this step was kept off where the speed changes).
 
 Only where it holds: tracks with MIN_CROSSINGS such crossings that keep their direction
-(evstar.pairs.MAX_TURN_DEG) and speed (STEADY_SPEED: a sinusoid's and a slew's tracks are
-left out; with a changing speed single stars' top levels stood off too, and the isolated
-stars' 90th percentile on Orion DAVIS346 8 mm slews went 0.13–0.26 → 0.18–0.29 px),
-MIN_REFERENCES other such tracks, and runs whose crossings are not moved for a pixel lag
-(estimation's PixelLag: on a low-pass sensor the top level lags less than the mean by an
-amount that differs star by star, which moved single stars 0.2–0.4 px the wrong way on an
-EVK4 dark-sky pan at 20 °/s). The fainter star is not found.
+(evstar.pairs.MAX_TURN_DEG), MIN_REFERENCES other such tracks, and runs whose crossings
+are not moved for a pixel lag (estimation's PixelLag: on a low-pass sensor the top level
+lags less than the mean by an amount that differs star by star, which moved single stars
+0.2–0.4 px the wrong way on an EVK4 dark-sky pan at 20 °/s). The fainter star is not found.
 """
 from __future__ import annotations
 
@@ -49,23 +49,20 @@ LEVEL_WINDOW = 1
 #: blend; a track's crossings 4.3 px off it are no blend's (a track among three stars of a
 #: Pleiades pan)
 MIN_SHIFT_PX, SHIFT_SES, MAX_SHIFT_PX = 0.15, 4.0, 2.0
-#: a steady track's 10th-percentile speed is at least this share of its 90th
-STEADY_SPEED = 0.8
 #: added in quadrature to a moved track's σ, per px it moved
 SIGMA_SHARE = 0.5
 
 
-def shifted(rows, crossings, near, tracks, lag=None):
+def shifted(rows, crossings, near, lag=None):
     """`rows` (CENTROID_DTYPE) with each track that is an along-motion blend moved onto
-    its brighter star (a new array, same order). near: evstar.crossings.near_tracks of
-    `crossings` to `tracks` (the estimator's positions before its last steps moved them
-    into `rows`); lag: the PixelLag the crossings were moved back by (not None: `rows` as
-    they are, see the module doc)."""
+    its brighter star (a new array, same order). near: evstar.crossings.near_tracks'
+    assignment of `crossings` to the tracks; lag: the PixelLag the crossings were moved
+    back by (not None: `rows` as they are, see the module doc)."""
     tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
     if lag is not None or not len(tracked) or not len(near[0]):
         return rows
     path = paths.of(rows[tracked])
-    shift = track_shifts(path, crossings, near, paths.moved_by(path, tracks))
+    shift = track_shifts(path, crossings, near)
     moving = np.flatnonzero(shift != 0)
     if not len(moving):
         return rows
@@ -79,24 +76,28 @@ def shifted(rows, crossings, near, tracks, lag=None):
     return out
 
 
-def track_shifts(path, crossings, near, moved):
+def track_shifts(path, crossings, near):
     """Per track of `path` (evstar.paths.of), how far its brighter star lies ahead of it
-    along its motion (px; 0: not moved). near: evstar.crossings.near_tracks' (its tracks'
-    directions and speeds at the crossings); moved: evstar.paths.moved_by of its tracks."""
+    along its motion (px; 0: not moved). near: evstar.crossings.near_tracks' assignment of
+    the crossings to tracks (its first two fields)."""
     n_tr = len(path["ids"])
-    ci, tid, dx, dy, ux, uy, speed = near[:7]
+    ci, tid = near[:2]
     g = paths.lookup(path["ids"], tid)
     k = crossings["pairs"][ci]
-    # the centre-line crossings of steady tracks with a top pair that is not their mean
+    # the crossings of steady tracks with a top pair that is not their mean
     use = np.flatnonzero(g >= 0)
-    use = use[(k[use] >= MIN_LEVELS) & _steady(path)[g[use]]]
-    ox, oy = dx[use] - moved[g[use], 0], dy[use] - moved[g[use], 1]
-    ux, uy = ux[use], uy[use]
-    centre = np.abs(oy * ux - ox * uy) < CENTRE_PX
-    use, ox, oy, ux, uy = use[centre], ox[centre], oy[centre], ux[centre], uy[centre]
+    use = use[(k[use] >= MIN_LEVELS) & paths.directions(path, MAX_TURN_DEG)[1][g[use]]]
     ci, g, k = ci[use], g[use], k[use]
-    # the pixel's offset from the track at the top pair's time, along the motion
-    off = ox * ux + oy * uy + speed[use] * 1e-6 * (crossings["t"][ci] - crossings["t_top"][ci])
+    # the pixel's offset from the track where it was at the top pair's time: the path
+    # itself, not the estimator's earlier one that assigned the crossings (on a slew that
+    # one strays from it by up to ~1.5 px and back)
+    px, py, vx, vy = paths.at(path, g, crossings["t_top"][ci], ("x", "y", "vx", "vy"))
+    speed = np.hypot(vx, vy)
+    ux, uy = (np.divide(v, speed, out=np.zeros(len(v)), where=speed > 0) for v in (vx, vy))
+    ox, oy = crossings["x"][ci] - px, crossings["y"][ci] - py
+    centre = (speed > 0) & (np.abs(oy * ux - ox * uy) < CENTRE_PX)
+    ci, g, k = ci[centre], g[centre], k[centre]
+    off = ox[centre] * ux[centre] + oy[centre] * uy[centre]
     off = off - _reference(g, k, off)
     ok = np.isfinite(off)
     g, off = g[ok], off[ok]
@@ -155,19 +156,6 @@ def _medians_without_each(v):
     lo, hi = (m - 1) // 2, m // 2                    # their middle positions
     pick = lambda p: s[np.where(p < rank, p, p + 1)]
     return 0.5 * (pick(lo) + pick(hi))
-
-
-def _steady(path):
-    """Per track: it keeps its direction (MAX_TURN_DEG) and its speed (STEADY_SPEED)."""
-    n_tr, g = len(path["ids"]), path["g"]
-    _, steady = paths.directions(path, MAX_TURN_DEG)
-    speed = np.hypot(path["vx"], path["vy"])
-    order = np.lexsort((speed, g))                            # each track's speeds, ascending
-    first = np.searchsorted(g[order], np.arange(n_tr))
-    n = np.bincount(g, None, n_tr)
-    lo = speed[order][first + (0.1 * (n - 1)).astype(np.int64)]
-    hi = speed[order][first + (0.9 * (n - 1)).astype(np.int64)]
-    return steady & (hi > 0) & (lo >= STEADY_SPEED * hi)
 
 
 def _mean_direction(path):

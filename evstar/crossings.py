@@ -506,7 +506,7 @@ def within(near, max_offset_px):
     """along_track's result from a near_tracks result of a reach >= max_offset_px: its
     crossings within max_offset_px (the nearest track within that reach is the nearest
     within any larger one, so the assignment is the same)."""
-    ci, track, dx, dy, ux, uy = near[:6]
+    ci, track, dx, dy, ux, uy = near
     k = np.flatnonzero(np.sqrt(dx * dx + dy * dy) < max_offset_px)
     ux, uy = ux[k], uy[k]
     return ci[k], track[k], np.column_stack([ux, uy]), dx[k] * ux + dy[k] * uy
@@ -514,8 +514,7 @@ def within(near, max_offset_px):
 
 def near_tracks(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     """along_track's assignment: (index into crossings, track id, dx, dy = pixel − track
-    position (px), ux, uy = the track's unit motion direction, its speed px/s) per
-    assigned crossing."""
+    position (px), ux, uy = the track's unit motion direction) per assigned crossing."""
     # plain arrays: fields of packed records are slow to index
     crossings = {f: np.ascontiguousarray(crossings[f]) for f in ("t", "x", "y")}
     tracks = {f: np.ascontiguousarray(tracks[f]) for f in ("t", "track", "x", "y", "vx", "vy")}
@@ -528,7 +527,7 @@ def near_tracks(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
     ok = np.flatnonzero((dist < max_offset_px) & (speed >= min_speed_px_s))
     first = ok[_nearest(ci[ok], dist[ok], tracks["track"][seg[ok]], len(crossings["t"]))]
     return (ci[first], tracks["track"][seg[first]], dx[first], dy[first],
-            vx[first] / speed[first], vy[first] / speed[first], speed[first])
+            vx[first] / speed[first], vy[first] / speed[first])
 
 
 def _nearest(ci, dist, tid, n):

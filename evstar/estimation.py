@@ -175,11 +175,11 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     if near_cross is not None and e.along_blends:
         from . import blends
 
-        rows = blends.shifted(rows, crossings, near_cross, assigned_to, lag)
+        rows = blends.shifted(rows, crossings, near_cross, lag)
     if near_cross is not None and e.split_pairs:   # a pair's two stars share its track's σ
         from . import pairs
 
-        rows = pairs.split(rows, crossings, near_cross, assigned_to)
+        rows = pairs.split(rows, crossings, near_cross)
     return rows
 
 

@@ -21,14 +21,27 @@ SPEED, SIGMA, C, DT_US, SPAN_US = 400.0, 1.0, 0.25, 10_000, 500_000
 GRID_US = 20.0
 
 
-def pulse_crossing(px, py, stars):
+def moved(t_us, acc):
+    """How far the stars have moved along x at t_us (µs) from SPEED px/s, gaining acc px/s²."""
+    t = np.asarray(t_us, np.float64) / 1e6
+    return SPEED * t + 0.5 * acc * t * t
+
+
+def when(d_px, acc):
+    """The time (µs) at which the stars have moved d_px along x (moved's inverse)."""
+    if acc == 0:
+        return d_px / SPEED * 1e6
+    return (np.sqrt(SPEED ** 2 + 2 * acc * d_px) - SPEED) / acc * 1e6
+
+
+def pulse_crossing(px, py, stars, acc=0.0):
     """(t, pairs, t_top) of pixel (px, py) as stars [(x0, y0, amp)] pass it, or None."""
     xs = np.array([x0 for x0, _, _ in stars])
-    t_grid = np.arange((px - xs.max() - 8) / SPEED * 1e6, (px - xs.min() + 8) / SPEED * 1e6,
+    t_grid = np.arange(when(px - xs.max() - 8, acc), when(px - xs.min() + 8, acc),
                        GRID_US)
     inten = np.ones_like(t_grid)
     for x0, y0, a in stars:
-        d2 = (px - x0 - SPEED * t_grid / 1e6) ** 2 + (py - y0) ** 2
+        d2 = (px - x0 - moved(t_grid, acc)) ** 2 + (py - y0) ** 2
         inten += a * np.exp(-0.5 * d2 / SIGMA ** 2)
     log_i = np.log(inten)
     k = int(np.floor(log_i.max() / C))
@@ -41,8 +54,9 @@ def pulse_crossing(px, py, stars):
     return float(np.mean(mids)), k, mids[0]
 
 
-def field(tracks):
-    """(rows, crossings): each track a list of stars (dx, dy, amplitude) about its start."""
+def field(tracks, acc=0.0):
+    """(rows, crossings): each track a list of stars (dx, dy, amplitude) about its start,
+    moving along x at SPEED px/s gaining acc px/s²."""
     rows, cross = [], []
     for k, members in enumerate(tracks):
         x0, y0 = 10.0, 20.0 + 30 * k
@@ -52,12 +66,12 @@ def field(tracks):
         t = np.arange(0, SPAN_US, DT_US)
         r = np.zeros(len(t), CENTROID_DTYPE)
         r["t"], r["frame"], r["track"] = t, t // DT_US, k
-        r["x"], r["y"] = cx + SPEED * t / 1e6, cy
+        r["x"], r["y"] = cx + moved(t, acc), cy
         r["n_events"], r["sigma"], r["source"] = 20, 0.05, "measured"
         rows.append(r)
-        for px in range(int(x0) + 2, int(x0 + SPEED * SPAN_US / 1e6) - 2):
+        for px in range(int(x0) + 2, int(x0 + moved(SPAN_US, acc)) - 2):
             for py in range(int(round(cy)) - 2, int(round(cy)) + 3):
-                got = pulse_crossing(px, py, stars)
+                got = pulse_crossing(px, py, stars, acc)
                 if got is not None:
                     cross.append((px, py, got[0], got[1], 0.0, 0.0, 0.0, got[2]))
     rows = np.concatenate(rows)
@@ -68,20 +82,31 @@ def field(tracks):
 SINGLES = [[(0.0, 0.3, a)] for a in (12.0, 14.0, 17.0, 20.0, 24.0)]
 
 
-def run(rows, cross, lag=None):
-    """blends.shifted with the crossings assigned to the rows' own tracks."""
+def estimates_of(rows):
+    """The rows as the estimator's tracks (ESTIMATE_DTYPE, sorted by track then time)."""
     srt = rows[np.lexsort((rows["t"], rows["track"]))]
     tracks = np.zeros(len(srt), ESTIMATE_DTYPE)
     for f in ("t", "track", "x", "y"):
         tracks[f] = srt[f]
     tracks["vx"] = SPEED
-    return blends.shifted(rows, cross, near_tracks(cross, tracks, 3.0), tracks, lag)
+    return tracks
 
 
-def offset(rows, track, star_x):
+def run(rows, cross, lag=None, stray_px=0.0):
+    """blends.shifted with the crossings assigned to the rows' own tracks, those
+    standing 1–2 stray_px ahead or behind along the motion for the first 60 % of their
+    time and 1.5 times as far the other way after it (the estimator's first path, before
+    the crossings refine it, strays so on a slew)."""
+    tracks = estimates_of(rows)
+    step = stray_px * (-1.0) ** tracks["track"] * (1 + 0.5 * (tracks["track"] % 3))   # per track
+    tracks["x"] += np.where(tracks["t"] < 0.6 * SPAN_US, step, -1.5 * step)
+    return blends.shifted(rows, cross, near_tracks(cross, tracks, 3.0 + 3 * stray_px), lag)
+
+
+def offset(rows, track, star_x, acc=0.0):
     """The track's rows' mean offset along x from the star (at x = star_x at t = 0)."""
     mine = rows[rows["track"] == track]
-    return float(np.mean(mine["x"] - SPEED * mine["t"] / 1e6 - star_x))
+    return float(np.mean(mine["x"] - moved(mine["t"], acc) - star_x))
 
 
 @pytest.fixture(scope="module")
@@ -108,6 +133,14 @@ def test_a_blend_along_the_motion_moves_onto_its_brighter_star(blend_field):
     assert np.array_equal(out[~mine], rows[~mine])       # single stars stay
 
 
+def test_the_offsets_are_taken_from_the_tracks_own_path(blend_field):
+    # the estimator's earlier path assigns the crossings, and its errors stay out
+    rows, cross = blend_field
+    plain, strayed = run(rows, cross, stray_px=0.0), run(rows, cross, stray_px=1.0)
+    assert not np.array_equal(plain, rows)
+    assert np.array_equal(strayed, plain)
+
+
 def test_single_stars_are_left_as_they_were():
     rows, cross = field(SINGLES + [[(0.0, 0.0, 16.0)]])
     assert np.array_equal(run(rows, cross), rows)
@@ -121,12 +154,29 @@ def test_no_move_without_enough_other_tracks(blend_field):
     assert np.array_equal(run(rows[keep], cross[near]), rows[keep])
 
 
-def test_a_track_that_changes_speed_is_not_moved(blend_field):
+def test_a_slewing_blend_moves_and_its_single_stars_stay():
+    # speeding up from SPEED to 3·SPEED px/s: the path's own positions at the top pairs'
+    # times hold whatever the speed does
+    acc = 4 * SPEED / (SPAN_US / 1e6)
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 16.0), (-3.0, 0.0, 5.0)]], acc)
+    out = run(rows, cross)
+    k = len(SINGLES)
+    before, after = offset(rows, k, 10.0, acc), offset(out, k, 10.0, acc)
+    assert before < -0.6
+    assert abs(after) < 0.4 * abs(before), (before, after)
+    mine = out["track"] == k
+    assert np.array_equal(out[~mine], rows[~mine])
+
+
+def test_a_track_that_turns_is_not_moved(blend_field):
     rows, cross = blend_field
+    near = near_tracks(cross, estimates_of(rows), 3.0)
     path = paths.of(rows)
-    path["vx"] = np.where(path["t"] < SPAN_US / 2, SPEED, 0.5 * SPEED)
-    assert not blends._steady(path).any()
-    assert blends._steady(paths.of(rows)).all()
+    k = len(SINGLES)
+    assert blends.track_shifts(path, cross, near)[k] != 0
+    turn = (path["g"] == k) & (path["t"] > SPAN_US / 2)
+    path["vx"][turn], path["vy"][turn] = 0.5 * SPEED, 0.5 * SPEED     # 45° off
+    assert blends.track_shifts(path, cross, near)[k] == 0
 
 
 def test_no_move_where_the_crossings_were_moved_for_a_pixel_lag(blend_field):
