@@ -98,7 +98,7 @@ def track_shifts(path, crossings, near):
     centre = (speed > 0) & (np.abs(oy * ux - ox * uy) < CENTRE_PX)
     ci, g, k = ci[centre], g[centre], k[centre]
     off = ox[centre] * ux[centre] + oy[centre] * uy[centre]
-    off = off - _reference(g, k, off)
+    off = off - _reference(g, k, off, _references(g, k, off, n_tr))
     ok = np.isfinite(off)
     g, off = g[ok], off[ok]
     ids, med, n = _group_medians(g, off)
@@ -111,11 +111,25 @@ def track_shifts(path, crossings, near):
     return shift
 
 
-def _reference(g, k, off):
+def _references(g, k, off, n_tr):
+    """Per track, whether it may be another's reference: not where its own median offset,
+    against a reference of all the others, stands MIN_SHIFT_PX off (a blend, however few
+    its crossings: on the independent simulator's 12 °/s pair scene of 5 tracks, the two
+    short tracks of one blend put a single star's reference 1.1 px off, and moved it)."""
+    first = off - _reference(g, k, off)
+    ok = np.isfinite(first)
+    ids, med, _ = _group_medians(g[ok], first[ok])
+    usable = np.ones(n_tr, bool)
+    usable[ids[np.abs(med) >= MIN_SHIFT_PX]] = False
+    return usable
+
+
+def _reference(g, k, off, usable=None):
     """Per crossing (of track g, with k level pairs), the median over the other tracks of
     their median offset at k ± LEVEL_WINDOW, among the tracks with PER_LEVEL crossings
-    there; NaN for a track with fewer itself, and where fewer than MIN_REFERENCES other
-    tracks have as many (one track's own crossings would be its reference)."""
+    there (and `usable`, per track; None: all); NaN for a track with fewer itself, and
+    where fewer than MIN_REFERENCES other such tracks have as many (one track's own
+    crossings would be its reference)."""
     table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
     order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
     k_sorted = k[order]
@@ -123,8 +137,11 @@ def _reference(g, k, off):
         near = order[np.abs(k_sorted - level) <= LEVEL_WINDOW]
         ids, med, n = _group_medians(g[near], off[near], presorted=True)
         full = n >= PER_LEVEL
-        if np.count_nonzero(full) > MIN_REFERENCES:
-            table[level, ids[full]] = _medians_without_each(med[full])
+        use = full if usable is None else full & usable[ids]
+        if np.count_nonzero(use) > MIN_REFERENCES:
+            table[level, ids[use]] = _medians_without_each(med[use])
+        if np.count_nonzero(use) >= MIN_REFERENCES:      # the others: all usable ones'
+            table[level, ids[full & ~use]] = np.median(med[use])
     return table[k, g]
 
 

@@ -179,7 +179,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     if near_cross is not None and e.split_pairs:   # a pair's two stars share its track's σ
         from . import pairs
 
-        rows = pairs.split(rows, crossings, near_cross)
+        rows = pairs.split(rows, crossings, near_cross, assigned_to)
     return rows
 
 

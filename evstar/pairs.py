@@ -65,39 +65,37 @@ EM_STEPS, MIN_ALONG_VAR_PX2 = 30, 0.25
 SIGMA_PER_SEPARATION = 0.05
 
 
-def split(rows, crossings, near):
+def split(rows, crossings, near, tracks):
     """`rows` (CENTROID_DTYPE, time-sorted) with each track that is an unresolved pair
     replaced by the pair's two stars (a new array, time-sorted; the new tracks' ids follow
-    the largest). near: evstar.crossings.near_tracks' assignment of the crossings to the
-    tracks (its first two fields), with reach REACH_PX."""
+    the largest). near: evstar.crossings.near_tracks of the crossings to `tracks` (rows
+    with t, track, x, y sorted by track then time: the estimator's, before its last
+    steps moved them into `rows`) with reach REACH_PX."""
     tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
     if not len(tracked) or not len(near[0]):
         return rows
-    found = _pairs(_track_stats(paths.of(rows[tracked]), crossings, near))
+    path = paths.of(rows[tracked])
+    found = _pairs(_track_stats(path, crossings["pairs"], near, paths.moved_by(path, tracks)))
     return _with_pairs(rows, found) if found else rows
 
 
-def _track_stats(path, crossings, near):
+def _track_stats(path, levels, near, moved):
     """Per track (path: evstar.paths.of): its id, main direction of motion (axis, unit, either
     sign), whether it holds it (steady), brightness (level pairs per px of path),
     crossings and the level-pair-weighted variances of their offsets from it along and
     across the axis (var_al, var_ac); and per crossing near one of these tracks (near:
-    evstar.crossings.near_tracks' assignment) its track's index (g), level pairs (w) and
-    offset (along, across) from the path at its time."""
+    evstar.crossings.near_tracks, its offsets less the track's `moved`) its track's index
+    (g) and level pairs (w) and its offset (along, across)."""
     n_tr, g = len(path["ids"]), path["g"]
     axis, steady = paths.directions(path, MAX_TURN_DEG)
     same = g[1:] == g[:-1]
     step = np.hypot(np.diff(path["x"]), np.diff(path["y"]))
     length = np.bincount(g[1:][same], step[same], n_tr)
-    ci, track = near[:2]
+    ci, track, dx, dy = near[:4]
     gc = paths.lookup(path["ids"], track)
     keep = np.flatnonzero(gc >= 0)
-    ci, gc = ci[keep], gc[keep]
-    w = np.asarray(crossings["pairs"], np.float64)[ci]
-    # from the path itself, not the estimator's earlier one that assigned the crossings
-    # (on a slew that one strays from it by up to ~1.5 px and back)
-    px, py = paths.at(path, gc, crossings["t"][ci])
-    ox, oy = crossings["x"][ci] - px, crossings["y"][ci] - py
+    gc, w = gc[keep], np.asarray(levels, np.float64)[ci[keep]]
+    ox, oy = dx[keep] - moved[gc, 0], dy[keep] - moved[gc, 1]
     along = ox * axis[gc, 0] + oy * axis[gc, 1]
     across = oy * axis[gc, 0] - ox * axis[gc, 1]
     total = np.bincount(gc, w, n_tr)

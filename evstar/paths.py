@@ -1,5 +1,5 @@
 """Tracks as paths: a run's tracked rows per track in time order, their velocities, their
-positions at any time, their directions. Shared by the steps that read
+positions at any time, and how far a later step moved them. Shared by the steps that read
 a track's crossings against its path (evstar.pairs, evstar.blends)."""
 from __future__ import annotations
 
@@ -20,6 +20,21 @@ def of(rows):
     vx, vy = (np.divide(a[nxt] - a[prv], dt, out=np.zeros(len(t)), where=dt > 0) * 1e6
               for a in (x, y))
     return {"t": t, "x": x, "y": y, "g": g, "ids": ids, "vx": vx, "vy": vy}
+
+
+def moved_by(path, tracks):
+    """Per track of path (of), the mean move of its rows from `tracks`' positions at
+    their times (the estimator's last steps: a shift across the motion, the lag's along
+    it), (n_tracks, 2); 0 for a track `tracks` lacks."""
+    n_tr = len(path["ids"])
+    earlier = of(tracks)
+    lut = lookup(earlier["ids"], path["ids"])
+    has = np.flatnonzero(lut[path["g"]] >= 0)
+    g = path["g"][has]
+    ex, ey = at(earlier, lut[g], path["t"][has])
+    n = np.maximum(np.bincount(g, None, n_tr), 1)
+    return np.column_stack([np.bincount(g, path["x"][has] - ex, n_tr) / n,
+                            np.bincount(g, path["y"][has] - ey, n_tr) / n])
 
 
 def lookup(ids, wanted):

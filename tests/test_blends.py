@@ -146,6 +146,15 @@ def test_single_stars_are_left_as_they_were():
     assert np.array_equal(run(rows, cross), rows)
 
 
+def test_blends_are_no_reference_for_single_stars():
+    # two blends among four tracks: as references they would put each single star
+    # their offset away (the median of three others), and move it
+    blend = [(0.0, 0.0, 16.0), (-3.0, 0.0, 5.0)]
+    rows, cross = field([SINGLES[1], blend, SINGLES[3], blend])
+    singles = np.isin(rows["track"], [0, 2])
+    assert np.array_equal(run(rows, cross)[singles], rows[singles])
+
+
 def test_no_move_without_enough_other_tracks(blend_field):
     rows, cross = blend_field
     keep = (rows["track"] >= len(SINGLES) - blends.MIN_REFERENCES + 1)

@@ -8,7 +8,7 @@ column. The tracks' rows follow each track's (amplitude-weighted) centre every 1
 import numpy as np
 import pytest
 
-from evstar import pairs
+from evstar import pairs, paths
 from evstar.crossings import CROSSING_DTYPE, near_tracks
 from evstar.extract import CENTROID_DTYPE
 
@@ -57,22 +57,17 @@ def field(stars):
 SINGLES = [[(0.0, 0.3, a)] for a in (4.0, 6.0, 9.0, 13.0, 20.0)]
 
 
-def split(rows, cross, stray_px=0.0):
+def split(rows, cross):
     """pairs.split with the crossings assigned to the rows' own tracks (as the estimator
-    assigns them, to its tracks: rows with velocities, sorted by track then time), those
-    standing 1–2 stray_px ahead or behind along the motion for the first 60 % of their
-    time and 1.5 times as far the other way after it (the estimator's first path, before
-    the crossings refine it, strays so on a slew)."""
+    assigns them, to its tracks: rows with velocities, sorted by track then time)."""
     from evstar.smoothing import ESTIMATE_DTYPE
 
     srt = rows[np.lexsort((rows["t"], rows["track"]))]
     tracks = np.zeros(len(srt), ESTIMATE_DTYPE)
     for f in ("t", "track", "x", "y"):
         tracks[f] = srt[f]
-    step = stray_px * (-1.0) ** tracks["track"] * (1 + 0.5 * (tracks["track"] % 3))   # per track
-    tracks["x"] += np.where(tracks["t"] < 0.6 * SPAN_US, step, -1.5 * step)
     tracks["vx"] = SPEED
-    return pairs.split(rows, cross, near_tracks(cross, tracks, pairs.REACH_PX))
+    return pairs.split(rows, cross, near_tracks(cross, tracks, pairs.REACH_PX), tracks)
 
 
 def positions(rows, track):
@@ -102,14 +97,6 @@ def test_a_pair_across_the_motion_becomes_its_two_stars(dx, dy):
     fainter = out[out["track"] == tracks.max()]["n_events"]
     assert np.all(brighter > fainter)
     assert np.array_equal(out[out["track"] < len(SINGLES)], rows[rows["track"] < len(SINGLES)])
-
-
-def test_the_offsets_are_taken_from_the_tracks_own_path():
-    # the estimator's earlier path assigns the crossings, and its errors stay out
-    rows, cross = field(SINGLES + [[(0.0, 0.0, 12.0), (1.5, 3.5, 7.0)]])
-    plain, strayed = split(rows, cross), split(rows, cross, stray_px=1.0)
-    assert len(np.unique(plain["track"])) == len(SINGLES) + 2
-    assert np.array_equal(strayed, plain)
 
 
 def test_no_split_without_enough_other_tracks_to_measure_a_single_star():
@@ -163,6 +150,13 @@ def test_the_brightest_single_star_is_not_called_wide():
     wide = pairs._stands_out(var, single)
     assert not wide[-1] and wide[15]
     assert pairs._stands_out(var, pairs._power_law(var[ref], logb[ref])(logb))[-1]
+
+
+def test_tracks_the_estimator_never_held_are_not_moved():
+    rows = track_rows(5, 10.0, 20.0)
+    earlier = np.zeros(2, [("t", "<i8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8")])
+    earlier["track"], earlier["t"] = 1, [0, DT_US]
+    assert np.array_equal(paths.moved_by(paths.of(rows), earlier), np.zeros((1, 2)))
 
 
 def test_run_neighbours_are_the_rows_before_and_after_in_a_track():
