@@ -147,7 +147,10 @@ def test_smoothed_variances_stay_positive_on_ill_conditioned_tracks():
     σ reported as 0 on the 50-star field; where its rounding comes out positive, the
     variances of the first steps are off by orders of magnitude — with numpy 2.4 on one
     seed of six); the Joseph-like form (kalman._rts) stays positive, and equals filterpy's
-    on the same track made well conditioned (every covariance's eigenvalues capped at 1 px²)."""
+    on the same track made well conditioned (every covariance's eigenvalues capped at 1 px²)
+    from its first measurement on (before it, the coasted steps' diffuse prior cancels
+    digits in filterpy's form whatever R is: 0.13 % at the first step of one seed with
+    filterpy 2.0.0)."""
     failed = 0
     for seed in range(6):
         p = _ill_conditioned(seed)
@@ -159,7 +162,8 @@ def test_smoothed_variances_stay_positive_on_ill_conditioned_tracks():
         w, V = np.linalg.eigh(p.R)
         tame = p._replace(R=np.einsum("nij,nj,nkj->nik", V, np.minimum(w, 1.0), V))
         [(_, P)], [(_, Pr)] = kalman.cv_rts([tame]), kalman.cv_rts_filterpy([tame])
-        np.testing.assert_allclose(P[:, [0, 2], [0, 2]], Pr[:, [0, 2], [0, 2]], rtol=1e-3)
+        seen = np.argmax(p.measured)
+        np.testing.assert_allclose(P[seen:, [0, 2], [0, 2]], Pr[seen:, [0, 2], [0, 2]], rtol=1e-3)
     assert failed >= 3            # the case is the ill-conditioned one
 
 
