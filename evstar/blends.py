@@ -90,7 +90,7 @@ def track_shifts(path, crossings, near):
     ci, g, k = ci[use], g[use], k[use]
     # the pixel's offset from the track where it was at the top pair's time: the path
     # itself, not the estimator's earlier one that assigned the crossings (on a slew that
-    # one strays from it by up to ~1.5 px and back)
+    # one strays from it by up to ~1.5 px along the motion and back)
     px, py, vx, vy = paths.at(path, g, crossings["t_top"][ci], ("x", "y", "vx", "vy"))
     speed = np.hypot(vx, vy)
     ux, uy = (np.divide(v, speed, out=np.zeros(len(v)), where=speed > 0) for v in (vx, vy))
@@ -98,7 +98,8 @@ def track_shifts(path, crossings, near):
     centre = (speed > 0) & (np.abs(oy * ux - ox * uy) < CENTRE_PX)
     ci, g, k = ci[centre], g[centre], k[centre]
     off = ox[centre] * ux[centre] + oy[centre] * uy[centre]
-    off = off - _reference(g, k, off, _references(g, k, off, n_tr))
+    order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
+    off = off - _reference(g, k, off, _references(g, k, off, n_tr, order), order)
     ok = np.isfinite(off)
     g, off = g[ok], off[ok]
     ids, med, n = _group_medians(g, off)
@@ -111,12 +112,12 @@ def track_shifts(path, crossings, near):
     return shift
 
 
-def _references(g, k, off, n_tr):
+def _references(g, k, off, n_tr, order):
     """Per track, whether it may be another's reference: not where its own median offset,
     against a reference of all the others, stands MIN_SHIFT_PX off (a blend, however few
     its crossings: on the independent simulator's 12 °/s pair scene of 5 tracks, the two
     short tracks of one blend put a single star's reference 1.1 px off, and moved it)."""
-    first = off - _reference(g, k, off)
+    first = off - _reference(g, k, off, order=order)
     ok = np.isfinite(first)
     ids, med, _ = _group_medians(g[ok], first[ok])
     usable = np.ones(n_tr, bool)
@@ -124,14 +125,14 @@ def _references(g, k, off, n_tr):
     return usable
 
 
-def _reference(g, k, off, usable=None):
+def _reference(g, k, off, usable=None, order=None):
     """Per crossing (of track g, with k level pairs), the median over the other tracks of
     their median offset at k ± LEVEL_WINDOW, among the tracks with PER_LEVEL crossings
     there (and `usable`, per track; None: all); NaN for a track with fewer itself, and
     where fewer than MIN_REFERENCES other such tracks have as many (one track's own
-    crossings would be its reference)."""
+    crossings would be its reference). order: _by_group(g, off), where the caller has it."""
     table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
-    order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
+    order = _by_group(g, off) if order is None else order   # its selections stay sorted
     k_sorted = k[order]
     for level in np.unique(k):
         near = order[np.abs(k_sorted - level) <= LEVEL_WINDOW]
