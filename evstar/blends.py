@@ -38,10 +38,12 @@ from .pairs import MAX_TURN_DEG
 CENTRE_PX = 1.0
 #: the fewest level pairs of a crossing whose top pair is not its mean
 MIN_LEVELS = 2
-#: the fewest centre-line crossings that place a track's brighter star; the fewest other
-#: tracks, each with PER_LEVEL crossings of a number of level pairs, that give the reference
-#: at that number
-MIN_CROSSINGS, MIN_REFERENCES, PER_LEVEL = 60, 3, 5
+#: the fewest centre-line crossings that place a track's brighter star (20: a roll's or a
+#: 2 °/s pan's 10–35 px paths; 60 left them all at their blends, 0.2–0.5 px, and with
+#: offsets from the track's own path the standard-error test holds single stars there);
+#: the fewest other tracks, each with PER_LEVEL crossings of a number of level pairs, that
+#: give the reference at that number
+MIN_CROSSINGS, MIN_REFERENCES, PER_LEVEL = 20, 3, 5
 #: the reference at k level pairs pools k ± this (a field's stars differ in brightness)
 LEVEL_WINDOW = 1
 #: a track moves only by at least this (px) and this many standard errors of its median,

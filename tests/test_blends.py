@@ -54,22 +54,22 @@ def pulse_crossing(px, py, stars, acc=0.0):
     return float(np.mean(mids)), k, mids[0]
 
 
-def field(tracks, acc=0.0):
+def field(tracks, acc=0.0, span_us=SPAN_US):
     """(rows, crossings): each track a list of stars (dx, dy, amplitude) about its start,
-    moving along x at SPEED px/s gaining acc px/s²."""
+    moving along x at SPEED px/s gaining acc px/s², seen for span_us."""
     rows, cross = [], []
     for k, members in enumerate(tracks):
         x0, y0 = 10.0, 20.0 + 30 * k
         stars = [(x0 + dx, y0 + dy, a) for dx, dy, a in members]
         amp = np.array([a for _, _, a in stars])
         cx, cy = (np.average([s[i] for s in stars], weights=amp) for i in (0, 1))
-        t = np.arange(0, SPAN_US, DT_US)
+        t = np.arange(0, span_us, DT_US)
         r = np.zeros(len(t), CENTROID_DTYPE)
         r["t"], r["frame"], r["track"] = t, t // DT_US, k
         r["x"], r["y"] = cx + moved(t, acc), cy
         r["n_events"], r["sigma"], r["source"] = 20, 0.05, "measured"
         rows.append(r)
-        for px in range(int(x0) + 2, int(x0 + moved(SPAN_US, acc)) - 2):
+        for px in range(int(x0) + 2, int(x0 + moved(span_us, acc)) - 2):
             for py in range(int(round(cy)) - 2, int(round(cy)) + 3):
                 got = pulse_crossing(px, py, stars, acc)
                 if got is not None:
@@ -173,6 +173,19 @@ def test_a_slewing_blend_moves_and_its_single_stars_stay():
     before, after = offset(rows, k, 10.0, acc), offset(out, k, 10.0, acc)
     assert before < -0.6
     assert abs(after) < 0.4 * abs(before), (before, after)
+    mine = out["track"] == k
+    assert np.array_equal(out[~mine], rows[~mine])
+
+
+def test_a_short_blend_moves_and_its_single_stars_stay():
+    # 30 px of path (a roll's, a slow pan's): a few dozen centre-line crossings
+    rows, cross = field(SINGLES + [[(0.0, 0.0, 16.0), (-3.0, 0.0, 5.0)]], span_us=75_000)
+    k = len(SINGLES)
+    centre = cross[np.abs(cross["y"] - (20.0 + 30 * k)) < 1]
+    assert blends.MIN_CROSSINGS <= len(centre) < 60
+    out = run(rows, cross)
+    before, after = offset(rows, k, 10.0), offset(out, k, 10.0)
+    assert before < -0.6 and abs(after) < 0.4 * abs(before), (before, after)
     mine = out["track"] == k
     assert np.array_equal(out[~mine], rows[~mine])
 
