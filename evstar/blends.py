@@ -10,7 +10,7 @@ star's peak alone, so its midpoint is when that star passed the pixel.
 
 Per crossing near a track's centre line (within CENTRE_PX across, at least 2 level pairs)
 the pixel's offset along the motion from the track's own path where it was at that top
-midpoint's time, less the median over the other steady tracks of theirs at as many pairs
+midpoint's time, less the median over the other such tracks of theirs at as many pairs
 (± LEVEL_WINDOW; what the sensor does to a single star's top level: its thresholds, its
 timing), is where the brighter star lies off the track. Per track the median of these: a
 single star's sits within ~0.04 px of 0, a blend's 0.2–1.5 px off. A track whose median
@@ -86,7 +86,7 @@ def track_shifts(path, crossings, near):
     ci, tid = near[:2]
     g = paths.lookup(path["ids"], tid)
     k = crossings["pairs"][ci]
-    # the crossings of steady tracks with a top pair that is not their mean
+    # the crossings of tracks that keep their direction, with a top pair not their mean
     use = np.flatnonzero(g >= 0)
     use = use[(k[use] >= MIN_LEVELS) & paths.directions(path, MAX_TURN_DEG)[1][g[use]]]
     ci, g, k = ci[use], g[use], k[use]

@@ -406,10 +406,10 @@ ESTIMATE = Params(
           "motion far wider than the other tracks' (by brightness) is two stars closer than "
           "DBSCAN separates: reported as the two stars of a two-star fit (evstar.pairs; needs "
           "the crossings estimator and 3 other measured tracks)"),
-    Param("along_blends", bool, True, "a steady track whose crossings' top level pairs "
-          "stand off it along its motion is two stars passing each pixel in one pulse: moved "
-          "onto the brighter (evstar.blends; needs the crossings estimator, 3 other measured "
-          "tracks and no pixel lag)"),
+    Param("along_blends", bool, True, "a track that keeps its direction and whose "
+          "crossings' top level pairs stand off it along its motion is two stars passing each "
+          "pixel in one pulse: moved onto the brighter (evstar.blends; needs the crossings "
+          "estimator, 3 other measured tracks and no pixel lag)"),
 )
 
 HOTPIXELS = Params(
