@@ -100,8 +100,8 @@ def track_shifts(path, crossings, near):
     centre = (speed > 0) & (np.abs(oy * ux - ox * uy) < CENTRE_PX)
     ci, g, k = ci[centre], g[centre], k[centre]
     off = ox[centre] * ux[centre] + oy[centre] * uy[centre]
-    order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
-    off = off - _reference(g, k, off, _references(g, k, off, n_tr, order), order)
+    levels = _level_medians(g, k, off)
+    off = off - _reference(g, k, levels, _references(g, k, off, levels, n_tr))
     ok = np.isfinite(off)
     g, off = g[ok], off[ok]
     ids, med, n = _group_medians(g, off)
@@ -114,12 +114,13 @@ def track_shifts(path, crossings, near):
     return shift
 
 
-def _references(g, k, off, n_tr, order):
+def _references(g, k, off, levels, n_tr):
     """Per track, whether it may be another's reference: not where its own median offset,
     against a reference of all the others, stands MIN_SHIFT_PX off (a blend, however few
     its crossings: on the independent simulator's 12 °/s pair scene of 5 tracks, the two
-    short tracks of one blend put a single star's reference 1.1 px off, and moved it)."""
-    first = off - _reference(g, k, off, order=order)
+    short tracks of one blend put a single star's reference 1.1 px off, and moved it).
+    levels: _level_medians(g, k, off)."""
+    first = off - _reference(g, k, levels)
     ok = np.isfinite(first)
     ids, med, _ = _group_medians(g[ok], first[ok])
     usable = np.ones(n_tr, bool)
@@ -127,18 +128,26 @@ def _references(g, k, off, n_tr, order):
     return usable
 
 
-def _reference(g, k, off, usable=None, order=None):
-    """Per crossing (of track g, with k level pairs), the median over the other tracks of
-    their median offset at k ± LEVEL_WINDOW, among the tracks with PER_LEVEL crossings
-    there (and `usable`, per track; None: all); NaN for a track with fewer itself, and
-    where fewer than MIN_REFERENCES other such tracks have as many (one track's own
-    crossings would be its reference). order: _by_group(g, off), where the caller has it."""
-    table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
-    order = _by_group(g, off) if order is None else order   # its selections stay sorted
+def _level_medians(g, k, off):
+    """Per number of level pairs in k: (it, and of each track with crossings at it ±
+    LEVEL_WINDOW: its index, its median offset there, their count)."""
+    order = _by_group(g, off)          # any selection of it stays sorted: one sort for all
     k_sorted = k[order]
+    out = []
     for level in np.unique(k):
         near = order[np.abs(k_sorted - level) <= LEVEL_WINDOW]
-        ids, med, n = _group_medians(g[near], off[near], presorted=True)
+        out.append((level, *_group_medians(g[near], off[near], presorted=True)))
+    return out
+
+
+def _reference(g, k, levels, usable=None):
+    """Per crossing (of track g, with k level pairs), the median over the other tracks of
+    their median offset at k ± LEVEL_WINDOW (levels: _level_medians), among the tracks with
+    PER_LEVEL crossings there (and `usable`, per track; None: all); NaN for a track with
+    fewer itself, and where fewer than MIN_REFERENCES other such tracks have as many (one
+    track's own crossings would be its reference)."""
+    table = np.full((int(k.max(initial=0)) + 1, int(g.max(initial=0)) + 1), np.nan)
+    for level, ids, med, n in levels:
         full = n >= PER_LEVEL
         use = full if usable is None else full & usable[ids]
         if np.count_nonzero(use) > MIN_REFERENCES:
