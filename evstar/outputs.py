@@ -69,8 +69,8 @@ def _write_all(folder, result, config, truth):
 
     io.write_centroids(folder / "centroids.csv", result.centroids)
     track_table(result.centroids).to_csv(folder / "tracks.csv", index=False, float_format="%.4f")
-    (folder / "metrics.json").write_text(json.dumps(result.metrics, indent=2, default=_json) + "\n")
-    (folder / "profile.json").write_text(json.dumps(result.timings_s, indent=2) + "\n")
+    for name, doc in (("metrics.json", result.metrics), ("profile.json", result.timings_s)):
+        (folder / name).write_text(json_text(doc) + "\n")
     lag = config.estimate.pixel_lag_file
     if lag is not None:   # Config.load reads a relative one beside the file: record it whole
         config = config.replace(**{"estimate.pixel_lag_file": os.path.abspath(lag)})
@@ -162,9 +162,11 @@ def summary_text(result, outdir, steady=None):
              f"centroids     {m['centroids']:,} in {m['tracks']} track(s)"]
     if "snr_before_db" in m:
         e = m["centroid_error_px"]
-        lines += [f"SNR           {m['snr_before_db']:.1f} dB -> {m['snr_after_db']:.1f} dB "
-                  f"(signal retained {100 * m['signal_retained']:.1f} %)",
-                  f"centroid err  mean {e['mean']:.3f} px, max {e['max']:.3f} px ({e['n']} matched)"]
+        lines += [f"SNR           {_num(m['snr_before_db'], '.1f')} dB -> "
+                  f"{_num(m['snr_after_db'], '.1f')} dB (signal retained "
+                  f"{_num(100 * m['signal_retained'], '.1f')} %)",
+                  f"centroid err  mean {_num(e['mean'], '.3f')} px, max {_num(e['max'], '.3f')} px "
+                  f"({e['n']} matched)"]
     if steady is None:   # a process's first run: its kernels' compile or cache load in it
         lines += [f"throughput    {_throughput(result)}",
                   "              (this process's first run, kernel compiles included; "
@@ -182,9 +184,24 @@ def _throughput(result):
     return f"{m['events'] / max(total, 1e-9) / 1e6:.2f} M events/s{real} ({stages})"
 
 
-def _json(v):
-    if isinstance(v, (np.integer, np.floating)):
+def _num(v, fmt):
+    """v formatted, or "n/a" where it is not finite (nothing kept or matched)."""
+    return format(v, fmt) if np.isfinite(v) else "n/a"
+
+
+def json_text(doc):
+    """`doc` as JSON, a non-finite number as null (NaN and Infinity are not JSON: an SNR
+    or an error where nothing was kept or matched)."""
+    return json.dumps(_finite(doc), indent=2, allow_nan=False)
+
+
+def _finite(v):
+    if isinstance(v, dict):
+        return {k: _finite(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_finite(x) for x in v]
+    if isinstance(v, (np.integer, np.bool_)):
         return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    raise TypeError(type(v))
+    if isinstance(v, (float, np.floating)):
+        return float(v) if np.isfinite(v) else None
+    return v

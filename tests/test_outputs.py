@@ -251,3 +251,19 @@ def test_an_imu_that_misses_the_events_is_refused_before_any_work(scene, files, 
     assert not out.exists()
     with pytest.raises(evstar.ParameterError, match="stream_above_mb"):
         runs.run_recording(files / "events.h5", out, Config(), stream_above_mb=float("nan"))
+
+
+def test_a_run_with_nothing_matched_writes_valid_json_and_says_n_a(tmp_path, capsys):
+    # a recording without a star's events: SNR and errors are undefined (NaN, -inf), which
+    # JSON cannot hold; the file must still parse, with null there
+    empty = sim.simulate(sim.paper_preset(0.0, duration_s=0.05), seed=3)
+    d = tmp_path / "in"
+    d.mkdir()
+    io.write(d / "events.h5", empty.events)
+    sim.save_truth(d / "truth.npz", empty.truth)
+    assert main(["run", str(d / "events.h5"), "-o", str(tmp_path / "r"),
+                 "--truth", str(d / "truth.npz")]) == 0
+    text = (tmp_path / "r" / "metrics.json").read_text()
+    metrics = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in metrics.json"))
+    assert metrics["centroid_error_px"]["mean"] is None
+    assert "n/a" in capsys.readouterr().out
