@@ -22,7 +22,9 @@ def files(tmp_path_factory):
 
 
 def attitude(d, name, *extra, camera="camera.json"):
-    return main(["attitude", str(d / name), "-o", str(d / "out.csv"), "--camera", str(d / camera), *extra])
+    # --force: the tests share one output file
+    return main(["attitude", str(d / name), "-o", str(d / "out.csv"), "--camera", str(d / camera),
+                 "--force", *extra])
 
 
 def edited(d, name, column, value, row=2):

@@ -34,7 +34,10 @@ def test_mr_ndsef_thresholds_and_csv_with_sensor_size(tmp_path, capsys):
     np.testing.assert_array_equal(np.load(mask), expect)
     assert io.read(out).events == ev[expect]
     assert main(["denoise", str(src), str(out), "--method", "ndsef", "--auto", "--alpha", "0.01",
-                 "--sensor-size", "30", "20"]) == 0
+                 "--sensor-size", "30", "20"]) == 4           # OUT exists: refused, kept
+    assert io.read(out).events == ev[expect]
+    assert main(["denoise", str(src), str(out), "--method", "ndsef", "--auto", "--alpha", "0.01",
+                 "--sensor-size", "30", "20", "--force"]) == 0
 
 
 def test_option_misuse_is_a_user_error(real_dir, tmp_path, capsys):

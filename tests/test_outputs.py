@@ -67,6 +67,28 @@ def test_commands_refuse_to_overwrite_their_input(files, tmp_path, capsys, comma
     assert not paths["out"].exists()  # refused before any work
 
 
+@pytest.mark.parametrize("command", [
+    ["denoise", "{h5}", "{kept}", "--method", "ndsef"],
+    ["denoise", "{h5}", "{other}", "--method", "ndsef", "--mask-out", "{kept}"],
+    ["convert", "{csv}", "{kept}"],
+    ["extract", "{csv}", "-o", "{kept}"],
+])
+def test_an_existing_output_file_is_replaced_only_with_force(files, tmp_path, capsys, command):
+    # another recording, a table: a user's file that happens to have the output's name
+    paths = {"h5": files / "events.h5", "csv": files / "events.csv",
+             "kept": tmp_path / ("precious.npy" if "--mask-out" in command else
+                                 "precious.csv" if "extract" in command else "precious.h5"),
+             "other": tmp_path / "o.h5"}
+    paths["kept"].write_bytes(b"someone's data")
+    args = [a.format(**paths) for a in command]
+    assert main(args) == 4
+    _one_line_error(capsys, "precious", "--force")
+    assert paths["kept"].read_bytes() == b"someone's data"
+    assert not paths["other"].exists()           # refused before any work
+    assert main(args + ["--force"]) == 0
+    assert paths["kept"].read_bytes() != b"someone's data"
+
+
 def test_run_refuses_a_folder_where_an_input_would_be_replaced(files, tmp_path, capsys):
     # the input is named like one of the run's outputs and sits in the output folder
     c = tmp_path / "centroids.csv"

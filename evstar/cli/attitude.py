@@ -19,7 +19,7 @@ from __future__ import annotations
 import pathlib
 
 from .. import parameters as P
-from .common import add_input_options, check_output_suffix, load
+from .common import add_force_option, add_input_options, check_output_suffix, load
 from .options import add_options, checked, config_from_args
 
 
@@ -32,17 +32,19 @@ def add_arguments(p):
                    "(the options below override it) and, for a recording, the pipeline's settings")
     add_input_options(p)
     add_options(p, P.ATTITUDE_FILTER)
+    add_force_option(p)
 
 
 def run(args):
     from .. import io
     from ..attitude import AttitudeEstimator, write_attitude
     from ..errors import DataError, ParameterError
-    from ..io.atomic import check_output_file, check_outputs
+    from ..io.atomic import check_new_files, check_output_file, check_outputs
 
     check_output_file(args.output, "-o/--output")
     check_output_suffix(args.output, "-o/--output", [".csv"], "CSV")
     check_outputs([args.output], [args.input, args.imu, args.camera, args.config])
+    check_new_files([args.output], args.force)
     cfg = config_from_args(args)   # the options' dests are its attitude_filter.* keys
     if is_centroid_file(args.input):
         from ..runs import read_aux

@@ -11,7 +11,7 @@ Calibrate once per camera, lens and bias settings.
 """
 from __future__ import annotations
 
-from .common import add_input_options, check_output_suffix, load
+from .common import add_force_option, add_input_options, check_output_suffix, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -20,6 +20,7 @@ def add_arguments(p):
     p.add_argument("-o", "--output", required=True, metavar="PIXEL_LAG.json")
     add_input_options(p)
     add_pipeline_options(p)
+    add_force_option(p)
 
 
 def run(args):
@@ -27,11 +28,12 @@ def run(args):
 
     from .. import backends
     from ..calibration import calibrate
-    from ..io.atomic import check_output_file, check_outputs
+    from ..io.atomic import check_new_files, check_output_file, check_outputs
 
     check_output_file(args.output, "-o/--output")
     check_output_suffix(args.output, "-o/--output", [".json"], "JSON")
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
+    check_new_files([args.output], args.force)
     cfg = config_from_args(args)
     backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)

@@ -22,6 +22,11 @@ def add_input_options(p):
                    help="order unsorted timestamps by time (otherwise they are an error)")
 
 
+def add_force_option(p):
+    """--force: replace an existing output file (refused without it: nothing is lost)."""
+    p.add_argument("--force", action="store_true", help="replace the output file if it exists")
+
+
 def add_output_format_option(p, help_text):
     """--to: the output's format, overriding its extension (a format evstar can write)."""
     p.add_argument("--to", dest="out_format", type=writable_format_name, metavar="FORMAT", help=help_text)

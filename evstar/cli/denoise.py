@@ -12,7 +12,7 @@ import time
 
 from .. import parameters as P
 from ..errors import OutputError, ParameterError
-from .common import (add_input_options, add_output_format_option, check_events_output,
+from .common import (add_force_option, add_input_options, add_output_format_option, check_events_output,
                      check_output_suffix, load)
 from .options import add_options, config_from_args
 
@@ -29,6 +29,7 @@ def add_arguments(p):
     p.add_argument("--mask-out", metavar="MASK.npy", help="write the keep mask (bool per input event)")
     add_input_options(p)
     add_output_format_option(p, "output format, overriding OUT's extension (csv, npz, hdf5, aedat4)")
+    add_force_option(p)
 
 
 def make_filter(args):
@@ -54,7 +55,7 @@ def run(args):
     import numpy as np
 
     from .. import backends, io
-    from ..io.atomic import atomic_path, check_output_file, check_outputs
+    from ..io.atomic import atomic_path, check_new_files, check_output_file, check_outputs
 
     for out, option in ((args.output, "OUT"), (args.mask_out, "--mask-out")):
         if out is not None:
@@ -68,6 +69,7 @@ def run(args):
     if args.mask_out is not None:
         check_output_suffix(args.mask_out, "--mask-out", [".npy"], "a NumPy array")
     check_outputs([args.output, args.mask_out], [args.input, args.imu, args.camera])
+    check_new_files([args.output, args.mask_out], args.force)
     flt = make_filter(args)
     backends.require(config_from_args(args).device)   # a missing GPU before the recording is read
     rec = load(args)

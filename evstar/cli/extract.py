@@ -6,7 +6,7 @@ CSV header `t,x,y,track,n_events,frame` (t in µs; track -1 = unconfirmed) follo
 """
 from __future__ import annotations
 
-from .common import add_input_options, check_output_suffix, load
+from .common import add_force_option, add_input_options, check_output_suffix, load
 from .options import add_pipeline_options, config_from_args
 
 
@@ -15,11 +15,12 @@ def add_arguments(p):
     p.add_argument("-o", "--output", required=True, metavar="CENTROIDS.csv")
     add_input_options(p)
     add_pipeline_options(p)
+    add_force_option(p)
 
 
 def run(args):
     from .. import backends, io
-    from ..io.atomic import check_output_file, check_outputs
+    from ..io.atomic import check_new_files, check_output_file, check_outputs
     from ..io.centroid_files import CENTROID_FORMATS
     from ..pipeline import Pipeline
 
@@ -27,6 +28,7 @@ def run(args):
     check_output_suffix(args.output, "-o/--output", list(CENTROID_FORMATS),   # before any work
                         "a centroid table (CSV, HDF5 or NPZ)")
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
+    check_new_files([args.output], args.force)
     cfg = config_from_args(args)
     backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)

@@ -66,6 +66,16 @@ def check_output_file(path, option=None):
     return path
 
 
+def check_new_files(paths, force):
+    """OutputError for the first of `paths` (None: none) that is an existing file, unless
+    `force`: the command line replaces an output file only when told (a device or named
+    pipe is written, not replaced). Checked after check_outputs, whose message says more
+    where the file is an input."""
+    for path in paths:
+        if path is not None and not force and os.path.isfile(path):
+            raise OutputError(path, "exists; give --force to replace it (or another name)")
+
+
 def check_output_dir(path):
     """OutputError unless `path` is, or can be made, a writable folder."""
     path = pathlib.Path(path)
