@@ -281,7 +281,7 @@ class TrackSmoother:
                 t_c, r_c, lag_us = _lag_corrected(t_c, pairs[m], width[m], r_c, track, pixel_lag)
             if self.speed_change and velocity_prior is not None and len(t_c):
                 t_c, r_c = _speed_change_corrected(t_c, half[m], q_got.take(m, 0), u.take(m, 0),
-                                                   r_c, track, turns, lag_us)
+                                                   r_c, track, lag_us)
             flanks.append((half[m], lag_us))
             full = self._fill_frames(track, t_c, t0_us)
             meas = full["centroid"][~full["coasted"]]
@@ -294,16 +294,20 @@ class TrackSmoother:
                         else None)
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         fitted = self._fit_along(tracks, w, velocity_prior)
+        reversing = [i for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None]
+        moved = set()
+        if self.speed_change and velocity_prior is None:
+            moved = self._turn_flanks_corrected(tracks, fitted, reversing, flanks)
         # a reversing track's centroids, less their along-motion bias measured against the
         # fit where crossings tell it, weigh fully at its turns where that bias's model
         # explains them (_debiased)
-        again = {i: _debiased(t, fitted[i][0], along_weight, both[i], pixel_lag is not None,
-                              lags[i])
-                 for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None}
-        redo = [i for i, a in again.items() if a is not None]
+        again = {i: _debiased(tracks[i], fitted[i][0], along_weight, both[i],
+                              pixel_lag is not None, lags[i]) for i in reversing}
+        redo = [i for i in reversing if again[i] is not None or i in moved]
         if redo:
-            for i, f in zip(redo, self._fit_along([again[i][0] for i in redo],
-                                                  [again[i][1] for i in redo], velocity_prior)):
+            args = [again[i] if again[i] is not None else (tracks[i], w[i]) for i in redo]
+            for i, f in zip(redo, self._fit_along([a[0] for a in args], [a[1] for a in args],
+                                                  velocity_prior)):
                 fitted[i] = f
         if self.speed_change and velocity_prior is None:
             self._refit_speed_changes(tracks, fitted, w, flanks)
@@ -320,10 +324,9 @@ class TrackSmoother:
         ±25 % on a slow faint star (held-out accelerations from rest of perf/study_indep.py
         --fresh2: 0.208 -> 0.107 px and 0.138 -> 0.102); not where the speed changes less
         than SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX
-        (a constant-rate pan). Not where a track reverses: its first fit there is the least
-        sure, and following its bend took a faint star of a dark-sky sinusoid 1.3 px off at
-        a turn (--fresh F4: 0.177 -> 0.266). `fitted`, per track (rows, crossings used), is
-        updated in place."""
+        (a constant-rate pan). A reversing track's crossings are moved before its refit at
+        the turns instead (_turn_flanks_corrected). `fitted`, per track (rows, crossings
+        used), is updated in place."""
         redo = []
         for i, ((full, z, s_cent, cr, turns), (rows, _)) in enumerate(zip(tracks, fitted)):
             t_c = cr[0]
@@ -333,7 +336,7 @@ class TrackSmoother:
             if speed.max() < SPEED_CHANGE_RATIO * speed.min():
                 continue
             half, lag_us = flanks[i]
-            t_new, r_new = _speed_change_corrected(t_c, half, cr[1], cr[2], cr[3], rows, turns, lag_us)
+            t_new, r_new = _speed_change_corrected(t_c, half, cr[1], cr[2], cr[3], rows, lag_us)
             if np.max(np.abs(t_new - t_c) * speed) * 1e-6 >= _SPEED_CHANGE_REFIT_PX:
                 tracks[i] = (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns)
                 redo.append(i)
@@ -341,6 +344,31 @@ class TrackSmoother:
             for i, f in zip(redo, self._fit_along([tracks[i] for i in redo],
                                                   [weights[i] for i in redo], None)):
                 fitted[i] = f
+
+    def _turn_flanks_corrected(self, tracks, fitted, reversing, flanks):
+        """Without a velocity prior: the reversing tracks' crossings moved to when the star
+        passed each pixel (_speed_change_corrected), the speed change read off their first
+        fit, before their refit at the turns. Near a turn a star slows and speeds up
+        hardest: on a 1 Hz sinusoid of ±12 px its crossings lay up to 0.3 px off, as the
+        flanks' mean time predicts (DAVIS346 8 mm fields: isolated stars 0.09–0.125 ->
+        0.05–0.09 px). Not behind a pixel lag (a crossing's time then holds the pixel's
+        response, and following the first fit's bend took a faint star of a dark-sky
+        sinusoid 1.3 px off at a turn: perf/study_indep.py --fresh F4, 0.177 -> 0.267).
+        `tracks` is updated in place; returns the indices of those that moved."""
+        moved = set()
+        for i in reversing:
+            full, z, s_cent, cr, turns = tracks[i]
+            if len(cr[0]) < MIN_CROSSINGS:
+                continue
+            half, lag_us = flanks[i]
+            if np.any(lag_us > 0):
+                continue
+            t_new, r_new = _speed_change_corrected(cr[0], half, cr[1], cr[2], cr[3],
+                                                   fitted[i][0], lag_us)
+            if np.any(t_new != cr[0]):
+                tracks[i] = (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns)
+                moved.add(i)
+        return moved
 
     def _fit_along(self, tracks, weights, velocity_prior):
         """Per track (full rows, centroid positions, their σ, crossings, turns) and its
@@ -935,7 +963,7 @@ def _run_around(flags, i):
     return lo, hi
 
 
-def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
+def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0):
     """Crossing times moved to when the star passed each pixel where its speed changes, and
     their along-track residuals with them. A level pair's flanks are where the star was
     equally far before and past the pixel, so it passed the pixel when its position along
@@ -945,13 +973,15 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
     rows give that position (an offset of theirs cancels) and when it was reached; a
     crossing's flanks are ± h, its pairs' RMS half-width (q: the crossings' pixels, u: the
     motion's direction at each, lag_us: the pixel lag already taken off). Only where the
-    star keeps its direction and its speed within a factor 1.5 over the passage, within
-    the track's rows and outside its turns' time (there the crossings are not passages:
-    _single_passes). `track`: the prior-informed smoothed rows where there is a velocity
-    prior; without one, the track's first fit with the crossings (TrackSmoother.
-    _refit_speed_changes): the centroids' smoothed speed of a slow faint star wanders by
-    ±25 % on a constant-rate slew, and following that bend moved its crossings by noise
-    (0.13 → 0.17 px)."""
+    star keeps its direction and its speed within a factor 1.5 over the passage and
+    within the track's rows; in a turn's time too (the pixels a turn merges into one
+    crossing are gone: _single_passes; excluding its whole time left the crossings
+    nearest it, whose flanks differ most, uncorrected: IMU-compensated DAVIS346 8 mm
+    sinusoids 0.036–0.049 -> 0.023–0.039 px). `track`: the prior-informed smoothed rows
+    where there is a velocity prior; without one, the track's first fit with the crossings
+    (TrackSmoother._refit_speed_changes, _turn_flanks_corrected): the centroids' smoothed
+    speed of a slow faint star wanders by ±25 % on a constant-rate slew, and following
+    that bend moved its crossings by noise (0.13 → 0.17 px)."""
     ts = track["t"].astype(np.float64)
     if len(ts) < 3 or np.any(np.diff(ts) <= 0):
         return t_c, resid
@@ -976,8 +1006,6 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, turns, lag_us=0.0):
     ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1]) & (lag_us <= passage))
     for side in (speed(t_c - h) / v, speed(t_c + h) / v):
         ok &= (side >= 0.5) & (side <= 1.5)
-    for t_lo, t_hi, _, _ in turns:
-        ok &= (t_c + h < t_lo) | (t_c - h > t_hi)
     shift = np.where(ok, shift, 0.0)
     return t_c + shift, resid - v * shift * 1e-6
 

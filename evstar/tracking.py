@@ -304,7 +304,7 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
             dx, dy = tr["xy"][0] - a["xy"][-1]
             d = math.sqrt(dx * dx + dy * dy)       # np.linalg.norm's bits (_distances)
             if d <= best_d and (gap <= normal or
-                                at_ends.slower(a["ids"][-1], tr["id"]) * gap <= gate_px):
+                                at_ends.reach(a["ids"][-1], tr["id"], gap, d) <= gate_px):
                 best, best_d = a, d
             elif gap > normal and velocity_prior is not None:
                 far.append(a)      # carried by the prior, all at once below
@@ -328,6 +328,8 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
 #: a slow track's gap (_join) in units of max_gap + 1 frames at most: a star slowing to a
 #: turn on a 0.5°, 1 Hz sinusoid (DVXplorer Lite, 8 mm) gave no centroid for 8 frames
 _SLOW_GAPS = 4
+#: how far past a turn's reach (_Ends.reach) a track may begin: its ends' centroid scatter
+_TURN_SLACK_PX = 1.0
 #: centroids at a track's end whose least-squares line gives its speed there: one faint
 #: centroid at a turn was 1.3 px off
 _END_CENTROIDS = 4
@@ -352,11 +354,24 @@ class _Ends:
         # the ids as linked: _join relabels `out` as it goes
         self.out, self.track, self.order = out, out["track"].copy(), None
 
-    def slower(self, a, b):
-        """min(speed at track a's end, speed at track b's start); inf where neither is
-        known (tracks of one centroid)."""
-        return min(self._speed(self._rows(a)[-_END_CENTROIDS:]),
-                   self._speed(self._rows(b)[:_END_CENTROIDS]))
+    def reach(self, a, b, gap, d):
+        """How far (px) the star could have gone from track a's end or b's start in `gap`
+        frames, were they one star (d px apart): the slower of the two speeds × gap (it
+        could not have left that gate); where they are opposed (a turn: it slowed to rest
+        and came back), the faster × gap / 2 (slowing or speeding up evenly, a star covers
+        half of what it would at the speed it ends with), if b begins within that of a's
+        end (and _TURN_SLACK_PX); inf where neither speed is known (tracks of one centroid)."""
+        va = self._velocity(self._rows(a)[-_END_CENTROIDS:])
+        vb = self._velocity(self._rows(b)[:_END_CENTROIDS])
+        known = [np.hypot(*v) for v in (va, vb) if v is not None]
+        if not known:
+            return np.inf
+        straight = min(known) * gap
+        if len(known) == 2 and float(np.dot(va, vb)) < 0:
+            turn = max(known) * gap / 2
+            if d <= turn + _TURN_SLACK_PX:
+                return min(straight, turn)
+        return straight
 
     def carried(self, prior, ends, b):
         """Distances (px) at track b's first time between the mean of its first
@@ -402,12 +417,12 @@ class _Ends:
             self.bounds = np.zeros((ids.max(initial=-1) + 1, 2), np.int64)
             self.bounds[ids] = np.column_stack([starts, starts + counts])
 
-    def _speed(self, rows):
+    def _velocity(self, rows):
+        """The least-squares velocity (px per frame) of these rows; None from one frame."""
         f = self.out["frame"][rows].astype(float)
         if len(rows) < 2 or np.ptp(f) == 0:
-            return np.inf
-        v = np.polyfit(f, np.column_stack([self.out["x"][rows], self.out["y"][rows]]), 1)[0]
-        return float(np.hypot(*v))
+            return None
+        return np.polyfit(f, np.column_stack([self.out["x"][rows], self.out["y"][rows]]), 1)[0]
 
 
 def _drop_short(out, min_length):

@@ -97,3 +97,29 @@ def test_a_slow_sinusoid_keeps_one_track_through_its_turns_without_an_imu():
     assert len(np.unique(tracked["frame"])) == len(tracked)          # one row a frame
     star, err = accuracy.match(tracked, run.truth.star_position)
     assert (star == 0).all() and err.max() < 0.8
+
+
+def test_a_star_silent_through_its_turn_joins_where_it_could_not_have_left_the_gate():
+    # 0.6 px a frame, 12 silent frames: straight on it would be 7.2 px away (past the 6 px
+    # gate), but a star that turned there slowed to rest and came back: at most 3.6 px
+    linked = Tracker(max_gap=3).link(centroids(_turn_with_silence(12, speed_px=0.6)))
+    assert set(linked["track"]) == {0}
+
+
+def test_a_track_beginning_beyond_a_turn_s_reach_is_not_joined():
+    # the same turn, but the track after it begins 5.4 px from where the first ended
+    # (within the gate): a star turning within 12 frames at 0.6 px a frame stays within
+    # 3.6 px of it (and the centroids' scatter: _TURN_SLACK_PX)
+    rows = _turn_with_silence(12, speed_px=0.6)
+    rows = rows[:20] + [(f, x + 6.0) for f, x in rows[20:]]
+    linked = Tracker(max_gap=3).link(centroids(rows))
+    assert len(set(linked["track"])) == 2
+
+
+def test_a_track_going_on_the_same_way_after_the_silence_is_not_joined():
+    # after 12 silent frames at 0.6 px a frame a star going straight on is 7.2 px further;
+    # a track beginning 3 px on, the same way, is another object
+    rows = [(f, 50.0 + 0.6 * f) for f in range(20)]
+    rows += [(f, 50.0 + 0.6 * 19 + 3.0 + 0.6 * (f - 32)) for f in range(32, 52)]
+    linked = Tracker(max_gap=3).link(centroids(rows))
+    assert len(set(linked["track"])) == 2
