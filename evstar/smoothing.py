@@ -1051,8 +1051,10 @@ def _class_scatter(r, levels, floor):
 def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     """Crossings binned by `pool_us`: per bin one measurement at the bin's weighted mean
     time, its along position the weighted mean of the crossings' moved there with the
-    track's speed (the crossings of a bin lie along one short stretch of the motion), each
-    crossing weighted by 1/σ² (s_a: its σ), the bin's σ = (Σ 1/σ²)^-½."""
+    track's speed midway between the two times (the crossings of a bin lie along one short
+    stretch of the motion; each one's own speed moved them by a·Δt² too little, which put
+    the bin a·var(Δt)/2 behind a speeding star: 0.06 px on an EVK4 12 mm 10°/1 Hz
+    sinusoid), each crossing weighted by 1/σ² (s_a: its σ), the bin's σ = (Σ 1/σ²)^-½."""
     b = np.floor(t_c / pool_us).astype(np.int64)
     if np.all(b[1:] >= b[:-1]):   # time-sorted (the common case): np.unique's inverse, no sort
         inv = np.r_[0, np.cumsum(b[1:] != b[:-1])]
@@ -1067,12 +1069,14 @@ def _pool_crossings(t_c, q, u, est, s_a, pool_us):
     # (projecting absolute pixel coordinates on slightly different directions would not do)
     t_est = est["t"].astype(np.float64)   # as np.interp converts it, once for its four calls
     pos = np.column_stack([np.interp(t_mean, t_est, est["x"]), np.interp(t_mean, t_est, est["y"])])
-    speed = np.hypot(np.interp(t_c, t_est, est["vx"]), np.interp(t_c, t_est, est["vy"]))
+    t_in = t_mean.take(inv)
+    mid = 0.5 * (t_c + t_in)
+    speed = np.hypot(np.interp(mid, t_est, est["vx"]), np.interp(mid, t_est, est["vy"]))
     p_in, u_in = pos.take(inv, 0), u_mean.take(inv, 0)
     # the dot product column by column (its sum's arithmetic but for the sign of a zero,
     # which the bin sums below drop)
     along = ((q[:, 0] - p_in[:, 0]) * u_in[:, 0] + (q[:, 1] - p_in[:, 1]) * u_in[:, 1]
-             - speed * (t_c - t_mean[inv]) * 1e-6)
+             - speed * (t_c - t_in) * 1e-6)
     a_mean = np.bincount(inv, w * along) / n
     return t_mean, pos + u_mean * a_mean[:, None], u_mean, 1.0 / np.sqrt(n)
 
