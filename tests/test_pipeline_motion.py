@@ -130,3 +130,19 @@ def test_pf_runs_where_the_imu_ends_within_extrapolate_us_of_the_last_frame():
     result = evstar.Pipeline(Config().replace(**{"motion.compensate": "pf"})).run(
         run.events, short, run.camera)
     assert result.compensation.filter_result is not None and len(result.centroids)
+
+
+def test_pf_on_a_recording_without_a_tracked_star_says_to_compensate_with_the_imu(tmp_path, capsys):
+    # a still camera: no star moves, nothing is tracked; the command line names the option
+    from evstar import io
+    from evstar.cli import main
+
+    still = sim.simulate(sim.paper_preset(0.0, duration_s=0.1), seed=2)
+    with pytest.raises(evstar.DataError, match="none was tracked"):
+        evstar.Pipeline(Config().replace(**{"motion.compensate": "pf"})).run(
+            still.events, still.imu, still.camera)
+    io.write(tmp_path / "still.h5", still.events, imu=still.imu, camera=still.camera)
+    assert main(["run", str(tmp_path / "still.h5"), "-o", str(tmp_path / "out"),
+                 "--compensate", "pf"]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--compensate imu" in err, err

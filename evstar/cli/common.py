@@ -110,6 +110,8 @@ _CLI_WORDS = [
      "; an .h5 or .npz output keeps them"),
     (re.compile(r"sensor_size must be two positive integers \(W, H\)"),
      "--sensor-size must be two positive integers W H"),
+    (re.compile(r"\(motion\.compensate = 'imu' uses the gyro alone\)"),
+     "(--compensate imu uses the gyro alone)"),
 ]
 
 

@@ -46,11 +46,11 @@ def run(args):
     cfg = Config(device=args.device, seed=args.seed).replace(**{"motion.compensate": args.compensate})
     try:
         result = Pipeline(cfg).run(run_.events, run_.imu, run_.camera, truth=run_.truth)
-    except DataError as exc:   # the scene's own data: only the particle filter can find too little
+    except DataError:   # the scene's own data: only the particle filter can find too little
         if args.compensate != "pf":
             raise
-        print(f"note          particle filter not run ({exc}: no star tracked at "
-              f"{args.rate:g} °/s); compensating with the IMU alone")
+        print(f"note          particle filter not run (no star tracked at {args.rate:g} °/s); "
+              "compensating with the IMU alone")
         cfg = cfg.replace(**{"motion.compensate": "imu"})
         result = Pipeline(cfg).run(run_.events, run_.imu, run_.camera, truth=run_.truth)
     out.mkdir(parents=True, exist_ok=True)   # files only once the pipeline ran
