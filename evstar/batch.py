@@ -71,7 +71,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
              if k in (*_FILES, "pixel_lag_file") and v is not None}
     spec = config.to_dict()
     key = config_key(config, options)
-    names = output_names(inputs)
+    names = output_names(inputs, earlier_names(outdir))
     call = uuid.uuid4().hex[:8]  # fresh task keys: Dask would hand back an earlier call's result
     settings = backends.settings()
     if client is None and not scheduler and settings["cpu_threads"] is None:
@@ -193,18 +193,43 @@ def expand_inputs(paths):
     return [pathlib.Path(p) for p in dict.fromkeys(out)]
 
 
-def output_names(paths):
-    """A folder name per input: its stem, prefixed by its parent folder's name where stems
-    repeat (and numbered if that still repeats)."""
+def output_names(paths, earlier=None):
+    """A folder name per input: the folder an earlier call gave it (`earlier`: absolute
+    input path -> name, earlier_names; a rerun with more or fewer inputs must find its
+    results, not rename them), else its stem, prefixed by its parent folder's name where
+    stems repeat (and numbered if that still repeats or another input of the call keeps
+    the name). A new input may take an earlier one's folder, as a rerun does: its run
+    there is skipped if it is the same file, else redone."""
+    earlier = earlier or {}
+    kept = [earlier.get(str(p.absolute())) for p in paths]
     stems = [p.stem for p in paths]
-    names = [f"{p.absolute().parent.name}_{s}" if stems.count(s) > 1 else s
-             for p, s in zip(paths, stems)]
+    names = [k or (f"{p.absolute().parent.name}_{s}" if stems.count(s) > 1 else s)
+             for p, s, k in zip(paths, stems, kept)]
+    taken = {k for k in kept if k}    # kept by another input of this call
     seen = {}
     for i, n in enumerate(names):
+        if kept[i]:
+            continue
         seen[n] = seen.get(n, 0) + 1
-        if names.count(n) > 1:
-            names[i] = f"{n}-{seen[n]}"
+        if names.count(n) > 1 or n in taken:
+            k = seen[n]
+            while f"{n}-{k}" in names or f"{n}-{k}" in taken:
+                k += 1
+            names[i] = f"{n}-{k}"
+            seen[n] = k
     return names
+
+
+def earlier_names(outdir):
+    """Absolute input path -> output folder name, from the completion markers an earlier
+    call left in `outdir`'s folders."""
+    out = {}
+    for marker in pathlib.Path(outdir).glob(f"*/{MARKER}"):
+        try:
+            out[json.loads(marker.read_text())["row"]["input"]] = marker.parent.name
+        except (OSError, ValueError, KeyError, TypeError):  # damaged: that run is redone anyway
+            continue
+    return out
 
 
 def config_key(config, options):

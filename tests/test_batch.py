@@ -89,6 +89,32 @@ def test_rerun_skips_what_is_done_and_a_changed_config_redoes_it(first, client, 
     assert again["skipped"].all()
 
 
+def test_a_rerun_with_fewer_or_other_inputs_finds_each_ones_earlier_folder(first, client, inputs,
+                                                                           tmp_path):
+    # night2/a.h5 alone would be named "a" (its results are in night2_a: skipped there);
+    # with a new a.h5 beside it, the new one is numbered
+    out, _, table = first
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    alone = batch.run_many([str(inputs / "night2" / "a.h5")], Config(), copy, client=client)
+    assert alone["skipped"].all() and alone["output"].iloc[0] == str(copy / "night2_a")
+    assert not (copy / "a").exists()
+    (tmp_path / "new").mkdir()
+    shutil.copy(inputs / "a.h5", tmp_path / "new" / "a.h5")
+    both = batch.run_many([str(tmp_path / "new" / "a.h5"), str(inputs / "night2" / "a.h5")],
+                          Config(), copy, client=client)
+    assert [os.path.basename(o) for o in both["output"]] == ["new_a", "night2_a"]
+    assert both["skipped"].tolist() == [False, True]
+
+
+def test_names_keep_earlier_folders_and_avoid_theirs(tmp_path):
+    # y/a.h5 keeps the folder it had ("x_a"), so x/a.h5 is numbered; b.h5 takes "b", an
+    # earlier input's folder (a rerun there is skipped only for the same file)
+    paths = [tmp_path / "x" / "a.h5", tmp_path / "y" / "a.h5", tmp_path / "b.h5"]
+    earlier = {str(paths[1]): "x_a", str(tmp_path / "z" / "b.h5"): "b"}
+    assert batch.output_names(paths, earlier) == ["x_a-1", "x_a", "b"]
+
+
 def test_a_killed_batch_redoes_only_the_unfinished(first, client, tmp_path):
     out, paths, _ = first
     copy = tmp_path / "out"
