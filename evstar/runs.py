@@ -111,8 +111,15 @@ def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=Non
 
 
 def read_aux(camera=None, imu=None, sort=False):
-    """(Camera or None, Imu or None) read from their own files."""
+    """(Camera or None, Imu or None) read from their own files. An IMU file of fewer than 2
+    samples is a FormatError naming it (every use of a gyro needs 2; found only after the
+    pipeline had run, the attitude filter's message named no file)."""
     from . import io
+    from .errors import FormatError
 
     cam = io.read_camera(camera) if camera else None
-    return cam, (io.read_imu(imu, sort=sort) if imu else None)
+    imu_data = io.read_imu(imu, sort=sort) if imu else None
+    if imu_data is not None and len(imu_data) < 2:
+        raise FormatError(imu, f"holds {len(imu_data)} IMU sample(s); a gyro's rotation needs "
+                               "at least 2")
+    return cam, imu_data

@@ -103,3 +103,18 @@ def test_a_file_without_events_streams_as_it_runs_whole(tmp_path):
     streamed = Pipeline(Config()).run_file(tmp_path / "e0.h5", progress=False)
     assert len(whole.centroids) == len(streamed.centroids) == 0
     assert whole.metrics == streamed.metrics
+
+
+@pytest.mark.parametrize("rows", [0, 1])
+def test_an_imu_file_of_fewer_than_two_samples_is_refused_before_any_work(scene, tmp_path,
+                                                                           capsys, rows):
+    # it was found only after the pipeline had run, in a message naming no file
+    io.write(tmp_path / "rec.h5", scene.events)
+    io.write_camera(tmp_path / "camera.json", scene.camera)
+    imu = scene.imu
+    io.write_imu(tmp_path / "imu.csv", evstar.Imu(imu.t[:rows], imu.gyro[:rows], imu.accel[:rows]))
+    code = main(["run", str(tmp_path / "rec.h5"), "-o", str(tmp_path / "out"), "--imu",
+                 str(tmp_path / "imu.csv"), "--camera", str(tmp_path / "camera.json")])
+    err = capsys.readouterr().err
+    assert code == 3 and err.count("\n") == 1 and "imu.csv" in err and "at least 2" in err, err
+    assert not (tmp_path / "out").exists()
