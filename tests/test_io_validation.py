@@ -284,3 +284,34 @@ def test_centroid_on_counts_outside_their_events_name_the_row(tmp_path, n_on):
     legacy = pd.DataFrame({k: c[k] for k in c.dtype.names if k != "n_on"})  # before n_on
     legacy.to_csv(tmp_path / "old.csv", index=False)
     assert np.all(io.read_centroids(tmp_path / "old.csv")["n_on"] == 0)
+
+
+def test_times_in_the_other_unit_than_the_layout_says_are_warned(tmp_path):
+    # headerless rows are seconds (RPG): whole µs read as seconds made a 99,447 s recording;
+    # a header's t is µs: seconds read as µs all rounded to 0
+    plain = tmp_path / "us.txt"
+    plain.write_text("".join(f"{273_000_000 + 1000 * i} 5 7 1\n" for i in range(20)))
+    with pytest.warns(evstar.EvstarWarning, match="whole numbers up to 273,019,000.*header line"):
+        io.read(plain, sensor_size=(10, 10))
+    named = tmp_path / "s.csv"
+    named.write_text("t,x,y,p\n" + "".join(f"{0.000273 + 0.001 * i:.6f},5,7,1\n" for i in range(20)))
+    with pytest.warns(evstar.EvstarWarning, match="fractional values all under 10⁴.*seconds"):
+        io.read(named, sensor_size=(10, 10))
+    for ok in ("t,x,y,p\n" + "".join(f"{1000 * i},5,7,1\n" for i in range(20)),
+               "".join(f"{0.001 * i + 1.5:.6f} 5 7 1\n" for i in range(20))):
+        (tmp_path / "ok.csv").write_text(ok)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            io.read(tmp_path / "ok.csv", sensor_size=(10, 10))
+
+
+def test_imu_times_in_seconds_are_refused_and_fractional_us_warned(tmp_path):
+    rows = "".join(f"{{t}},0.1,0,0,0,0,9.8\n".format(t=t) for t in (0.001, 0.002, 0.003))
+    (tmp_path / "s.csv").write_text("t,gx,gy,gz,ax,ay,az\n" + rows)
+    with pytest.raises(FormatError, match="s.csv: column 't' .*seconds, multiply them by 10⁶"):
+        io.read_imu(tmp_path / "s.csv")
+    (tmp_path / "us.csv").write_text("t,gx,gy,gz,ax,ay,az\n1000.7,0.1,0,0,0,0,9.8\n"
+                                     "2000,0.1,0,0,0,0,9.8\n")
+    with pytest.warns(EvstarWarning, match="1 value.*fractional µs, rounded"):
+        imu = io.read_imu(tmp_path / "us.csv")
+    assert imu.t.tolist() == [1001, 2000]

@@ -1,10 +1,12 @@
 """IMU CSV `t,gx,gy,gz,ax,ay,az` (t µs, gyro rad/s, accel m/s²)."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 
-from ..errors import DataError, FormatError, ParameterTypeError
+from ..errors import DataError, EvstarWarning, FormatError, ParameterTypeError
 from ..events import T_LIMIT_US, check_time_range
 from ..imu import MAX_RATE_RAD_S, Imu, first_excess_rate
 from .atomic import atomic_path
@@ -60,12 +62,26 @@ def _imu(path, frame, R_cam_imu, time_offset_us, sort, first):
         i, c = bad[0], ("gx", "gy", "gz")[bad[1]]
         raise FormatError(path, f"line {first + i}: column '{c}' = {frame[c].iloc[i]} rad/s is beyond "
                                 f"±{MAX_RATE_RAD_S:g} rad/s (≈5700 °/s), not a real rotation rate")
+    _check_time_unit(path, data["t"])
     try:
         return Imu(np.round(data["t"]).astype(np.int64), gyro,
                    np.stack([data[c] for c in ("ax", "ay", "az")], 1),
                    R_cam_imu=R_cam_imu, time_offset_us=time_offset_us, sort=sort)
     except DataError as exc:
         raise FormatError(path, str(exc)) from None
+
+
+def _check_time_unit(path, t):
+    """IMU CSV times are µs: fractional values all under 10⁴ are seconds (rounded to µs they
+    collapse onto a few: a FormatError saying so); other fractional µs are rounded, warned."""
+    frac = t != np.round(t)
+    if not frac.any():
+        return
+    if np.abs(t).max() < 1e4 and frac.mean() > 0.5:
+        raise FormatError(path, "column 't' holds fractional values all under 10⁴: IMU CSV times "
+                                "are in µs; if these are seconds, multiply them by 10⁶")
+    warnings.warn(f"{path}: column 't' has {int(frac.sum())} value(s) with fractional µs, "
+                  f"rounded to whole µs", EvstarWarning, stacklevel=4)
 
 
 def write_imu(path, imu):

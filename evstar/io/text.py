@@ -134,8 +134,9 @@ def _check_values(path, label, offset, x, y, p):
 class _Rounding:
     """Counts timestamps rounded to whole µs, to warn once per file."""
 
-    def __init__(self):
+    def __init__(self, first_line=None):
         self.count, self.largest = 0, 0.0
+        self.first_line = first_line    # the file's first data line (its chunk: unit check)
 
     def add(self, exact_us, rounded_us, changed):
         if changed.any():
@@ -143,9 +144,35 @@ class _Rounding:
             self.largest = max(self.largest, float(np.abs(exact_us - rounded_us)[changed].max()))
 
 
+def _unit_hint(v, seconds):
+    """Why the times `v` (a file's first rows) may be in the other unit, or None: whole
+    numbers past 10⁴ where a headerless file's t is in seconds (µs read as s: hours long),
+    or values all fractional and under 10⁴ where a header's t is in µs (seconds read as
+    µs: rounded to a few whole µs)."""
+    if not len(v):
+        return None
+    if seconds and v.dtype.kind != "f" and np.abs(v).max() >= _UNIT_HINT:
+        return (f"holds whole numbers up to {np.abs(v).max():,}: a headerless file's t is in "
+                "seconds; if these are µs, give the file a header line t,x,y,p")
+    if not seconds and v.dtype.kind == "f" and np.abs(v).max() < _UNIT_HINT \
+            and np.mean(v != np.round(v)) > 0.5:
+        return ("holds fractional values all under 10⁴: a header's t is in µs; if these are "
+                "seconds, multiply them by 10⁶ (or drop the header: headerless t x y p rows "
+                "are read in seconds)")
+    return None
+
+
+#: _unit_hint's bound: 10⁴ s is ~3 h, 10⁴ µs 10 ms
+_UNIT_HINT = 10_000
+
+
 def _times(path, frame, column, name, offset, seconds, rounding):
-    """Timestamps in µs: range-checked, rounded to whole µs (counted in `rounding`)."""
+    """Timestamps in µs: range-checked, rounded to whole µs (counted in `rounding`); the
+    first rows' unit checked (_unit_hint: a warning)."""
     v = _numeric(path, frame, column, name, offset)
+    hint = _unit_hint(v, seconds) if offset == rounding.first_line else None
+    if hint:
+        warnings.warn(f"{path}: column {name} {hint}", EvstarWarning, stacklevel=4)
     us = v * 1e6 if seconds else v
     i = check_time_range(us)
     if i is not None:
@@ -177,7 +204,7 @@ def packets(path, chunk_rows=1_000_000):
     else:
         cols = _columns(path, names)
         label = {k: repr(c) for k, c in cols.items()}
-    rounding = _Rounding()
+    rounding = _Rounding(line)
     try:
         with _reader(path, names, sep, chunk_rows) as reader:   # closed on an error too
             for frame in reader:
