@@ -42,6 +42,12 @@ class Camera:
             object.__setattr__(self, name, v)
         if self.fx <= 0 or self.fy <= 0:
             raise DataError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
+        for name, c, side in (("cx", self.cx, self.width), ("cy", self.cy, self.height)):
+            # a decentred lens may put it off the sensor, never sensors away (cx 1e9 ran,
+            # every event warped off the sensor)
+            if not -side <= c <= 2 * side:
+                raise DataError(f"camera principal point {name}={c:g} lies more than the sensor's "
+                                f"size ({side} px) outside the {self.width}x{self.height} sensor")
         if self.has_distortion:
             self._check_distortion()
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import DataError
 from .frames import ranks, stable_order
 from .parameters import AUTO
 
@@ -46,6 +47,10 @@ def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
     t, x, y, p: events (any order); p 1 = ON, 0 = OFF. threshold_ratio: C_off / C_on, or
     "auto" (measured: threshold_ratio_of).
     """
+    sizes = {name: np.shape(v) for name, v in (("t", t), ("x", x), ("y", y), ("p", p))}
+    if len({s for s in sizes.values()}) > 1 or any(len(s) != 1 for s in sizes.values()):
+        raise DataError(f"pixel_crossings: t, x, y and p must be 1-D arrays of one length, got "
+                        f"shapes {', '.join(f'{k} {v}' for k, v in sizes.items())}")
     width = int(np.max(x, initial=0)) + 1
     key = pixel_keys(x, y, width)
     return key_crossings(np.asarray(t, np.int64), key, np.asarray(p), width, max_pairs,

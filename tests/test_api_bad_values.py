@@ -96,6 +96,14 @@ def test_camera_width_must_be_a_positive_integer(width):
         Camera(width, 10, 1.0, 1.0, 0, 0)
 
 
+@pytest.mark.parametrize("field,value", [("cx", 1e9), ("cy", -300.0)])
+def test_camera_principal_point_sensors_away_is_a_data_error(field, value):
+    ok = dict(width=320, height=240, fx=300.0, fy=300.0, cx=160.0, cy=120.0)
+    Camera(**{**ok, "cx": -100.0, "cy": 400.0})        # decentred, off the sensor: accepted
+    with pytest.raises(DataError, match=re.escape(f"{field}={value:g}")):
+        Camera(**{**ok, field: value})
+
+
 def test_camera_focal_length_beyond_float_range():
     with pytest.raises(DataError, match="camera field 'fx' must be a number"):
         Camera(10, 10, 10 ** 400, 1.0, 0, 0)

@@ -1,5 +1,10 @@
 """The `evstar info` and `evstar convert` commands, run in-process as a user would."""
 import json
+import re
+
+import numpy as np
+
+import evstar
 
 from evstar import io
 from evstar.cli import main
@@ -27,3 +32,15 @@ def test_input_errors_exit_3_with_message(tmp_path, capsys):
     assert main(["info", str(tmp_path / "missing.aedat4")]) == 3
     err = capsys.readouterr().err
     assert "evstar info: error:" in err and "missing.aedat4: no such file" in err
+
+
+def test_info_polarity_shares_sum_to_100(tmp_path, capsys):
+    # 989 of 2000 events ON: 49.45 % and 50.55 % each round up (49.5 + 50.6 = 100.1)
+    p = np.zeros(2000, np.uint8)
+    p[:989] = 1
+    ev = evstar.Events(np.arange(2000), np.zeros(2000, int), np.zeros(2000, int), p, 4, 4)
+    io.write(tmp_path / "e.csv", ev)
+    assert main(["info", str(tmp_path / "e.csv")]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("polarity"))
+    on, off = (float(v) for v in re.findall(r"([\d.]+) %", line))
+    assert on + off == 100.0, line

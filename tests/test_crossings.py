@@ -715,3 +715,13 @@ def test_stable_order_is_numpys_stable_argsort(high, dtype):
     key = np.random.default_rng(3).integers(0, high, 20_000, dtype=np.int64).astype(dtype)
     assert np.array_equal(stable_order(key), np.argsort(key, kind="stable"))
     assert np.array_equal(stable_order(-key.astype(np.int64)), np.argsort(-key.astype(np.int64), kind="stable"))
+
+
+def test_pixel_crossings_of_arrays_of_other_lengths_is_a_data_error():
+    import evstar
+    from evstar.crossings import pixel_crossings
+
+    t, x = np.arange(10), np.zeros(10, int)
+    with pytest.raises(evstar.DataError, match="x \\(5,\\)"):
+        pixel_crossings(t, x[:5], x, x)
+    assert len(pixel_crossings(t[:0], x[:0], x[:0], x[:0])) == 0

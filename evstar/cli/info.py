@@ -46,7 +46,8 @@ def run(args):
     if s["event_rate_hz"]:
         print(f"event rate   {s['event_rate_hz'] / 1e6:.3f} M events/s")
     if s["on_fraction"] is not None:
-        print(f"polarity     {100 * s['on_fraction']:.1f} % ON / {100 * (1 - s['on_fraction']):.1f} % OFF")
+        on = round(100 * s['on_fraction'], 1)   # OFF from the rounded ON: the two sum to 100
+        print(f"polarity     {on:.1f} % ON / {100 - on:.1f} % OFF")
     if s.get("gap_floor_us") == 0:     # no refractory period shows through repeated times
         print("gap floor    0 µs (a pixel's same-polarity events repeat within one µs: "
               "duplicate timestamps, no refractory period to read)")
