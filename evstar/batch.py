@@ -26,6 +26,8 @@ import uuid
 
 from .errors import BackendError, EvstarError, ParameterError, ParameterTypeError
 
+#: summary columns of counts (integers; empty in a failed row)
+_COUNTS = ("events", "events_kept", "centroids", "tracks")
 MARKER = ".evstar-batch.json"  # in each output folder; written once the run is complete
 SUMMARY = ("summary.csv", "summary.parquet")
 CONNECT_TIMEOUT_S = 5
@@ -84,6 +86,9 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
         rows = _gather(futures, [outdir / n for n in names], progress)
     table = pd.DataFrame([{**row, "input": str(p)} for row, p in zip(rows, inputs)])
     table = table[[c for c in _FIRST if c in table] + [c for c in table if c not in _FIRST]]
+    for c in _COUNTS:   # counts stay integers where a failed row has none (pandas: NaN, float)
+        if c in table:
+            table[c] = table[c].astype("Int64")
     write_summary(outdir, table)
     return table
 

@@ -62,6 +62,10 @@ def test_one_row_per_input_and_failures_stay_alone(first, inputs):
     parquet = pd.read_parquet(out / "summary.parquet")
     assert list(csv["input"]) == list(parquet["input"]) == list(table["input"])
     assert list(parquet["status"]) == ["ok", "failed", "ok", "ok", "failed"]
+    # counts are integers though the failed rows have none (they were written 25425.0)
+    events = (out / "summary.csv").read_text().splitlines()[1].split(",")[csv.columns.get_loc("events")]
+    assert events.isdigit(), events
+    assert str(parquet["events"].dtype) == "Int64" and parquet["events"].isna().sum() == 2
 
 
 def test_outputs_are_those_of_evstar_run(first, inputs, tmp_path):

@@ -59,3 +59,14 @@ def test_simulate_a_star_too_faint_for_the_sensor_gives_noise_only(tmp_path, cap
     assert main(["simulate", str(tmp_path / "a"), "--magnitude", "30", "--duration", "0.05"]) == 0
     assert "gave no events" in capsys.readouterr().out
     assert (sim.load_truth(tmp_path / "a" / "truth.npz").labels < 0).all()
+
+
+def test_simulate_notes_say_what_can_leave_a_recording_without_star_events(tmp_path, capsys):
+    # a still camera: no pixel changes (the note once blamed the magnitude alone)
+    assert main(["simulate", str(tmp_path / "still"), "--rate", "0", "--duration", "0.05"]) == 0
+    out = capsys.readouterr().out
+    assert "does not move" in out and "--rate" in out
+    # a field whose magnitude limit leaves no star
+    assert main(["simulate", str(tmp_path / "none"), "--stars", "5", "--mag-limit", "-5",
+                 "--duration", "0.05"]) == 0
+    assert "no star lies in view" in capsys.readouterr().out

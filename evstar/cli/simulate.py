@@ -211,9 +211,12 @@ def run(args):
     io.write_imu(os.path.join(args.out_dir, "imu.csv"), result.imu)
     io.write_camera(os.path.join(args.out_dir, "camera.json"), result.camera)
     labels = result.truth.labels
-    if not (labels >= 0).any():
-        print(f"note: the star(s) gave no events (magnitude {args.magnitude:g} is too faint for "
-              "this sensor and threshold)")
+    if not len(scenario.stars):
+        print("note: no star lies in view (--mag-limit, --pointing)")
+    elif not (labels >= 0).any():   # which of these, the options say; each alone suffices
+        print("note: the star(s) gave no events: a star that does not move changes no pixel "
+              f"(--rate, --sine), one of magnitude {args.magnitude:g} may be too faint for this "
+              "sensor and threshold, or the recording too short (--duration)")
     print(f"wrote {len(result.events):,} events ({int((labels >= 0).sum()):,} from "
           f"{len(scenario.stars)} star(s), {int((labels == -1).sum()):,} noise, "
           f"{int((labels == -2).sum()):,} hot-pixel) to {events_path}")
