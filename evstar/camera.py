@@ -54,18 +54,25 @@ class Camera:
     def _check_distortion(self):
         """DataError where the radial distortion folds back inside the sensor: beyond the
         normalised radius where r·(1 + k1·r² + k2·r⁴) stops growing, two rays share a pixel,
-        so no pixel there has one ray (a wrong sign or a miscalibrated k1, k2)."""
-        rf = fold_radius(self.k1, self.k2)
-        if not math.isfinite(rf):
-            return
-        reach = radial(rf, self.k1, self.k2)
+        so no pixel there has one ray (a wrong sign or a miscalibrated k1, k2); or where it
+        scales the sensor's corner radius beyond _DISTORTION_SCALES (no lens this model
+        describes)."""
         corner = self.corner_radius()
+        rf = fold_radius(self.k1, self.k2)
+        reach = radial(rf, self.k1, self.k2) if math.isfinite(rf) else math.inf
         if corner >= reach:
             raise DataError(
                 f"camera distortion k1={self.k1:g}, k2={self.k2:g} folds back inside the "
                 f"{self.width}x{self.height} sensor: the distorted radius stops growing at "
                 f"{reach:.4g} (normalised) but the sensor's corners lie at {corner:.4g}; no "
                 f"pixel beyond has one ray (check the signs and scale of k1, k2)")
+        scale = 1 + self.k1 * corner ** 2 + self.k2 * corner ** 4
+        if not _DISTORTION_SCALES[0] <= scale <= _DISTORTION_SCALES[1]:
+            raise DataError(
+                f"camera distortion k1={self.k1:g}, k2={self.k2:g} scales the "
+                f"{self.width}x{self.height} sensor's corner radius by {scale:.4g}, beyond any "
+                f"lens this model describes ({_DISTORTION_SCALES[0]:g}–"
+                f"{_DISTORTION_SCALES[1]:g}; check the signs and scale of k1, k2)")
 
     def corner_radius(self):
         """The largest normalised distorted radius of the sensor's area (its pixels' outer
@@ -145,6 +152,11 @@ class Camera:
                 scale = np.where(rd > 0, r / rd, 1.0)
             xn, yn = xd * scale, yd * scale
         return unit(xn, yn, np.ones_like(xn))
+
+
+#: the radial scale 1 + k1·r² + k2·r⁴ a lens may give the sensor's corner (a wide-angle
+#: lens's k1 -0.3, k2 0.1 give ~0.9; k1 1e6 ran, every event warped far off the sensor)
+_DISTORTION_SCALES = (0.25, 4.0)
 
 
 def radial(r, k1, k2):

@@ -104,6 +104,13 @@ def test_camera_principal_point_sensors_away_is_a_data_error(field, value):
         Camera(**{**ok, field: value})
 
 
+def test_camera_distortion_beyond_any_lens_is_a_data_error():
+    ok = dict(width=320, height=240, fx=300.0, fy=300.0, cx=160.0, cy=120.0)
+    Camera(**ok, k1=-0.3, k2=0.1)                      # a wide-angle lens: accepted
+    with pytest.raises(DataError, match="k1=1e\\+06.*scales"):
+        Camera(**ok, k1=1e6)
+
+
 def test_camera_focal_length_beyond_float_range():
     with pytest.raises(DataError, match="camera field 'fx' must be a number"):
         Camera(10, 10, 10 ** 400, 1.0, 0, 0)
