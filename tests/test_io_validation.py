@@ -310,6 +310,10 @@ def test_imu_times_in_seconds_are_refused_and_fractional_us_warned(tmp_path):
     (tmp_path / "s.csv").write_text("t,gx,gy,gz,ax,ay,az\n" + rows)
     with pytest.raises(FormatError, match="s.csv: column 't' .*seconds, multiply them by 10⁶"):
         io.read_imu(tmp_path / "s.csv")
+    whole = "".join(f"{t},0.1,0,0,0,0,9.8\n" for t in range(5))    # whole seconds
+    (tmp_path / "w.csv").write_text("t,gx,gy,gz,ax,ay,az\n" + whole)
+    with pytest.raises(FormatError, match="w.csv: column 't': samples lie a median 1 µs apart"):
+        io.read_imu(tmp_path / "w.csv")
     (tmp_path / "us.csv").write_text("t,gx,gy,gz,ax,ay,az\n1000.7,0.1,0,0,0,0,9.8\n"
                                      "2000,0.1,0,0,0,0,9.8\n")
     with pytest.warns(EvstarWarning, match="1 value.*fractional µs, rounded"):

@@ -73,15 +73,26 @@ def _imu(path, frame, R_cam_imu, time_offset_us, sort, first):
 
 def _check_time_unit(path, t):
     """IMU CSV times are µs: fractional values all under 10⁴ are seconds (rounded to µs they
-    collapse onto a few: a FormatError saying so); other fractional µs are rounded, warned."""
+    collapse onto a few: a FormatError saying so), as are whole ones a median under
+    _MIN_IMU_STEP_US apart (seconds or ms: no gyro samples at > 100 kHz); other fractional
+    µs are rounded, warned."""
     frac = t != np.round(t)
-    if not frac.any():
-        return
-    if np.abs(t).max() < 1e4 and frac.mean() > 0.5:
+    if frac.any() and np.abs(t).max() < 1e4 and frac.mean() > 0.5:
         raise FormatError(path, "column 't' holds fractional values all under 10⁴: IMU CSV times "
                                 "are in µs; if these are seconds, multiply them by 10⁶")
+    steps = np.diff(np.sort(t))
+    if len(steps) >= 2 and 0 < np.median(steps) < _MIN_IMU_STEP_US:
+        raise FormatError(path, f"column 't': samples lie a median {np.median(steps):g} µs apart "
+                                "(no gyro samples that fast): IMU CSV times are in µs; if these "
+                                "are seconds or ms, multiply them by 10⁶ or 10³")
+    if not frac.any():
+        return
     warnings.warn(f"{path}: column 't' has {int(frac.sum())} value(s) with fractional µs, "
                   f"rounded to whole µs", EvstarWarning, stacklevel=4)
+
+
+#: the shortest median step of IMU times taken as µs (100 kHz; MEMS gyros sample at ≤ 8 kHz)
+_MIN_IMU_STEP_US = 10
 
 
 def write_imu(path, imu):
