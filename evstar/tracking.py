@@ -286,7 +286,9 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
     when B's first centroid lies within gate_px of A's last and B's first frame is at most
     one frame before A's last one or after it by at most max_gap + 1 frames; or by up to
     _SLOW_GAPS times that where A ended or B began so slowly that it could not have left
-    the gate in the gap (a star turning); failing those, with a velocity prior, where the
+    the gate in the gap, or where they move opposite ways and the faster × the gap / 2 stays
+    in the gate, B beginning within that of A's end (a star turning: _Ends.reach); failing
+    those, with a velocity prior, where the
     means of A's last and B's first _END_CENTROIDS centroids, carried by the prior to B's
     first time, lie within gate_px × _CARRY_GATE (A and B of min_length centroids at least:
     confirmed pieces of a star's track, not noise); the nearest A wins."""
