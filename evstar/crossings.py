@@ -48,7 +48,7 @@ def pixel_crossings(t, x, y, p, max_pairs=16, threshold_ratio=AUTO):
     "auto" (measured: threshold_ratio_of).
     """
     sizes = {name: np.shape(v) for name, v in (("t", t), ("x", x), ("y", y), ("p", p))}
-    if len({s for s in sizes.values()}) > 1 or any(len(s) != 1 for s in sizes.values()):
+    if len(set(sizes.values())) > 1 or any(len(s) != 1 for s in sizes.values()):
         raise DataError(f"pixel_crossings: t, x, y and p must be 1-D arrays of one length, got "
                         f"shapes {', '.join(f'{k} {v}' for k, v in sizes.items())}")
     width = int(np.max(x, initial=0)) + 1

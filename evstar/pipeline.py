@@ -274,11 +274,11 @@ class Pipeline:
         _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,
                                     return_inverse=True, return_counts=True)
         obs = obs[count[where.ravel()] == 1]
-        if len(obs):   # a last frame's centroid can sit past the IMU's end, as events may
-            imu = self._held(imu, (int(obs["t"].min()), int(obs["t"].max())))
         if not len(obs):
             raise DataError("the particle filter needs a tracked star to correct the gyro with, "
                             "and none was tracked (motion.compensate = 'imu' uses the gyro alone)")
+        # a last frame's centroid can sit past the IMU's end, as events may
+        imu = self._held(imu, (int(obs["t"].min()), int(obs["t"].max())))
         t = time.perf_counter()
         pf = ParticleFilter(self.config.motion.n_particles, seed=self.config.seed,
                             device=self.config.device)

@@ -328,17 +328,16 @@ class TrackSmoother:
         the turns instead (_turn_flanks_corrected). `fitted`, per track (rows, crossings
         used), is updated in place."""
         redo = []
-        for i, ((full, z, s_cent, cr, turns), (rows, _)) in enumerate(zip(tracks, fitted)):
-            t_c = cr[0]
+        for i, (track, (rows, _)) in enumerate(zip(tracks, fitted)):
+            t_c, turns = track[3][0], track[4]
             if rows is None or turns or len(t_c) < MIN_CROSSINGS:
                 continue
             speed = np.hypot(np.interp(t_c, rows["t"], rows["vx"]), np.interp(t_c, rows["t"], rows["vy"]))
             if speed.max() < SPEED_CHANGE_RATIO * speed.min():
                 continue
-            half, lag_us = flanks[i]
-            t_new, r_new = _speed_change_corrected(t_c, half, cr[1], cr[2], cr[3], rows, lag_us)
+            moved, t_new = _flank_corrected(track, flanks[i], rows)
             if np.max(np.abs(t_new - t_c) * speed) * 1e-6 >= _SPEED_CHANGE_REFIT_PX:
-                tracks[i] = (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns)
+                tracks[i] = moved
                 redo.append(i)
         if redo:
             for i, f in zip(redo, self._fit_along([tracks[i] for i in redo],
@@ -357,16 +356,12 @@ class TrackSmoother:
         `tracks` is updated in place; returns the indices of those that moved."""
         moved = set()
         for i in reversing:
-            full, z, s_cent, cr, turns = tracks[i]
-            if len(cr[0]) < MIN_CROSSINGS:
+            t_c = tracks[i][3][0]
+            if len(t_c) < MIN_CROSSINGS or np.any(flanks[i][1] > 0):
                 continue
-            half, lag_us = flanks[i]
-            if np.any(lag_us > 0):
-                continue
-            t_new, r_new = _speed_change_corrected(cr[0], half, cr[1], cr[2], cr[3],
-                                                   fitted[i][0], lag_us)
-            if np.any(t_new != cr[0]):
-                tracks[i] = (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns)
+            track, t_new = _flank_corrected(tracks[i], flanks[i], fitted[i][0])
+            if np.any(t_new != t_c):
+                tracks[i] = track
                 moved.add(i)
         return moved
 
@@ -1008,6 +1003,14 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0):
         ok &= (side >= 0.5) & (side <= 1.5)
     shift = np.where(ok, shift, 0.0)
     return t_c + shift, resid - v * shift * 1e-6
+
+
+def _flank_corrected(track, flank, rows):
+    """(the _fit_along track tuple with its crossings moved by _speed_change_corrected on
+    `rows`, the moved times); flank: the crossings' (RMS half-widths, lags µs)."""
+    full, z, s_cent, cr, turns = track
+    t_new, r_new = _speed_change_corrected(cr[0], flank[0], cr[1], cr[2], cr[3], rows, flank[1])
+    return (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns), t_new
 
 
 def _integral(ts, f, t):

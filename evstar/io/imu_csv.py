@@ -11,7 +11,7 @@ from ..events import T_LIMIT_US, check_time_range
 from ..imu import MAX_RATE_RAD_S, Imu, first_excess_rate
 from .atomic import atomic_path
 from .guard import check_no_implicit_index, check_readable, csv_parser_error, decoder_errors
-from .text import first_row_line
+from .text import first_row_line, looks_like_seconds
 
 COLUMNS = ["t", "gx", "gy", "gz", "ax", "ay", "az"]
 
@@ -76,8 +76,7 @@ def _check_time_unit(path, t):
     collapse onto a few: a FormatError saying so), as are whole ones a median under
     _MIN_IMU_STEP_US apart (seconds or ms: no gyro samples at > 100 kHz); other fractional
     µs are rounded, warned."""
-    frac = t != np.round(t)
-    if frac.any() and np.abs(t).max() < 1e4 and frac.mean() > 0.5:
+    if looks_like_seconds(t):
         raise FormatError(path, "column 't' holds fractional values all under 10⁴: IMU CSV times "
                                 "are in µs; if these are seconds, multiply them by 10⁶")
     steps = np.diff(np.sort(t))
@@ -85,6 +84,7 @@ def _check_time_unit(path, t):
         raise FormatError(path, f"column 't': samples lie a median {np.median(steps):g} µs apart "
                                 "(no gyro samples that fast): IMU CSV times are in µs; if these "
                                 "are seconds or ms, multiply them by 10⁶ or 10³")
+    frac = t != np.round(t)
     if not frac.any():
         return
     warnings.warn(f"{path}: column 't' has {int(frac.sum())} value(s) with fractional µs, "

@@ -134,9 +134,8 @@ def _check_values(path, label, offset, x, y, p):
 class _Rounding:
     """Counts timestamps rounded to whole µs, to warn once per file."""
 
-    def __init__(self, first_line=None):
+    def __init__(self):
         self.count, self.largest = 0, 0.0
-        self.first_line = first_line    # the file's first data line (its chunk: unit check)
 
     def add(self, exact_us, rounded_us, changed):
         if changed.any():
@@ -154,8 +153,7 @@ def _unit_hint(v, seconds):
     if seconds and v.dtype.kind != "f" and np.abs(v).max() >= _UNIT_HINT:
         return (f"holds whole numbers up to {np.abs(v).max():,}: a headerless file's t is in "
                 "seconds; if these are µs, give the file a header line t,x,y,p")
-    if not seconds and v.dtype.kind == "f" and np.abs(v).max() < _UNIT_HINT \
-            and np.mean(v != np.round(v)) > 0.5:
+    if not seconds and looks_like_seconds(v):
         return ("holds fractional values all under 10⁴: a header's t is in µs; if these are "
                 "seconds, multiply them by 10⁶ (or drop the header: headerless t x y p rows "
                 "are read in seconds)")
@@ -166,11 +164,18 @@ def _unit_hint(v, seconds):
 _UNIT_HINT = 10_000
 
 
-def _times(path, frame, column, name, offset, seconds, rounding):
+def looks_like_seconds(t):
+    """Are times taken as µs in fact seconds: mostly fractional, all under 10⁴ (rounded to
+    µs they collapse onto a few)?"""
+    return (np.asarray(t).dtype.kind == "f" and len(t) > 0 and np.abs(t).max() < _UNIT_HINT
+            and np.mean(t != np.round(t)) > 0.5)
+
+
+def _times(path, frame, column, name, offset, seconds, rounding, first=False):
     """Timestamps in µs: range-checked, rounded to whole µs (counted in `rounding`); the
-    first rows' unit checked (_unit_hint: a warning)."""
+    file's `first` rows' unit checked (_unit_hint: a warning)."""
     v = _numeric(path, frame, column, name, offset)
-    hint = _unit_hint(v, seconds) if offset == rounding.first_line else None
+    hint = _unit_hint(v, seconds) if first else None
     if hint:
         warnings.warn(f"{path}: column {name} {hint}", EvstarWarning, stacklevel=4)
     us = v * 1e6 if seconds else v
@@ -204,7 +209,7 @@ def packets(path, chunk_rows=1_000_000):
     else:
         cols = _columns(path, names)
         label = {k: repr(c) for k, c in cols.items()}
-    rounding = _Rounding(line)
+    rounding, first = _Rounding(), line
     try:
         with _reader(path, names, sep, chunk_rows) as reader:   # closed on an error too
             for frame in reader:
@@ -214,7 +219,8 @@ def packets(path, chunk_rows=1_000_000):
                 missing = [c for c in cols.values() if c not in frame.columns]
                 if missing:
                     raise FormatError(path, f"cannot find column(s) {missing} in the rows")
-                t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding)
+                t = _times(path, frame, cols["t"], label["t"], line, seconds, rounding,
+                           line == first)
                 xyp = [_integers(path, frame, cols[k], label[k], line) for k in "xyp"]
                 _check_values(path, label, line, *xyp)
                 line += len(frame)
