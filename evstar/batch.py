@@ -313,11 +313,11 @@ def write_summary(outdir, table):
 def _write_marker(outdir, data):
     from .io.atomic import atomic_path
 
-    from .outputs import RUN_FILES
+    from .outputs import RUN_FILES, json_text
 
     files = [name for name in RUN_FILES if pathlib.Path(outdir, name).is_file()]
-    with atomic_path(pathlib.Path(outdir, MARKER)) as tmp:
-        tmp.write_text(json.dumps({**data, "files": files}, indent=2, default=_json) + "\n")
+    with atomic_path(pathlib.Path(outdir, MARKER)) as tmp:   # NaN metrics as null (JSON)
+        tmp.write_text(json_text({**data, "files": files}, default=_json) + "\n")
 
 
 def _one_line(exc):

@@ -189,10 +189,10 @@ def _num(v, fmt):
     return format(v, fmt) if np.isfinite(v) else "n/a"
 
 
-def json_text(doc):
+def json_text(doc, default=None):
     """`doc` as JSON, a non-finite number as null (NaN and Infinity are not JSON: an SNR
-    or an error where nothing was kept or matched)."""
-    return json.dumps(_finite(doc), indent=2, allow_nan=False)
+    or an error where nothing was kept or matched); default: as json.dumps takes it."""
+    return json.dumps(_finite(doc), indent=2, allow_nan=False, default=default)
 
 
 def _finite(v):

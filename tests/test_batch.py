@@ -235,3 +235,22 @@ def test_run_many_checks_its_arguments_before_any_work(tmp_path, change, error, 
         batch.run_many(args.pop("paths"), args.pop("config"), args.pop("outdir"), **args)
     assert len(str(e.value).splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_marker_is_strict_json_with_undefined_metrics(tmp_path):
+    """A recording where nothing matched has NaN / -inf metrics: the marker stores them as
+    null (NaN is not JSON) and a later batch still reads the run back as complete."""
+    import json
+
+    stamp = {"input": "x.h5", "fingerprint": "abc"}
+    row = {"input": "x.h5", "status": "ok", "snr": float("nan"), "error_px": float("-inf"),
+           "events": 12}
+    batch._write_marker(tmp_path, {**stamp, "row": row})
+    text = (tmp_path / batch.MARKER).read_text()
+
+    def refuse(name):
+        raise ValueError(f"{name} in the marker")
+
+    saved = json.loads(text, parse_constant=refuse)
+    assert saved["row"]["snr"] is None and saved["row"]["error_px"] is None
+    assert batch.completed(tmp_path, stamp)["events"] == 12
