@@ -6,6 +6,8 @@ Scenes (simulated with evstar.sim, 640x480 DVXplorer, 10 ms frames):
   dense  the worst case for the density filters: 100 Hz/pixel background, ~1 event per
          pixel per frame (~300 k events per frame), same length
 
+The table gives each row's median throughput and its range over the runs.
+
 Rows: ClassicalFilter (k=1, dt 10 ms), NDSEF (radius 5, auto threshold), MR-NDSEF (radii
 3..11, auto thresholds); backends taichi-cpu (lanes: the CPU form), taichi-cpu-events (the
 event-parallel GPU form run on the CPU), reference (numpy, on the first 1 M events) and
@@ -140,6 +142,8 @@ def bench_row(scene, name, backend, events, run_fn, repeats, compile_fn=None, fl
     row = dict(scene=scene, filter=name, backend=backend, events=len(events),
                input_mb=events.nbytes / 1e6, median_s=med, mev_s=len(events) / med / 1e6,
                runs_s=timing["runs_s"], first_call_s=first, cpu_s=cpu,
+               # the runs' throughput range (slowest–fastest): the shared cores swing 2x
+               mev_s_range=f"{len(events) / max(walls) / 1e6:.1f}–{len(events) / min(walls) / 1e6:.1f}",
                mev_per_cpu_s=len(events) / cpu / 1e6,
                extra_mb=None if mem is None else mem / 1e6,
                extra_x_input=None if mem is None else mem / events.nbytes)
@@ -198,7 +202,8 @@ def main(argv=None):
     RESULTS.mkdir(exist_ok=True)
     profiling.write_results(RESULTS / f"{args.out}.json", rows, meta)
     cols = [("scene", "scene", ""), ("filter", "filter", ""), ("backend", "backend", ""),
-            ("events", "events", ","), ("mev_s", "M events/s", ".1f"), ("median_s", "median s", ".3f"),
+            ("events", "events", ","), ("mev_s", "M events/s", ".1f"), ("mev_s_range", "range", ""),
+            ("median_s", "median s", ".3f"),
             ("mev_per_cpu_s", "M events/CPU-s", ".1f"), ("first_call_s", "first call s", ".2f"),
             ("extra_x_input", "extra mem / input", ".2f")]
     text = profiling.table(rows, cols)
