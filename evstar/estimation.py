@@ -71,6 +71,27 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
                             fallback_ratio=fallback_ratio)
 
 
+def chunk_crossings_both(events, keep, radius_px, refractory_us, threshold_ratio=AUTO,
+                         profiles=None, fallback_ratio=1.0):
+    """(crossings paired with the pixels' refractory period, the same changes paired as
+    without one, the threshold ratio: the one given, or the measured one — None where too
+    few changes measure it) of one chunk, from one gathering of its events (chunk_crossings'
+    arguments). Behind a pixel low-pass the refractory pairing misleads (the pipeline then
+    takes the others: _RunState.crossings)."""
+    from .frames import kept_indices
+
+    keep = kept_indices(keep)
+    if not len(keep):
+        none = np.zeros(0, CROSSING_DTYPE)
+        return none, none, None if threshold_ratio == AUTO else threshold_ratio
+    near = _near_kept(events, keep, radius_px)
+    crossings, r = sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
+                                    with_ratio=True, refractory_us=refractory_us,
+                                    profiles=profiles, fallback_ratio=fallback_ratio)
+    used = fallback_ratio if r is None else r
+    return crossings, sorted_crossings(*near, events.width, threshold_ratio=used), r
+
+
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep: as
     chunk_crossings takes it), in the pixel-then-time order."""

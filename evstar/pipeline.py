@@ -306,7 +306,7 @@ class Pipeline:
 
         def positions(cents):
             lag = state.measured_lag(cents)
-            rows = estimation.estimate(cents, self.config, t0, state.crossings(), prior, span,
+            rows = estimation.estimate(cents, self.config, t0, state.crossings(lag), prior, span,
                                        state.sensor, lag, rate, state.near_events())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
@@ -434,6 +434,7 @@ class _RunState:
         # no hot pixel found: no mask (a pass over every event finds none on it)
         hot = hot if hot is not None and hot.any() else None
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
+        self._plain = []     # with a refractory period: the crossings paired without it
         self._near = []
         self.t0_us, self.span_us = t0_us, chunk_span_us(config)
         e = config.estimate
@@ -456,7 +457,7 @@ class _RunState:
         indices) and the events near its `centroids` (evstar.across; time-ordered, as the
         extractor gives them), span by span."""
         from .across import near_centroids
-        from .estimation import chunk_crossings
+        from .estimation import chunk_crossings, chunk_crossings_both
 
         e = self.config.estimate
         with_crossings = e.estimator == "crossings"
@@ -475,20 +476,30 @@ class _RunState:
             if not with_crossings:
                 continue
             mine = kept[kept_cuts[k]:kept_cuts[k + 1]] - a
-            if self.threshold_ratio is None:   # the first span: the calibration window
+            # the first span measures the ratio (the calibration window) unless configured
+            ratio = AUTO if self.threshold_ratio is None else self.threshold_ratio
+            if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
+                crossings, plain, r = chunk_crossings_both(
+                    events[a:b], mine, e.crossing_radius_px, e.refractory_us, ratio,
+                    self.profiles, self.fallback_ratio)
+                self._plain.append(plain)
+            else:
                 crossings, r = chunk_crossings(
-                    events[a:b], mine, e.crossing_radius_px, with_ratio=True,
+                    events[a:b], mine, e.crossing_radius_px, ratio, with_ratio=True,
                     refractory_us=e.refractory_us, profiles=self.profiles,
                     fallback_ratio=self.fallback_ratio)
+            if self.threshold_ratio is None:
                 self.threshold_ratio = self.fallback_ratio if r is None else r
-            else:
-                crossings = chunk_crossings(events[a:b], mine, e.crossing_radius_px,
-                                            self.threshold_ratio, refractory_us=e.refractory_us,
-                                            profiles=self.profiles)
             self._crossings.append(crossings)
 
-    def crossings(self):
-        return np.concatenate(self._crossings) if self._crossings else None
+    def crossings(self, lag=None):
+        """The run's crossings; where the pixels' low-pass `lag` was measured (not None) and
+        the run pairs levels with a refractory period, those paired without it: behind a
+        low-pass the refractory pairing took dark-sky positions 0.109 -> 0.192 and 0.155 ->
+        0.341 px (a 1 Hz sinusoid, 100 µs told; fresh-37 of perf/study_accuracy.py), where
+        on fast pixels it takes them 0.041 -> 0.013."""
+        chosen = self._plain if lag is not None and self._plain else self._crossings
+        return np.concatenate(chosen) if chosen else None
 
     def near_events(self):
         """(t, x, y) of the events near a centroid (across.near_centroids), hot pixels out."""
