@@ -71,25 +71,26 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
                             fallback_ratio=fallback_ratio)
 
 
-def chunk_crossings_both(events, keep, radius_px, refractory_us, threshold_ratio=AUTO,
+def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, AUTO),
                          profiles=None, fallback_ratio=1.0):
-    """(crossings paired with the pixels' refractory period, the same changes paired as
-    without one, the threshold ratio: the one given, or the measured one — None where too
-    few changes measure it) of one chunk, from one gathering of its events (chunk_crossings'
-    arguments). Behind a pixel low-pass the refractory pairing misleads (the pipeline then
-    takes the others: _RunState.crossings)."""
+    """chunk_crossings both ways from one gathering of the events: ((crossings paired with
+    the pixels' refractory period, their threshold ratio), (the crossings paired as without
+    one, theirs)) — each ratio the one given in `ratios` (refractory, plain) or measured with
+    that pairing's levels (None where too few changes measure it, fallback_ratio used);
+    `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
+    ones: they are what a run told no period finds (_RunState.crossings)."""
     from .frames import kept_indices
 
     keep = kept_indices(keep)
     if not len(keep):
         none = np.zeros(0, CROSSING_DTYPE)
-        return none, none, None if threshold_ratio == AUTO else threshold_ratio
+        return tuple((none, None if r == AUTO else r) for r in ratios)
     near = _near_kept(events, keep, radius_px)
-    crossings, r = sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
-                                    with_ratio=True, refractory_us=refractory_us,
-                                    profiles=profiles, fallback_ratio=fallback_ratio)
-    used = fallback_ratio if r is None else r
-    return crossings, sorted_crossings(*near, events.width, threshold_ratio=used), r
+    told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
+                            refractory_us=refractory_us, fallback_ratio=fallback_ratio)
+    plain = sorted_crossings(*near, events.width, threshold_ratio=ratios[1], with_ratio=True,
+                             profiles=profiles, fallback_ratio=fallback_ratio)
+    return told, plain
 
 
 def _near_kept(events, keep, radius_px):

@@ -340,7 +340,7 @@ ESTIMATE = Params(
     Param("refractory_us", float, 0.0, "the pixels' refractory period (the sensor's bias "
           "setting), for pairing crossing levels: each event then stands for the levels its "
           "gap says the pixel skipped while blind (0: none); where a run measures a pixel "
-          "low-pass lag it pairs as without it, the threshold ratio still measured with it",
+          "low-pass lag it takes the crossings of a run told none (the lag model holds there)",
           low=0, high=100_000, unit="µs"),
     Param("pixel_lag_file", str, None, "pixel lag by brightness from `evstar calibrate` "
           "(JSON): each pixel crossing is moved back by its lag (none: no correction)",

@@ -434,11 +434,12 @@ class _RunState:
         # no hot pixel found: no mask (a pass over every event finds none on it)
         hot = hot if hot is not None and hot.any() else None
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
-        self._plain = []     # with a refractory period: the crossings paired without it
         self._near = []
         self.t0_us, self.span_us = t0_us, chunk_span_us(config)
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
+        # with a refractory period: the crossings paired as without it, and their ratio
+        self._plain, self._plain_ratio = [], self.threshold_ratio
         # where too few changes measure it: the calibration recording's (a bright moving
         # field, pixel_lag_file), else 1
         self.fallback_ratio = 1.0
@@ -476,28 +477,36 @@ class _RunState:
             if not with_crossings:
                 continue
             mine = kept[kept_cuts[k]:kept_cuts[k + 1]] - a
-            # the first span measures the ratio (the calibration window) unless configured
-            ratio = AUTO if self.threshold_ratio is None else self.threshold_ratio
             if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
-                crossings, plain, r = chunk_crossings_both(
-                    events[a:b], mine, e.crossing_radius_px, e.refractory_us, ratio,
+                (crossings, r), (plain, r_plain) = chunk_crossings_both(
+                    events[a:b], mine, e.crossing_radius_px, e.refractory_us,
+                    (self._ratio(self.threshold_ratio), self._ratio(self._plain_ratio)),
                     self.profiles, self.fallback_ratio)
+                if self._plain_ratio is None:
+                    self._plain_ratio = self.fallback_ratio if r_plain is None else r_plain
                 self._plain.append(plain)
             else:
                 crossings, r = chunk_crossings(
-                    events[a:b], mine, e.crossing_radius_px, ratio, with_ratio=True,
-                    refractory_us=e.refractory_us, profiles=self.profiles,
+                    events[a:b], mine, e.crossing_radius_px, self._ratio(self.threshold_ratio),
+                    with_ratio=True, refractory_us=e.refractory_us, profiles=self.profiles,
                     fallback_ratio=self.fallback_ratio)
-            if self.threshold_ratio is None:
+            if self.threshold_ratio is None:   # the first span's: the calibration window
                 self.threshold_ratio = self.fallback_ratio if r is None else r
             self._crossings.append(crossings)
 
+    @staticmethod
+    def _ratio(ratio):
+        """A ratio for chunk_crossings: "auto" (measured) until the first span set it."""
+        return AUTO if ratio is None else ratio
+
     def crossings(self, lag=None):
         """The run's crossings; where the pixels' low-pass `lag` was measured (not None) and
-        the run pairs levels with a refractory period, those paired without it: behind a
-        low-pass the refractory pairing took dark-sky positions 0.109 -> 0.192 and 0.155 ->
-        0.341 px (a 1 Hz sinusoid, 100 µs told; fresh-37 of perf/study_accuracy.py), where
-        on fast pixels it takes them 0.041 -> 0.013."""
+        the run pairs levels with a refractory period, those a run told no period finds:
+        behind a low-pass the refractory pairing took dark-sky positions 0.109 -> 0.192 and
+        0.155 -> 0.341 px (1 Hz sinusoids, 100 µs told; fresh-37 of perf/study_accuracy.py)
+        and a Cygnus EVK4 16 mm pan at 20 °/s 0.33 -> 1.89, where on fast pixels it takes
+        them 0.041 -> 0.013 (the lag model holds on the plain pairs; with the plain pairs
+        and the ratio the refractory levels measure, the pan was still 0.72)."""
         chosen = self._plain if lag is not None and self._plain else self._crossings
         return np.concatenate(chosen) if chosen else None
 

@@ -297,11 +297,11 @@ def run_scene(s, settings=None):
                                            cfg.estimate.threshold_ratio, profiles=profiles)
     lag = profiles.lag()
     refractory_us = SENSORS[s["sensor"]]().refractory_us      # the sensor's setting, known
-    # told the period, a run pairs as without it behind a measured low-pass (the pipeline's
-    # _RunState.crossings), with the ratio its refractory levels measured
-    crossings_r, plain_r, _ = estimation.chunk_crossings_both(
-        ev, res.keep, cfg.estimate.crossing_radius_px, refractory_us, cfg.estimate.threshold_ratio)
-    crossings_r = crossings_r if lag is None else plain_r
+    # told the period, a run behind a measured low-pass takes the crossings of a run told
+    # none (the pipeline's _RunState.crossings)
+    crossings_r = crossings if lag is not None else estimation.chunk_crossings(
+        ev, res.keep, cfg.estimate.crossing_radius_px, cfg.estimate.threshold_ratio,
+        refractory_us=refractory_us)
     signal = (run.truth.labels >= 0).sum() / n_frames
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
