@@ -9,7 +9,9 @@ perf/study_mismatch.py); a neighbour's events pull a close pair's centroids toge
 each track takes the across offset of *all* events near its path (noise included, hot pixels
 out), pooled over the whole track: the mode a mean-shift with Gaussian weights finds — a
 symmetric profile on a uniform background has it at the star — and its rows move across the
-motion by it.
+motion by it. A track that reverses (a sinusoid's turns) has two frames: its offset may turn
+with the motion or stay on one side of its path in the image; the one whose profile is
+narrower is taken (_image_frame).
 
 Events find their track through coarse cells its path touches (CELL_PX), then their frame's
 row of that track, moved to the event's time along the track's velocity; the histogram of
@@ -82,9 +84,24 @@ def refine(rows, t, x, y, t0_us, dt_us, sensor, kernel_px, engine="taichi"):
     p = np.stack([rows["x"][sel], rows["y"][sel]], axis=1)
     tr = rows["t"][sel].astype(np.float64)
     u, v = _directions(p, g), _velocities(tr, p, g)
+    margin = EDGE_SIGMAS * kernel_px + 1
     counts = offset_counts(t, x, y, t0_us, dt_us, sensor, rows["frame"][sel], g, p, v, u, tr,
-                           EDGE_SIGMAS * kernel_px + 1, engine)
-    s = mean_shift(counts, kernel_px)[g]
+                           margin, engine)
+    s, width = _mode(counts, kernel_px)
+    # a track that reverses: its offset is one side of the motion (as above) or one side of
+    # its path in the image (a pixel row's threshold, the PSF), which its passes' motion
+    # frames cancel; the frame whose profile is narrower is the offset's
+    image_u = _image_frame(u, g)
+    back = (image_u * u).sum(1) < 0
+    reversing = (np.bincount(g, back) > 0) & (np.bincount(g, ~back) > 0)
+    if reversing.any():
+        s_img, width_img = _mode(offset_counts(t, x, y, t0_us, dt_us, sensor,
+                                               rows["frame"][sel], g, p, v, image_u, tr,
+                                               margin, engine), kernel_px)
+        image = reversing & (width_img < width)
+        s = np.where(image, s_img, s)
+        u = np.where(image[g][:, None], image_u, u)
+    s = s[g]
     out["x"][sel] -= s * u[:, 1]
     out["y"][sel] += s * u[:, 0]
     return out
@@ -123,6 +140,12 @@ def mean_shift(counts, kernel_px):
     Gaussian profile of σ); the second weighs with a kernel matched to it: a bright star's
     events spread wide and flat-topped (log response), where a narrow kernel locks onto
     pixel rows. Smooth weights: a hard window locks too (rows enter and leave it whole)."""
+    return _mode(counts, kernel_px)[0]
+
+
+def _mode(counts, kernel_px):
+    """(mean_shift's shift, the profile's σ its first pass measured; inf where too wide to
+    tell) per row of `counts`."""
     reach = REACH_PX + MAX_SHIFT_PX
     centre = (np.arange(counts.shape[1]) + 0.5) * BIN_PX - reach
     counts = counts.astype(np.float64)
@@ -133,7 +156,7 @@ def mean_shift(counts, kernel_px):
     sigma = np.sqrt(np.where(var < 0.9 * h2, var * h2 / np.maximum(h2 - var, 1e-12), np.inf))
     d, n = _fixed_point(counts, centre, np.clip(PROFILE_FACTOR * sigma, KERNEL_MIN_PX,
                                                 KERNEL_MAX_PX))
-    return np.where((n >= MIN_EVENTS) & (np.abs(d) < MAX_SHIFT_PX), d, 0.0)
+    return np.where((n >= MIN_EVENTS) & (np.abs(d) < MAX_SHIFT_PX), d, 0.0), sigma
 
 
 def _fixed_point(counts, centre, h):
@@ -151,6 +174,17 @@ def _fixed_point(counts, centre, h):
         if not len(active):
             break
     return d, n
+
+
+def _image_frame(u, g):
+    """u with each row turned to its track's principal axis of direction (the dominant
+    eigenvector of Σ u uᵀ, sign-free): a reversing track's rows moving back flipped, so that
+    across is one side of its path in the image."""
+    n_tr = int(g.max()) + 1 if len(g) else 0
+    M = np.zeros((n_tr, 2, 2))
+    np.add.at(M, g, u[:, :, None] * u[:, None, :])
+    axis = np.linalg.eigh(M)[1][:, :, -1][g]
+    return np.where(((u * axis).sum(1) < 0)[:, None], -u, u)
 
 
 def _directions(p, g):

@@ -237,3 +237,37 @@ def test_no_star_of_a_dark_sky_field_moves_off():
     assert good.sum() > 80
     assert (on - off)[good].max() < 0.1
     assert np.median(on) < np.median(off)
+
+
+def _there_and_back(rng, offset_image, offset_motion, frames=40, speed=0.6, per_frame=120):
+    """A star moving +x for `frames` frames, then back -x half as long (a sinusoid's two
+    passes about a turn), its events sampled about the path shifted by `offset_image` px in
+    +y (one side of the path in the image) and `offset_motion` px to the left of its
+    motion; rows on the true path. Returns (rows, t, x, y, true y of each row)."""
+    start, half = np.array([60.0, 90.4]), frames // 2
+    out = star_events(rng, start + (0, offset_image + offset_motion), (speed, 0.0), frames, per_frame)
+    turn = start + (speed * frames, 0.0)
+    back = star_events(rng, turn + (0, offset_image - offset_motion), (-speed, 0.0), half, per_frame)
+    back = (back[0] + frames * DT, back[1], back[2])
+    rows = np.concatenate([track_rows(start, (speed, 0.0), frames),
+                           track_rows(turn, (-speed, 0.0), half)])
+    rows["frame"][frames:] += frames
+    rows["t"][frames:] += frames * DT
+    want = np.r_[np.full(frames, 90.4 + offset_image + offset_motion),
+                 np.full(half, 90.4 + offset_image - offset_motion)]
+    return rows, *cat(out, back), want
+
+
+@pytest.mark.parametrize("offset_image, offset_motion", [(0.3, 0.0), (0.0, 0.3)])
+def test_a_reversing_track_takes_its_offset_in_the_image_or_in_the_motion_frame(
+        offset_image, offset_motion):
+    """A track that turns back: an offset on one side of its path in the image (a pixel
+    row's threshold) appears with opposite signs across its two passes' motion, and one
+    taken in the motion's frame cancelled (the sinusoids' regressed stars of the
+    thirty-seventh session's turn join); one that turns with the motion stays in it.
+    Either way the rows move onto the events."""
+    rng = np.random.default_rng(11)
+    rows, t, x, y, want = _there_and_back(rng, offset_image, offset_motion)
+    out = across.refine(rows, t, x, y, 0, DT, SENSOR, 1.5)
+    assert np.abs(out["y"] - want).max() < 0.06, np.abs(out["y"] - want).max()
+    np.testing.assert_array_equal(out["x"], rows["x"])        # across only (x along)
