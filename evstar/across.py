@@ -181,8 +181,9 @@ def _image_frame(u, g):
     eigenvector of Σ u uᵀ, sign-free): a reversing track's rows moving back flipped, so that
     across is one side of its path in the image."""
     n_tr = int(g.max()) + 1 if len(g) else 0
-    M = np.zeros((n_tr, 2, 2))
-    np.add.at(M, g, u[:, :, None] * u[:, None, :])
+    xx, xy, yy = (np.bincount(g, a * b, n_tr) for a, b in ((u[:, 0], u[:, 0]), (u[:, 0], u[:, 1]),
+                                                           (u[:, 1], u[:, 1])))
+    M = np.stack([np.stack([xx, xy], -1), np.stack([xy, yy], -1)], -2)
     axis = np.linalg.eigh(M)[1][:, :, -1][g]
     return np.where(((u * axis).sum(1) < 0)[:, None], -u, u)
 

@@ -59,16 +59,13 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
-    from .frames import kept_indices
-
-    keep = kept_indices(keep)
-    if not len(keep):
+    near = _near_kept(events, keep, radius_px)
+    if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    return sorted_crossings(*_near_kept(events, keep, radius_px), events.width,
-                            threshold_ratio=threshold_ratio, with_ratio=with_ratio,
-                            refractory_us=refractory_us, profiles=profiles,
-                            fallback_ratio=fallback_ratio)
+    return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
+                            with_ratio=with_ratio, refractory_us=refractory_us,
+                            profiles=profiles, fallback_ratio=fallback_ratio)
 
 
 def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, AUTO),
@@ -79,13 +76,10 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     that pairing's levels (None where too few changes measure it, fallback_ratio used);
     `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
     ones: they are what a run told no period finds (_RunState.crossings)."""
-    from .frames import kept_indices
-
-    keep = kept_indices(keep)
-    if not len(keep):
+    near = _near_kept(events, keep, radius_px)
+    if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
-    near = _near_kept(events, keep, radius_px)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
                             refractory_us=refractory_us, fallback_ratio=fallback_ratio)
     plain = sorted_crossings(*near, events.width, threshold_ratio=ratios[1], with_ratio=True,
@@ -95,9 +89,12 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
 
 def _near_kept(events, keep, radius_px):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep: as
-    chunk_crossings takes it), in the pixel-then-time order."""
-    from .frames import events_by_pixel, kept_pixels
+    chunk_crossings takes it), in the pixel-then-time order; None where none is kept."""
+    from .frames import events_by_pixel, kept_indices, kept_pixels
 
+    keep = kept_indices(keep)
+    if not len(keep):
+        return None
     return events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))
 
 
