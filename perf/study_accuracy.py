@@ -98,7 +98,21 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "busy": lambda: sim.sensor_model("default", noise_hz=5.0),
            "dropout-50": lambda: sim.sensor_model("default", dropout=0.5),
            "jitter-100": lambda: sim.sensor_model("default", jitter_us=100.0),
-           "coarse": lambda: sim.sensor_model("default", threshold_on=0.35, threshold_off=0.35)}
+           "coarse": lambda: sim.sensor_model("default", threshold_on=0.35, threshold_off=0.35),
+           # the thirty-eighth session's held-out part: many hot pixels, many warm ones (8 Hz,
+           # near a faint star's rate), an ideal pixel, a leaking dark sky, a background of
+           # three ON events to one OFF, a dark sky with a wide threshold mismatch, fine
+           # dark-sky thresholds, fast pixels
+           "many-hot": lambda: sim.sensor_model("default", hot_pixels=300, hot_pixel_hz=30.0),
+           "warm": lambda: sim.sensor_model("default", hot_pixels=200, hot_pixel_hz=8.0),
+           "ideal": lambda: sim.sensor_model("default", refractory_us=0.0, jitter_us=0.0,
+                                             threshold_mismatch=0.0),
+           "dark-sky-leak": lambda: sim.sensor_model("dark-sky", leak_hz=0.5),
+           "on-heavy": lambda: sim.sensor_model("default", noise_on_fraction=0.75),
+           "dark-sky-mismatch": lambda: sim.sensor_model("dark-sky", threshold_mismatch=0.06),
+           "dark-sky-fine": lambda: sim.sensor_model("dark-sky", threshold_on=0.12,
+                                                     threshold_off=0.12),
+           "fast-pixel": lambda: sim.sensor_model("default", refractory_us=20.0, jitter_us=5.0)}
 
 
 def dev_grid():
@@ -252,9 +266,36 @@ def fresh37_grid():
                    seed=37, **extra)
 
 
+def fresh38_grid():
+    """Inputs no session had tried, run once when the thirty-eighth session began (seed 38):
+    the issue's grid corners (1 and 2 °/s, magnitudes 2 and 5, PSF σ 0.8 and 1.5, with and
+    without the IMU, each sensor low-pass), hot and warm pixels by the hundred, and the
+    sensors above."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (1, 5.0, 1.5, "default", "none", {"camera": "davis346"}),
+            (2, 2.0, 0.8, "default", "imu", {"camera": "evk4"}),
+            (4, 4.5, 1.3, "many-hot", "none", {}),
+            (8, 4.0, 1.0, "warm", "imu", {}),
+            (12, 3.0, 1.2, "ideal", "none", {}),
+            (20, 5.0, 0.8, "dark-sky-leak", "imu", {}),
+            ("sine", 3.5, 1.3, "on-heavy", "none", {}),
+            ("sine", 2.0, 0.8, "dark-sky", "imu", {"camera": "evk4"}),
+            (30, 3.0, 1.0, "default", "imu", {"camera": "davis346"}),
+            (6, 4.0, 1.0, "dark-sky-mismatch", "none", {}),
+            (2, 4.0, 1.0, "dark-sky-fine", "none", {}),
+            ("sine", 4.0, 1.5, "default", "none", {"amplitude": 20.0, "direction": 135}),
+            (10, 3.0, 1.0, "fast-pixel", "none", {}),
+            ("sine", 4.5, 1.0, "dark-sky-40", "none", {"direction": 45}),
+            (12, 4.0, 1.2, "default", "imu", {"duration": 1.0, "camera": "dvxplorer",
+                                               "direction": 300})):
+        yield dict(set="fresh-38", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=38, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
-         "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid}
+         "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
+         "fresh-38": fresh38_grid}
 
 
 def scenario(s):
@@ -380,7 +421,7 @@ def plot(rows, path):
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
                                "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*",
-                               "fresh-37": "h"}.get(part, "o"))
+                               "fresh-37": "h", "fresh-38": "p"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
