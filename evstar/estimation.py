@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import lobes
+from . import assignment, lobes
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
@@ -129,9 +129,11 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster
-    # (evstar.pooling); a blend of two tracks' stars is neither's position
+    # (evstar.pooling); a blend of two tracks' stars is neither's position; a track of OFF
+    # lobes alone is pixels relaxing behind a star (lobes.trail_tracks)
     centroids = centroids[((centroids["track"] >= 0) | (centroids["source"] != "pooled"))
-                          & (centroids["track"] != BLENDED)]
+                          & (centroids["track"] != BLENDED)
+                          & ~np.isin(centroids["track"], lobes.trail_tracks(centroids))]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
@@ -153,8 +155,9 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         # one assignment serves all three: the estimator's within 3 px, the pair split's
         # and the along blends' (evstar.blends) wider
         assigned_to = _by_track(ests)
-        near_cross = near_tracks(crossings, assigned_to, REACH_PX if e.split_pairs else 3.0)
-        every = within(near_cross, 3.0)
+        near_cross = near_tracks(crossings, assigned_to,
+                                 REACH_PX if e.split_pairs else assignment.REACH_PX)
+        every = within(near_cross, assignment.REACH_PX)
         mine = _by_group(every, ests)
         lag = _run_lag(e, measured_lag)
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
@@ -165,6 +168,9 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
             if e.pixel_lag_file is None and e.lag_from_tracks:
                 refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
                                            e.along_weight, t0_us, lag, every[:2], rate_hz)
+        if lag is not None and velocity_prior is not None:
+            refined = _own_lag(refined, smoother, ests, groups, crossings, e.along_weight, t0_us,
+                               velocity_prior, assigned_to, lag, rate_hz)
         ests = refined
     est = np.concatenate(ests)
     loose = out[centroids["track"] < 0]
@@ -334,6 +340,39 @@ def _lag_from_tracks(refined, smoother, ests, mine, groups, crossings, along_wei
     faint = _refined(smoother, faint, mine, groups, crossings, along_weight, t0_us, lag,
                      background_hz)
     return [_in_order(np.concatenate([b, f])) for b, f in zip(bright, faint)]
+
+
+def _own_lag(refined, smoother, ests, groups, crossings, along_weight, t0_us, velocity_prior,
+             tracks, lag, background_hz):
+    """The `refined` rows with the tracks whose centroids lie too far from their crossings to
+    be assigned them (evstar.assignment) refitted: assigned around the track moved in time,
+    with the pixels' lag fitted on the run's own crossings against the gyro's motion, as
+    `evstar calibrate` fits a calibration recording (calibration.fit_pixel_lag: by k and
+    speed, where the level profiles' one lag per k does not hold — on that EVK4 sinusoid the
+    crossings lag 2.9 ms below 500 px/s and 1.3 ms at its 2700 px/s peak; moved with the
+    profiles' lag, a run of it without the gyro went 0.80 -> 1.45 px, so such runs are left
+    as they are). As they were where no track is that far, or the run cannot tell the lag
+    from an offset (a constant rate). tracks: the smoothed rows the crossings were assigned
+    to."""
+    from .calibration import fit_pixel_lag
+    from .errors import DataError
+
+    every, ids = assignment.assign(crossings, tracks)
+    if not len(ids):
+        return refined
+    mine, far = _by_group(every, ests), _split(ests, ids)[0]
+
+    def with_far(lag):   # the far tracks refitted with their crossings and `lag`
+        refit = _refined(smoother, far, mine, groups, crossings, along_weight, t0_us, lag,
+                         background_hz)
+        return [_in_order(np.concatenate([r[~np.isin(r["track"], ids)], f]))
+                for r, f in zip(refined, refit)]
+
+    try:   # the tracks' rows once refitted with their crossings set which are whose
+        own = fit_pixel_lag(crossings, _by_track(with_far(lag)), velocity_prior)
+    except DataError:
+        return refined
+    return with_far(own)
 
 
 def _split(ests, ids):

@@ -103,6 +103,29 @@ def trails(frame, n_by_p, sx, sy):
     return out
 
 
+#: a track whose events are at most this share ON is a trail of OFF lobes, not a star: a
+#: star's passages fire ON for ~r/(1 + r) of its events (r = C_off/C_on: 0.29–0.71 for
+#: ratios 0.4–2.5), while the pixels a fast star left behind on a slow (dark-sky)
+#: photoreceptor relax with OFF events alone. Moved with the gyro (IMU compensation), those
+#: separate from the star's own ON-led cluster, which trails() then cannot pair them with
+#: (Scorpius EVK4 16 mm dark-sky 20 °/s sinusoid: 99 tracks of ON share < 1/3, none a star's)
+TRAIL_ON_SHARE = 0.2
+
+
+def trail_tracks(centroids):
+    """Ids of the tracks of `centroids` whose events, all their centroids' off the sensor's
+    edge together, are TRAIL_ON_SHARE or less ON (a star leaving the sensor shows its OFF
+    events alone there: an Orion star at 2 °/s, 10 ON of 76); none where no centroid holds
+    an ON event (their polarities not counted)."""
+    on = (centroids["track"] >= 0) & ~centroids["border"]
+    if not centroids["n_on"].any():
+        return np.zeros(0, np.int64)
+    ids, k = np.unique(centroids["track"][on], return_inverse=True)
+    n = np.bincount(k, centroids["n_events"][on], len(ids))
+    n_on = np.bincount(k, centroids["n_on"][on], len(ids))
+    return ids[(n > 0) & (n_on <= TRAIL_ON_SHARE * n)]
+
+
 #: centroids a track needs before its lobe bias is measured
 MIN_LOBE_CENTROIDS = 10
 #: least std of a track's ON shares: enough one-lobe centroids to measure the bias against

@@ -266,9 +266,13 @@ class Pipeline:
         perf/study_pf_passes.py)."""
         from .motion import ParticleFilter
 
+        from .lobes import trail_tracks
+
         tracked = self.make_tracker().link(centroids[centroids["source"] != "pooled"])
-        # stars cut by the sensor edge give centroids biased by up to ~3 px: leave them out
-        obs = tracked[(tracked["track"] >= 0) & ~tracked["border"]]
+        # stars cut by the sensor edge give centroids biased by up to ~3 px, and a trail of
+        # OFF lobes is no star: leave them out
+        obs = tracked[(tracked["track"] >= 0) & ~tracked["border"]
+                      & ~np.isin(tracked["track"], trail_tracks(tracked))]
         # a track joined where one ended as another began (tracking._join: a turn, two stars
         # side by side) can hold two centroids at one time: which is the star's is unknown
         _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,

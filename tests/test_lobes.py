@@ -156,3 +156,26 @@ def test_a_centroid_is_balanced_when_both_polarities_hold_more_than_a_third():
     c = np.zeros(5, CENTROID_DTYPE)
     c["n_events"], c["n_on"] = [9, 9, 9, 9, 0], [0, 3, 4, 6, 0]
     assert list(balanced(c)) == [False, False, True, False, False]
+
+
+def test_a_track_of_off_lobes_alone_is_a_trail_and_not_reported():
+    from evstar import Config, estimation
+    from evstar.lobes import TRAIL_ON_SHARE, trail_tracks
+
+    star, _ = lobed_track(np.full(30, 0.5))
+    trail, _ = lobed_track(np.full(30, 0.0), beta=0.0)      # OFF events alone, 9 px behind
+    trail["x"] -= 9.0
+    trail["track"] = 1
+    trail["n_on"][::10] = 1                                  # a stray ON event now and then
+    # a dim star's ON share may run low, but not to the trail's
+    dim, _ = lobed_track(np.full(30, 0.5), seed=2)
+    dim["y"] += 20.0
+    dim["track"] = 2
+    dim["n_on"] = np.round(dim["n_events"] * (TRAIL_ON_SHARE + 0.05))
+    c = np.concatenate([star, trail, dim])
+    c = c[np.argsort(c["t"], kind="stable")]
+    assert list(trail_tracks(c)) == [1]
+    rows = estimation.estimate(c, Config().replace(**{"estimate.estimator": "track"}), 0)
+    assert set(np.unique(rows["track"])) == {0, 2}
+    c["n_on"] = 0                                            # polarities not counted
+    assert len(trail_tracks(c)) == 0
