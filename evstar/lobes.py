@@ -110,20 +110,24 @@ def trails(frame, n_by_p, sx, sy):
 #: separate from the star's own ON-led cluster, which trails() then cannot pair them with
 #: (Scorpius EVK4 16 mm dark-sky 20 °/s sinusoid: 99 tracks of ON share < 1/3, none a star's)
 TRAIL_ON_SHARE = 0.2
+#: ... judged on at least this many of its centroids off the sensor's edge (a star entering
+#: at the edge at its turn gave one OFF-heavy centroid there, 1 ON of 10)
+TRAIL_MIN_CENTROIDS = 5
 
 
 def trail_tracks(centroids):
     """Ids of the tracks of `centroids` whose events, all their centroids' off the sensor's
     edge together, are TRAIL_ON_SHARE or less ON (a star leaving the sensor shows its OFF
-    events alone there: an Orion star at 2 °/s, 10 ON of 76); none where no centroid holds
-    an ON event (their polarities not counted)."""
-    on = (centroids["track"] >= 0) & ~centroids["border"]
+    events alone there: an Orion star at 2 °/s, 10 ON of 76), of TRAIL_MIN_CENTROIDS or
+    more; none where no centroid holds an ON event (their polarities not counted)."""
+    on = (centroids["track"] >= 0) & ~centroids["border"] & (centroids["n_events"] > 0)
     if not centroids["n_on"].any():
         return np.zeros(0, np.int64)
     ids, k = np.unique(centroids["track"][on], return_inverse=True)
     n = np.bincount(k, centroids["n_events"][on], len(ids))
     n_on = np.bincount(k, centroids["n_on"][on], len(ids))
-    return ids[(n > 0) & (n_on <= TRAIL_ON_SHARE * n)]
+    enough = np.bincount(k, minlength=len(ids)) >= TRAIL_MIN_CENTROIDS
+    return ids[enough & (n_on <= TRAIL_ON_SHARE * n)]
 
 
 #: centroids a track needs before its lobe bias is measured
