@@ -34,9 +34,9 @@ SHIFT_MIN_CROSSINGS = 30
 
 def assign(crossings, tracks):
     """(within's assignment of `crossings` to `tracks` (rows t, track, x, y, vx, vy, sorted
-    by track, then time) within REACH_PX, each track whose crossings lie further than that
-    along its motion at its top speed moved in time onto them first (module doc); the ids of
-    the tracks moved)."""
+    by track, then time) within REACH_PX, each track that trails its crossings by more than
+    that at its top speed moved in time onto them first (track_shifts); the ids of the
+    tracks moved)."""
     shift = track_shifts(crossings, tracks)
     moved = tracks.copy()
     dt = np.zeros(len(tracks))

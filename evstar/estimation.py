@@ -362,8 +362,8 @@ def _own_lag(refined, smoother, ests, groups, crossings, along_weight, t0_us, ve
         return refined
     mine, far = _by_group(every, ests), _split(ests, ids)[0]
 
-    def with_far(lag):   # the far tracks refitted with their crossings and `lag`
-        refit = _refined(smoother, far, mine, groups, crossings, along_weight, t0_us, lag,
+    def with_far(table):   # the far tracks refitted with their crossings and a lag table
+        refit = _refined(smoother, far, mine, groups, crossings, along_weight, t0_us, table,
                          background_hz)
         return [_in_order(np.concatenate([r[~np.isin(r["track"], ids)], f]))
                 for r, f in zip(refined, refit)]

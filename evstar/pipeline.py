@@ -264,9 +264,8 @@ class Pipeline:
         f·b·dt/2, 0.06 px at 1 °/s, 10 ms, f 870 px; a second pass warped with the filter's
         attitude moved centroids by 0.0002 px median on the EVK4 fields,
         perf/study_pf_passes.py)."""
-        from .motion import ParticleFilter
-
         from .lobes import trail_tracks
+        from .motion import ParticleFilter
 
         tracked = self.make_tracker().link(centroids[centroids["source"] != "pooled"])
         # stars cut by the sensor edge give centroids biased by up to ~3 px, and a trail of
