@@ -176,6 +176,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     loose = out[centroids["track"] < 0]
     if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
         loose = loose[loose["n_events"] >= untracked_min_events(config, sensor, rate_hz)]
+    loose = loose[~lobes.behind_tracks(loose, est)]
     rows = _merge(loose, out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother

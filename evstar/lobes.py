@@ -130,6 +130,27 @@ def trail_tracks(centroids):
     return ids[enough & (n_on <= TRAIL_ON_SHARE * n)]
 
 
+def behind_tracks(rows, tracks):
+    """Per row of `rows` (untracked centroids): is it a trail — TRAIL_ON_SHARE or less ON,
+    behind a track's row of its frame (`tracks`: ESTIMATE_DTYPE rows with velocities) on the
+    line through it along its motion (within TRAIL_ACROSS_PX)? trails() for the clusters no
+    track took, with the track's own motion where the frame holds no two-polarity cluster
+    ahead (IMU compensation sets the star's ON-led cluster apart from its OFF trail)."""
+    out = np.zeros(len(rows), bool)
+    speed = np.hypot(tracks["vx"], tracks["vy"])
+    moving = speed > 0
+    for i in np.flatnonzero(rows["n_on"] <= TRAIL_ON_SHARE * rows["n_events"]):
+        s = moving & (tracks["frame"] == rows["frame"][i])
+        if not s.any():
+            continue
+        u = np.column_stack([tracks["vx"][s], tracks["vy"][s]]) / speed[s, None]
+        w = np.column_stack([rows["x"][i] - tracks["x"][s], rows["y"][i] - tracks["y"][s]])
+        along = np.sum(w * u, axis=1)
+        across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
+        out[i] = np.any((along < 0) & (across < TRAIL_ACROSS_PX))
+    return out
+
+
 #: centroids a track needs before its lobe bias is measured
 MIN_LOBE_CENTROIDS = 10
 #: least std of a track's ON shares: enough one-lobe centroids to measure the bias against

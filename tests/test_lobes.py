@@ -179,3 +179,19 @@ def test_a_track_of_off_lobes_alone_is_a_trail_and_not_reported():
     assert set(np.unique(rows["track"])) == {0, 2}
     c["n_on"] = 0                                            # polarities not counted
     assert len(trail_tracks(c)) == 0
+
+
+def test_an_untracked_off_lobe_behind_a_track_is_a_trail():
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.lobes import behind_tracks
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    track = np.zeros(1, ESTIMATE_DTYPE)
+    track["frame"], track["x"], track["y"], track["vx"] = 3, 100.0, 50.0, 800.0   # moving +x
+    loose = np.zeros(5, CENTROID_DTYPE)
+    loose["frame"], loose["n_events"] = 3, 20
+    loose["x"] = [91.0, 91.0, 109.0, 91.0, 91.0]            # 9 px behind; one ahead
+    loose["y"] = [50.5, 50.5, 50.0, 56.0, 50.0]             # one off the star's line
+    loose["n_on"] = [0, 10, 0, 0, 0]                        # one of both polarities
+    loose["frame"][4] = 4                                   # one in another frame
+    assert list(behind_tracks(loose, track)) == [True, False, False, False, False]
