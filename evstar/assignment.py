@@ -32,12 +32,13 @@ SHIFT_MIN_SPEED_PX_S = 50.0
 SHIFT_MIN_CROSSINGS = 30
 
 
-def assign(crossings, tracks):
+def assign(crossings, tracks, shift=None):
     """(within's assignment of `crossings` to `tracks` (rows t, track, x, y, vx, vy, sorted
     by track, then time) within REACH_PX, each track that trails its crossings by more than
-    that at its top speed moved in time onto them first (track_shifts); the ids of the
-    tracks moved)."""
-    shift = track_shifts(crossings, tracks)
+    that at its top speed moved in time onto them first; the ids of the tracks moved).
+    shift: track_shifts(crossings, tracks) where the caller has it."""
+    if shift is None:
+        shift = track_shifts(crossings, tracks)
     moved = tracks.copy()
     dt = np.zeros(len(tracks))
     for tid, rows in zip(*groups(tracks["track"])):

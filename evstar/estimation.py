@@ -358,9 +358,10 @@ def _own_lag(refined, smoother, ests, groups, crossings, along_weight, t0_us, ve
     from .calibration import fit_pixel_lag
     from .errors import DataError
 
-    every, ids = assignment.assign(crossings, tracks)
-    if not len(ids):
+    shift = assignment.track_shifts(crossings, tracks)
+    if not shift:   # no track that far: no assignment search more
         return refined
+    every, ids = assignment.assign(crossings, tracks, shift)
     mine, far = _by_group(every, ests), _split(ests, ids)[0]
 
     def with_far(table):   # the far tracks refitted with their crossings and a lag table

@@ -95,12 +95,16 @@ def trails(frame, n_by_p, sx, sy):
     out = np.zeros(len(n), bool)
     for g in np.flatnonzero(n_by_p[:, 1] <= (1 - PURITY) * n):
         s = moving[(frame[moving] == frame[g]) & (n[moving] > n[g])]
-        u = d[s] / length[s, None]
-        w = xy[g] - xy[s]
-        along = np.sum(w * u, axis=1)
-        across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
-        out[g] = np.any((along < 0) & (across < TRAIL_ACROSS_PX))
+        out[g] = _behind_on_line(xy[g] - xy[s], d[s] / length[s, None])
     return out
+
+
+def _behind_on_line(w, u):
+    """Does a point at offsets `w` (n, 2) from n centres, each moving along its unit `u`
+    (n, 2), lie behind one of them, within TRAIL_ACROSS_PX of its line?"""
+    along = np.sum(w * u, axis=1)
+    across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
+    return bool(np.any((along < 0) & (across < TRAIL_ACROSS_PX)))
 
 
 #: a track whose events are at most this share ON is a trail of OFF lobes, not a star: a
@@ -145,9 +149,7 @@ def behind_tracks(rows, tracks):
             continue
         u = np.column_stack([tracks["vx"][s], tracks["vy"][s]]) / speed[s, None]
         w = np.column_stack([rows["x"][i] - tracks["x"][s], rows["y"][i] - tracks["y"][s]])
-        along = np.sum(w * u, axis=1)
-        across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
-        out[i] = np.any((along < 0) & (across < TRAIL_ACROSS_PX))
+        out[i] = _behind_on_line(w, u)
     return out
 
 
