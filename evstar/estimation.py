@@ -159,7 +159,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
                                  REACH_PX if e.split_pairs else assignment.REACH_PX)
         every = within(near_cross, assignment.REACH_PX)
         mine = _by_group(every, ests)
-        lag = _run_lag(e, measured_lag)
+        lag = run_lag(e, measured_lag)
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
                            rate_hz)
         if lag is not None:     # the lag's scale as measured (or calibrated), per track
@@ -209,7 +209,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     return rows
 
 
-def _run_lag(e, measured_lag):
+def run_lag(e, measured_lag):
     """The PixelLag the crossings move back by: the calibration file's, else the measured."""
     return pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
 
@@ -217,7 +217,7 @@ def _run_lag(e, measured_lag):
 def largest_lag_us(e, measured_lag):
     """The largest lag (µs) of the table the crossings move back by (estimate settings `e`);
     0 where they move by none (no lag measured or calibrated, or no crossings estimator)."""
-    lag = _run_lag(e, measured_lag) if e.estimator == "crossings" else None
+    lag = run_lag(e, measured_lag) if e.estimator == "crossings" else None
     return 0.0 if lag is None else float(np.max(lag.lag_us))
 
 

@@ -288,6 +288,9 @@ MOTION = Params(
     Param("causal", bool, False, "pf: bias known up to each time (true) or final (false)"),
     Param("extrapolate_us", int, 5000, "events this far outside the IMU's span use its end "
           "samples' rates (held); further out is an error", low=0, high=10_000_000, unit="µs"),
+    Param("measure_clock", bool, True, "imu, pf: measure the IMU clock's offset from the "
+          "camera's on the stars' pixel crossings where the rate changes, and move the gyro's "
+          "velocity prior by it (evstar.clock); false: its timestamps as they are"),
 )
 
 _DEG = math.pi / 180

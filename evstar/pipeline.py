@@ -303,13 +303,17 @@ class Pipeline:
         (first, last) event µs, None when it has none; rate: the measured background rate
         (events/pixel/s)."""
         from . import estimation
+        from .clock import on_camera_clock
 
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
         e = self.config.estimate
 
         def positions(cents):
             lag = state.measured_lag(cents)
-            rows = estimation.estimate(cents, self.config, t0, state.crossings(lag), prior, span,
+            crossings = state.crossings(lag)
+            moved, positions.clock_offset_us = on_camera_clock(
+                self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result)
+            rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, rate, state.near_events())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
@@ -337,6 +341,8 @@ class Pipeline:
                    "tracks": int(len(np.unique(cents["track"][cents["track"] >= 0])))}
         if span_us is not None:  # the recording's time span: throughput as x real time
             metrics["duration_s"] = (int(span_us[1]) - int(span_us[0])) / 1e6
+        if getattr(estimator, "clock_offset_us", None) is not None:
+            metrics["imu_clock_offset_us"] = estimator.clock_offset_us
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:

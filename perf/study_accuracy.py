@@ -47,6 +47,7 @@ within 2.45 σ; less says σ is conservative, more that it is overconfident.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import json
 import pathlib
@@ -55,7 +56,10 @@ import tempfile
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, across, estimation, sim
+from evstar.clock import on_camera_clock
+from evstar.imu import Imu
 from evstar.level_lag import LevelProfiles
+from evstar.sim.targets import FLUX_MAG3
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 ESTIMATORS = ("mean", "track", "crossings")
@@ -112,7 +116,10 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-mismatch": lambda: sim.sensor_model("dark-sky", threshold_mismatch=0.06),
            "dark-sky-fine": lambda: sim.sensor_model("dark-sky", threshold_on=0.12,
                                                      threshold_off=0.12),
-           "fast-pixel": lambda: sim.sensor_model("default", refractory_us=20.0, jitter_us=5.0)}
+           "fast-pixel": lambda: sim.sensor_model("default", refractory_us=20.0, jitter_us=5.0),
+           # the thirty-ninth session's: a dark sky three times slower than the default's
+           "dark-sky-10": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=10.0,
+                                                   cutoff_hz_max=2000.0)}
 
 
 def dev_grid():
@@ -292,10 +299,43 @@ def fresh38_grid():
                    seed=38, **extra)
 
 
+def _rot_z(deg):
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    return ((c, -s, 0.0), (s, c, 0.0), (0.0, 0.0, 1.0))
+
+
+def fresh39_grid():
+    """Inputs no session had tried, run once when the thirty-ninth session began (seed 39):
+    imperfect gyros — a clock offset or a mounting rotation the user does not know (the
+    IMU given as if aligned and in sync: `imu_untold`), a 1 °/s bias, 100-200 Hz samples,
+    ten times the noise — and a sky 2x brighter or 3x darker than the star's contrast
+    assumes, a 10 Hz dark sky, a fast 1.5 Hz sinusoid."""
+    one_dps = float(np.radians(1.0))
+    for motion, mag, psf, sensor, comp, extra in (
+            ("sine", 3.0, 1.0, "default", "imu", {"imu": {"time_offset_us": 3000}, "imu_untold": True}),
+            ("sine", 4.0, 1.1, "dark-sky", "imu", {"imu": {"time_offset_us": -5000}, "imu_untold": True}),
+            (4, 4.0, 1.0, "default", "imu", {"imu": {"gyro_bias": (one_dps, -0.5 * one_dps, 0.3 * one_dps)}}),
+            ("sine", 3.5, 1.2, "default", "imu", {"imu": {"gyro_bias": (0.0, one_dps, 0.0)}, "camera": "evk4"}),
+            ("sine", 3.0, 1.0, "default", "imu", {"imu": {"rate_hz": 200.0}}),
+            (8, 3.5, 1.0, "default", "imu", {"imu": {"R_cam_imu": _rot_z(3.0)}, "imu_untold": True}),
+            (12, 4.5, 1.0, "default", "imu", {"imu": {"gyro_noise_density": 1.2e-3}}),
+            (6, 3.0, 1.1, "default", "none", {"flux": 0.5}),
+            (15, 4.0, 1.0, "dark-sky", "none", {"flux": 3.0}),
+            (4, 3.5, 1.0, "dark-sky-10", "none", {}),
+            (8, 3.0, 1.0, "dark-sky", "imu", {"imu": {"time_offset_us": 3000}, "imu_untold": True}),
+            ("sine", 3.0, 1.0, "default", "pf", {"imu": {"gyro_bias": (0.0, one_dps, 0.0)}}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 3.0, "freq": 1.5, "direction": 200}),
+            (20, 4.0, 1.0, "default", "imu", {"imu": {"time_offset_us": 2000}, "imu_untold": True,
+                                              "camera": "evk4", "direction": 60}),
+            (3, 4.5, 1.3, "default", "imu", {"imu": {"rate_hz": 100.0, "gyro_noise_density": 6e-4}})):
+        yield dict(set="fresh-39", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=39, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
-         "fresh-38": fresh38_grid}
+         "fresh-38": fresh38_grid, "fresh-39": fresh39_grid}
 
 
 def scenario(s):
@@ -303,10 +343,12 @@ def scenario(s):
     # the star moves at `direction` degrees from x: a turntable axis in the image plane
     phi = np.radians(s.get("direction", 0.0))
     opts = dict(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"],
-                axis=(np.sin(phi), -np.cos(phi), 0.0), camera=s.get("camera", "dvxplorer-lite"))
+                axis=(np.sin(phi), -np.cos(phi), 0.0), camera=s.get("camera", "dvxplorer-lite"),
+                imu=sim.ImuSpec(**s.get("imu", {})),
+                flux_mag3=s.get("flux", 1.0) * FLUX_MAG3)
     if s["motion"] == "sine":   # the paper's 10°, 1 Hz unless the scene says otherwise
-        return sim.paper_sinusoid(s.get("amplitude", 10.0), duration_s=s.get("duration", 1.0),
-                                  **opts)
+        return sim.paper_sinusoid(s.get("amplitude", 10.0), s.get("freq", 1.0),
+                                  duration_s=s.get("duration", 1.0), **opts)
     return sim.paper_preset(float(s["motion"]), duration_s=s.get("duration", 0.5), **opts)
 
 
@@ -325,6 +367,8 @@ def scores(rows, truth, frames_t, cam, n_frames):
 
 def run_scene(s, settings=None):
     run = sim.simulate(scenario(s), seed=s["seed"])
+    if s.get("imu_untold"):   # the gyro's clock and mounting taken as the camera's
+        run = dataclasses.replace(run, imu=Imu(run.imu.t, run.imu.gyro, run.imu.accel))
     ev = run.events
     cfg = Config().replace(**{**(settings or {}), "motion.compensate": s["comp"],
                               "estimate.estimator": "mean"})
@@ -346,7 +390,8 @@ def run_scene(s, settings=None):
     signal = (run.truth.labels >= 0).sum() / n_frames
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
-    prior = estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]])
+    prior, _ = on_camera_clock(cfg, estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]]),
+                               run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag)
     rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
     near = across.near_centroids(ev, linked, hot)   # (one span: the whole run)
     for name in ESTIMATORS + ("refractory", "no_lag") + (("calibrated",) if s["sensor"].startswith("dark-sky") else ()):
@@ -388,7 +433,11 @@ def markdown(rows):
         motion = (str(r["motion"]) + (f" ±{r['amplitude']:g}°" if r.get("amplitude") else "")
                   + (f" for {r['duration']:g} s" if r.get("duration") else "")
                   + (f", {r['direction']}° from x" if r.get("direction") else "")
-                  + (f", {r['camera']}" if r.get("camera") else ""))
+                  + (f", {r['camera']}" if r.get("camera") else "")
+                  + (f", {r['freq']:g} Hz" if r.get("freq") else "")
+                  + (f", sky flux ×{r['flux']:g}" if r.get("flux") else "")
+                  + "".join(f", gyro {k} {_short(v)}" for k, v in r.get("imu", {}).items())
+                  + (" (untold)" if r.get("imu_untold") else ""))
         cells = [r["set"], motion, str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
                  f"{r['events_per_frame']:.0f}", f"{r['bound_px']:.3f}"]
         for e in ESTIMATORS + ("refractory", "calibrated", "no_lag"):
@@ -400,6 +449,11 @@ def markdown(rows):
         cells.append(f"{c['z_median']:.2f} / {100 * c['within_2_45_sigma']:.0f} %")
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def _short(v):
+    """A setting's value in a table cell (nested tuples: rounded)."""
+    return f"{v:g}" if isinstance(v, float) else str(np.round(np.asarray(v, float), 4).tolist())
 
 
 def plot(rows, path):
@@ -421,7 +475,7 @@ def plot(rows, path):
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
                                "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*",
-                               "fresh-37": "h", "fresh-38": "p"}.get(part, "o"))
+                               "fresh-37": "h", "fresh-38": "p", "fresh-39": "*"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",

@@ -1,0 +1,248 @@
+"""The gyro's clock against the camera's: an offset the IMU's timestamps carry, measured on
+the stars.
+
+An IMU stamped by its own clock (a separate board, a USB link) is late or early against
+the events by milliseconds, and nothing in a file says by how much. At a constant rate it
+does not matter; where the rate changes the gyro's image velocity is off by the
+acceleration times the offset, and the estimator integrates that: on a 10°/1 Hz sinusoid
+(DVXplorer Lite, 12 mm) a 3 ms offset put the crossings estimator's positions 1.4 px off,
+where the per-frame means were 0.1 px off (perf/study_accuracy.py, fresh-39).
+
+Between two pixel crossings of one track Δt apart the star moved along its motion by the
+two pixels' distance along it; the gyro's image velocity at their middle time, moved by
+δ, times Δt predicts that distance. The offset is the δ of the least robust squared
+difference, and it is taken only where the improvement over the IMU's own clock stands
+out of the crossings' scatter, block by block of the run (a constant rate tells none).
+Crossing times are the star's own behind a pixel lag (moved back by the measured one), so
+a lag is not read as an offset."""
+from __future__ import annotations
+
+import numpy as np
+
+from .assignment import REACH_PX
+from .crossings import near_tracks
+from .frames import groups
+
+#: the most the IMU's clock is searched off the camera's (µs each way)
+SEARCH_US = 25_000
+#: the search's grid (µs), then Gauss-Newton steps from its best point, their derivative's
+#: half-step (µs)
+COARSE_STEP_US, GAUSS_NEWTON_STEPS, STEP_US = 1000, 3, 500.0
+#: two crossings of one track compared lie this far apart in time (µs): the offset moves
+#: their predicted distance by the change of rate over the gap, so the longer the gap the
+#: more it tells against the crossings' timing noise (on fresh-39's sinusoids the offsets
+#: of gaps of 8-30 ms missed the true ones by up to 480 µs, of 40-80 ms by up to 120),
+#: while the gyro's turn over it is integrated exactly
+MIN_GAP_US, MAX_GAP_US = 40_000, 80_000
+#: a pair's residual counts up to this (px): a crossing of another star or of noise
+CLIP_PX = 1.0
+#: the gyro's rates are smoothed over this long (µs) for the search: longer than its
+#: noise's sample-to-sample changes, shorter than a turn (a 5 Hz sinusoid's quarter period
+#: is 50 ms)
+SMOOTH_US = 20_000
+#: the pairs the search evaluates at most (evenly spread over the run)
+MAX_PAIRS = 4000
+#: the offset's standard error is the jackknife's over blocks of this many µs of the run
+#: (the pairs of one block share its crossings and its stretch of the motion) ...
+BLOCK_US = 100_000
+#: ... of which it needs this many, and the offset must reach MIN_Z of its standard errors
+MIN_BLOCKS, MIN_Z = 5, 5.0
+#: the gyro's rate must change this many times more than its noise alone seems to
+NOISE_RATIO = 3.0
+
+
+def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
+                    measured_lag=None, filter_result=None):
+    """(the velocity prior, the offset µs or None): where the run measures the clock
+    (motion.measure_clock) and the crossings tell an offset, the prior
+    (evstar.estimation.velocity_prior of these arguments) of the IMU moved by it; else
+    `prior` as it is. measured_lag: the pixels' lag the run measured (the estimate's
+    calibration file wins)."""
+    from . import estimation
+
+    if prior is None or crossings is None or not config.motion.measure_clock:
+        return prior, None
+    offset = measured_offset_us(crossings, centroids, imu, camera,
+                                estimation.run_lag(config.estimate, measured_lag))
+    if offset is None:
+        return prior, None
+    return estimation.velocity_prior(config, corrected(imu, offset), camera, t_events,
+                                     filter_result), offset
+
+
+def corrected(imu, offset_us):
+    """`imu` with its clock moved: the gyro sample it stamped t now at camera time
+    t + time_offset_us − offset_us (measured_offset_us's δ read later)."""
+    from .imu import Imu
+
+    return Imu(imu.t, imu.gyro, imu.accel, R_cam_imu=imu.R_cam_imu,
+               time_offset_us=imu.time_offset_us - int(round(offset_us)))
+
+
+def measured_offset_us(crossings, centroids, imu, camera, lag=None):
+    """δ (µs) such that the gyro's rate stamped camera time t + δ is the camera's at t,
+    measured on `crossings` (CROSSING_DTYPE) assigned to the tracks of the linked
+    `centroids`; None where the crossings do not tell it (see the module docstring). lag:
+    the pixels' PixelLag the crossings are late by, or None."""
+    pairs = _pairs(crossings, centroids, lag)
+    t_cam = imu.t_cam.astype(np.float64)
+    if pairs is None or len(t_cam) < 2:
+        return None
+    inside = (pairs[0] >= t_cam[0] + SEARCH_US) & (pairs[1] <= t_cam[-1] - SEARCH_US)
+    pairs = [a[inside] for a in pairs]
+    if len(pairs[0]) > MAX_PAIRS:
+        take = np.linspace(0, len(pairs[0]) - 1, MAX_PAIRS).round().astype(np.int64)
+        pairs = [a[take] for a in pairs]
+    t_i = pairs[0]
+    if not len(t_i):
+        return None
+    block = ((t_i - t_i.min()) // BLOCK_US).astype(np.int64)
+    if len(np.unique(block)) < MIN_BLOCKS:
+        return None
+    predicted = _predicted(pairs, t_cam, _turned(imu.t_cam, imu.gyro_cam), camera)
+    if not _rate_changes(predicted, pairs, imu, camera):
+        return None
+    t_i, t_j, x_i, y_i, x_j, y_j, ux, uy = pairs
+    seen = (x_j - x_i) * ux + (y_j - y_i) * uy
+    # a gyro bias adds a constant image velocity (b_x, b_y): its share along each pair's
+    # motion over its gap is fitted beside the offset (the default MEMS bias, 0.1 °/s,
+    # left 0.04 px on 7 px pairs at 20 °/s, which a slope of the gyro's noise had read
+    # as a 12 ms offset)
+    bias = np.column_stack([ux, uy]) * ((t_j - t_i) * 1e-6)[:, None]
+
+    def fit(columns, r):
+        """Least squares of r on the columns over the residuals within CLIP_PX."""
+        ok = np.abs(r - columns @ np.linalg.lstsq(columns, r, rcond=None)[0]) < CLIP_PX
+        return np.linalg.lstsq(columns[ok], r[ok], rcond=None)[0], ok
+
+    def loss(offset):
+        r = seen - predicted(offset)
+        b, _ = fit(bias, r)
+        return np.minimum((r - bias @ b) ** 2, CLIP_PX ** 2).sum()
+
+    coarse = np.arange(-SEARCH_US, SEARCH_US + 1, COARSE_STEP_US, dtype=np.float64)
+    offset = coarse[int(np.argmin([loss(off) for off in coarse]))]
+    for _ in range(GAUSS_NEWTON_STEPS):   # the residuals are linear in a small step
+        r = seen - predicted(offset)
+        g = (predicted(offset + STEP_US) - predicted(offset - STEP_US)) / (2 * STEP_US)
+        x = np.column_stack([g, bias])
+        step, ok = fit(x, r)
+        offset += step[0]
+    r = (seen - predicted(offset) - x @ np.r_[0.0, step[1:]])[ok]
+    # the offset's standard error, each block's pairs taken as one (they share crossings
+    # and a stretch of the motion): the sandwich of the blocks' scores
+    x, score = x[ok], np.stack([np.bincount(block[ok], weights=c * r, minlength=block.max() + 1)
+                                for c in x[ok].T], 1)
+    a_inv = np.linalg.pinv(x.T @ x)
+    se = float(np.sqrt(max((a_inv @ score.T @ score @ a_inv)[0, 0], 0.0)))
+    return float(offset) if abs(offset) > MIN_Z * se else None
+
+
+def _rate_changes(predicted, pairs, imu, camera):
+    """Whether the gyro's smoothed rate changes over the pairs' gaps by more than its own
+    white noise makes it seem to: the RMS of the prediction's derivative by the offset
+    (what tells the offset) at least NOISE_RATIO times that of a gyro of the same measured
+    noise at a constant rate (a constant rate tells no offset, and a noisy gyro's smoothed
+    rate still wanders)."""
+    from .smoothing import gyro_noise_density
+
+    density = gyro_noise_density(imu)
+    t = imu.t_cam.astype(np.float64)
+    rate_hz = 1e6 / max(float(np.median(np.diff(t))), 1.0)
+    white = np.random.default_rng(0).standard_normal((len(t), 3)) * density * np.sqrt(rate_hz)
+    alone = _predicted(pairs, t, _turned(t, white), camera)
+
+    def rms_slope(pred):
+        return np.sqrt(np.mean(((pred(STEP_US) - pred(-STEP_US)) / (2 * STEP_US)) ** 2))
+
+    return rms_slope(predicted) >= NOISE_RATIO * rms_slope(alone)
+
+
+def _turned(t_cam, gyro):
+    """(n, 3) the rotation vector of `gyro` (rad/s, camera frame) integrated from its first sample (rad, camera
+    frame, trapezoids) at its camera times: over a pair's gap its difference is the turn.
+    The rates are smoothed over SMOOTH_US first (a quadratic Savitzky-Golay fit): the
+    offset is read off how the rate changes, and a white noise's changes from sample to
+    sample, which the raw rates hold, had passed for that at a constant rate."""
+    from scipy.signal import savgol_filter
+
+    g = gyro
+    step = float(np.median(np.diff(t_cam))) if len(g) > 1 else SMOOTH_US
+    window = int(SMOOTH_US // max(step, 1.0)) // 2 * 2 + 1
+    if window >= 5 and len(g) >= window:
+        g = savgol_filter(g, window, 2, axis=0)
+    dt = np.diff(t_cam.astype(np.float64)) * 1e-6
+    return np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (g[1:] + g[:-1]) * dt[:, None], axis=0)]
+
+
+def _predicted(pairs, t_cam, turned, camera):
+    """offset -> per pair the second crossing's distance (px) along the motion from the
+    first that the gyro predicts: the first pixel's star turned by the gyro between their
+    times + the offset."""
+    from .camera import unit
+
+    t_i, t_j, x_i, y_i, _, _, ux, uy = pairs
+    d = unit(*camera.unproject_columns(x_i, y_i))
+
+    def predicted(offset):
+        w = [np.interp(t_j + offset, t_cam, turned[:, c]) - np.interp(t_i + offset, t_cam, turned[:, c])
+             for c in range(3)]
+        # a fixed star's direction turns by −w in the camera's frame (ḋ = −ω × d)
+        u, v = camera.project_columns(d[0] - (w[1] * d[2] - w[2] * d[1]),
+                                      d[1] - (w[2] * d[0] - w[0] * d[2]),
+                                      d[2] - (w[0] * d[1] - w[1] * d[0]))
+        return (u - x_i) * ux + (v - y_i) * uy
+
+    return predicted
+
+
+def _pairs(crossings, centroids, lag):
+    """[t_i, t_j, x_i, y_i, x_j, y_j, ux, uy]: the times (µs, lag taken off) and pixels of
+    each crossing i and the first of its track's crossings j MIN_GAP_US or more later
+    (within MAX_GAP_US), and the track's unit direction at i; None where there are none."""
+    tracks = _tracks(centroids)
+    if tracks is None or not len(crossings):
+        return None
+    ci, tid, _, _, ux, uy = near_tracks(crossings, tracks, REACH_PX)
+    if not len(ci):
+        return None
+    t = crossings["t"][ci].astype(np.float64)
+    if lag is not None:   # when the star passed each pixel
+        speed = np.hypot(np.interp(t, tracks["t"], tracks["vx"]),
+                         np.interp(t, tracks["t"], tracks["vy"]))
+        t = t - lag.lag_at(crossings["pairs"][ci], speed, crossings["t_outer"][ci])
+    x, y = crossings["x"][ci].astype(np.float64), crossings["y"][ci].astype(np.float64)
+    order = np.lexsort((t, tid))
+    t, x, y, tid, ux, uy = t[order], x[order], y[order], tid[order], ux[order], uy[order]
+    first, second = [], []
+    for _, rows in zip(*groups(tid)):
+        j = np.searchsorted(t[rows], t[rows] + MIN_GAP_US)
+        ok = j < len(rows)
+        ok[ok] = t[rows][j[ok]] - t[rows][ok] <= MAX_GAP_US
+        first.append(rows[ok])
+        second.append(rows[j[ok]])
+    i, j = np.concatenate(first), np.concatenate(second)
+    if not len(i):
+        return None
+    return [t[i], t[j], x[i], y[i], x[j], y[j], ux[i], uy[i]]
+
+
+def _tracks(centroids):
+    """The linked centroids' tracks as near_tracks takes them (t, track, x, y, vx, vy, sorted
+    by track then time; velocities by differences within each track), None without one
+    of three rows."""
+    c = centroids[centroids["track"] >= 0]
+    c = c[np.lexsort((c["t"], c["track"]))]
+    # one row a time (a joined track can hold two): differences need distinct times
+    c = c[np.r_[True, (c["track"][1:] != c["track"][:-1]) | (c["t"][1:] != c["t"][:-1])]]
+    ids, rows = groups(c["track"])
+    keep = np.concatenate([r for r in rows if len(r) >= 3] or [np.zeros(0, np.int64)])
+    if not len(keep):
+        return None
+    c = c[keep]
+    out = {f: np.ascontiguousarray(c[f]) for f in ("t", "track", "x", "y")}
+    out["vx"], out["vy"] = np.zeros(len(c)), np.zeros(len(c))
+    for _, r in zip(*groups(c["track"])):
+        ts = c["t"][r] * 1e-6
+        out["vx"][r], out["vy"][r] = np.gradient(c["x"][r], ts), np.gradient(c["y"][r], ts)
+    return out
