@@ -40,6 +40,8 @@ CLIP_PX = 1.0
 #: noise's sample-to-sample changes, shorter than a turn (a 5 Hz sinusoid's quarter period
 #: is 50 ms)
 SMOOTH_US = 20_000
+#: a pair's path must run this straight: the sine of the angle between its halves
+MAX_BEND = 0.05
 #: the pairs the search evaluates at most (evenly spread over the run)
 MAX_PAIRS = 4000
 #: the offset's standard error is the jackknife's over blocks of this many µs of the run
@@ -47,8 +49,14 @@ MAX_PAIRS = 4000
 BLOCK_US = 100_000
 #: ... of which it needs this many, and the offset must reach MIN_Z of its standard errors
 MIN_BLOCKS, MIN_Z = 5, 5.0
-#: the gyro's rate must change this many times more than its noise alone seems to
-NOISE_RATIO = 3.0
+#: behind a pixel lag an offset must also exceed this share of the lag the crossings were
+#: moved back by: the profiles' lag of bright crossings is off by up to 43 % of itself
+#: (the accuracy grid's told dark-sky sinusoids with the IMU read 9-43 % of it as an
+#: offset, and took 0.024-0.138 px to 0.375-0.535 with it)
+LAG_SHARE = 1.0
+#: the gyro's rate must change over a gap this many times more than its noise alone seems
+#: to, and by more than MIN_RATE_CHANGE (rad/s RMS: a noiseless gyro at a constant rate)
+NOISE_RATIO, MIN_RATE_CHANGE = 3.0, 1e-3
 
 
 def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
@@ -66,7 +74,10 @@ def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
                                 estimation.run_lag(config.estimate, measured_lag))
     if offset is None:
         return prior, None
-    return estimation.velocity_prior(config, corrected(imu, offset), camera, t_events,
+    # the moved record covers the events as far as the given one did
+    held = config.replace(**{"motion.extrapolate_us": config.motion.extrapolate_us
+                             + int(np.ceil(abs(offset)))})
+    return estimation.velocity_prior(held, corrected(imu, offset), camera, t_events,
                                      filter_result), offset
 
 
@@ -84,25 +95,28 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     measured on `crossings` (CROSSING_DTYPE) assigned to the tracks of the linked
     `centroids`; None where the crossings do not tell it (see the module docstring). lag:
     the pixels' PixelLag the crossings are late by, or None."""
-    pairs = _pairs(crossings, centroids, lag)
     t_cam = imu.t_cam.astype(np.float64)
-    if pairs is None or len(t_cam) < 2:
+    if len(t_cam) < 3 or not _rate_changes(imu):
         return None
-    inside = (pairs[0] >= t_cam[0] + SEARCH_US) & (pairs[1] <= t_cam[-1] - SEARCH_US)
-    pairs = [a[inside] for a in pairs]
-    if len(pairs[0]) > MAX_PAIRS:
-        take = np.linspace(0, len(pairs[0]) - 1, MAX_PAIRS).round().astype(np.int64)
-        pairs = [a[take] for a in pairs]
-    t_i = pairs[0]
-    if not len(t_i):
+    pairs = _pairs(crossings, centroids, lag, t_cam)
+    turned = _turned(t_cam, imu.gyro_cam)
+    pairs = None if pairs is None else _spread(pairs, _straight(pairs, t_cam, turned, camera))
+    if pairs is None:
         return None
-    block = ((t_i - t_i.min()) // BLOCK_US).astype(np.int64)
-    if len(np.unique(block)) < MIN_BLOCKS:
-        return None
-    predicted = _predicted(pairs, t_cam, _turned(imu.t_cam, imu.gyro_cam), camera)
-    if not _rate_changes(predicted, pairs, imu, camera):
-        return None
-    t_i, t_j, x_i, y_i, x_j, y_j, ux, uy = pairs
+    predicted = _predicted(pairs, t_cam, turned, camera)
+    offset, se = _fitted(pairs, predicted)
+    # behind a pixel lag, an error of the crossings' lag reads as an offset (LAG_SHARE);
+    # at the search's edge the loss had no minimum inside it
+    floor = LAG_SHARE * float(np.median(pairs[-1]))
+    inside = abs(offset) < SEARCH_US - COARSE_STEP_US
+    return offset if inside and abs(offset) > max(MIN_Z * se, floor) else None
+
+
+def _fitted(pairs, predicted):
+    """(the offset µs, its standard error) of the least clipped squared residuals between
+    the pairs' along distances and the predicted ones, with a gyro bias's share: a
+    grid search, then Gauss-Newton steps."""
+    t_i, t_j, x_i, y_i, x_j, y_j, ux, uy, _ = pairs
     seen = (x_j - x_i) * ux + (y_j - y_i) * uy
     # a gyro bias adds a constant image velocity (b_x, b_y): its share along each pair's
     # motion over its gap is fitted beside the offset (the default MEMS bias, 0.1 °/s,
@@ -110,14 +124,9 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     # as a 12 ms offset)
     bias = np.column_stack([ux, uy]) * ((t_j - t_i) * 1e-6)[:, None]
 
-    def fit(columns, r):
-        """Least squares of r on the columns over the residuals within CLIP_PX."""
-        ok = np.abs(r - columns @ np.linalg.lstsq(columns, r, rcond=None)[0]) < CLIP_PX
-        return np.linalg.lstsq(columns[ok], r[ok], rcond=None)[0], ok
-
     def loss(offset):
         r = seen - predicted(offset)
-        b, _ = fit(bias, r)
+        b, _ = _clipped_fit(bias, r)
         return np.minimum((r - bias @ b) ** 2, CLIP_PX ** 2).sum()
 
     coarse = np.arange(-SEARCH_US, SEARCH_US + 1, COARSE_STEP_US, dtype=np.float64)
@@ -126,51 +135,60 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
         r = seen - predicted(offset)
         g = (predicted(offset + STEP_US) - predicted(offset - STEP_US)) / (2 * STEP_US)
         x = np.column_stack([g, bias])
-        step, ok = fit(x, r)
+        step, ok = _clipped_fit(x, r)
         offset += step[0]
     r = (seen - predicted(offset) - x @ np.r_[0.0, step[1:]])[ok]
-    # the offset's standard error, each block's pairs taken as one (they share crossings
-    # and a stretch of the motion): the sandwich of the blocks' scores
-    x, score = x[ok], np.stack([np.bincount(block[ok], weights=c * r, minlength=block.max() + 1)
-                                for c in x[ok].T], 1)
+    # the standard error, each block's pairs taken as one (they share crossings and a
+    # stretch of the motion): the sandwich of the blocks' scores
+    block = ((t_i[ok] - t_i.min()) // BLOCK_US).astype(np.int64)
+    x = x[ok]
+    score = np.stack([np.bincount(block, weights=c * r) for c in x.T], 1)
     a_inv = np.linalg.pinv(x.T @ x)
-    se = float(np.sqrt(max((a_inv @ score.T @ score @ a_inv)[0, 0], 0.0)))
-    return float(offset) if abs(offset) > MIN_Z * se else None
+    return float(offset), float(np.sqrt(max((a_inv @ score.T @ score @ a_inv)[0, 0], 0.0)))
 
 
-def _rate_changes(predicted, pairs, imu, camera):
-    """Whether the gyro's smoothed rate changes over the pairs' gaps by more than its own
-    white noise makes it seem to: the RMS of the prediction's derivative by the offset
-    (what tells the offset) at least NOISE_RATIO times that of a gyro of the same measured
-    noise at a constant rate (a constant rate tells no offset, and a noisy gyro's smoothed
-    rate still wanders)."""
+def _clipped_fit(columns, r):
+    """(least-squares coefficients of r on the columns over the residuals within CLIP_PX of
+    a first fit on all, which residuals those are)."""
+    ok = np.abs(r - columns @ np.linalg.lstsq(columns, r, rcond=None)[0]) < CLIP_PX
+    return np.linalg.lstsq(columns[ok], r[ok], rcond=None)[0], ok
+
+
+def _rate_changes(imu):
+    """Whether the gyro's smoothed rate changes over a pair's gap by more than its own white
+    noise makes it seem to: the RMS over its record of that change at least NOISE_RATIO
+    times a constant-rate gyro's of the same measured noise (a constant rate tells no
+    offset, and a noisy gyro's smoothed rate still wanders)."""
     from .smoothing import gyro_noise_density
 
-    density = gyro_noise_density(imu)
     t = imu.t_cam.astype(np.float64)
     rate_hz = 1e6 / max(float(np.median(np.diff(t))), 1.0)
-    white = np.random.default_rng(0).standard_normal((len(t), 3)) * density * np.sqrt(rate_hz)
-    alone = _predicted(pairs, t, _turned(t, white), camera)
+    white = (np.random.default_rng(0).standard_normal((len(t), 3))
+             * gyro_noise_density(imu) * np.sqrt(rate_hz))
 
-    def rms_slope(pred):
-        return np.sqrt(np.mean(((pred(STEP_US) - pred(-STEP_US)) / (2 * STEP_US)) ** 2))
+    def rms_change(gyro):
+        smooth = _smoothed(t, gyro)
+        later = np.stack([np.interp(t + MIN_GAP_US, t, smooth[:, c]) for c in range(3)], 1)
+        return np.sqrt(np.mean(np.sum((later - smooth)[t + MIN_GAP_US <= t[-1]] ** 2, 1)))
 
-    return rms_slope(predicted) >= NOISE_RATIO * rms_slope(alone)
+    return rms_change(imu.gyro_cam) > max(NOISE_RATIO * rms_change(white), MIN_RATE_CHANGE)
+
+
+def _smoothed(t_cam, gyro):
+    """The rates fitted over SMOOTH_US (a quadratic Savitzky-Golay fit): the offset is read
+    off how the rate changes, and a white noise's changes from sample to sample, which the
+    raw rates hold, had passed for that at a constant rate."""
+    from scipy.signal import savgol_filter
+
+    step = float(np.median(np.diff(t_cam))) if len(gyro) > 1 else SMOOTH_US
+    window = int(SMOOTH_US // max(step, 1.0)) // 2 * 2 + 1
+    return savgol_filter(gyro, window, 2, axis=0) if 5 <= window <= len(gyro) else gyro
 
 
 def _turned(t_cam, gyro):
-    """(n, 3) the rotation vector of `gyro` (rad/s, camera frame) integrated from its first sample (rad, camera
-    frame, trapezoids) at its camera times: over a pair's gap its difference is the turn.
-    The rates are smoothed over SMOOTH_US first (a quadratic Savitzky-Golay fit): the
-    offset is read off how the rate changes, and a white noise's changes from sample to
-    sample, which the raw rates hold, had passed for that at a constant rate."""
-    from scipy.signal import savgol_filter
-
-    g = gyro
-    step = float(np.median(np.diff(t_cam))) if len(g) > 1 else SMOOTH_US
-    window = int(SMOOTH_US // max(step, 1.0)) // 2 * 2 + 1
-    if window >= 5 and len(g) >= window:
-        g = savgol_filter(g, window, 2, axis=0)
+    """(n, 3) the smoothed rates (rad/s, camera frame) integrated from the first sample (rad,
+    trapezoids) at the camera times: over a pair's gap its difference is the turn."""
+    g = _smoothed(t_cam, gyro)
     dt = np.diff(t_cam.astype(np.float64)) * 1e-6
     return np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (g[1:] + g[:-1]) * dt[:, None], axis=0)]
 
@@ -179,42 +197,70 @@ def _predicted(pairs, t_cam, turned, camera):
     """offset -> per pair the second crossing's distance (px) along the motion from the
     first that the gyro predicts: the first pixel's star turned by the gyro between their
     times + the offset."""
-    from .camera import unit
-
-    t_i, t_j, x_i, y_i, _, _, ux, uy = pairs
-    d = unit(*camera.unproject_columns(x_i, y_i))
+    t_i, t_j, _, _, _, _, ux, uy, _ = pairs
+    moved = _moved(pairs, t_cam, turned, camera)
 
     def predicted(offset):
-        w = [np.interp(t_j + offset, t_cam, turned[:, c]) - np.interp(t_i + offset, t_cam, turned[:, c])
+        du, dv = moved(t_i + offset, t_j + offset)
+        return du * ux + dv * uy
+
+    return predicted
+
+
+def _moved(pairs, t_cam, turned, camera):
+    """(t_from, t_to) -> (du, dv): per pair, how far the star at its first pixel moves in
+    the image as the gyro turns between the two times."""
+    from .camera import unit
+
+    x_i, y_i = pairs[2], pairs[3]
+    d = unit(*camera.unproject_columns(x_i, y_i))
+
+    def moved(t_from, t_to):
+        w = [np.interp(t_to, t_cam, turned[:, c]) - np.interp(t_from, t_cam, turned[:, c])
              for c in range(3)]
         # a fixed star's direction turns by −w in the camera's frame (ḋ = −ω × d)
         u, v = camera.project_columns(d[0] - (w[1] * d[2] - w[2] * d[1]),
                                       d[1] - (w[2] * d[0] - w[0] * d[2]),
                                       d[2] - (w[0] * d[1] - w[1] * d[0]))
-        return (u - x_i) * ux + (v - y_i) * uy
+        return u - x_i, v - y_i
 
-    return predicted
+    return moved
 
 
-def _pairs(crossings, centroids, lag):
-    """[t_i, t_j, x_i, y_i, x_j, y_j, ux, uy]: the times (µs, lag taken off) and pixels of
-    each crossing i and the first of its track's crossings j MIN_GAP_US or more later
-    (within MAX_GAP_US), and the track's unit direction at i; None where there are none."""
+def _straight(pairs, t_cam, turned, camera):
+    """Per pair: does the star's image path run straight over its gap (forwards or back:
+    the two halves of its gyro-predicted move within MAX_BEND of parallel)? On a curved
+    path the crossed pixels' offsets across it add to the along distance by their sum
+    times the sine of half the turn, and their mean offset is not nil (on the independent
+    simulator's 2 Hz coning that read as a 5 ms offset)."""
+    t_i, t_j = pairs[0], pairs[1]
+    moved = _moved(pairs, t_cam, turned, camera)
+    mid = (t_i + t_j) / 2
+    (au, av), (bu, bv) = moved(t_i, mid), moved(mid, t_j)
+    size = np.hypot(au, av) * np.hypot(bu, bv)
+    return np.abs(au * bv - av * bu) <= MAX_BEND * np.maximum(size, 1e-12)
+
+
+def _pairs(crossings, centroids, lag, t_cam):
+    """[t_i, t_j, x_i, y_i, x_j, y_j, ux, uy, lag]: the times (µs, lag taken off) and pixels
+    of each crossing i and the first of its track's crossings j MIN_GAP_US or more later
+    (within MAX_GAP_US), the track's unit direction at i and the pair's mean lag (µs): those
+    whose times the search keeps on the gyro's record; None without a track."""
     tracks = _tracks(centroids)
     if tracks is None or not len(crossings):
         return None
     ci, tid, _, _, ux, uy = near_tracks(crossings, tracks, REACH_PX)
-    if not len(ci):
-        return None
     t = crossings["t"][ci].astype(np.float64)
+    late = np.zeros(len(t))
     if lag is not None:   # when the star passed each pixel
         speed = np.hypot(np.interp(t, tracks["t"], tracks["vx"]),
                          np.interp(t, tracks["t"], tracks["vy"]))
-        t = t - lag.lag_at(crossings["pairs"][ci], speed, crossings["t_outer"][ci])
+        late = lag.lag_at(crossings["pairs"][ci], speed, crossings["t_outer"][ci])
+    t = t - late
     x, y = crossings["x"][ci].astype(np.float64), crossings["y"][ci].astype(np.float64)
     order = np.lexsort((t, tid))
-    t, x, y, tid, ux, uy = t[order], x[order], y[order], tid[order], ux[order], uy[order]
-    first, second = [], []
+    t, x, y, tid, ux, uy, late = (a[order] for a in (t, x, y, tid, ux, uy, late))
+    first, second = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for _, rows in zip(*groups(tid)):
         j = np.searchsorted(t[rows], t[rows] + MIN_GAP_US)
         ok = j < len(rows)
@@ -222,9 +268,21 @@ def _pairs(crossings, centroids, lag):
         first.append(rows[ok])
         second.append(rows[j[ok]])
     i, j = np.concatenate(first), np.concatenate(second)
-    if not len(i):
+    keep = (t[i] >= t_cam[0] + SEARCH_US) & (t[j] <= t_cam[-1] - SEARCH_US)
+    i, j = i[keep], j[keep]
+    return [t[i], t[j], x[i], y[i], x[j], y[j], ux[i], uy[i], (late[i] + late[j]) / 2]
+
+
+def _spread(pairs, keep):
+    """The pairs `keep` selects, at most MAX_PAIRS of them evenly spread over the run; None
+    where they span fewer than MIN_BLOCKS blocks."""
+    i = np.flatnonzero(keep)
+    if len(i) > MAX_PAIRS:
+        i = i[np.linspace(0, len(i) - 1, MAX_PAIRS).round().astype(np.int64)]
+    t = pairs[0][i]
+    if len(np.unique((t - t.min()) // BLOCK_US if len(t) else t)) < MIN_BLOCKS:
         return None
-    return [t[i], t[j], x[i], y[i], x[j], y[j], ux[i], uy[i]]
+    return [a[i] for a in pairs]
 
 
 def _tracks(centroids):

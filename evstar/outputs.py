@@ -167,6 +167,9 @@ def summary_text(result, outdir, steady=None):
                   f"{_num(100 * m['signal_retained'], '.1f')} %)",
                   f"centroid err  mean {_num(e['mean'], '.3f')} px, max {_num(e['max'], '.3f')} px "
                   f"({e['n']} matched)"]
+    if "imu_time_offset_us" in m:   # the gyro's record was moved (evstar.clock)
+        lines += [f"IMU clock     {m['imu_time_offset_us']:+,.0f} µs more time offset than the "
+                  "IMU was given (measured on the stars; used)"]
     if steady is None:   # a process's first run: its kernels' compile or cache load in it
         lines += [f"throughput    {_throughput(result)}",
                   "              (this process's first run, kernel compiles included; "

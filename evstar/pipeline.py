@@ -342,7 +342,8 @@ class Pipeline:
         if span_us is not None:  # the recording's time span: throughput as x real time
             metrics["duration_s"] = (int(span_us[1]) - int(span_us[0])) / 1e6
         if getattr(estimator, "clock_offset_us", None) is not None:
-            metrics["imu_clock_offset_us"] = estimator.clock_offset_us
+            # as evstar.Imu's time_offset_us counts it: t_camera = t_imu + offset
+            metrics["imu_time_offset_us"] = -estimator.clock_offset_us
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:

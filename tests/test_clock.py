@@ -1,0 +1,82 @@
+"""The IMU clock's offset against the camera's, measured on the stars' crossings
+(evstar.clock), and the pipeline's gyro prior moved by it."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from evstar import Config, Pipeline, accuracy, sim
+from evstar.imu import Imu
+
+OFFSET_US = 4000   # the gyro's clock behind the camera's (t_camera = t_imu + 4 ms)
+
+
+def untold(run):
+    """The run with its IMU given as if its clock were the camera's."""
+    return dataclasses.replace(run, imu=Imu(run.imu.t, run.imu.gyro, run.imu.accel))
+
+
+@pytest.fixture(scope="module")
+def sinusoid():
+    """The paper's 10°/1 Hz sinusoid, a magnitude-3 star, its gyro 4 ms behind."""
+    scene = sim.paper_sinusoid(10.0, duration_s=1.0, magnitude=3.0,
+                               imu=sim.ImuSpec(time_offset_us=OFFSET_US))
+    return sim.simulate(scene, seed=3)
+
+
+def run_imu(run, **settings):
+    cfg = Config().replace(**{"motion.compensate": "imu", **settings})
+    res = Pipeline(cfg).run(run.events, run.imu, run.camera)
+    star, err = accuracy.match(res.centroids, run.truth.star_position)
+    return res, err[star >= 0].mean()
+
+
+def test_an_untold_clock_offset_is_measured_and_the_positions_hold(sinusoid, tmp_path):
+    from evstar.outputs import summary_text
+
+    res, err = run_imu(untold(sinusoid))
+    assert res.metrics["imu_time_offset_us"] == pytest.approx(OFFSET_US, abs=200)
+    line = [s for s in summary_text(res, tmp_path).splitlines() if s.startswith("IMU clock")]
+    assert len(line) == 1 and f"{res.metrics['imu_time_offset_us']:+,.0f} µs" in line[0]
+    # 0.43 px per ms of the offset left here: 70 µs off, 0.052 px against the told 0.023
+    _, told = run_imu(sinusoid)
+    assert err < 0.08 and err < told + 0.05
+    off, err_off = run_imu(untold(sinusoid), **{"motion.measure_clock": False})
+    assert "imu_time_offset_us" not in off.metrics and err_off > 0.5   # what it had been
+
+
+def test_a_told_clock_is_left_as_it_is(sinusoid):
+    """The IMU's own time_offset_us applied: no offset stands out, the rows are those of a
+    run that measures none."""
+    res, _ = run_imu(sinusoid)
+    assert "imu_time_offset_us" not in res.metrics
+    plain, _ = run_imu(sinusoid, **{"motion.measure_clock": False})
+    assert res.centroids.tobytes() == plain.centroids.tobytes()   # (spread holds NaNs)
+
+
+def test_a_constant_rate_tells_no_offset():
+    """At a constant rate the gyro's clock does not matter and cannot be read: nothing is
+    measured, whatever its noise."""
+    from evstar.clock import measured_offset_us
+    from evstar.estimation import chunk_crossings
+
+    scene = sim.paper_preset(8.0, duration_s=0.6, magnitude=3.0,
+                             imu=sim.ImuSpec(time_offset_us=OFFSET_US, gyro_noise_density=1.2e-3))
+    run = untold(sim.simulate(scene, seed=4))
+    res, _ = run_imu(run)
+    crossings = chunk_crossings(run.events, res.keep, 2.5)
+    assert measured_offset_us(crossings, res.centroids, run.imu, run.camera) is None
+    assert "imu_time_offset_us" not in res.metrics
+
+
+def test_corrected_moves_the_gyro_to_the_camera_clock():
+    from evstar.clock import corrected
+
+    imu = Imu(np.arange(0, 10_000, 1000), np.zeros((10, 3)), time_offset_us=500)
+    moved = corrected(imu, -3000.0)
+    assert np.array_equal(moved.t_cam, imu.t_cam + 3000) and np.array_equal(moved.gyro, imu.gyro)
+
+
+def test_measure_clock_must_be_a_bool():
+    with pytest.raises(ValueError, match="'motion.measure_clock'"):
+        Config.from_dict({"motion": {"measure_clock": "maybe"}})
