@@ -8,13 +8,16 @@ acceleration times the offset, and the estimator integrates that: on a 10°/1 Hz
 (DVXplorer Lite, 12 mm) a 3 ms offset put the crossings estimator's positions 1.4 px off,
 where the per-frame means were 0.1 px off (perf/study_accuracy.py, fresh-39).
 
-Between two pixel crossings of one track Δt apart the star moved along its motion by the
-two pixels' distance along it; the gyro's image velocity at their middle time, moved by
-δ, times Δt predicts that distance. The offset is the δ of the least robust squared
-difference, and it is taken only where the improvement over the IMU's own clock stands
-out of the crossings' scatter, block by block of the run (a constant rate tells none).
-Crossing times are the star's own behind a pixel lag (moved back by the measured one), so
-a lag is not read as an offset."""
+Between two pixel crossings of one track 40-80 ms apart the star moved along its motion by
+the two pixels' distance along it; the star at the first pixel turned by the gyro between
+their times + δ predicts that distance. δ is the least clipped squared difference over
+such pairs where the path runs straight (a grid search, then Gauss-Newton steps), a gyro
+bias's constant image velocity fitted beside it, and it is taken only where the data can
+tell it: the smoothed gyro rate changes over a gap well beyond what its noise makes it
+seem to (a constant rate tells nothing), δ stands MIN_Z standard errors from zero (each
+100 ms block of pairs taken as one), and, behind a pixel lag, exceeds the lag itself.
+Crossing times are the star's own behind a pixel lag (moved back by the measured one),
+but an error of that lag still reads as an offset: smaller ones are left as they are."""
 from __future__ import annotations
 
 import numpy as np
@@ -44,8 +47,8 @@ SMOOTH_US = 20_000
 MAX_BEND = 0.05
 #: the pairs the search evaluates at most (evenly spread over the run)
 MAX_PAIRS = 4000
-#: the offset's standard error is the jackknife's over blocks of this many µs of the run
-#: (the pairs of one block share its crossings and its stretch of the motion) ...
+#: the offset's standard error takes the pairs of each block of this many µs of the run
+#: as one (they share crossings and a stretch of the motion) ...
 BLOCK_US = 100_000
 #: ... of which it needs this many, and the offset must reach MIN_Z of its standard errors
 MIN_BLOCKS, MIN_Z = 5, 5.0
