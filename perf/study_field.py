@@ -17,7 +17,7 @@ attitude inherits it.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
         [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default]
-        [--imu default|no-noise|ideal] [--name field]
+        [--imu default|no-noise|ideal] [--clock-offset-us 0] [--name field]
         [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
@@ -41,6 +41,7 @@ import pathlib
 import numpy as np
 
 from evstar import Config, Pipeline, accuracy, sim
+from evstar.imu import Imu
 from evstar.sim.imu_model import ImuSpec
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
@@ -56,11 +57,15 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
 
 
 def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
-              sensor="default", axis=AXES["up"], imu="default"):
+              sensor="default", axis=AXES["up"], imu="default", clock_offset_us=0):
     duration = 0.5 if motion == "pan" else 1.0   # sine: 1 Hz, peak rate rate_dps; slew: rest to rest
     scene = sim.field_scenario(cam, *pointing, rate_dps, duration, motion=motion, sensor=sensor,
                                noise_hz=noise_hz, axis=axis)
-    run = sim.simulate(dataclasses.replace(scene, imu=IMUS[imu]()), seed=seed)
+    spec = dataclasses.replace(IMUS[imu](), time_offset_us=clock_offset_us)
+    run = sim.simulate(dataclasses.replace(scene, imu=spec), seed=seed)
+    if clock_offset_us:   # the gyro's clock offset not told: its stamps as the camera's
+        run = dataclasses.replace(run, imu=Imu(run.imu.t, run.imu.gyro, run.imu.accel,
+                                               R_cam_imu=run.imu.R_cam_imu))
     rows = Pipeline(Config().replace(**(settings or {}))).run(run.events, run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     z = err[star >= 0] / np.maximum(rows["sigma"][star >= 0], 1e-12)   # honest σ: χ², 2 dof
@@ -139,6 +144,8 @@ def main(argv=None):
                     help="turn axis in the camera frame: up (a pan), roll (the boresight) or x,y,z")
     ap.add_argument("--imu", choices=tuple(IMUS), default="default",
                     help="the simulated gyro: default (MEMS noise and bias), no-noise, ideal")
+    ap.add_argument("--clock-offset-us", type=int, default=0,
+                    help="the gyro's clock this many µs behind the camera's, not told to evstar")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
@@ -150,11 +157,13 @@ def main(argv=None):
     pointing = tuple(float(v) for v in args.pointing.split(","))
     rates = [float(r) for r in args.rates.split(",")]
     axis = AXES.get(args.axis) or tuple(float(v) for v in args.axis.split(","))
-    rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor, axis, args.imu)
+    rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor, axis, args.imu,
+                      args.clock_offset_us)
             for n in (0.1, 1.5) for r in rates for s in seeds]
     RESULTS.mkdir(exist_ok=True)
     title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
-             f"{args.motion} about {args.axis}, {args.sensor} sensor, {args.imu} IMU, seeds {args.seeds}"
+             f"{args.motion} about {args.axis}, {args.sensor} sensor, {args.imu} IMU"
+             f"{f' (its clock {args.clock_offset_us} µs behind, untold)' if args.clock_offset_us else ''}, seeds {args.seeds}"
              f"{''.join(', ' + kv for kv in args.set)})\n\n")
     (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")
