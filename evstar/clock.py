@@ -24,13 +24,12 @@ import numpy as np
 
 from .assignment import REACH_PX
 from .crossings import near_tracks
-from .frames import groups
 
 #: the most the IMU's clock is searched off the camera's (µs each way)
 SEARCH_US = 25_000
-#: the search's grid (µs), then Gauss-Newton steps from its best point, their derivative's
-#: half-step (µs)
-COARSE_STEP_US, GAUSS_NEWTON_STEPS, STEP_US = 1000, 3, 500.0
+#: the search's grid (µs) on at most COARSE_PAIRS pairs, then Gauss-Newton steps from its
+#: best point, their derivative's half-step (µs)
+COARSE_STEP_US, COARSE_PAIRS, GAUSS_NEWTON_STEPS, STEP_US = 1000, 1000, 3, 500.0
 #: two crossings of one track compared lie this far apart in time (µs): the offset moves
 #: their predicted distance by the change of rate over the gap, so the longer the gap the
 #: more it tells against the crossings' timing noise (on fresh-39's sinusoids the offsets
@@ -47,8 +46,9 @@ CLIP_PX, CLIP_SIGMA, SPEED_CLASSES, MIN_SCATTER_PX = 1.0, 4.0, 8, 0.01
 SMOOTH_US = 20_000
 #: a pair's path must run this straight: the sine of the angle between its halves
 MAX_BEND = 0.05
-#: the pairs the search evaluates at most (evenly spread over the run)
-MAX_PAIRS = 4000
+#: the pairs the search evaluates at most (evenly spread over the run), and the crossings
+#: it pairs at most per pair (every k-th of a crowded field's)
+MAX_PAIRS, CROSSINGS_PER_PAIR = 4000, 8
 #: the offset's standard error takes the pairs of each block of this many µs of the run
 #: as one (they share crossings and a stretch of the motion) ...
 BLOCK_US = 100_000
@@ -108,8 +108,7 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     pairs = None if pairs is None else _spread(pairs, _straight(pairs, t_cam, turned, camera))
     if pairs is None:
         return None
-    predicted = _predicted(pairs, t_cam, turned, camera)
-    offset, se = _fitted(pairs, predicted)
+    offset, se = _fitted(pairs, lambda some: _predicted(some, t_cam, turned, camera))
     # behind a pixel lag, an error of the crossings' lag reads as an offset (LAG_SHARE);
     # at the search's edge the loss had no minimum inside it
     floor = LAG_SHARE * float(np.median(pairs[-1]))
@@ -117,10 +116,12 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     return offset if inside and abs(offset) > max(MIN_Z * se, floor) else None
 
 
-def _fitted(pairs, predicted):
+def _fitted(pairs, prediction):
     """(the offset µs, its standard error) of the least clipped squared residuals between
-    the pairs' along distances and the predicted ones, with a gyro bias's share: a grid
-    search, then weighted Gauss-Newton steps (each pair by its speed class's scatter)."""
+    the pairs' along distances and those prediction(pairs)(offset) predicts, with a gyro
+    bias's share: a grid search on COARSE_PAIRS of them, then weighted Gauss-Newton steps
+    on all (each pair by its speed class's scatter)."""
+    predicted = prediction(pairs)
     t_i, t_j, x_i, y_i, x_j, y_j, ux, uy, _ = pairs
     seen = (x_j - x_i) * ux + (y_j - y_i) * uy
     # a gyro bias adds a constant image velocity (b_x, b_y): its share along each pair's
@@ -130,10 +131,13 @@ def _fitted(pairs, predicted):
     bias = np.column_stack([ux, uy]) * ((t_j - t_i) * 1e-6)[:, None]
     ones = np.ones(len(seen))
 
-    def loss(offset):
-        r = seen - predicted(offset)
-        b, _ = _clipped_fit(bias, r, ones, CLIP_PX)
-        return np.minimum((r - bias @ b) ** 2, CLIP_PX ** 2).sum()
+    few = np.linspace(0, len(seen) - 1, min(len(seen), COARSE_PAIRS)).round().astype(np.int64)
+    at_few = prediction([a[few] for a in pairs])
+
+    def loss(offset):   # the grid's, on a few pairs: where the minimum lies
+        r = seen[few] - at_few(offset)
+        b, _ = _clipped_fit(bias[few], r, ones[few], CLIP_PX)
+        return np.minimum((r - bias[few] @ b) ** 2, CLIP_PX ** 2).sum()
 
     coarse = np.arange(-SEARCH_US, SEARCH_US + 1, COARSE_STEP_US, dtype=np.float64)
     offset = coarse[int(np.argmin([loss(off) for off in coarse]))]
@@ -272,10 +276,13 @@ def _pairs(crossings, centroids, lag, t_cam):
     """[t_i, t_j, x_i, y_i, x_j, y_j, ux, uy, lag]: the times (µs, lag taken off) and pixels
     of each crossing i and the first of its track's crossings j MIN_GAP_US or more later
     (within MAX_GAP_US), the track's unit direction at i and the pair's mean lag (µs): those
-    whose times the search keeps on the gyro's record; None without a track."""
+    whose times the search keeps on the gyro's record; None without a track. Of many
+    crossings every k-th is taken (CROSSINGS_PER_PAIR per pair the search evaluates)."""
     tracks = _tracks(centroids)
     if tracks is None or not len(crossings):
         return None
+    step = -(-len(crossings) // (CROSSINGS_PER_PAIR * MAX_PAIRS))
+    crossings = crossings[::step]
     ci, tid, _, _, ux, uy = near_tracks(crossings, tracks, REACH_PX)
     t = crossings["t"][ci].astype(np.float64)
     late = np.zeros(len(t))
@@ -287,15 +294,15 @@ def _pairs(crossings, centroids, lag, t_cam):
     x, y = crossings["x"][ci].astype(np.float64), crossings["y"][ci].astype(np.float64)
     order = np.lexsort((t, tid))
     t, x, y, tid, ux, uy, late = (a[order] for a in (t, x, y, tid, ux, uy, late))
-    first, second = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-    for _, rows in zip(*groups(tid)):
-        j = np.searchsorted(t[rows], t[rows] + MIN_GAP_US)
-        ok = j < len(rows)
-        ok[ok] = t[rows][j[ok]] - t[rows][ok] <= MAX_GAP_US
-        first.append(rows[ok])
-        second.append(rows[j[ok]])
-    i, j = np.concatenate(first), np.concatenate(second)
-    keep = (t[i] >= t_cam[0] + SEARCH_US) & (t[j] <= t_cam[-1] - SEARCH_US)
+    # one search over all tracks: each track's times on its own stretch of one line
+    span = (t.max() - t.min() + 2 * MAX_GAP_US) if len(t) else 0.0
+    key = np.unique(tid, return_inverse=True)[1] * span + (t - (t.min() if len(t) else 0.0))
+    i = np.arange(len(t))
+    j = np.searchsorted(key, key + MIN_GAP_US)
+    ok = j < len(t)
+    i, j = i[ok], j[ok]
+    keep = ((tid[j] == tid[i]) & (t[j] - t[i] <= MAX_GAP_US)
+            & (t[i] >= t_cam[0] + SEARCH_US) & (t[j] <= t_cam[-1] - SEARCH_US))
     i, j = i[keep], j[keep]
     return [t[i], t[j], x[i], y[i], x[j], y[j], ux[i], uy[i], (late[i] + late[j]) / 2]
 
@@ -314,20 +321,21 @@ def _spread(pairs, keep):
 
 def _tracks(centroids):
     """The linked centroids' tracks as near_tracks takes them (t, track, x, y, vx, vy, sorted
-    by track then time; velocities by differences within each track), None without one
-    of three rows."""
+    by track then time; velocities by differences between each row's neighbours in its
+    track), those of three rows or more; None without one."""
+    from .frames import run_neighbours
+
     c = centroids[centroids["track"] >= 0]
     c = c[np.lexsort((c["t"], c["track"]))]
     # one row a time (a joined track can hold two): differences need distinct times
     c = c[np.r_[True, (c["track"][1:] != c["track"][:-1]) | (c["t"][1:] != c["t"][:-1])]]
-    ids, rows = groups(c["track"])
-    keep = np.concatenate([r for r in rows if len(r) >= 3] or [np.zeros(0, np.int64)])
-    if not len(keep):
+    _, where, count = np.unique(c["track"], return_inverse=True, return_counts=True)
+    c = c[count[where] >= 3]
+    if not len(c):
         return None
-    c = c[keep]
     out = {f: np.ascontiguousarray(c[f]) for f in ("t", "track", "x", "y")}
-    out["vx"], out["vy"] = np.zeros(len(c)), np.zeros(len(c))
-    for _, r in zip(*groups(c["track"])):
-        ts = c["t"][r] * 1e-6
-        out["vx"][r], out["vy"][r] = np.gradient(c["x"][r], ts), np.gradient(c["y"][r], ts)
+    before, after = run_neighbours(out["track"])
+    dt = (out["t"][after] - out["t"][before]) * 1e-6
+    out["vx"] = (out["x"][after] - out["x"][before]) / dt
+    out["vy"] = (out["y"][after] - out["y"][before]) / dt
     return out
