@@ -30,6 +30,8 @@ SEARCH_US = 25_000
 #: the search's grid (µs) on at most COARSE_PAIRS pairs, then Gauss-Newton steps from its
 #: best point, their derivative's half-step (µs)
 COARSE_STEP_US, COARSE_PAIRS, GAUSS_NEWTON_STEPS, STEP_US = 1000, 1000, 3, 500.0
+#: rounds of weights (each from the residuals where the last round's fit stands)
+WEIGHT_ROUNDS = 2
 #: two crossings of one track compared lie this far apart in time (µs): the offset moves
 #: their predicted distance by the change of rate over the gap, so the longer the gap the
 #: more it tells against the crossings' timing noise (on fresh-39's sinusoids the offsets
@@ -54,6 +56,12 @@ MAX_PAIRS, CROSSINGS_PER_PAIR = 4000, 8
 BLOCK_US = 100_000
 #: ... of which it needs this many, and the offset must reach MIN_Z of its standard errors
 MIN_BLOCKS, MIN_Z = 5, 5.0
+#: an offset must exceed this (µs): on fast stars the pixels' timing biases (a refractory
+#: period's early pairs, flanks timed while the star speeds up) read as one of up to
+#: 0.1 ms (the independent simulator's 75 °/s sinusoid on an HD sensor, told its clock,
+#: measured 107 ± 11 µs, and taken 0.012 px to 0.101 with it); an untold offset below
+#: costs up to 0.2 px on a 10°/1 Hz sinusoid
+MIN_OFFSET_US = 500.0
 #: behind a pixel lag an offset must also exceed this share of the lag the crossings were
 #: moved back by: the profiles' lag of bright crossings is off by up to 43 % of itself
 #: (the accuracy grid's told dark-sky sinusoids with the IMU read 9-43 % of it as an
@@ -109,9 +117,10 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     if pairs is None:
         return None
     offset, se = _fitted(pairs, lambda some: _predicted(some, t_cam, turned, camera))
-    # behind a pixel lag, an error of the crossings' lag reads as an offset (LAG_SHARE);
-    # at the search's edge the loss had no minimum inside it
-    floor = LAG_SHARE * float(np.median(pairs[-1]))
+    # the pixels' own timing biases read as an offset (MIN_OFFSET_US), behind a pixel lag
+    # an error of the crossings' lag too (LAG_SHARE); at the search's edge the loss had no
+    # minimum inside it
+    floor = max(MIN_OFFSET_US, LAG_SHARE * float(np.median(pairs[-1])))
     inside = abs(offset) < SEARCH_US - COARSE_STEP_US
     return offset if inside and abs(offset) > max(MIN_Z * se, floor) else None
 
@@ -141,15 +150,17 @@ def _fitted(pairs, prediction):
 
     coarse = np.arange(-SEARCH_US, SEARCH_US + 1, COARSE_STEP_US, dtype=np.float64)
     offset = coarse[int(np.argmin([loss(off) for off in coarse]))]
-    r = seen - predicted(offset)
-    weight, clip = _speed_class_weights(r - bias @ _clipped_fit(bias, r, ones, CLIP_PX)[0],
-                                        np.abs(seen) / (t_j - t_i))
-    for _ in range(GAUSS_NEWTON_STEPS):   # the residuals are linear in a small step
+    speed = np.abs(seen) / (t_j - t_i)
+    for _ in range(WEIGHT_ROUNDS):   # the weights from the residuals where the fit stands
         r = seen - predicted(offset)
-        g = (predicted(offset + STEP_US) - predicted(offset - STEP_US)) / (2 * STEP_US)
-        x = np.column_stack([g, bias])
-        step, ok = _clipped_fit(x, r, weight, clip)
-        offset += step[0]
+        weight, clip = _speed_class_weights(r - bias @ _clipped_fit(bias, r, ones, CLIP_PX)[0],
+                                            speed)
+        for _ in range(GAUSS_NEWTON_STEPS):   # the residuals are linear in a small step
+            r = seen - predicted(offset)
+            g = (predicted(offset + STEP_US) - predicted(offset - STEP_US)) / (2 * STEP_US)
+            x = np.column_stack([g, bias])
+            step, ok = _clipped_fit(x, r, weight, clip)
+            offset += step[0]
     r = (seen - predicted(offset) - x @ np.r_[0.0, step[1:]])[ok]
     # the standard error, each block's pairs taken as one (they share crossings and a
     # stretch of the motion): the sandwich of the blocks' weighted scores
