@@ -23,6 +23,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     paths are checked before any work: an output that is one of the inputs is an OutputError.
     """
     from . import backends, outputs
+    from .clock import as_measured
     from .io.atomic import check_output_dir, check_outputs
     from .pipeline import Pipeline
     from .sim import load_truth
@@ -57,6 +58,8 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
             _check_imu_span(rec.imu, rec.events, config, imu or input)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
         cam, imu_data, events = rec.camera, rec.imu, rec.events
+    # the attitude filter reads the gyro on the clock the run measured (evstar.clock)
+    imu_data = as_measured(imu_data, result, config.motion.extrapolate_us)
     outputs.write_run(outdir, result, config, truth,
                       attitude=attitude_rows(result, cam, imu_data, events, config))
     return result

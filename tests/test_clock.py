@@ -80,3 +80,19 @@ def test_corrected_moves_the_gyro_to_the_camera_clock():
 def test_measure_clock_must_be_a_bool():
     with pytest.raises(ValueError, match="'motion.measure_clock'"):
         Config.from_dict({"motion": {"measure_clock": "maybe"}})
+
+
+def test_the_attitude_reads_the_gyro_on_the_measured_clock():
+    """evstar run hands the attitude filter the IMU moved by the offset it measured, its ends
+    held over the run's rows; an IMU of a run that measured none as it is."""
+    from evstar.clock import as_measured
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.pipeline import Result
+
+    imu = Imu(np.arange(0, 100_001, 1000), np.ones((101, 3)))
+    rows = np.zeros(2, CENTROID_DTYPE)
+    rows["t"] = [0, 100_000]
+    moved = as_measured(imu, Result(rows, {"imu_time_offset_us": 3000.0}, {}), 5000)
+    # 3 ms later, the first sample held back to the first row
+    assert moved.t_cam[0] == 0 and np.array_equal(moved.t_cam[1:], imu.t_cam + 3000)
+    assert as_measured(imu, Result(rows, {}, {}), 5000) is imu
