@@ -220,6 +220,8 @@ def _rate_changes(imu):
     from .smoothing import gyro_noise_density
 
     t = imu.t_cam.astype(np.float64)
+    if t[-1] - t[0] < 2 * MIN_GAP_US:   # too short to compare rates a gap apart
+        return False
     rate_hz = 1e6 / max(float(np.median(np.diff(t))), 1.0)
     white = (np.random.default_rng(0).standard_normal((len(t), 3))
              * gyro_noise_density(imu) * np.sqrt(rate_hz))
