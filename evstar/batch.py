@@ -32,7 +32,8 @@ MARKER = ".evstar-batch.json"  # in each output folder; written once the run is 
 SUMMARY = ("summary.csv", "summary.parquet")
 CONNECT_TIMEOUT_S = 5
 _HEAD_BYTES = 1 << 20  # the fingerprint hashes the first MiB (with size and mtime)
-OPTIONS = ("truth", "imu", "camera", "format", "sensor_size", "sort", "stream_above_mb")
+OPTIONS = ("truth", "imu", "camera", "format", "sensor_size", "sort", "stream_above_mb",
+           "imu_offset_us")
 _FILES = ("truth", "imu", "camera")  # the options that name input files
 #: the Dask comm schemes a scheduler address may name (distributed.comm.registry less inproc,
 #: which only a client in the scheduler's own process reaches: pass client= there; ucx needs
@@ -50,7 +51,8 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     `client` is a distributed.Client to run on; without one, `scheduler` (an address such
     as tcp://host:8786) is connected to, or else a LocalCluster of `workers` processes (the
     CPU count by default) is started for the call. `options` are run_recording keywords
-    shared by all recordings (format, sensor_size, camera, imu, sort, stream_above_mb).
+    shared by all recordings (format, sensor_size, camera, imu, sort, stream_above_mb,
+    imu_offset_us).
     """
     import pandas as pd
 
@@ -168,6 +170,12 @@ def _bad_option(key, value):
         from .runs import valid_stream_above_mb
 
         return None if valid_stream_above_mb(value) else "a finite number >= 0"
+    if key == "imu_offset_us":
+        from .runs import MAX_IMU_OFFSET_US
+
+        ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+        return None if ok and abs(value) <= MAX_IMU_OFFSET_US else \
+            f"a whole number of µs within ±{MAX_IMU_OFFSET_US:,}"
     if value is None:
         return None
     if key == "format":

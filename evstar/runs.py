@@ -14,11 +14,13 @@ from .errors import ParameterError
 
 
 def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, format=None,
-                  sensor_size=None, sort=False, stream_above_mb=1024.0, progress=False):
+                  sensor_size=None, sort=False, stream_above_mb=1024.0, progress=False,
+                  imu_offset_us=0):
     """Run `config`'s pipeline on the recording at `input` and write the result folder
     `outdir` (evstar.outputs.write_run); returns the pipeline Result.
 
-    truth, imu and camera are paths (simulator truth.npz, IMU CSV, camera JSON). Inputs
+    truth, imu and camera are paths (simulator truth.npz, IMU CSV, camera JSON);
+    imu_offset_us is added to the IMU's time offset, whether the CSV's or the file's. Inputs
     larger than `stream_above_mb` MB are processed in chunks with bounded memory. Output
     paths are checked before any work: an output that is one of the inputs is an OutputError.
     """
@@ -42,18 +44,18 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
                                  f"it is {os.path.getsize(input) / 1e6:,.0f} MB, above "
                                  f"stream_above_mb = {stream_above_mb:g}: raise --stream-above-mb "
                                  "above its size, or sort it once (evstar convert --sort)")
-        cam, imu_data = read_aux(camera, imu)
+        cam, imu_data = read_aux(camera, imu, imu_offset_us=imu_offset_us)
         if cam is None or imu_data is None:   # the file's own, as an in-memory run reads them
             from . import io
 
             held_imu, held_cam = io.extras(input, format)
-            cam, imu_data = cam or held_cam, imu_data or held_imu
+            cam, imu_data = cam or held_cam, imu_data or offset_imu(held_imu, imu_offset_us)
         result = pipe.run_file(input, imu_data, cam, truth=truth, format=format,
                                sensor_size=sensor_size, progress=progress)
         events = None                          # streamed: no pooled-window fallback
     else:
         rec = read_recording(input, format=format, sensor_size=sensor_size, camera=camera,
-                             imu=imu, sort=sort)
+                             imu=imu, sort=sort, imu_offset_us=imu_offset_us)
         if rec.imu is not None and rec.camera is not None and len(rec.events):
             _check_imu_span(rec.imu, rec.events, config, imu or input)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
@@ -98,25 +100,27 @@ def attitude_rows(result, camera, imu=None, events=None, config=None):
                     **(config or Config()).attitude_options())
 
 
-def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False):
+def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False,
+                   imu_offset_us=0):
     """The recording at `input` with the camera / IMU files given (paths; they win over what
-    the file carries); the camera also gives the sensor size when `sensor_size` is None."""
+    the file carries); the camera also gives the sensor size when `sensor_size` is None;
+    imu_offset_us is added to the IMU's time offset, whichever IMU it is."""
     from . import io
 
-    cam, imu_data = read_aux(camera, imu, sort)
+    cam, imu_data = read_aux(camera, imu, sort, imu_offset_us)
     size = sensor_size or (cam and (cam.width, cam.height)) or None
     rec = io.read(input, format=format, sensor_size=size, sort=sort)
     if cam is not None:
         rec.camera = cam
-    if imu_data is not None:
-        rec.imu = imu_data
+    rec.imu = imu_data if imu_data is not None else offset_imu(rec.imu, imu_offset_us)
     return rec
 
 
-def read_aux(camera=None, imu=None, sort=False):
-    """(Camera or None, Imu or None) read from their own files. An IMU file of fewer than 2
-    samples is a FormatError naming it (every use of a gyro needs 2; found only after the
-    pipeline had run, the attitude filter's message named no file)."""
+def read_aux(camera=None, imu=None, sort=False, imu_offset_us=0):
+    """(Camera or None, Imu or None) read from their own files, imu_offset_us added to the
+    IMU's time offset. An IMU file of fewer than 2 samples is a FormatError naming it
+    (every use of a gyro needs 2; found only after the pipeline had run, the attitude
+    filter's message named no file)."""
     from . import io
     from .errors import FormatError
 
@@ -125,4 +129,23 @@ def read_aux(camera=None, imu=None, sort=False):
     if imu_data is not None and len(imu_data) < 2:
         raise FormatError(imu, f"holds {len(imu_data)} IMU sample(s); a gyro's rotation needs "
                                "at least 2")
-    return cam, imu_data
+    return cam, offset_imu(imu_data, imu_offset_us)
+
+
+#: the most a known IMU clock offset may be (µs each way): a minute
+MAX_IMU_OFFSET_US = 60_000_000
+
+
+def offset_imu(imu, offset_us):
+    """`imu` (or None) with offset_us µs added to its time offset (t_camera = t_imu +
+    offset): a clock the user knows, e.g. the one `evstar run` measured and printed."""
+    from .events import is_integer_value
+
+    if not is_integer_value(offset_us) or abs(offset_us) > MAX_IMU_OFFSET_US:
+        raise ParameterError(f"imu_offset_us must be a whole number of µs within "
+                             f"±{MAX_IMU_OFFSET_US:,}, got {offset_us!r}")
+    if imu is None or not offset_us:
+        return imu
+    from .clock import corrected
+
+    return corrected(imu, -int(offset_us))

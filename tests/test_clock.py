@@ -112,3 +112,41 @@ def test_behind_a_pixel_lag_only_an_offset_beyond_the_lag_is_taken():
     assert res.metrics["imu_time_offset_us"] == pytest.approx(-5000, abs=800)
     _, before = run_imu(untold(run), **{"motion.measure_clock": False})
     assert err < 0.3 and before > 3 * err   # 0.213 against 1.656 px on this seed
+
+
+def test_a_known_offset_is_added_to_the_imu_whichever_file_holds_it(tmp_path):
+    """--imu-offset-us / imu_offset_us: the offset `evstar run` printed, given back, moves the
+    IMU of an --imu CSV or of the recording itself; a fraction or a huge value is refused."""
+    from evstar import io
+    from evstar.errors import ParameterError
+    from evstar.runs import offset_imu, read_recording
+
+    from conftest import random_events
+
+    imu = Imu(np.arange(0, 10_000, 1000), np.zeros((10, 3)), time_offset_us=200)
+    io.write(tmp_path / "ev.npz", random_events(), imu=imu)
+    io.write_imu(tmp_path / "imu.csv", Imu(imu.t, imu.gyro))
+    from_file = read_recording(tmp_path / "ev.npz", imu_offset_us=3000).imu
+    from_csv = read_recording(tmp_path / "ev.npz", imu=tmp_path / "imu.csv", imu_offset_us=3000).imu
+    assert from_file.time_offset_us == 3200 and from_csv.time_offset_us == 3000
+    assert np.array_equal(from_csv.t_cam, imu.t + 3000)
+    assert offset_imu(None, 3000) is None and offset_imu(imu, 0) is imu
+    for bad in (1.5, 10**9, "3000"):
+        with pytest.raises(ParameterError, match="imu_offset_us"):
+            offset_imu(imu, bad)
+
+
+def test_the_command_line_refuses_a_fractional_imu_offset(capsys, tmp_path):
+    from conftest import cli_fails
+
+    cli_fails(capsys, ["run", tmp_path / "ev.npz", "--imu-offset-us", "1.5", "-o", tmp_path / "o"],
+              2, "--imu-offset-us", "integer")
+
+
+def test_batch_checks_the_imu_offset_before_any_work(tmp_path):
+    from evstar.batch import run_many
+    from evstar.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=r"options\['imu_offset_us'\] must be a whole number"):
+        run_many([str(tmp_path / "a.npz")], Config(), tmp_path / "out",
+                 options={"imu_offset_us": 2.5})

@@ -49,7 +49,7 @@ def run(args):
     if is_centroid_file(args.input):
         from ..runs import read_aux
 
-        camera, imu = read_aux(args.camera, args.imu, bool(args.sort))
+        camera, imu = read_aux(args.camera, args.imu, bool(args.sort), args.imu_offset_us)
         if camera is None:
             raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
         centroids = io.read_centroids(args.input, sensor=(camera.width, camera.height))

@@ -18,6 +18,13 @@ def add_input_options(p):
                    help="sensor size when the file does not say")
     p.add_argument("--camera", help="camera JSON (width, height, fx, fy, cx, cy)")
     p.add_argument("--imu", help="IMU CSV t,gx,gy,gz,ax,ay,az (µs, rad/s, m/s²)")
+    from ..runs import MAX_IMU_OFFSET_US
+
+    p.add_argument("--imu-offset-us", type=checked(int, -MAX_IMU_OFFSET_US, MAX_IMU_OFFSET_US),
+                   default=0,
+                   metavar="ΜS", help="add this to the IMU's time offset, t_camera = t_imu + "
+                   "offset (the IMU of --imu or of the file; `evstar run` measures it where the "
+                   "rate changes and prints it)")
     p.add_argument("--sort", action="store_true",
                    help="order unsorted timestamps by time (otherwise they are an error)")
 
@@ -98,7 +105,8 @@ def load(args):
 
     return read_recording(args.input, format=args.format, sensor_size=args.sensor_size,
                           camera=getattr(args, "camera", None), imu=getattr(args, "imu", None),
-                          sort=bool(getattr(args, "sort", False)))
+                          sort=bool(getattr(args, "sort", False)),
+                          imu_offset_us=getattr(args, "imu_offset_us", 0))
 
 
 #: the library's wording of a remedy (Python keywords, functions) -> the command line's

@@ -53,4 +53,4 @@ def recording_options(args):
     """run_recording's keywords from the command line (all but the output and progress)."""
     return dict(truth=getattr(args, "truth", None), imu=args.imu, camera=args.camera,
                 format=args.format, sensor_size=args.sensor_size, sort=args.sort,
-                stream_above_mb=args.stream_above_mb)
+                stream_above_mb=args.stream_above_mb, imu_offset_us=args.imu_offset_us)
