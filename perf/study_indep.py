@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu] [--fresh | --fresh2 | --fresh3]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3]
 
 --fresh, --fresh2 and --fresh3 run the held-out grids instead (F1–F12, written in the
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
@@ -51,7 +51,7 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import indep_sim as S  # noqa: E402
 
-from evstar import Config, Pipeline, accuracy  # noqa: E402
+from evstar import Config, Imu, Pipeline, accuracy  # noqa: E402
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
 CAMERAS = {"davis": (346, 260, 280.0), "vga": (640, 480, 540.0), "hd": (1280, 720, 1100.0)}
@@ -295,10 +295,12 @@ def scores(rows, scene, truth, frames_t, n_frames):
                               for s in range(len(scene.mags))]}
 
 
-def run_scene(i, spec, duration_scale=1.0, imu=False):
+def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0):
     scene, sensor = scene_of(i, spec, duration_scale)
     t = time.perf_counter()
     run = S.simulate(scene, sensor, seed=i, imu=imu)
+    if imu and clock_offset_us:   # the gyro's clock behind the camera's, not told
+        run.imu = Imu(run.imu.t - clock_offset_us, run.imu.gyro)
     sim_s = time.perf_counter() - t
     ev = run.events
     cfg = Config().replace(**{"motion.compensate": "imu" if imu else "none"})
@@ -363,6 +365,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="recordings shortened to 0.3 s")
     ap.add_argument("--imu", action="store_true", help="the scenes' gyro too, and the "
                     "pipeline compensating with it (motion.compensate imu)")
+    ap.add_argument("--clock-offset-us", type=int, default=0,
+                    help="with --imu: the gyro's clock this many µs behind the camera's, not told")
     ap.add_argument("--name", help="results: study_indep_NAME.* (e.g. an older evstar on "
                     "PYTHONPATH, side by side)")
     args = ap.parse_args(argv)
@@ -376,7 +380,7 @@ def main(argv=None):
     rows = []
     for i in pick:
         scale = 1.0 if not args.quick else 0.3 / grid[i][-1]
-        r = run_scene(i + seed0, grid[i], scale, args.imu)
+        r = run_scene(i + seed0, grid[i], scale, args.imu, args.clock_offset_us)
         d = r["default"]
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
