@@ -24,6 +24,8 @@ import numpy as np
 
 from .assignment import REACH_PX
 from .crossings import near_tracks
+from .frames import groups
+from .smoothing import lag_corrected
 
 #: the most the IMU's clock is searched off the camera's (µs each way)
 SEARCH_US = 25_000
@@ -315,11 +317,13 @@ def _pairs(crossings, centroids, lag, t_cam):
     ci, tid, _, _, ux, uy = near_tracks(crossings, tracks, REACH_PX)
     t = crossings["t"][ci].astype(np.float64)
     late = np.zeros(len(t))
-    if lag is not None:   # when the star passed each pixel
-        speed = np.hypot(np.interp(t, tracks["t"], tracks["vx"]),
-                         np.interp(t, tracks["t"], tracks["vy"]))
-        late = lag.lag_at(crossings["pairs"][ci], speed, crossings["t_outer"][ci])
-    t = t - late
+    if lag is not None:   # when the star passed each pixel, at its own track's speed
+        rows_of = dict(zip(*groups(tracks["track"])))
+        for k, m in zip(*groups(tid)):
+            track = {f: tracks[f][rows_of[k]] for f in ("t", "vx", "vy")}
+            t[m], _, late[m] = lag_corrected(t[m], crossings["pairs"][ci[m]],
+                                             crossings["t_outer"][ci[m]], np.zeros(len(m)),
+                                             track, lag)
     x, y = crossings["x"][ci].astype(np.float64), crossings["y"][ci].astype(np.float64)
     order = np.lexsort((t, tid))
     t, x, y, tid, ux, uy, late = (a[order] for a in (t, x, y, tid, ux, uy, late))

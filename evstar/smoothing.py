@@ -278,7 +278,7 @@ class TrackSmoother:
             t_c, r_c = t_got[m], resid[m]
             lag_us = np.zeros(len(t_c))
             if pixel_lag is not None and len(t_c):   # when the star really passed each pixel
-                t_c, r_c, lag_us = _lag_corrected(t_c, pairs[m], width[m], r_c, track, pixel_lag)
+                t_c, r_c, lag_us = lag_corrected(t_c, pairs[m], width[m], r_c, track, pixel_lag)
             if self.speed_change and velocity_prior is not None and len(t_c):
                 t_c, r_c = _speed_change_corrected(t_c, half[m], q_got.take(m, 0), u.take(m, 0),
                                                    r_c, track, lag_us)
@@ -1024,7 +1024,7 @@ def _integral(ts, f, t):
     return knots[i] + f[i] * d + 0.5 * slope * d * d
 
 
-def _lag_corrected(t_c, pairs, width, resid, track, pixel_lag):
+def lag_corrected(t_c, pairs, width, resid, track, pixel_lag):
     """Crossing times moved back by the calibrated lag at each one's brightness (level pairs),
     outer half-width and the track's speed, and their along-track residuals moved with them."""
     speed = np.hypot(np.interp(t_c, track["t"], track["vx"]), np.interp(t_c, track["t"], track["vy"]))
