@@ -171,10 +171,9 @@ def _bad_option(key, value):
 
         return None if valid_stream_above_mb(value) else "a finite number >= 0"
     if key == "imu_offset_us":
-        from .runs import MAX_IMU_OFFSET_US
+        from .runs import MAX_IMU_OFFSET_US, valid_imu_offset_us
 
-        ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
-        return None if ok and abs(value) <= MAX_IMU_OFFSET_US else \
+        return None if valid_imu_offset_us(value) else \
             f"a whole number of µs within ±{MAX_IMU_OFFSET_US:,}"
     if value is None:
         return None

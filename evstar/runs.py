@@ -136,12 +136,17 @@ def read_aux(camera=None, imu=None, sort=False, imu_offset_us=0):
 MAX_IMU_OFFSET_US = 60_000_000
 
 
+def valid_imu_offset_us(value):
+    """Whether `value` is an imu_offset_us run_recording takes: an int (not a bool) within
+    ±MAX_IMU_OFFSET_US (evstar batch checks its options with this before any work)."""
+    return (isinstance(value, numbers.Integral) and not isinstance(value, bool)
+            and abs(value) <= MAX_IMU_OFFSET_US)
+
+
 def offset_imu(imu, offset_us):
     """`imu` (or None) with offset_us µs added to its time offset (t_camera = t_imu +
     offset): a clock the user knows, e.g. the one `evstar run` measured and printed."""
-    from .events import is_integer_value
-
-    if not is_integer_value(offset_us) or abs(offset_us) > MAX_IMU_OFFSET_US:
+    if not valid_imu_offset_us(offset_us):
         raise ParameterError(f"imu_offset_us must be a whole number of µs within "
                              f"±{MAX_IMU_OFFSET_US:,}, got {offset_us!r}")
     if imu is None or not offset_us:
