@@ -135,6 +135,13 @@ class Camera:
         uv = _points("uv", uv, 2)
         return np.stack(self.unproject_columns(uv[..., 0], uv[..., 1], iterations), axis=-1)
 
+    def project_turned(self, x, y, z, wx, wy, wz, scale=1.0):
+        """project_columns of directions (x, y, z) columns a small turn w·scale (rad, camera
+        frame) of the camera moves: a fixed star's direction goes to d − (w × d)·scale
+        (ḋ = −ω × d, to first order)."""
+        return self.project_columns(x - (wy * z - wz * y) * scale, y - (wz * x - wx * z) * scale,
+                                    z - (wx * y - wy * x) * scale)
+
     def unproject_columns(self, u, v, iterations=None):
         """unproject of pixel coordinates given as two (N,) columns: (x, y, z) columns (no
         (N, 3) temporaries: the velocity prior unprojects every crossing)."""

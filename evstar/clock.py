@@ -25,6 +25,7 @@ import numpy as np
 from .assignment import REACH_PX
 from .crossings import near_tracks
 from .frames import groups
+from .motion.imu_integration import interp_rows
 from .smoothing import lag_corrected
 
 #: the most the IMU's clock is searched off the camera's (µs each way)
@@ -158,7 +159,7 @@ def _fitted(pairs, prediction):
     bias = np.column_stack([ux, uy]) * ((t_j - t_i) * 1e-6)[:, None]
     ones = np.ones(len(seen))
 
-    few = np.linspace(0, len(seen) - 1, min(len(seen), COARSE_PAIRS)).round().astype(np.int64)
+    few = _evenly(len(seen), COARSE_PAIRS)
     at_few = prediction([a[few] for a in pairs])
 
     def loss(offset):   # the grid's, on a few pairs: where the minimum lies
@@ -230,7 +231,7 @@ def _rate_changes(imu):
 
     def rms_change(gyro):
         smooth = _smoothed(t, gyro)
-        later = np.stack([np.interp(t + MIN_GAP_US, t, smooth[:, c]) for c in range(3)], 1)
+        later = interp_rows(t + MIN_GAP_US, t, smooth)
         return np.sqrt(np.mean(np.sum((later - smooth)[t + MIN_GAP_US <= t[-1]] ** 2, 1)))
 
     return rms_change(imu.gyro_cam) > max(NOISE_RATIO * rms_change(white), MIN_RATE_CHANGE)
@@ -278,12 +279,8 @@ def _moved(pairs, t_cam, turned, camera):
     d = unit(*camera.unproject_columns(x_i, y_i))
 
     def moved(t_from, t_to):
-        w = [np.interp(t_to, t_cam, turned[:, c]) - np.interp(t_from, t_cam, turned[:, c])
-             for c in range(3)]
-        # a fixed star's direction turns by −w in the camera's frame (ḋ = −ω × d)
-        u, v = camera.project_columns(d[0] - (w[1] * d[2] - w[2] * d[1]),
-                                      d[1] - (w[2] * d[0] - w[0] * d[2]),
-                                      d[2] - (w[0] * d[1] - w[1] * d[0]))
+        w = interp_rows(t_to, t_cam, turned) - interp_rows(t_from, t_cam, turned)
+        u, v = camera.project_turned(*d, *w.T)
         return u - x_i, v - y_i
 
     return moved
@@ -344,12 +341,16 @@ def _spread(pairs, keep):
     """The pairs `keep` selects, at most MAX_PAIRS of them evenly spread over the run; None
     where they span fewer than MIN_BLOCKS blocks."""
     i = np.flatnonzero(keep)
-    if len(i) > MAX_PAIRS:
-        i = i[np.linspace(0, len(i) - 1, MAX_PAIRS).round().astype(np.int64)]
+    i = i[_evenly(len(i), MAX_PAIRS)]
     t = pairs[0][i]
     if len(np.unique((t - t.min()) // BLOCK_US if len(t) else t)) < MIN_BLOCKS:
         return None
     return [a[i] for a in pairs]
+
+
+def _evenly(n, most):
+    """Indices of at most `most` of n items, evenly spread (all of them where n <= most)."""
+    return np.linspace(0, n - 1, min(n, most)).round().astype(np.int64)
 
 
 def _tracks(centroids):

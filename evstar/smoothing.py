@@ -1178,8 +1178,7 @@ def imu_velocity_prior(imu, camera):
         ox, oy, oz = gyro(t_us).T
         dx, dy, dz = unit(*camera.unproject_columns(np.asarray(x, float), np.asarray(y, float)))
         h = 1e-4   # s: a step small against any slew, large against rounding
-        u1, v1 = camera.project_columns(dx - (oy * dz - oz * dy) * h, dy - (oz * dx - ox * dz) * h,
-                                        dz - (ox * dy - oy * dx) * h)
+        u1, v1 = camera.project_turned(dx, dy, dz, ox, oy, oz, h)
         u0, v0 = camera.project_columns(dx, dy, dz)
         return np.column_stack([(u1 - u0) / h, (v1 - v0) / h])
 

@@ -98,17 +98,19 @@ def hold_ends(imu, t_start_us, t_stop_us, extrapolate_us):
 def interpolate(imu, t_us):
     """Gyro and accelerometer (camera frame) linearly interpolated at camera times t_us: (N, 3) x2."""
     tc = imu.t_cam.astype(np.float64)
-    return _interp_rows(t_us, tc, imu.gyro_cam), _interp_rows(t_us, tc, imu.accel_cam)
+    return interp_rows(t_us, tc, imu.gyro_cam), interp_rows(t_us, tc, imu.accel_cam)
 
 
 def gyro_at(imu):
     """t_us -> interpolate(imu, t_us)[0], the camera-frame samples prepared once (for many
     calls)."""
     tc, g = imu.t_cam.astype(np.float64), imu.gyro_cam
-    return lambda t_us: _interp_rows(t_us, tc, g)
+    return lambda t_us: interp_rows(t_us, tc, g)
 
 
-def _interp_rows(t_us, tc, v):
+def interp_rows(t_us, tc, v):
+    """(n, 3) rows v (at the increasing times tc) linearly interpolated at t_us, column by
+    column (held beyond the ends)."""
     t = np.asarray(t_us, dtype=np.float64)
     return np.stack([np.interp(t, tc, v[:, k]) for k in range(3)], 1)
 
