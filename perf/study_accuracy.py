@@ -332,24 +332,68 @@ def fresh39_grid():
                    seed=39, **extra)
 
 
+def fresh40_grid():
+    """Inputs no session had tried, run once when the fortieth session began (seed 40):
+    motions the grid lacked — rest-to-rest slews (the star starts and stops), an axis tilted
+    out of the image plane (`tilt`, degrees: a curved path), a 2 Hz sinusoid; PSFs narrower
+    than the issue's (σ 0.6-0.7 px: pixel-locked events), a magnitude-1.5 and a 5.5 star,
+    frames of 5 and 20 ms (`settings`: Config values of that scene), a 3 s dark-sky crawl."""
+    for motion, mag, psf, sensor, comp, extra in (
+            ("slew", 3.5, 1.0, "default", "none", {"peak": 10.0, "duration": 1.0}),
+            ("slew", 4.0, 1.1, "default", "imu", {"peak": 20.0, "duration": 1.0, "camera": "evk4"}),
+            ("slew", 3.5, 1.0, "dark-sky", "none", {"peak": 8.0, "duration": 1.0}),
+            (30, 3.5, 1.0, "default", "none", {"tilt": 80.0}),
+            (20, 4.0, 1.1, "default", "imu", {"tilt": 70.0, "direction": 30}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 4.0, "freq": 2.0}),
+            (8, 3.0, 0.6, "default", "none", {}),
+            (15, 3.5, 0.7, "default", "imu", {"camera": "evk4"}),
+            (12, 1.5, 1.0, "default", "none", {}),
+            (6, 5.5, 1.2, "quiet", "none", {}),
+            (10, 4.0, 1.0, "default", "none", {"settings": {"dt_us": 5000}}),
+            ("sine", 3.5, 1.1, "default", "imu", {"settings": {"dt_us": 20000}}),
+            (1, 4.0, 1.0, "dark-sky", "none", {"duration": 3.0}),
+            (25, 4.0, 1.2, "dark-sky", "imu", {"direction": 240, "camera": "davis346"}),
+            ("slew", 3.0, 1.3, "default", "pf", {"peak": 15.0, "duration": 1.0}),
+            (4, 4.5, 1.0, "default", "none", {"settings": {"dt_us": 20000}})):
+        yield dict(set="fresh-40", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=40, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
-         "fresh-38": fresh38_grid, "fresh-39": fresh39_grid}
+         "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid}
 
 
 def scenario(s):
     sensor = SENSORS[s["sensor"]]()
     # the star moves at `direction` degrees from x: a turntable axis in the image plane
-    phi = np.radians(s.get("direction", 0.0))
+    # ... and `tilt` degrees out of the image plane (towards the boresight: a curved path)
+    phi, tilt = np.radians(s.get("direction", 0.0)), np.radians(s.get("tilt", 0.0))
     opts = dict(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"],
-                axis=(np.sin(phi), -np.cos(phi), 0.0), camera=s.get("camera", "dvxplorer-lite"),
+                axis=(np.sin(phi) * np.cos(tilt), -np.cos(phi) * np.cos(tilt), np.sin(tilt)),
+                camera=s.get("camera", "dvxplorer-lite"),
                 imu=sim.ImuSpec(**s.get("imu", {})),
                 flux_mag3=s.get("flux", 1.0) * FLUX_MAG3)
     if s["motion"] == "sine":   # the paper's 10°, 1 Hz unless the scene says otherwise
         return sim.paper_sinusoid(s.get("amplitude", 10.0), s.get("freq", 1.0),
                                   duration_s=s.get("duration", 1.0), **opts)
+    if s["motion"] == "slew":   # rest to rest, peaking at `peak` °/s midway
+        return _slew(s["peak"], s.get("duration", 1.0), **opts)
     return sim.paper_preset(float(s["motion"]), duration_s=s.get("duration", 0.5), **opts)
+
+
+def _slew(peak_dps, duration_s, *, magnitude, axis, camera, **options):
+    """A rest-to-rest slew whose star crosses the image centre midway."""
+    from evstar.sim.motion import Slew
+    from evstar.sim.presets import camera_preset
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = camera_preset(camera)
+    motion = Slew(peak_dps, duration_s, axis)
+    stars = star_at_pixel(cam, motion.rotation(duration_s / 2)[0], (cam.cx, cam.cy), magnitude)
+    return Scenario(cam, stars, motion, duration_s, **options)
 
 
 def scores(rows, truth, frames_t, cam, n_frames):
@@ -370,7 +414,7 @@ def run_scene(s, settings=None):
     if s.get("imu_untold"):   # the gyro's clock and mounting taken as the camera's
         run = dataclasses.replace(run, imu=Imu(run.imu.t, run.imu.gyro, run.imu.accel))
     ev = run.events
-    cfg = Config().replace(**{**(settings or {}), "motion.compensate": s["comp"],
+    cfg = Config().replace(**{**(settings or {}), **s.get("settings", {}), "motion.compensate": s["comp"],
                               "estimate.estimator": "mean"})
     res = Pipeline(cfg).run(ev, run.imu, run.camera)
     linked = res.centroids
@@ -436,6 +480,9 @@ def markdown(rows):
                   + (f", {r['camera']}" if r.get("camera") else "")
                   + (f", {r['freq']:g} Hz" if r.get("freq") else "")
                   + (f", sky flux ×{r['flux']:g}" if r.get("flux") else "")
+                  + (f", peak {r['peak']:g} °/s" if r.get("peak") else "")
+                  + (f", axis {r['tilt']:g}° out of the image plane" if r.get("tilt") else "")
+                  + "".join(f", {k} {v}" for k, v in r.get("settings", {}).items())
                   + "".join(f", gyro {k} {_short(v)}" for k, v in r.get("imu", {}).items())
                   + (" (untold)" if r.get("imu_untold") else ""))
         cells = [r["set"], motion, str(r["mag"]), f"{r['psf']:g}", r["sensor"], r["comp"],
@@ -475,7 +522,7 @@ def plot(rows, path):
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
                                "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*",
-                               "fresh-37": "h", "fresh-38": "p", "fresh-39": "*"}.get(part, "o"))
+                               "fresh-37": "h", "fresh-38": "p", "fresh-39": "*", "fresh-40": "X"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
