@@ -50,6 +50,7 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
 
             held_imu, held_cam = io.extras(input, format)
             cam, imu_data = cam or held_cam, imu_data or offset_imu(held_imu, imu_offset_us)
+        require_imu(imu_data, imu_offset_us, input)
         result = pipe.run_file(input, imu_data, cam, truth=truth, format=format,
                                sensor_size=sensor_size, progress=progress)
         events = None                          # streamed: no pooled-window fallback
@@ -113,6 +114,7 @@ def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=Non
     if cam is not None:
         rec.camera = cam
     rec.imu = imu_data if imu_data is not None else offset_imu(rec.imu, imu_offset_us)
+    require_imu(rec.imu, imu_offset_us, input)
     return rec
 
 
@@ -141,6 +143,15 @@ def valid_imu_offset_us(value):
     ±MAX_IMU_OFFSET_US (evstar batch checks its options with this before any work)."""
     return (isinstance(value, numbers.Integral) and not isinstance(value, bool)
             and abs(value) <= MAX_IMU_OFFSET_US)
+
+
+def require_imu(imu, offset_us, source):
+    """ParameterError naming `source` where an IMU clock offset is given but there is no IMU
+    to move: the offset would have done nothing, silently."""
+    if offset_us and imu is None:
+        raise ParameterError(f"{source}: imu_offset_us = {offset_us} (--imu-offset-us) moves an "
+                             "IMU's clock, but this run has no IMU: give --imu FILE, or a "
+                             "recording that holds one")
 
 
 def offset_imu(imu, offset_us):

@@ -111,3 +111,12 @@ def test_all_centroids_at_one_time(files, capsys):
     assert attitude(files, "one_t.csv") == 3
     err = capsys.readouterr().err
     assert "no output time after the first fix" in err and "span 0 ms" in err
+
+
+def test_an_imu_offset_without_an_imu_is_refused(files, capsys, tmp_path):
+    from conftest import cli_fails
+
+    cli_fails(capsys, ["attitude", files / "cents.csv", "--camera", files / "camera.json",
+                       "--imu-offset-us", "100", "-o", tmp_path / "att.csv"], 2,
+              "cents.csv", "imu_offset_us = 100", "no IMU")
+    assert not (tmp_path / "att.csv").exists()

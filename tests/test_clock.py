@@ -136,6 +136,28 @@ def test_a_known_offset_is_added_to_the_imu_whichever_file_holds_it(tmp_path):
             offset_imu(imu, bad)
 
 
+def test_an_imu_offset_without_an_imu_is_refused_naming_the_recording(capsys, tmp_path):
+    """An offset with no IMU to move would do nothing: in memory, streamed (the recording
+    above stream_above_mb) and on the command line, one line naming the input and value."""
+    from evstar import io
+    from evstar.errors import ParameterError
+    from evstar.runs import read_recording, run_recording
+
+    from conftest import cli_fails, random_events
+
+    path = tmp_path / "ev.npz"
+    io.write(path, random_events())
+    assert read_recording(path, imu_offset_us=0).imu is None
+    with pytest.raises(ParameterError, match=r"ev\.npz: imu_offset_us = 3000 .* no IMU"):
+        read_recording(path, imu_offset_us=3000)
+    with pytest.raises(ParameterError, match=r"ev\.npz: imu_offset_us = -20 .* no IMU"):
+        run_recording(str(path), str(tmp_path / "streamed"), Config(), stream_above_mb=0,
+                      imu_offset_us=-20)
+    assert not (tmp_path / "streamed" / "metrics.json").exists()
+    cli_fails(capsys, ["run", path, "--imu-offset-us", "3000", "-o", tmp_path / "o"], 2,
+              "ev.npz", "3000", "--imu FILE")
+
+
 def test_the_command_line_refuses_a_fractional_imu_offset(capsys, tmp_path):
     from conftest import cli_fails
 

@@ -47,9 +47,10 @@ def run(args):
     check_new_files([args.output], args.force)
     cfg = config_from_args(args)   # the options' dests are its attitude_filter.* keys
     if is_centroid_file(args.input):
-        from ..runs import read_aux
+        from ..runs import read_aux, require_imu
 
         camera, imu = read_aux(args.camera, args.imu, bool(args.sort), args.imu_offset_us)
+        require_imu(imu, args.imu_offset_us, args.input)
         if camera is None:
             raise ParameterError("the attitude needs the camera's intrinsics: give --camera camera.json")
         centroids = io.read_centroids(args.input, sensor=(camera.width, camera.height))
