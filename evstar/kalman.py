@@ -158,7 +158,7 @@ def _rts(xf, Pf, xp, Pp, FT, Q, lengths):
         return xf, Pf
     G = Pf[:-1] @ FT[1:] @ np.linalg.inv(Pp[1:])
     GT = G.swapaxes(-1, -2)
-    A = np.eye(4) - G @ FT[1:].swapaxes(-1, -2)
+    A = np.eye(xf.shape[-2]) - G @ FT[1:].swapaxes(-1, -2)
     AT = A.swapaxes(-1, -2)
     xs, Ps = xf.copy(), Pf.copy()
     inside = np.arange(L)[:, None] < np.asarray(lengths)[None, :] - 1   # (L, T)

@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import kalman, lobes
+from . import kalman, kalman_ca, lobes
 from .errors import ParameterError
 from .frames import groups
 from .parameters import AUTO, ESTIMATE, SMOOTHER
@@ -318,31 +318,57 @@ class TrackSmoother:
 
     def _refit_speed_changes(self, tracks, fitted, weights, flanks):
         """Without a velocity prior: the tracks that change speed but never reverse (a slew
-        speeding up or slowing down) refitted with their crossings moved to when the star
-        passed each pixel (_speed_change_corrected), the speed change read off their first
-        fit with the crossings — which pin it, where the centroids' smoothed speed wanders by
-        ±25 % on a slow faint star (held-out accelerations from rest of perf/study_indep.py
-        --fresh2: 0.208 -> 0.107 px and 0.138 -> 0.102); not where the speed changes less
-        than SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX
-        (a constant-rate pan). A reversing track's crossings are moved before its refit at
-        the turns instead (_turn_flanks_corrected). `fitted`, per track (rows, crossings
-        used), is updated in place."""
-        redo = []
-        for i, (track, (rows, _)) in enumerate(zip(tracks, fitted)):
-            t_c, turns = track[3][0], track[4]
-            if rows is None or turns or len(t_c) < MIN_CROSSINGS:
-                continue
-            speed = np.hypot(np.interp(t_c, rows["t"], rows["vx"]), np.interp(t_c, rows["t"], rows["vy"]))
-            if speed.max() < SPEED_CHANGE_RATIO * speed.min():
-                continue
-            moved, t_new = _flank_corrected(track, flanks[i], rows)
-            if np.max(np.abs(t_new - t_c) * speed) * 1e-6 >= _SPEED_CHANGE_REFIT_PX:
-                tracks[i] = moved
-                redo.append(i)
-        if redo:
-            for i, f in zip(redo, self._fit_along([tracks[i] for i in redo],
-                                                  [weights[i] for i in redo], None)):
-                fitted[i] = f
+        speeding up from rest or slowing down) refitted with a constant-acceleration model
+        (evstar.kalman_ca) and their crossings moved to when the star passed each pixel
+        (_speed_change_corrected, exactly on that fit's path), ACCEL_PASSES times: each fit
+        reads the speed change better off crossings the last one moved. The
+        constant-velocity fit bent a slew's acceleration straight and moved them a third of
+        the way: a 10 °/s slew from rest and back 0.086 -> 0.032 px, on a dark sky 0.160 ->
+        0.127 (fresh-40 of perf/study_accuracy.py). The speed change is read off the
+        crossings' fits — which pin it, where the centroids' smoothed speed wanders by
+        ±25 % on a slow faint star; not where the first fit's speed changes less than
+        SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX (a
+        constant-rate pan keeps its fit). A reversing track's crossings are moved before
+        its refit at the turns instead (_turn_flanks_corrected). `tracks` and `fitted`, per
+        track (rows, crossings used), are updated in place."""
+        todo = [i for i, (track, (rows, _)) in enumerate(zip(tracks, fitted))
+                if _speeds_change(track, rows)]
+        first, w = [tracks[i] for i in todo], [weights[i] for i in todo]
+        fits = self._fit_accelerating(first, w)
+        # crossings that barely move on the first fit's path: the track keeps its fit
+        keep = [rows is not None and np.max(
+                    np.abs(_flank_corrected(t, flanks[i], rows, exact=True)[1] - t[3][0])
+                    * _speed_at(rows, t[3][0])) * 1e-6 >= _SPEED_CHANGE_REFIT_PX
+                for t, i, (rows, _) in zip(first, todo, fits)]
+        moved = first
+        for _ in range(ACCEL_PASSES):
+            moved = [t if rows is None else _flank_corrected(t, flanks[i], rows, exact=True)[0]
+                     for t, i, (rows, _) in zip(first, todo, fits)]
+            fits = self._fit_accelerating(moved, w)
+        for i, t, f, ok in zip(todo, moved, fits, keep):
+            if ok and f[0] is not None:
+                tracks[i], fitted[i] = t, (_with_larger_sigma(f[0], fitted[i][0]), f[1])
+
+    def _fit_accelerating(self, tracks, weights):
+        """_fit_along's result with the constant-acceleration model (no velocity prior), in
+        each track's frame: along its motion the jerk density its likelihood picks with the
+        path held straight (kalman_ca.best), then across it its own. One density for both
+        axes let the across one bend with the along one's (a close pair's track went 0.34 px
+        sideways within 10 ms on an Orion DAVIS346 8 mm slew); the across held at the
+        least, a wide lens's curved paths came out 0.3 px off."""
+        problems = _batched([_along_track_problem(full, z, s, cr, None, along_weight=w,
+                                                  sigma_floor_px=self.sigma_floor_px)
+                             for (full, z, s, cr, _), w in zip(tracks, weights)], None)
+        fit = [p for p in problems if p is not None]
+        turned = [_turned(p.problem, _main_direction(p.est)) for p in fit]
+        along = [q for q, _ in kalman_ca.best(turned, second=float(kalman_ca.Q_GRID[0]))]
+        across = [q for q, _ in kalman_ca.best(turned, first=along)]
+        states = iter(kalman_ca.ca_rts([t._replace(q=qs) for t, qs in
+                                        zip(turned, zip(along, across))]))
+        return [(None, 0) if p is None else
+                (_batched([_along_track_rows(p, *_unturned(*next(states), _main_direction(p.est)),
+                                             None)], None)[0], p.n_used)
+                for p in problems]
 
     def _turn_flanks_corrected(self, tracks, fitted, reversing, flanks):
         """Without a velocity prior: the reversing tracks' crossings moved to when the star
@@ -912,6 +938,63 @@ def _moved(fitted, rows, b):
 SPEED_CHANGE_RATIO = 1.5
 #: ... and its crossings move by at least this (px along the motion)
 _SPEED_CHANGE_REFIT_PX = 0.01
+#: fits of such a track with its crossings moved by the last one's path (converged by 2 on
+#: fresh-40's slews: 4 and 8 changed them by < 0.001 px)
+ACCEL_PASSES = 2
+#: on an acceleration fit's path a crossing is moved where the star's speed at each flank
+#: lies within this factor of its speed at the crossing (0.2-5; 0.5-1.5 on other paths):
+#: a star speeding up from rest doubles its speed across one pixel's flanks
+_ACCEL_SPEED_RATIO = 5.0
+_NEWTON_STEPS = 4        # ... solving for the passing time (converged to < 1 µs by 3)
+
+
+def _speeds_change(track, rows):
+    """Whether a track without a velocity prior is refitted for its speed change: it never
+    reverses, has MIN_CROSSINGS crossings, and its first fit's speed at them spans
+    SPEED_CHANGE_RATIO."""
+    t_c, turns = track[3][0], track[4]
+    if rows is None or turns or len(t_c) < MIN_CROSSINGS:
+        return False
+    speed = _speed_at(rows, t_c)
+    return speed.max() >= SPEED_CHANGE_RATIO * speed.min()
+
+
+def _with_larger_sigma(rows, other):
+    """`rows` with each σ the larger of theirs and `other`'s (another fit of the same
+    track, interpolated to their times): an acceleration fit's own σ, from a model that
+    holds only approximately (a slew's acceleration turns into deceleration at once),
+    came out too small — 80 % of an EVK4 slew field's rows within 2.45 σ where the
+    constant-velocity fit's σ held 96 % (perf/study_field.py --motion slew)."""
+    out = rows.copy()
+    t, t_other = rows["t"].astype(np.float64), other["t"].astype(np.float64)
+    for f in ("sigma_x", "sigma_y"):
+        out[f] = np.maximum(rows[f], np.interp(t, t_other, other[f]))
+    return out
+
+
+def _main_direction(rows):
+    """A track's unit direction of motion: its rows' summed velocity."""
+    v = np.array([rows["vx"].sum(), rows["vy"].sum()])
+    n = np.hypot(*v)
+    return v / n if n > 0 else np.array([1.0, 0.0])
+
+
+def _turned(problem, u):
+    """A kalman.CVProblem in the frame (along u, across it)."""
+    rot = np.array([[u[0], u[1]], [-u[1], u[0]]])
+    return problem._replace(z=problem.z @ rot.T, R=rot @ problem.R @ rot.T)
+
+
+def _unturned(x, P, u):
+    """States (x, vx, y, vy) and covariances of _turned's frame back in the image's."""
+    M = np.array([[u[0], 0, -u[1], 0], [0, u[0], 0, -u[1]], [u[1], 0, u[0], 0],
+                  [0, u[1], 0, u[0]]])
+    return x @ M.T, M @ P @ M.T
+
+
+def _speed_at(rows, t):
+    """A track's speed (px/s) at times t, its rows' velocities linear between them."""
+    return np.hypot(np.interp(t, rows["t"], rows["vx"]), np.interp(t, rows["t"], rows["vy"]))
 
 #: fewest centroids outside a track's turns that measure its centroids' along bias
 _MIN_BIAS_ROWS = 5
@@ -958,7 +1041,7 @@ def _run_around(flags, i):
     return lo, hi
 
 
-def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0):
+def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0, exact=False):
     """Crossing times moved to when the star passed each pixel where its speed changes, and
     their along-track residuals with them. A level pair's flanks are where the star was
     equally far before and past the pixel, so it passed the pixel when its position along
@@ -976,7 +1059,10 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0):
     where there is a velocity prior; without one, the track's first fit with the crossings
     (TrackSmoother._refit_speed_changes, _turn_flanks_corrected): the centroids' smoothed
     speed of a slow faint star wanders by ±25 % on a constant-rate slew, and following
-    that bend moved its crossings by noise (0.13 → 0.17 px)."""
+    that bend moved its crossings by noise (0.13 → 0.17 px). exact: `track` is a
+    constant-acceleration fit (TrackSmoother._refit_speed_changes): the passing time solved
+    on its path (Newton steps, not the first-order shift), with the speed at the flanks
+    within _ACCEL_SPEED_RATIO of the crossing's."""
     ts = track["t"].astype(np.float64)
     if len(ts) < 3 or np.any(np.diff(ts) <= 0):
         return t_c, resid
@@ -994,22 +1080,27 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0):
     with np.errstate(divide="ignore", invalid="ignore"):
         passage = reach / np.abs(v) * 1e6                 # µs the star takes to cross its reach
         h = np.minimum(h, passage)
-        shift = (0.5 * (along(t_c - h) + along(t_c + h)) - along(t_c)) / v * 1e6     # µs
+        target = 0.5 * (along(t_c - h) + along(t_c + h))
+        shift = (target - along(t_c)) / v * 1e6     # µs
+        for _ in range(_NEWTON_STEPS if exact else 0):
+            shift = shift - (along(t_c + shift) - target) / speed(t_c + shift) * 1e6
     # where the pixel lags longer than that passage, the pairs time the pixel's response,
     # not the flanks (a fast dark-sky sinusoid on an EVK4: 0.30 px without the correction,
     # 0.31 with it there too)
     ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1]) & (lag_us <= passage))
+    lo, hi = (1 / _ACCEL_SPEED_RATIO, _ACCEL_SPEED_RATIO) if exact else (0.5, 1.5)
     for side in (speed(t_c - h) / v, speed(t_c + h) / v):
-        ok &= (side >= 0.5) & (side <= 1.5)
+        ok &= (side >= lo) & (side <= hi)
     shift = np.where(ok, shift, 0.0)
     return t_c + shift, resid - v * shift * 1e-6
 
 
-def _flank_corrected(track, flank, rows):
+def _flank_corrected(track, flank, rows, exact=False):
     """(the _fit_along track tuple with its crossings moved by _speed_change_corrected on
     `rows`, the moved times); flank: the crossings' (RMS half-widths, lags µs)."""
     full, z, s_cent, cr, turns = track
-    t_new, r_new = _speed_change_corrected(cr[0], flank[0], cr[1], cr[2], cr[3], rows, flank[1])
+    t_new, r_new = _speed_change_corrected(cr[0], flank[0], cr[1], cr[2], cr[3], rows, flank[1],
+                                           exact)
     return (full, z, s_cent, (t_new, *cr[1:3], r_new, *cr[4:]), turns), t_new
 
 
