@@ -323,7 +323,7 @@ class TrackSmoother:
         (_speed_change_corrected, exactly on that fit's path), ACCEL_PASSES times: each fit
         reads the speed change better off crossings the last one moved. The
         constant-velocity fit bent a slew's acceleration straight and moved them a third of
-        the way: a 10 °/s slew from rest and back 0.086 -> 0.032 px, on a dark sky 0.160 ->
+        the way: a 10 °/s slew from rest and back 0.086 -> 0.026 px, on a dark sky 0.160 ->
         0.127 (fresh-40 of perf/study_accuracy.py). The speed change is read off the
         crossings' fits — which pin it, where the centroids' smoothed speed wanders by
         ±25 % on a slow faint star; not where the first fit's speed changes less than
@@ -334,41 +334,48 @@ class TrackSmoother:
         todo = [i for i, (track, (rows, _)) in enumerate(zip(tracks, fitted))
                 if _speeds_change(track, rows)]
         first, w = [tracks[i] for i in todo], [weights[i] for i in todo]
-        fits = self._fit_accelerating(first, w)
-        # crossings that barely move on the first fit's path: the track keeps its fit
-        keep = [rows is not None and np.max(
-                    np.abs(_flank_corrected(t, flanks[i], rows, exact=True)[1] - t[3][0])
-                    * _speed_at(rows, t[3][0])) * 1e-6 >= _SPEED_CHANGE_REFIT_PX
-                for t, i, (rows, _) in zip(first, todo, fits)]
+        fits, qs = self._fit_accelerating(first, w)
         moved = first
-        for _ in range(ACCEL_PASSES):
-            moved = [t if rows is None else _flank_corrected(t, flanks[i], rows, exact=True)[0]
-                     for t, i, (rows, _) in zip(first, todo, fits)]
-            fits = self._fit_accelerating(moved, w)
+        for k in range(ACCEL_PASSES):
+            shifted = [(t, t[3][0]) if rows is None else
+                       _flank_corrected(t, flanks[i], rows, exact=True)
+                       for t, i, (rows, _) in zip(first, todo, fits)]
+            if k == 0:   # crossings that barely move on the first fit's path: it stays
+                keep = [rows is not None and np.max(np.abs(t_new - t[3][0]) * _speed_at(rows, t[3][0]))
+                        * 1e-6 >= _SPEED_CHANGE_REFIT_PX
+                        for t, (_, t_new), (rows, _) in zip(first, shifted, fits)]
+            moved = [t for t, _ in shifted]
+            fits, _ = self._fit_accelerating(moved, w, qs)
         for i, t, f, ok in zip(todo, moved, fits, keep):
             if ok and f[0] is not None:
                 tracks[i], fitted[i] = t, (_with_larger_sigma(f[0], fitted[i][0]), f[1])
 
-    def _fit_accelerating(self, tracks, weights):
+    def _fit_accelerating(self, tracks, weights, qs=None):
         """_fit_along's result with the constant-acceleration model (no velocity prior), in
         each track's frame: along its motion the jerk density its likelihood picks with the
         path held straight (kalman_ca.best), then across it its own. One density for both
         axes let the across one bend with the along one's (a close pair's track went 0.34 px
         sideways within 10 ms on an Orion DAVIS346 8 mm slew); the across held at the
-        least, a wide lens's curved paths came out 0.3 px off."""
+        least, a wide lens's curved paths came out 0.3 px off. qs: those densities (per
+        track, None where nothing was fitted) as a first call returns them beside its
+        fits: the later passes keep them (the likelihoods cost most of the step)."""
         problems = _batched([_along_track_problem(full, z, s, cr, None, along_weight=w,
                                                   sigma_floor_px=self.sigma_floor_px)
                              for (full, z, s, cr, _), w in zip(tracks, weights)], None)
-        fit = [p for p in problems if p is not None]
-        turned = [_turned(p.problem, _main_direction(p.est)) for p in fit]
-        along = [q for q, _ in kalman_ca.best(turned, second=float(kalman_ca.Q_GRID[0]))]
-        across = [q for q, _ in kalman_ca.best(turned, first=along)]
-        states = iter(kalman_ca.ca_rts([t._replace(q=qs) for t, qs in
-                                        zip(turned, zip(along, across))]))
-        return [(None, 0) if p is None else
-                (_batched([_along_track_rows(p, *_unturned(*next(states), _main_direction(p.est)),
+        fit = [i for i, p in enumerate(problems) if p is not None and (qs is None or qs[i])]
+        turned = [_turned(problems[i].problem, _main_direction(problems[i].est)) for i in fit]
+        if qs is None:
+            along = [q for q, _ in kalman_ca.best(turned, second=float(kalman_ca.Q_GRID[0]))]
+            across = [q for q, _ in kalman_ca.best(turned, kalman_ca.Q_GRID[::2], first=along)]
+            qs = [None] * len(problems)
+            for i, q in zip(fit, zip(along, across)):
+                qs[i] = q
+        states = dict(zip(fit, kalman_ca.ca_rts([t._replace(q=qs[i]) for i, t in zip(fit, turned)])))
+        fits = [(None, 0) if i not in states else
+                (_batched([_along_track_rows(p, *_unturned(*states[i], _main_direction(p.est)),
                                              None)], None)[0], p.n_used)
-                for p in problems]
+                for i, p in enumerate(problems)]
+        return fits, qs
 
     def _turn_flanks_corrected(self, tracks, fitted, reversing, flanks):
         """Without a velocity prior: the reversing tracks' crossings moved to when the star
@@ -945,7 +952,7 @@ ACCEL_PASSES = 2
 #: lies within this factor of its speed at the crossing (0.2-5; 0.5-1.5 on other paths):
 #: a star speeding up from rest doubles its speed across one pixel's flanks
 _ACCEL_SPEED_RATIO = 5.0
-_NEWTON_STEPS = 4        # ... solving for the passing time (converged to < 1 µs by 3)
+_NEWTON_STEPS = 3        # ... solving for the passing time (converged to < 1 µs by 3)
 
 
 def _speeds_change(track, rows):
