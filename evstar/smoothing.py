@@ -328,7 +328,9 @@ class TrackSmoother:
         crossings' fits — which pin it, where the centroids' smoothed speed wanders by
         ±25 % on a slow faint star; not where the first fit's speed changes less than
         SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX (a
-        constant-rate pan keeps its fit). A reversing track's crossings are moved before
+        constant-rate pan keeps its fit); where the refit departs from the first fit by more
+        than MAX_ACCEL_DEPARTURE_PX, the constant-velocity refit on the first fit's speed
+        change instead (_refit_on_first_fit). A reversing track's crossings are moved before
         its refit at the turns instead (_turn_flanks_corrected). `tracks` and `fitted`, per
         track (rows, crossings used), are updated in place."""
         todo = [i for i, (track, (rows, _)) in enumerate(zip(tracks, fitted))
@@ -346,9 +348,30 @@ class TrackSmoother:
                         for t, (_, t_new), (rows, _) in zip(first, shifted, fits)]
             moved = [t for t, _ in shifted]
             fits, _ = self._fit_accelerating(moved, w, qs)
+        rest = []
         for i, t, f, ok in zip(todo, moved, fits, keep):
-            if ok and f[0] is not None:
+            if ok and f[0] is not None and _departure(f[0], fitted[i][0]) <= MAX_ACCEL_DEPARTURE_PX:
                 tracks[i], fitted[i] = t, (_with_larger_sigma(f[0], fitted[i][0]), f[1])
+            else:
+                rest.append(i)
+        self._refit_on_first_fit(tracks, fitted, weights, flanks, rest)
+
+    def _refit_on_first_fit(self, tracks, fitted, weights, flanks, todo):
+        """The tracks `todo` (indices) refitted at a constant velocity with their crossings
+        moved by the speed change their first fit shows, where they move by at least
+        _SPEED_CHANGE_REFIT_PX: those whose acceleration refit _refit_speed_changes does not
+        keep (the refit before the fortieth session)."""
+        redo = []
+        for i in todo:
+            rows, t_c = fitted[i][0], tracks[i][3][0]
+            moved, t_new = _flank_corrected(tracks[i], flanks[i], rows)
+            if np.max(np.abs(t_new - t_c) * _speed_at(rows, t_c)) * 1e-6 >= _SPEED_CHANGE_REFIT_PX:
+                tracks[i] = moved
+                redo.append(i)
+        if redo:
+            for i, f in zip(redo, self._fit_along([tracks[i] for i in redo],
+                                                  [weights[i] for i in redo], None)):
+                fitted[i] = f
 
     def _fit_accelerating(self, tracks, weights, qs=None):
         """_fit_along's result with the constant-acceleration model (no velocity prior), in
@@ -953,6 +976,12 @@ ACCEL_PASSES = 2
 #: a star speeding up from rest doubles its speed across one pixel's flanks
 _ACCEL_SPEED_RATIO = 5.0
 _NEWTON_STEPS = 3        # ... solving for the passing time (converged to < 1 µs by 3)
+#: an acceleration refit is kept only where its measured rows lie within this of the
+#: constant-velocity fit's (which they leave by 0.6-1.0 px at a single star's slew ends,
+#: by a median 0.6 on an Orion DAVIS346 8 mm slew field), where a close pair's mixed
+#: crossings had let it take a track 2.5 px off its stars; the others keep the
+#: constant-velocity refit (_refit_on_first_fit)
+MAX_ACCEL_DEPARTURE_PX = 1.5
 
 
 def _speeds_change(track, rows):
@@ -964,6 +993,17 @@ def _speeds_change(track, rows):
         return False
     speed = _speed_at(rows, t_c)
     return speed.max() >= SPEED_CHANGE_RATIO * speed.min()
+
+
+def _departure(rows, other):
+    """The largest distance (px) between a track's measured `rows` and another fit of it
+    (`other`, interpolated to their times)."""
+    m = rows["source"] == MEASURED
+    if not m.any():
+        return 0.0
+    t, t_other = rows["t"][m].astype(np.float64), other["t"].astype(np.float64)
+    return float(np.max(np.hypot(rows["x"][m] - np.interp(t, t_other, other["x"]),
+                                 rows["y"][m] - np.interp(t, t_other, other["y"]))))
 
 
 def _with_larger_sigma(rows, other):

@@ -832,3 +832,26 @@ def test_without_imu_a_slew_from_rest_to_rest_is_followed_as_it_speeds_up_and_st
     rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
     star_of, e = accuracy.match(rows, run.truth.star_position)
     assert (star_of >= 0).all() and e.mean() < 0.07 and e.max() < 0.55
+
+
+def test_an_acceleration_refit_is_measured_against_the_first_fit_on_its_measured_rows():
+    """_departure: the largest distance between two fits of a track at the refit's measured
+    rows (coasted ones left out: past a slew's end the two may part by more, rightly);
+    _with_larger_sigma: each row keeps the larger σ of the two."""
+    from evstar.smoothing import ESTIMATE_DTYPE, _departure, _with_larger_sigma
+
+    a = np.zeros(5, ESTIMATE_DTYPE)
+    a["t"] = np.arange(5) * 10_000
+    a["x"], a["y"] = np.arange(5.0), 2.0
+    a["sigma_x"] = a["sigma_y"] = 0.1
+    a["source"] = MEASURED
+    b = a.copy()
+    b["x"] += [0.0, 0.3, 0.0, 0.0, 3.0]
+    b["sigma_x"] = [0.05, 0.2, 0.05, 0.05, 0.05]
+    b["source"][4] = COASTED
+    assert _departure(b, a) == pytest.approx(0.3)
+    b["source"][4] = MEASURED
+    assert _departure(b, a) == pytest.approx(3.0)
+    out = _with_larger_sigma(b, a)
+    np.testing.assert_allclose(out["sigma_x"], [0.1, 0.2, 0.1, 0.1, 0.1])
+    np.testing.assert_array_equal(out["x"], b["x"])
