@@ -20,7 +20,6 @@ from __future__ import annotations
 import numpy as np
 
 from .kalman import DIFFUSE, _groups, _huber, _padded, _rts
-from .kalman import _transitions as _cv
 
 _POS = [0, 3]            # the measured state components
 #: jerk densities (px²/s⁵) the likelihood chooses among (decades: half-decades cost twice as
@@ -40,36 +39,28 @@ def ca_rts(problems):
     return out
 
 
-def loglik(problems, q_grid=Q_GRID, model="ca", second=None, first=None):
-    """Log-likelihood (len(q_grid),) per problem of its filter's innovations for each
-    process-noise density of q_grid — model "ca" (jerk, px²/s⁵) or "cv" (evstar.kalman's
-    constant velocity: acceleration, px²/s³) on the same data: the measured steps after the
-    first _START_STEPS (the constant-acceleration start's; the same for both, so that
-    their likelihoods compare), each −½·log det S less evstar.kalman's Huber term of its
-    squared Mahalanobis length. second: the second axis's density, fixed (the grid then
-    varies the first's alone; model "ca"); first: per problem, the first axis's, fixed
-    (the grid varies the second's)."""
+def loglik(problems, q_grid=Q_GRID, second=None, first=None):
+    """Log-likelihood (len(q_grid),) per problem of its filter's innovations for each jerk
+    density of q_grid: the measured steps after the first _START_STEPS, each −½·log det S
+    less evstar.kalman's Huber term of its squared Mahalanobis length. second: the second
+    axis's density, fixed (the grid then varies the first's alone); first: per problem,
+    the first axis's, fixed (the grid varies the second's)."""
     q_grid = np.asarray(q_grid, float)
     out = [None] * len(problems)
     for group in _groups([len(p.ts) * len(q_grid) for p in problems]):
         tiled = [problems[i]._replace(q=(q, second) if second is not None else
                                       (first[i], q) if first is not None else q)
                  for i in group for q in q_grid]
-        ll = _forward(*_padded(tiled), _qs(tiled), _firsts(tiled), keep=False, model=model)
+        ll = _forward(*_padded(tiled), _qs(tiled), _firsts(tiled), keep=False)
         for j, i in enumerate(group):
             out[i] = ll[j * len(q_grid):(j + 1) * len(q_grid)]
     return out
 
 
-def best(problems, q_grid=Q_GRID, model="ca", second=None, first=None):
+def best(problems, q_grid=Q_GRID, second=None, first=None):
     """(q of q_grid with the largest loglik, that log-likelihood) per problem."""
     return [(float(q_grid[int(np.argmax(ll))]), float(np.max(ll)))
-            for ll in loglik(problems, q_grid, model, second, first)]
-
-
-def _cv_transitions(h, q):
-    """evstar.kalman's constant-velocity F and Q (L, T, 4, 4), no position random walk."""
-    return _cv(h, q, 0.0)
+            for ll in loglik(problems, q_grid, second, first)]
 
 
 def _transitions(h, q):
@@ -101,27 +92,26 @@ def _firsts(problems):
     return np.array([p.z[0] for p in problems], float)
 
 
-def _forward(h, meas, z, R, q, first, keep=True, model="ca"):
+def _forward(h, meas, z, R, q, first, keep=True):
     """The filter over padded steps: (xf, Pf, xp, Pp, F, Q) when `keep`, else the innovations'
     log-likelihood per track (see loglik)."""
     L, T = h.shape
-    n, pos, transitions = _MODELS[model]
-    F, Q = transitions(h, np.broadcast_to(q, (L,) + q.shape))
-    x = np.zeros((T, n, 1))
-    x[:, pos, 0] = first                        # a diffuse start about the first position
-    P = np.tile(np.eye(n) * DIFFUSE, (T, 1, 1))
-    eye = np.tile(np.eye(n), (T, 1, 1))
-    stored = [np.empty((L, T, n, 1)), np.empty((L, T, n, n)), np.empty((L, T, n, 1)),
-              np.empty((L, T, n, n))] if keep else None
+    F, Q = _transitions(h, np.broadcast_to(q, (L,) + q.shape))
+    x = np.zeros((T, 6, 1))
+    x[:, _POS, 0] = first                        # a diffuse start about the first position
+    P = np.tile(np.eye(6) * DIFFUSE, (T, 1, 1))
+    eye = np.tile(np.eye(6), (T, 1, 1))
+    stored = [np.empty((L, T, 6, 1)), np.empty((L, T, 6, 6)), np.empty((L, T, 6, 1)),
+              np.empty((L, T, 6, 6))] if keep else None
     ll = np.zeros(T)
     seen = np.zeros(T, np.int64)                 # measured steps so far
     for k in range(L):
         xp = F[k] @ x
         Pp = F[k] @ P @ F[k].swapaxes(-1, -2) + Q[k]
-        PHT = Pp[:, :, pos]
-        S = PHT[:, pos] + R[k]
+        PHT = Pp[:, :, _POS]
+        S = PHT[:, _POS] + R[k]
         Si = np.linalg.inv(S)
-        y = z[k] - xp[:, pos]
+        y = z[k] - xp[:, _POS]
         m = meas[k]
         if not keep:
             m2 = (y.swapaxes(-1, -2) @ Si @ y)[:, 0, 0]
@@ -131,16 +121,12 @@ def _forward(h, meas, z, R, q, first, keep=True, model="ca"):
         K = (PHT @ Si) * m[:, None, None]       # K = 0 where nothing is measured
         x = xp + K @ y
         I_KH = eye.copy()
-        I_KH[:, :, pos] -= K
+        I_KH[:, :, _POS] -= K
         P = I_KH @ Pp @ I_KH.swapaxes(-1, -2) + K @ R[k] @ K.swapaxes(-1, -2)
         if keep:
             for a, v in zip(stored, (x, P, xp, Pp)):
                 a[k] = v
     return (*stored, F, Q) if keep else ll
-
-
-#: per model: state size, the measured components, F and Q of the steps
-_MODELS = {"ca": (6, _POS, _transitions), "cv": (4, [0, 2], _cv_transitions)}
 
 
 def _ca_rts_batch(problems):
