@@ -64,10 +64,7 @@ def best(problems, q_grid=Q_GRID, second=None, first=None):
 
 
 def _transitions(h, q):
-    """F and Q (L, T, 6, 6) of every step; q (L, T), or (L, T, 2) per axis."""
-    q = np.asarray(q, float)
-    if q.ndim == h.ndim:
-        q = np.stack([q, q], -1)
+    """F and Q (L, T, 6, 6) of every step; q (L, T, 2): each axis's density."""
     F = np.broadcast_to(np.eye(6), h.shape + (6, 6)).copy()
     Q = np.zeros(h.shape + (6, 6))
     block = np.stack([np.stack([h**5 / 20, h**4 / 8, h**3 / 6], -1),
@@ -81,10 +78,8 @@ def _transitions(h, q):
 
 
 def _qs(problems):
-    """(T,) or, where any problem's q is a pair per axis, (T, 2) process-noise densities."""
-    q = [np.broadcast_to(np.asarray(p.q, float), (2,)) for p in problems]
-    q = np.array(q)
-    return q[:, 0] if np.all(q[:, 0] == q[:, 1]) else q
+    """(T, 2) process-noise densities per axis (a problem's q: one for both, or a pair)."""
+    return np.array([np.broadcast_to(np.asarray(p.q, float), (2,)) for p in problems])
 
 
 def _firsts(problems):

@@ -386,7 +386,8 @@ class TrackSmoother:
                                                   sigma_floor_px=self.sigma_floor_px)
                              for (full, z, s, cr, _), w in zip(tracks, weights)], None)
         fit = [i for i, p in enumerate(problems) if p is not None and (qs is None or qs[i])]
-        turned = [_turned(problems[i].problem, _main_direction(problems[i].est)) for i in fit]
+        u = {i: _main_direction(problems[i].est) for i in fit}
+        turned = [_turned(problems[i].problem, u[i]) for i in fit]
         if qs is None:
             along = [q for q, _ in kalman_ca.best(turned, second=float(kalman_ca.Q_GRID[0]))]
             across = [q for q, _ in kalman_ca.best(turned, kalman_ca.Q_GRID[::2], first=along)]
@@ -395,8 +396,8 @@ class TrackSmoother:
                 qs[i] = q
         states = dict(zip(fit, kalman_ca.ca_rts([t._replace(q=qs[i]) for i, t in zip(fit, turned)])))
         fits = [(None, 0) if i not in states else
-                (_batched([_along_track_rows(p, *_unturned(*states[i], _main_direction(p.est)),
-                                             None)], None)[0], p.n_used)
+                (_batched([_along_track_rows(p, *_unturned(*states[i], u[i]), None)], None)[0],
+                 p.n_used)
                 for i, p in enumerate(problems)]
         return fits, qs
 
@@ -1165,7 +1166,7 @@ def _integral(ts, f, t):
 def lag_corrected(t_c, pairs, width, resid, track, pixel_lag):
     """Crossing times moved back by the calibrated lag at each one's brightness (level pairs),
     outer half-width and the track's speed, and their along-track residuals moved with them."""
-    speed = np.hypot(np.interp(t_c, track["t"], track["vx"]), np.interp(t_c, track["t"], track["vy"]))
+    speed = _speed_at(track, t_c)
     lag_us = pixel_lag.lag_at(pairs, speed, width)
     return t_c - lag_us, resid + speed * lag_us * 1e-6, lag_us
 

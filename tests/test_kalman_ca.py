@@ -29,7 +29,7 @@ def _filterpy(p):
     kf.x = np.array([p.z[0, 0], 0, 0, p.z[0, 1], 0, 0.0])
     kf.P = np.eye(6) * kalman.DIFFUSE
     h = np.r_[0.0, np.diff(p.ts)]
-    F, Q = kalman_ca._transitions(h[:, None], np.full((len(h), 1), p.q))
+    F, Q = kalman_ca._transitions(h[:, None], np.full((len(h), 1, 2), p.q))
     zs, Rs = [None] * len(h), [kf.R] * len(h)
     for k, i in enumerate(np.flatnonzero(p.measured)):
         zs[i], Rs[i] = p.z[k], p.R[k]
@@ -97,7 +97,7 @@ def test_each_axis_takes_its_own_process_noise():
     p, _, _ = _problem(rng)
     h = np.array([[0.0], [0.01]])
     F, Q = kalman_ca._transitions(h, np.array([[[1e6, 1e2]], [[1e6, 1e2]]]))
-    _, Q1 = kalman_ca._transitions(h, np.full((2, 1), 1e6))
+    _, Q1 = kalman_ca._transitions(h, np.full((2, 1, 2), 1e6))
     np.testing.assert_allclose(Q[1, 0, :3, :3], Q1[1, 0, :3, :3])
     np.testing.assert_allclose(Q[1, 0, 3:, 3:], Q1[1, 0, 3:, 3:] * 1e-4)
     (x2, _), = kalman_ca.ca_rts([p._replace(q=(1e5, 1e5))])
