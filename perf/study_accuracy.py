@@ -119,7 +119,13 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "fast-pixel": lambda: sim.sensor_model("default", refractory_us=20.0, jitter_us=5.0),
            # the thirty-ninth session's: a dark sky three times slower than the default's
            "dark-sky-10": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=10.0,
-                                                   cutoff_hz_max=2000.0)}
+                                                   cutoff_hz_max=2000.0),
+           # the forty-first session's: an OFF threshold a third of the ON one, a 3 ms
+           # refractory period, coarse 0.45 thresholds, a dark sky on 3 Hz of background
+           "ratio-3": lambda: sim.sensor_model("default", threshold_on=0.36, threshold_off=0.12),
+           "refractory-3ms": lambda: sim.sensor_model("default", refractory_us=3000.0),
+           "coarse-45": lambda: sim.sensor_model("default", threshold_on=0.45, threshold_off=0.45),
+           "dark-sky-busy": lambda: sim.sensor_model("dark-sky", noise_hz=3.0)}
 
 
 def dev_grid():
@@ -359,10 +365,39 @@ def fresh40_grid():
                    seed=40, **extra)
 
 
+def fresh41_grid():
+    """Inputs no session had tried, run once when the forty-first session began (seed 41):
+    a platform's vibration on top of its rate (`vibe`: `vib` degrees at `vib_hz` about the
+    axis that moves the star across its motion), speed ramps that never stop (`ramp`: from
+    `rate` to `rate_end` °/s), an OFF threshold a third of the ON one, a 3 ms refractory
+    period, 0.45 thresholds, a busy dark sky, a σ 2 px PSF, 2 ms frames, a 3 Hz sinusoid,
+    6 s of a faint slow star."""
+    for motion, mag, psf, sensor, comp, extra in (
+            ("vibe", 3.5, 1.0, "default", "none", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
+            ("vibe", 3.5, 1.0, "default", "imu", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
+            ("vibe", 4.0, 1.1, "dark-sky", "none", {"rate": 3.0, "vib": 0.1, "vib_hz": 8.0}),
+            ("vibe", 3.0, 1.0, "default", "pf", {"rate": 6.0, "vib": 0.05, "vib_hz": 15.0}),
+            ("ramp", 4.0, 1.0, "default", "none", {"rate": 4.0, "rate_end": 16.0}),
+            ("ramp", 3.5, 1.1, "dark-sky", "imu", {"rate": 20.0, "rate_end": 5.0}),
+            ("ramp", 4.5, 1.0, "default", "none", {"rate": 2.0, "rate_end": 12.0, "camera": "evk4"}),
+            (10, 4.0, 1.0, "ratio-3", "none", {}),
+            (12, 3.0, 1.0, "refractory-3ms", "none", {}),
+            (15, 3.0, 1.1, "coarse-45", "none", {}),
+            ("sine", 4.0, 1.0, "dark-sky-busy", "imu", {}),
+            (6, 4.5, 2.0, "default", "none", {}),
+            (25, 3.0, 1.0, "default", "none", {"settings": {"dt_us": 2000}}),
+            ("sine", 3.5, 1.0, "default", "imu", {"amplitude": 2.0, "freq": 3.0, "camera": "davis346"}),
+            (2, 5.0, 1.0, "quiet", "none", {"duration": 6.0}),
+            (8, 4.5, 1.1, "dark-sky", "none", {"tilt": 40.0, "camera": "evk4"})):
+        yield dict(set="fresh-41", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=41, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
-         "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid}
+         "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
+         "fresh-41": fresh41_grid}
 
 
 def scenario(s):
@@ -380,6 +415,8 @@ def scenario(s):
                                   duration_s=s.get("duration", 1.0), **opts)
     if s["motion"] == "slew":   # rest to rest, peaking at `peak` °/s midway
         return _slew(s["peak"], s.get("duration", 1.0), **opts)
+    if s["motion"] in ("vibe", "ramp"):   # about the axis, through the centre midway
+        return _through_centre(_trajectory(s, opts["axis"]), s.get("duration", 1.0), **opts)
     return sim.paper_preset(float(s["motion"]), duration_s=s.get("duration", 0.5), **opts)
 
 
@@ -392,6 +429,34 @@ def _slew(peak_dps, duration_s, *, magnitude, axis, camera, **options):
 
     cam = camera_preset(camera)
     motion = Slew(peak_dps, duration_s, axis)
+    stars = star_at_pixel(cam, motion.rotation(duration_s / 2)[0], (cam.cx, cam.cy), magnitude)
+    return Scenario(cam, stars, motion, duration_s, **options)
+
+
+def _trajectory(s, axis):
+    """A scene's `vibe` (its rate about `axis`, and `vib`° at `vib_hz` about the image-plane
+    axis across it) or `ramp` (constant acceleration from `rate` to `rate_end` °/s)."""
+    from evstar.sim.motion import FunctionTrajectory, _exp
+
+    axis = np.asarray(axis, np.float64)
+    w0, duration = np.radians(s["rate"]), s.get("duration", 1.0)
+    if s["motion"] == "ramp":
+        accel = (np.radians(s["rate_end"]) - w0) / duration
+        return FunctionTrajectory(lambda t: _exp(-(w0 * t + 0.5 * accel * t * t)[:, None] * axis))
+    across = np.cross(axis, (0.0, 0.0, 1.0))
+    across /= np.linalg.norm(across)
+    amp, w = np.radians(s["vib"]), 2 * np.pi * s["vib_hz"]
+    return FunctionTrajectory(lambda t: _exp(-(w0 * t)[:, None] * axis)
+                              @ _exp(-(amp * np.sin(w * t))[:, None] * across))
+
+
+def _through_centre(motion, duration_s, *, magnitude, axis, camera, **options):
+    """A scene of `motion` whose star crosses the image centre midway."""
+    from evstar.sim.presets import camera_preset
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = camera_preset(camera)
     stars = star_at_pixel(cam, motion.rotation(duration_s / 2)[0], (cam.cx, cam.cy), magnitude)
     return Scenario(cam, stars, motion, duration_s, **options)
 
@@ -481,6 +546,9 @@ def markdown(rows):
                   + (f", {r['freq']:g} Hz" if r.get("freq") else "")
                   + (f", sky flux ×{r['flux']:g}" if r.get("flux") else "")
                   + (f", peak {r['peak']:g} °/s" if r.get("peak") else "")
+                  + (f" {r['rate']:g} °/s" if r.get("rate") else "")
+                  + (f" to {r['rate_end']:g} °/s" if r.get("rate_end") else "")
+                  + (f" + {r['vib']:g}° at {r['vib_hz']:g} Hz" if r.get("vib") else "")
                   + (f", axis {r['tilt']:g}° out of the image plane" if r.get("tilt") else "")
                   + "".join(f", {k} {v}" for k, v in r.get("settings", {}).items())
                   + "".join(f", gyro {k} {_short(v)}" for k, v in r.get("imu", {}).items())
@@ -522,7 +590,8 @@ def plot(rows, path):
                        facecolors=fill, edgecolors=colour, label=f"{name} ({part})",
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
                                "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*",
-                               "fresh-37": "h", "fresh-38": "p", "fresh-39": "*", "fresh-40": "X"}.get(part, "o"))
+                               "fresh-37": "h", "fresh-38": "p", "fresh-39": "*", "fresh-40": "X",
+                               "fresh-41": "d"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
