@@ -59,6 +59,10 @@ MAX_PAIRS, CROSSINGS_PER_PAIR = 4000, 8
 BLOCK_US = 100_000
 #: ... of which it needs this many, and the offset must reach MIN_Z of its standard errors
 MIN_BLOCKS, MIN_Z = 5, 5.0
+#: the straight pairs it needs: a path that bends all the while (a platform's vibration
+#: across the motion) leaves a handful, whose blocks' scatter then passed a 22 ms offset
+#: as 5 standard errors (7 of 386 pairs on a 0.05°, 20 Hz vibration; told none: 0.35 px)
+MIN_PAIRS = 30
 #: an offset must exceed this (µs): on fast stars the pixels' timing biases (a refractory
 #: period's early pairs, flanks timed while the star speeds up) read as one of up to
 #: 0.1 ms (the independent simulator's 75 °/s sinusoid on an HD sensor, told its clock,
@@ -339,11 +343,11 @@ def _pairs(crossings, centroids, lag, t_cam):
 
 def _spread(pairs, keep):
     """The pairs `keep` selects, at most MAX_PAIRS of them evenly spread over the run; None
-    where they span fewer than MIN_BLOCKS blocks."""
+    where they are fewer than MIN_PAIRS or span fewer than MIN_BLOCKS blocks."""
     i = np.flatnonzero(keep)
     i = i[_evenly(len(i), MAX_PAIRS)]
     t = pairs[0][i]
-    if len(np.unique((t - t.min()) // BLOCK_US if len(t) else t)) < MIN_BLOCKS:
+    if len(i) < MIN_PAIRS or len(np.unique((t - t.min()) // BLOCK_US if len(t) else t)) < MIN_BLOCKS:
         return None
     return [a[i] for a in pairs]
 

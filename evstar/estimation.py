@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import assignment, lobes
+from . import assignment, lobes, vibration
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
@@ -125,7 +125,26 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given.
     rate_hz: the measured background rate (events/pixel/s), for untracked_alpha. near:
     (t, x, y) of the events near the stars, hot pixels out, for the tracks' positions
-    across their motion (evstar.across; needs `sensor`)."""
+    across their motion (evstar.across; needs `sensor`). Without a velocity prior, a
+    track's vibration across its motion is found and followed (evstar.vibration;
+    estimate.vibration)."""
+    args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
+            near)
+    rows, est, kept = _estimate(centroids, *args)
+    # with a velocity prior the gyro already carries the platform's motion
+    if est is None or velocity_prior is not None or not config.estimate.vibration:
+        return rows
+    found = vibration.found(est, kept, config.dt_us)
+    if not found:
+        return rows
+    rows, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
+    return vibration.added(rows, est, vibration.refit(est, kept, found))
+
+
+def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
+              measured_lag, rate_hz, near):
+    """estimate's rows, and the smoothed rows (ESTIMATE_DTYPE) of its tracks and the
+    centroids they index (None, None where no track is smoothed)."""
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster
@@ -141,7 +160,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     out["sigma"] = sigma
     out["source"] = np.where(out["source"] == "pooled", "pooled", "measured")
     if e.estimator == "mean" or not (centroids["track"] >= 0).any():
-        return out
+        return out, None, None
     groups = _by_prior(centroids, sigma, smoother, velocity_prior)
     ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
     stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
@@ -206,7 +225,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         from . import pairs
 
         rows = pairs.split(rows, crossings, near_cross, assigned_to)
-    return rows
+    return rows, est, centroids
 
 
 def run_lag(e, measured_lag):

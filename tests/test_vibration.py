@@ -1,0 +1,122 @@
+"""A platform's vibration across a star's motion (evstar.vibration): found in a track's
+residuals beyond chance, followed without an IMU, never sought where the gyro carries it."""
+import numpy as np
+import pytest
+
+from evstar import Config, Pipeline, accuracy, sim, vibration
+
+
+def _frames(rng, n=100, dt_us=10_000, jitter_us=2_000):
+    """Centroid times: one per frame, at a random point near its middle."""
+    return (np.arange(n) * dt_us + dt_us // 2 + rng.integers(-jitter_us, jitter_us, n)).astype(np.int64)
+
+
+def test_a_sinusoid_in_a_tracks_offsets_is_found_with_its_frequency_and_amplitude():
+    rng = np.random.default_rng(1)
+    t = _frames(rng)
+    r = 0.3 * np.sin(2 * np.pi * 17.0 * t * 1e-6 + 0.4) + 0.05 * rng.standard_normal(len(t))
+    v = vibration._sinusoid(t, r, 10_000)
+    assert v is not None
+    assert abs(v.omega / (2 * np.pi) - 17.0) < 0.3
+    assert abs(np.hypot(v.a, v.b) - 0.3) < 0.03
+    assert np.sqrt(np.mean((v.at(t) - r) ** 2)) < 0.07
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_white_offsets_show_no_vibration(seed):
+    """Noise alone (σ 0.2 px, far above MIN_AMPLITUDE_PX) passes the false-alarm test."""
+    rng = np.random.default_rng(100 + seed)
+    t = _frames(rng, n=300)
+    assert vibration._sinusoid(t, 0.2 * rng.standard_normal(len(t)), 10_000) is None
+
+
+def test_a_small_short_or_too_fast_sinusoid_is_left_alone():
+    rng = np.random.default_rng(2)
+    t = _frames(rng)
+    wave = np.sin(2 * np.pi * 12.0 * t * 1e-6)
+    small = vibration.MIN_AMPLITUDE_PX / 2
+    assert vibration._sinusoid(t, small * wave + 0.002 * rng.standard_normal(len(t)), 10_000) is None
+    short = vibration.MIN_ROWS - 1
+    assert vibration._sinusoid(t[:short], 0.3 * wave[:short], 10_000) is None
+    # the frame-to-frame alternation (Nyquist) is beyond the band searched
+    alternating = 0.3 * (-1.0) ** np.arange(len(t)) + 0.01 * rng.standard_normal(len(t))
+    found = vibration._sinusoid(t, alternating, 10_000)
+    assert found is None or found.omega / (2 * np.pi) <= vibration.MAX_NYQUIST_SHARE * 50.0
+
+
+def test_removed_then_added_moves_rows_across_the_motion_and_back():
+    """A track along x: the sinusoid moves its rows in y only, and back exactly."""
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    t = np.arange(50, dtype=np.int64) * 10_000
+    est = np.zeros(50, ESTIMATE_DTYPE)
+    est["t"], est["x"], est["y"], est["track"] = t, 10 + 0.05 * t * 1e-3, 20.0, 3
+    rows = np.zeros(50, CENTROID_DTYPE)
+    rows["t"], rows["x"], rows["y"], rows["track"] = t, est["x"], 20.0, 3
+    v = {3: vibration.Vibration(2 * np.pi * 10.0, 0.2, 0.1, 0, rms=0.07)}
+    moved = vibration.removed(rows, est, v)
+    assert np.allclose(moved["x"], rows["x"])
+    assert np.allclose(moved["y"], 20.0 - v[3].at(t))
+    back = vibration.added(moved, est, v)
+    assert np.allclose(back["y"], 20.0) and np.allclose(back["x"], rows["x"])
+    assert (back["sigma"] >= 0.07).all()
+
+
+@pytest.fixture(scope="module")
+def vibrating():
+    """A magnitude-3.5 star panned at 8 °/s on a platform vibrating 0.05° at 20 Hz across
+    the motion (0.54 px on the paper's camera), 0.8 s (fresh-41 of perf/study_accuracy.py
+    on seed 41: 0.345 px without this step, 0.112 with it, the per-frame mean 0.157)."""
+    from evstar.sim.motion import FunctionTrajectory, _exp
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    up, across = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    w, amp = np.radians(8.0), np.radians(0.05)
+    move = FunctionTrajectory(lambda t: _exp(-(w * t)[:, None] * up)
+                              @ _exp(-(amp * np.sin(2 * np.pi * 20.0 * t))[:, None] * across))
+    cam = sim.camera_preset("dvxplorer-lite")
+    star = star_at_pixel(cam, move.rotation(0.4)[0], (cam.cx, cam.cy), 3.5)
+    return sim.simulate(Scenario(cam, star, move, 0.8), seed=6)
+
+
+def _error(run, **settings):
+    rows = Pipeline(Config().replace(**settings)).run(run.events, run.imu, run.camera).centroids
+    star, e = accuracy.match(rows, run.truth.star_position)
+    assert (star >= 0).all()
+    return rows, e
+
+
+def test_without_imu_a_vibrating_star_is_followed_across_its_motion(vibrating):
+    rows, on = _error(vibrating)
+    _, off = _error(vibrating, **{"estimate.vibration": False})
+    assert on.mean() < 0.6 * off.mean() and on.mean() < 0.17
+    # its σ says so: the rows' errors are within a few σ, not ten
+    assert np.median(on / rows["sigma"]) < 3.0
+
+
+def test_with_the_imu_the_vibration_is_the_gyros_and_not_sought(vibrating):
+    on_rows, on = _error(vibrating, **{"motion.compensate": "imu"})
+    off_rows, off = _error(vibrating, **{"motion.compensate": "imu", "estimate.vibration": False})
+    for f in ("t", "x", "y", "sigma"):
+        assert np.array_equal(on_rows[f], off_rows[f])
+    assert on.mean() < 0.06
+
+
+def test_a_path_that_bends_all_the_while_tells_no_clock_offset(vibrating):
+    """The gyro's clock is measured on pairs of crossings whose path runs straight: a
+    vibration across the motion leaves a handful (7 of 386 here), too few to tell an offset
+    (clock.MIN_PAIRS; they had read a 22 ms one, 5 standard errors from zero, and taken the
+    IMU-compensated positions to 0.35 px)."""
+    from evstar import clock, estimation
+
+    res = Pipeline(Config().replace(**{"motion.compensate": "imu", "estimate.estimator": "mean"})
+                   ).run(vibrating.events, vibrating.imu, vibrating.camera)
+    crossings = estimation.chunk_crossings(vibrating.events, res.keep, 3.0)
+    t_cam = vibrating.imu.t_cam.astype(np.float64)
+    pairs = clock._pairs(crossings, res.centroids, None, t_cam)
+    straight = clock._straight(pairs, t_cam, clock._turned(t_cam, vibrating.imu.gyro_cam),
+                               vibrating.camera)
+    assert 0 < straight.sum() < clock.MIN_PAIRS < len(straight)
+    assert clock.measured_offset_us(crossings, res.centroids, vibrating.imu, vibrating.camera) is None
