@@ -393,11 +393,34 @@ def fresh41_grid():
                    seed=41, **extra)
 
 
+def vibration_grid():
+    """Vibrating platforms the forty-first session's vibration step (evstar.vibration) was
+    not written on (seed 141; it was written on fresh-41's first scene): other rates,
+    frequencies, amplitudes, cameras, frame lengths, a fainter star, a diagonal pan, a dark
+    sky, and the particle filter (a velocity prior: the step is not taken)."""
+    for motion, mag, psf, sensor, comp, extra in (
+            ("vibe", 3.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.03, "vib_hz": 12.0}),
+            ("vibe", 3.0, 1.0, "default", "none", {"rate": 10.0, "vib": 0.02, "vib_hz": 30.0}),
+            ("vibe", 4.0, 1.0, "default", "none", {"rate": 15.0, "vib": 0.01, "vib_hz": 25.0,
+                                                   "camera": "evk4"}),
+            ("vibe", 4.0, 1.1, "default", "none", {"rate": 3.0, "vib": 0.08, "vib_hz": 6.0}),
+            ("vibe", 3.0, 1.0, "default", "none", {"rate": 8.0, "vib": 0.04, "vib_hz": 35.0,
+                                                   "settings": {"dt_us": 5000}}),
+            ("vibe", 4.5, 1.2, "default", "none", {"rate": 6.0, "vib": 0.05, "vib_hz": 18.0,
+                                                   "camera": "davis346"}),
+            ("vibe", 3.5, 1.0, "default", "pf", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
+            ("vibe", 3.5, 1.0, "dark-sky", "none", {"rate": 12.0, "vib": 0.03, "vib_hz": 15.0}),
+            ("vibe", 3.5, 1.0, "default", "none", {"rate": 8.0, "vib": 0.04, "vib_hz": 22.0,
+                                                   "direction": 45})):
+        yield dict(set="vibration", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=141, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
-         "fresh-41": fresh41_grid}
+         "fresh-41": fresh41_grid, "vibration": vibration_grid}
 
 
 def scenario(s):
