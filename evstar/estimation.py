@@ -137,6 +137,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     found = vibration.found(est, kept, config.dt_us)
     if not found:
         return rows
+    args = (config, t0_us, None if crossings is None else
+            vibration.crossings_removed(crossings, est, found)) + args[3:]
     rows, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
     return vibration.added(rows, est, vibration.refit(est, kept, found))
 

@@ -1,23 +1,27 @@
-"""A platform's vibration across a star's motion, found in its track's residuals.
+"""A platform's vibration, found in a star's track and followed.
 
 A constant-velocity smoother cannot follow an oscillation a few frames long: at 20 Hz in
 10 ms frames the innovations' likelihood prefers a straight line (its prediction of the
 next frame is better than a turn every 2.5 frames), so the track comes out straight while
-its centroids swing across it (fresh-41 of perf/study_accuracy.py: 0.05° at 20 Hz on an
-8 °/s pan, 0.54 px, without an IMU: 0.345 px against the per-frame mean's 0.157). Here each
-long track's centroids' offsets across its smoothed motion are searched for one sinusoid
-(scipy's Lomb-Scargle periodogram between MIN_HZ and the frames' Nyquist frequency); where
-one explains them beyond chance (false-alarm probability FALSE_ALARM over the frequencies
-searched) and by more than MIN_AMPLITUDE_PX, the centroids are moved back by it, the
-estimator runs again on them, and the sinusoid — its amplitude and phase refitted to the new
-fit's residuals — is added back to every row of the track across its motion. Along the
-motion the crossings time the star; a vibration there is not modelled.
+its centroids swing about it (fresh-41 of perf/study_accuracy.py: 0.05° at 20 Hz across an
+8 °/s pan, 0.54 px, without an IMU: 0.345 px against the per-frame mean's 0.157; along it
+0.354 against 0.162). Here each long track's centroids' offsets from its smoothed rows,
+along and across its motion, are searched for one sinusoid each (scipy's Lomb-Scargle
+periodogram from MIN_HZ to MAX_NYQUIST_SHARE of the frames' Nyquist frequency); where one
+explains them beyond chance (false-alarm probability FALSE_ALARM over the frequencies
+searched) and by more than MIN_AMPLITUDE_PX, the centroids are moved back by it — and,
+along the motion, the track's crossings to when the star without it passed their pixels —
+the estimator runs again on them, and the sinusoid, its amplitude and phase refitted to the
+new fit's residuals, is added back to every row of the track. With a velocity prior the
+gyro carries the platform's motion and nothing is sought (evstar.estimation.estimate).
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
+
+from .frames import groups
 
 #: the slowest vibration searched for (Hz): slower motion the smoother's own q follows
 MIN_HZ = 4.0
@@ -30,6 +34,13 @@ FALSE_ALARM = 1e-7
 MIN_AMPLITUDE_PX = 0.05
 #: centroids a track needs to be searched
 MIN_ROWS = 30
+#: the periodogram is taken on the frames' grid first (an FFT, zero-padded OVERSAMPLE x:
+#: scipy's Lomb-Scargle over the whole band cost 0.09 s of a 50-star run), then exactly, at
+#: the centroids' own times, about its PEAKS highest peaks
+OVERSAMPLE, PEAKS = 4, 3
+#: ... where the grid's peak, this many times its power (the centroids' times off their
+#: frames' lower it, by up to ~35 % at the band's top), could pass the false-alarm test
+PRESCREEN = 2.0
 
 
 class Vibration(NamedTuple):
@@ -45,112 +56,187 @@ class Vibration(NamedTuple):
         return self.a * np.cos(self.omega * ts) + self.b * np.sin(self.omega * ts)
 
 
-def across_offsets(est, centroids):
-    """Per measured row of `est` (ESTIMATE_DTYPE, sorted by track and time) with a centroid:
-    (track, t µs, its centroid's offset across the track's motion px, that unit normal)."""
-    from .across import _directions
+#: the axes of a track's own frame a vibration is sought along
+ALONG, ACROSS = 0, 1
 
+
+def offsets(est, centroids):
+    """Per measured row of `est` (ESTIMATE_DTYPE) with a centroid, sorted by track and time:
+    (track, t µs, its centroid's offsets (n, 2) along and across the track's motion, px)."""
+    est = _sorted(est)
     m = np.flatnonzero(est["centroid"] >= 0)
     p = np.column_stack([est["x"], est["y"]])
-    _, g = np.unique(est["track"], return_inverse=True)
-    u = _directions(p, g)[m]
-    normal = np.column_stack([-u[:, 1], u[:, 0]])
+    frame = _frames(est)[m]
     c = est["centroid"][m]
     d = np.column_stack([centroids["x"][c], centroids["y"][c]]) - p[m]
-    return est["track"][m], est["t"][m], (d * normal).sum(1), normal
+    return est["track"][m], est["t"][m], np.einsum("nij,nj->ni", frame, d)
 
 
 def found(est, centroids, dt_us):
-    """{track: Vibration} of the tracks whose across offsets hold one (module doc)."""
+    """{(track, axis): Vibration} of the tracks whose offsets along or across their motion
+    hold one (module doc); along it only where the track never reverses: a reversing star's
+    centroids trail it along its motion by a lag that follows its speed, whose harmonics
+    passed for a vibration (1.1-1.5 px at 4+ Hz on dark-sky 1 Hz sinusoids)."""
     out = {}
-    track, t, r, _ = across_offsets(est, centroids)
-    for tid in np.unique(track):
-        sel = track == tid
-        v = _sinusoid(t[sel], r[sel], dt_us)
-        if v is not None:
-            out[int(tid)] = v
+    track, t, r = offsets(est, centroids)
+    turning = _reversing(est)
+    for tid, sel in zip(*groups(track)):
+        if len(sel) < MIN_ROWS:
+            continue
+        for axis in (ACROSS,) if tid in turning else (ALONG, ACROSS):
+            v = _sinusoid(t[sel], r[sel, axis], dt_us)
+            if v is not None:
+                out[(int(tid), axis)] = v
     return out
 
 
 def refit(est, centroids, vibrations):
-    """Each track's sinusoid at its frequency, amplitude and phase fitted again to the
-    across offsets of `centroids` from `est` (a fit of centroids moved back by it), and the
-    RMS of what it leaves: the track's σ is at least that (the sinusoid follows the
-    centroids, whose own lag across a fast swing the fit cannot see)."""
-    track, t, r, _ = across_offsets(est, centroids)
+    """Each sinusoid at its frequency, its amplitude and phase fitted again to the offsets of
+    `centroids` from `est` (a fit of centroids moved back by it), and the RMS of what it
+    leaves: the track's σ is at least that (the sinusoid follows the centroids, whose own
+    lag behind a fast swing the fit cannot see)."""
+    track, t, r = offsets(est, centroids)
     out = {}
-    for tid, v in vibrations.items():
+    for (tid, axis), v in vibrations.items():
         sel = track == tid
         if sel.sum() >= 3:
-            a, b = _fit(t[sel], r[sel], v.omega, v.t0_us)
-            v = v._replace(a=a, b=b)
-            rest = r[sel] - v.at(t[sel])
-            out[tid] = v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
+            v = v._replace(**dict(zip("ab", _fit(t[sel], r[sel, axis], v.omega, v.t0_us))))
+            rest = r[sel, axis] - v.at(t[sel])
+            out[(tid, axis)] = v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
     return out
 
 
 def removed(centroids, est, vibrations):
-    """`centroids` of the vibrating tracks moved back across their motion (est's, at their
-    times) by their sinusoid; a new array."""
+    """`centroids` of the vibrating tracks moved back by their sinusoids (along and across
+    est's motion at their times); a new array."""
     return _shifted(centroids, est, vibrations, -1.0)
 
 
 def added(rows, est, vibrations):
-    """`rows` of the vibrating tracks moved across their motion (est's, at their times) by
-    their sinusoid; a new array."""
+    """`rows` of the vibrating tracks moved by their sinusoids; a new array."""
     return _shifted(rows, est, vibrations, 1.0)
 
 
+def crossings_removed(crossings, est, vibrations):
+    """`crossings` (CROSSING_DTYPE) of the tracks vibrating along their motion (each assigned
+    to its nearest track of `est`, as the estimator assigns them) moved in time to when the
+    track without its sinusoid passed their pixel: t − v(t) / speed; a new array."""
+    from .assignment import REACH_PX
+    from .crossings import along_track
+
+    along = {tid: v for (tid, axis), v in vibrations.items() if axis == ALONG}
+    out = crossings.copy()
+    if not along or not len(crossings):
+        return out
+    est = _sorted(est)
+    ci, owner, _, _ = along_track(crossings, est, REACH_PX)
+    for tid, v in along.items():
+        k = ci[owner == tid]
+        mine = est[est["track"] == tid]
+        t = crossings["t"][k]
+        speed = np.hypot(np.interp(t, mine["t"], mine["vx"]), np.interp(t, mine["t"], mine["vy"]))
+        out["t"][k] = t - np.divide(v.at(t), speed, out=np.zeros(len(k)), where=speed > 0) * 1e6
+    return out
+
+
+def _reversing(est):
+    """The tracks of `est` whose smoothed velocity turns back (two consecutive rows' opposed)."""
+    est = _sorted(est)
+    v = np.column_stack([est["vx"], est["vy"]])
+    back = (np.sum(v[1:] * v[:-1], axis=1) < 0) & (est["track"][1:] == est["track"][:-1])
+    return set(np.unique(est["track"][1:][back]).tolist())
+
+
+def _sorted(est):
+    return est[np.lexsort((est["t"], est["track"]))]
+
+
 def _shifted(rows, est, vibrations, sign):
+    est = _sorted(est)
     out = rows.copy()
-    for tid, v in vibrations.items():
+    for (tid, axis), v in vibrations.items():
         sel = np.flatnonzero(rows["track"] == tid)
         mine = est[est["track"] == tid]
         if not len(sel) or len(mine) < 2:
             continue
-        n = _normals(mine, rows["t"][sel])
+        d = _axes_at(mine, rows["t"][sel])[:, axis]
         s = sign * v.at(rows["t"][sel])
-        out["x"][sel] += s * n[:, 0]
-        out["y"][sel] += s * n[:, 1]
+        out["x"][sel] += s * d[:, 0]
+        out["y"][sel] += s * d[:, 1]
         if "sigma" in rows.dtype.names:
             out["sigma"][sel] = np.maximum(out["sigma"][sel], v.rms)
     return out
 
 
-def _normals(track, t_us):
-    """The unit normals of one track's motion (its time-sorted rows) at times t_us."""
+def _frames(est):
+    """Per row of `est` (sorted by track and time), its track's unit motion direction and
+    normal as the rows of a 2×2 matrix."""
     from .across import _directions
 
-    u = _directions(np.column_stack([track["x"], track["y"]]), np.zeros(len(track), np.int64))
+    _, g = np.unique(est["track"], return_inverse=True)
+    u = _directions(np.column_stack([est["x"], est["y"]]), g)
+    return np.stack([u, np.column_stack([-u[:, 1], u[:, 0]])], axis=1)
+
+
+def _axes_at(track, t_us):
+    """One track's (its time-sorted rows) motion frames (_frames) at times t_us."""
+    f = _frames(track)
     ts = track["t"].astype(np.float64)
-    ux, uy = np.interp(t_us, ts, u[:, 0]), np.interp(t_us, ts, u[:, 1])
+    ux, uy = np.interp(t_us, ts, f[:, 0, 0]), np.interp(t_us, ts, f[:, 0, 1])
     norm = np.maximum(np.hypot(ux, uy), 1e-12)
-    return np.column_stack([-uy / norm, ux / norm])
+    u = np.column_stack([ux / norm, uy / norm])
+    return np.stack([u, np.column_stack([-u[:, 1], u[:, 0]])], axis=1)
 
 
 def _sinusoid(t_us, r, dt_us):
-    """The Vibration of one track's across offsets, or None (module doc)."""
+    """The Vibration of one track's offsets r along one axis, or None (module doc)."""
     from scipy.signal import lombscargle
 
     n = len(t_us)
     span_s = (t_us[-1] - t_us[0]) * 1e-6 if n else 0.0
     top = MAX_NYQUIST_SHARE * 0.5e6 / dt_us
-    if n < MIN_ROWS or span_s <= 0 or top <= MIN_HZ:
-        return None
-    ts = (t_us - t_us[0]) * 1e-6
-    # frequencies 4x oversampled against the span's resolution 1/span
-    f = np.arange(MIN_HZ, top, 0.25 / span_s)
-    power = lombscargle(ts, r - r.mean(), 2 * np.pi * f, normalize=True)
-    k = int(np.argmax(power))
+    if n < MIN_ROWS or span_s <= 0 or top <= MIN_HZ or not np.ptp(r) > 0:
+        return None   # (no spread: nothing to find, and the periodogram divides by it)
+    x = r - r.mean()
     # independent frequencies in the band: the span's resolution
     m = max((top - MIN_HZ) * span_s, 1.0)
-    fap = 1.0 - (1.0 - (1.0 - power[k]) ** ((n - 3) / 2)) ** m
-    if fap > FALSE_ALARM:
+    f, rough = _peaks(t_us, x, dt_us, top)
+    if not len(f) or _false_alarm(min(PRESCREEN * rough, 1.0), n, m) > FALSE_ALARM:
+        return None
+    power = lombscargle((t_us - t_us[0]) * 1e-6, x, 2 * np.pi * f, normalize=True)
+    k = int(np.argmax(power))
+    if _false_alarm(power[k], n, m) > FALSE_ALARM:
         return None
     a, b = _fit(t_us, r, 2 * np.pi * f[k], int(t_us[0]))
     if np.hypot(a, b) < MIN_AMPLITUDE_PX:
         return None
     return Vibration(float(2 * np.pi * f[k]), a, b, int(t_us[0]))
+
+
+def _peaks(t_us, x, dt_us, top):
+    """(frequencies (Hz) about the PEAKS highest local maxima in [MIN_HZ, top) of the
+    offsets' periodogram on the frames' grid — an FFT, OVERSAMPLE x zero-padded: a centroid
+    at its frame, whose own time the exact periodogram then takes — each ±1 bin in quarter
+    bins; the highest one's normalised power there)."""
+    frame = np.round((t_us - t_us[0]) / dt_us).astype(np.int64)
+    grid = np.zeros(frame[-1] + 1)
+    np.add.at(grid, frame, x)
+    size = OVERSAMPLE * len(grid)
+    spec = np.abs(np.fft.rfft(grid, size)) ** 2
+    f = np.fft.rfftfreq(size, dt_us * 1e-6)
+    i = np.arange(1, len(spec) - 1)
+    i = i[(spec[i] >= spec[i - 1]) & (spec[i] >= spec[i + 1]) & (f[i] >= MIN_HZ) & (f[i] < top)]
+    i = i[np.argsort(spec[i])[::-1][:PEAKS]]
+    fine = (f[i][:, None] + f[1] * np.linspace(-1.0, 1.0, 9)).ravel()
+    # the highest peak's share of the variance (uniform sampling's normalised power)
+    rough = 2 * spec[i[0]] / (len(x) * float(np.dot(x, x))) if len(i) else 0.0
+    return fine[(fine >= MIN_HZ) & (fine < top)], rough
+
+
+def _false_alarm(power, n, m):
+    """The chance that white residuals (n of them) show a normalised power this high at one
+    of m independent frequencies."""
+    return 1.0 - (1.0 - (1.0 - power) ** ((n - 3) / 2)) ** m
 
 
 def _fit(t_us, r, omega, t0_us):

@@ -397,7 +397,8 @@ def vibration_grid():
     """Vibrating platforms the forty-first session's vibration step (evstar.vibration) was
     not written on (seed 141; it was written on fresh-41's first scene): other rates,
     frequencies, amplitudes, cameras, frame lengths, a fainter star, a diagonal pan, a dark
-    sky, and the particle filter (a velocity prior: the step is not taken)."""
+    sky, and the particle filter (a velocity prior: the step is not taken); and three
+    vibrating along the motion (`vib_along`: about the pan's own axis)."""
     for motion, mag, psf, sensor, comp, extra in (
             ("vibe", 3.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.03, "vib_hz": 12.0}),
             ("vibe", 3.0, 1.0, "default", "none", {"rate": 10.0, "vib": 0.02, "vib_hz": 30.0}),
@@ -411,7 +412,14 @@ def vibration_grid():
             ("vibe", 3.5, 1.0, "default", "pf", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
             ("vibe", 3.5, 1.0, "dark-sky", "none", {"rate": 12.0, "vib": 0.03, "vib_hz": 15.0}),
             ("vibe", 3.5, 1.0, "default", "none", {"rate": 8.0, "vib": 0.04, "vib_hz": 22.0,
-                                                   "direction": 45})):
+                                                   "direction": 45}),
+            ("vibe", 3.0, 1.0, "default", "none", {"rate": 10.0, "vib": 0.03, "vib_hz": 25.0,
+                                                   "vib_along": True}),
+            ("vibe", 4.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.015, "vib_hz": 9.0,
+                                                   "vib_along": True, "camera": "evk4"}),
+            ("vibe", 3.5, 1.1, "default", "none", {"rate": 6.0, "vib": 0.05, "vib_hz": 16.0,
+                                                   "vib_along": True, "direction": 30,
+                                                   "camera": "davis346"})):
         yield dict(set="vibration", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
                    seed=141, **extra)
 
@@ -458,7 +466,8 @@ def _slew(peak_dps, duration_s, *, magnitude, axis, camera, **options):
 
 def _trajectory(s, axis):
     """A scene's `vibe` (its rate about `axis`, and `vib`° at `vib_hz` about the image-plane
-    axis across it) or `ramp` (constant acceleration from `rate` to `rate_end` °/s)."""
+    axis across it, or with `vib_along` about `axis` itself) or `ramp` (constant
+    acceleration from `rate` to `rate_end` °/s)."""
     from evstar.sim.motion import FunctionTrajectory, _exp
 
     axis = np.asarray(axis, np.float64)
@@ -466,8 +475,8 @@ def _trajectory(s, axis):
     if s["motion"] == "ramp":
         accel = (np.radians(s["rate_end"]) - w0) / duration
         return FunctionTrajectory(lambda t: _exp(-(w0 * t + 0.5 * accel * t * t)[:, None] * axis))
-    across = np.cross(axis, (0.0, 0.0, 1.0))
-    across /= np.linalg.norm(across)
+    across = axis if s.get("vib_along") else np.cross(axis, (0.0, 0.0, 1.0))
+    across = across / np.linalg.norm(across)
     amp, w = np.radians(s["vib"]), 2 * np.pi * s["vib_hz"]
     return FunctionTrajectory(lambda t: _exp(-(w0 * t)[:, None] * axis)
                               @ _exp(-(amp * np.sin(w * t))[:, None] * across))
@@ -572,6 +581,7 @@ def markdown(rows):
                   + (f" {r['rate']:g} °/s" if r.get("rate") else "")
                   + (f" to {r['rate_end']:g} °/s" if r.get("rate_end") else "")
                   + (f" + {r['vib']:g}° at {r['vib_hz']:g} Hz" if r.get("vib") else "")
+                  + (" along the motion" if r.get("vib_along") else "")
                   + (f", axis {r['tilt']:g}° out of the image plane" if r.get("tilt") else "")
                   + "".join(f", {k} {v}" for k, v in r.get("settings", {}).items())
                   + "".join(f", gyro {k} {_short(v)}" for k, v in r.get("imu", {}).items())

@@ -54,31 +54,70 @@ def test_removed_then_added_moves_rows_across_the_motion_and_back():
     est["t"], est["x"], est["y"], est["track"] = t, 10 + 0.05 * t * 1e-3, 20.0, 3
     rows = np.zeros(50, CENTROID_DTYPE)
     rows["t"], rows["x"], rows["y"], rows["track"] = t, est["x"], 20.0, 3
-    v = {3: vibration.Vibration(2 * np.pi * 10.0, 0.2, 0.1, 0, rms=0.07)}
+    wave = vibration.Vibration(2 * np.pi * 10.0, 0.2, 0.1, 0, rms=0.07)
+    v = {(3, vibration.ACROSS): wave}
     moved = vibration.removed(rows, est, v)
     assert np.allclose(moved["x"], rows["x"])
-    assert np.allclose(moved["y"], 20.0 - v[3].at(t))
+    assert np.allclose(moved["y"], 20.0 - wave.at(t))
     back = vibration.added(moved, est, v)
     assert np.allclose(back["y"], 20.0) and np.allclose(back["x"], rows["x"])
     assert (back["sigma"] >= 0.07).all()
+    along = vibration.removed(rows, est, {(3, vibration.ALONG): wave})
+    assert np.allclose(along["x"], rows["x"] - wave.at(t)) and np.allclose(along["y"], 20.0)
 
 
-@pytest.fixture(scope="module")
-def vibrating():
-    """A magnitude-3.5 star panned at 8 °/s on a platform vibrating 0.05° at 20 Hz across
-    the motion (0.54 px on the paper's camera), 0.8 s (fresh-41 of perf/study_accuracy.py
-    on seed 41: 0.345 px without this step, 0.112 with it, the per-frame mean 0.157)."""
+def test_crossings_of_a_track_vibrating_along_its_motion_move_to_its_smooth_passage():
+    """A track along x at 50 px/s: a crossing at time t is moved by −v(t)/speed, those of
+    another track (or none) stay."""
+    from evstar.crossings import CROSSING_DTYPE
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    t = np.arange(50, dtype=np.int64) * 10_000
+    est = np.zeros(100, ESTIMATE_DTYPE)
+    est["t"], est["track"] = np.r_[t, t], np.repeat([3, 4], 50)
+    est["x"] = np.r_[10 + 50 * t * 1e-6, 10 + 50 * t * 1e-6]
+    est["y"] = np.repeat([20.0, 60.0], 50)
+    est["vx"] = 50.0
+    cr = np.zeros(3, CROSSING_DTYPE)
+    cr["t"] = [100_000.0, 300_000.0, 200_000.0]
+    cr["x"], cr["y"] = [15, 25, 20], [20, 20, 60]
+    wave = vibration.Vibration(2 * np.pi * 10.0, 0.5, 0.0, 0)
+    out = vibration.crossings_removed(cr, est, {(3, vibration.ALONG): wave})
+    assert np.allclose(out["t"][:2], cr["t"][:2] - wave.at(cr["t"][:2]) / 50.0 * 1e6)
+    assert out["t"][2] == cr["t"][2]
+    assert np.array_equal(vibration.crossings_removed(cr, est, {(3, vibration.ACROSS): wave}), cr)
+
+
+def _vibrating(axis):
+    """A magnitude-3.5 star panned at 8 °/s on a platform vibrating 0.05° at 20 Hz (0.54 px
+    on the paper's camera) about `axis` (camera frame), 0.8 s."""
     from evstar.sim.motion import FunctionTrajectory, _exp
     from evstar.sim.scene import Scenario
     from evstar.sim.targets import star_at_pixel
 
-    up, across = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    up = np.array([0.0, -1.0, 0.0])
     w, amp = np.radians(8.0), np.radians(0.05)
     move = FunctionTrajectory(lambda t: _exp(-(w * t)[:, None] * up)
-                              @ _exp(-(amp * np.sin(2 * np.pi * 20.0 * t))[:, None] * across))
+                              @ _exp(-(amp * np.sin(2 * np.pi * 20.0 * t))[:, None] * axis))
     cam = sim.camera_preset("dvxplorer-lite")
     star = star_at_pixel(cam, move.rotation(0.4)[0], (cam.cx, cam.cy), 3.5)
     return sim.simulate(Scenario(cam, star, move, 0.8), seed=6)
+
+
+@pytest.fixture(scope="module")
+def vibrating():
+    """The vibration across the motion (fresh-41 of perf/study_accuracy.py on seed 41:
+    0.345 px without this step, 0.112 with it, the per-frame mean 0.157)."""
+    return _vibrating(np.array([1.0, 0.0, 0.0]))
+
+
+def test_without_imu_a_star_vibrating_along_its_motion_is_followed():
+    """The vibration along the motion: its crossings moved with the centroids (0.354 px on
+    seed 41 without the step, 0.061 with it, the per-frame mean 0.162)."""
+    run = _vibrating(np.array([0.0, -1.0, 0.0]))
+    _, on = _error(run)
+    _, off = _error(run, **{"estimate.vibration": False})
+    assert on.mean() < 0.4 * off.mean() and on.mean() < 0.1
 
 
 def _error(run, **settings):
@@ -120,3 +159,25 @@ def test_a_path_that_bends_all_the_while_tells_no_clock_offset(vibrating):
                                vibrating.camera)
     assert 0 < straight.sum() < clock.MIN_PAIRS < len(straight)
     assert clock.measured_offset_us(crossings, res.centroids, vibrating.imu, vibrating.camera) is None
+
+
+def test_along_the_motion_only_tracks_that_never_reverse_are_searched():
+    """Centroids 0.5 px ahead and behind at 12 Hz along the motion: found on a steady pan,
+    not on a track that turns back (a reversing star's centroids trail it by a lag that
+    follows its speed: on dark-sky sinusoids its harmonics passed for a vibration)."""
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    t = np.arange(100, dtype=np.int64) * 10_000 + 5_000
+    ts = t * 1e-6
+    for x, vx, reverses in ((10 + 50 * ts, np.full(100, 50.0), False),
+                            (60 + 30 * np.sin(2 * np.pi * ts), 60 * np.pi * np.cos(2 * np.pi * ts), True)):
+        est = np.zeros(100, ESTIMATE_DTYPE)
+        est["t"], est["x"], est["y"], est["vx"], est["track"] = t, x, 20.0, vx, 1
+        est["centroid"] = np.arange(100)
+        cents = np.zeros(100, CENTROID_DTYPE)
+        cents["x"] = x + np.sign(vx) * 0.5 * np.sin(2 * np.pi * 12.0 * ts)
+        cents["y"] = 20.0
+        found = vibration.found(est, cents, 10_000)
+        assert ((1, vibration.ALONG) in found) is not reverses
+        assert (1, vibration.ACROSS) not in found
