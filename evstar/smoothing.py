@@ -432,7 +432,7 @@ class TrackSmoother:
         problems = _batched(steps, velocity_prior)
         fits = iter(_along_track_fit_many([p for p in problems if p is not None],
                                           velocity_prior, self.process_noise_min, self.engine,
-                                          self._q_memo))
+                                          self._q_memo, self.process_noise))
         return [(None, 0) if p is None else next(fits) for p in problems]
 
     def _fill_frames(self, rows, t_cross, t0_us):
@@ -721,11 +721,13 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
                        (ts[c_s], resid[cent], sig[order][c_s]))
 
 
-def _along_track_fit_many(problems, velocity_prior, process_noise_min, engine, memo=None):
-    """(rows, crossings used) of each _AlongTrack: q estimated (memo: _estimate_q_many's)
-    and the filter run for all at once."""
+def _along_track_fit_many(problems, velocity_prior, process_noise_min, engine, memo=None,
+                          process_noise=AUTO):
+    """(rows, crossings used) of each _AlongTrack: q as set (process_noise) or estimated
+    (memo: _estimate_q_many's), and the filter run for all at once."""
     w = diffusion(velocity_prior)
-    qs = _estimate_q_many([p.q_data for p in problems], engine, memo, w)
+    qs = ([float(process_noise)] * len(problems) if process_noise != AUTO
+          else _estimate_q_many([p.q_data for p in problems], engine, memo, w))
     fits = _ENGINES[engine][0]([p.problem._replace(q=max(q, process_noise_min), w=w)
                                 for p, q in zip(problems, qs)])
     rows = _batched([_along_track_rows(p, x, P, velocity_prior) for p, (x, P) in zip(problems, fits)],

@@ -181,3 +181,11 @@ def test_along_the_motion_only_tracks_that_never_reverse_are_searched():
         found = vibration.found(est, cents, 10_000)
         assert ((1, vibration.ALONG) in found) is not reverses
         assert (1, vibration.ACROSS) not in found
+
+
+def test_a_set_process_noise_is_the_crossings_refits_q_too(vibrating):
+    """estimate.process_noise set: the crossings' refit uses it (it had estimated its own q
+    from the centroids, the least here, and stayed straight through the vibration)."""
+    stiff = _error(vibrating, **{"estimate.vibration": False, "estimate.process_noise": 1.0})[1]
+    loose = _error(vibrating, **{"estimate.vibration": False, "estimate.process_noise": 1e7})[1]
+    assert loose.mean() < 0.7 * stiff.mean()
