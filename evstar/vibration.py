@@ -6,8 +6,9 @@ next frame is better than a turn every 2.5 frames), so the track comes out strai
 its centroids swing about it (fresh-41 of perf/study_accuracy.py: 0.05° at 20 Hz across an
 8 °/s pan, 0.54 px, without an IMU: 0.345 px against the per-frame mean's 0.157; along it
 0.354 against 0.162). Here each long track's centroids' offsets from its smoothed rows,
-along and across its motion, are searched for one sinusoid each (scipy's Lomb-Scargle
-periodogram from MIN_HZ to MAX_NYQUIST_SHARE of the frames' Nyquist frequency); where one
+along and across its motion, are searched for one sinusoid each, from MIN_HZ to
+MAX_NYQUIST_SHARE of the frames' Nyquist frequency (a periodogram on the frames' grid, then
+scipy's Lomb-Scargle at the centroids' own times about its highest peaks); where one
 explains them beyond chance (false-alarm probability FALSE_ALARM over the frequencies
 searched) and by more than MIN_AMPLITUDE_PX, the centroids are moved back by it — and,
 along the motion, the track's crossings to when the star without it passed their pixels —
