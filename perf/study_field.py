@@ -17,7 +17,7 @@ attitude inherits it.
 
     python perf/study_field.py [--seeds 61,62] [--camera davis346:16] [--pointing 83.8,-5.4]
         [--motion pan|sine|slew] [--axis up|roll|x,y,z] [--rates 2,8] [--sensor default]
-        [--imu default|no-noise|ideal] [--clock-offset-us 0] [--name field]
+        [--imu default|no-noise|ideal] [--clock-offset-us 0] [--jitter DEG,HZ[,x,y,z]] [--name field]
         [--set estimate.field_min_stars=0]
 
 Writes perf/results/study_<name>.json and .md (study_field.*: the defaults); prints the
@@ -57,10 +57,16 @@ COLUMNS = ("noise Hz", "°/s", "seed", "stars seen", "rows", "false rows %",
 
 
 def run_scene(noise_hz, rate_dps, seed, cam, pointing, settings=None, motion="pan",
-              sensor="default", axis=AXES["up"], imu="default", clock_offset_us=0):
+              sensor="default", axis=AXES["up"], imu="default", clock_offset_us=0, jitter=None):
+    """jitter: (degrees, Hz) of a platform's vibration about the image-plane axis across the
+    turn axis (evstar.sim.Jitter), or (degrees, Hz, x, y, z) about that camera-frame axis."""
     duration = 0.5 if motion == "pan" else 1.0   # sine: 1 Hz, peak rate rate_dps; slew: rest to rest
     scene = sim.field_scenario(cam, *pointing, rate_dps, duration, motion=motion, sensor=sensor,
                                noise_hz=noise_hz, axis=axis)
+    if jitter:
+        across = np.cross(axis, (0.0, 0.0, 1.0)) if len(jitter) == 2 else jitter[2:]
+        scene = dataclasses.replace(scene, trajectory=sim.Jitter(scene.trajectory, *jitter[:2],
+                                                                 across))
     spec = dataclasses.replace(IMUS[imu](), time_offset_us=clock_offset_us)
     run = sim.simulate(dataclasses.replace(scene, imu=spec), seed=seed)
     if clock_offset_us:   # the gyro's clock offset not told: its stamps as the camera's
@@ -146,6 +152,9 @@ def main(argv=None):
                     help="the simulated gyro: default (MEMS noise and bias), no-noise, ideal")
     ap.add_argument("--clock-offset-us", type=int, default=0,
                     help="the gyro's clock this many µs behind the camera's, not told to evstar")
+    ap.add_argument("--jitter", default="",
+                    help="a platform's vibration, DEG,HZ (about the image-plane axis across the "
+                    "turn axis) or DEG,HZ,x,y,z (about that camera-frame axis)")
     ap.add_argument("--name", default="field", help="results: perf/results/study_<name>.*")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting, e.g. estimate.field_min_stars=0 (repeatable)")
@@ -157,13 +166,15 @@ def main(argv=None):
     pointing = tuple(float(v) for v in args.pointing.split(","))
     rates = [float(r) for r in args.rates.split(",")]
     axis = AXES.get(args.axis) or tuple(float(v) for v in args.axis.split(","))
+    jitter = tuple(float(v) for v in args.jitter.split(",")) if args.jitter else None
     rows = [run_scene(n, r, s, cam, pointing, settings, args.motion, args.sensor, axis, args.imu,
-                      args.clock_offset_us)
+                      args.clock_offset_us, jitter)
             for n in (0.1, 1.5) for r in rates for s in seeds]
     RESULTS.mkdir(exist_ok=True)
     title = (f"# Star positions on a crowded field ({args.camera} mm, RA/Dec {args.pointing}°, "
              f"{args.motion} about {args.axis}, {args.sensor} sensor, {args.imu} IMU"
-             f"{f' (its clock {args.clock_offset_us} µs behind, untold)' if args.clock_offset_us else ''}, seeds {args.seeds}"
+             f"{f' (its clock {args.clock_offset_us} µs behind, untold)' if args.clock_offset_us else ''}"
+             f"{f', vibrating {args.jitter} (°, Hz[, axis])' if args.jitter else ''}, seeds {args.seeds}"
              f"{''.join(', ' + kv for kv in args.set)})\n\n")
     (RESULTS / f"study_{args.name}.json").write_text(json.dumps(rows, indent=1) + "\n")
     (RESULTS / f"study_{args.name}.md").write_text(title + markdown(rows) + "\n")

@@ -38,6 +38,8 @@ TRAJECTORIES = {
     "slew": sim.Slew(20.0, 1.0, axis=(0.0, 1.0, 0.2), R0=R_TILT),
     "function": sim.FunctionTrajectory(lambda t: Rotation.from_rotvec(
         np.outer(np.sin(3 * t), [0.2, -0.1, 0.05])).as_matrix()),
+    "jitter": sim.Jitter(sim.ConstantRate(15.0, axis=(0.3, -1.0, 0.2), R0=R_TILT), 0.2, 12.0,
+                         (1.0, 0.0, 0.0), phase_deg=20.0),
 }
 
 
@@ -48,13 +50,26 @@ def test_rates_match_the_attitude_derivative(name):
         assert traj.omega([t])[0] == pytest.approx(numeric_omega(traj, t), abs=1e-6)
 
 
-@pytest.mark.parametrize("name", ["constant", "sinusoid", "sampled", "slew"])
+@pytest.mark.parametrize("name", ["constant", "sinusoid", "sampled", "slew", "jitter"])
 def test_integrating_the_rate_reproduces_the_attitude(name):
     traj = TRAJECTORIES[name]
     t = np.linspace(0, 1, 2001)
     mid = traj.omega(0.5 * (t[1:] + t[:-1]))     # midpoint rule: exact for piecewise-constant rates
     R = integrate(mid, t, traj.rotation([0.0])[0], midpoint=True)
     assert angle_between(R, traj.rotation(t)).max() < 1e-6
+
+
+def test_jitter_turns_its_base_about_a_camera_axis():
+    """A platform's vibration: R_cw = Exp(−axis·A sin(2π f t))·R_base; a star on the optical
+    axis swings across the image by A about the x axis while the base pans it along x."""
+    base = sim.ConstantRate(5.0)
+    jit = sim.Jitter(base, 0.1, 10.0, (1.0, 0.0, 0.0))
+    t = np.array([0.0, 0.025, 0.075, 0.3])
+    theta = np.radians(0.1) * np.sin(2 * np.pi * 10.0 * t)
+    expect = Rotation.from_rotvec(-theta[:, None] * [1.0, 0.0, 0.0]).as_matrix() @ base.rotation(t)
+    assert np.allclose(jit.rotation(t), expect, atol=1e-15)
+    with pytest.raises(ValueError, match="base"):
+        sim.Jitter("pan", 0.1, 10.0, (1.0, 0.0, 0.0))
 
 
 def test_sampled_trajectory_passes_through_its_table():

@@ -9,7 +9,7 @@ motion (trajectories), psf, sensor (change detection), noise (background, hot pi
 imu_model, truth (labels, attitude, star positions; truth.npz), scene (Scenario), simulate.
 """
 from .imu_model import ImuSpec
-from .motion import (ConstantRate, FunctionTrajectory, SampledTrajectory, Sinusoid, Slew, Trajectory,
+from .motion import (ConstantRate, FunctionTrajectory, Jitter, SampledTrajectory, Sinusoid, Slew, Trajectory,
                      attitude_from_radec, random_pointing)
 from .presets import (PAPER_RATES_DPS, SENSOR_MODELS, SENSORS, camera_preset, field_scenario,
                       paper_preset, paper_sinusoid, sensor_model, sensor_preset)
@@ -20,7 +20,7 @@ from .targets import (FLUX_MAG3, StarField, hipparcos_field, hipparcos_field_alo
                       star_at_pixel, star_flux)
 from .truth import HOT_PIXEL, NOISE, Truth, load_truth, save_truth
 
-__all__ = ["ImuSpec", "ConstantRate", "FunctionTrajectory", "SampledTrajectory", "Sinusoid", "Slew",
+__all__ = ["ImuSpec", "ConstantRate", "FunctionTrajectory", "Jitter", "SampledTrajectory", "Sinusoid", "Slew",
            "Trajectory", "attitude_from_radec", "random_pointing", "PAPER_RATES_DPS", "SENSOR_MODELS", "SENSORS",
            "camera_preset", "field_scenario", "paper_preset", "paper_sinusoid", "sensor_model", "sensor_preset",
            "Scenario", "SensorSpec", "Simulation", "simulate", "FLUX_MAG3", "StarField", "hipparcos_field",

@@ -198,6 +198,28 @@ class Slew(AxisRotation):
                 f"axis={self.axis.tolist()})")
 
 
+class Jitter(Trajectory):
+    """`base` with a platform's vibration: a sinusoidal turn of `amplitude_deg` at `freq_hz`
+    about the camera-frame `axis`, R_cw = Exp(−axis·θ(t))·R_base(t) with θ = A·sin(2π f t + φ);
+    ω = θ̇·axis + Exp(−axis·θ)·ω_base (dR/dt = −[ω]× R for the product)."""
+
+    def __init__(self, base, amplitude_deg, freq_hz, axis, phase_deg=0.0):
+        if not isinstance(base, Trajectory):
+            raise ParameterError(f"base must be a Trajectory, got {type(base).__name__}")
+        self.base, self.wave = base, Sinusoid(amplitude_deg, freq_hz, axis, phase_deg)
+
+    def rotation(self, t_s):
+        return self.wave.rotation(t_s) @ self.base.rotation(t_s)
+
+    def omega(self, t_s):
+        turn = self.wave.rotation(t_s)
+        return self.wave.omega(t_s) + np.einsum("nij,nj->ni", turn, self.base.omega(t_s))
+
+    def __repr__(self):
+        return (f"Jitter({self.base!r}, amplitude_deg={self.wave.amplitude_deg}, "
+                f"freq_hz={self.wave.freq_hz}, axis={self.wave.axis.tolist()})")
+
+
 class SampledTrajectory(Trajectory):
     """A user-supplied attitude table R_cw(t_i), interpolated by slerp.
 
