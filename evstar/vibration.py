@@ -13,8 +13,11 @@ explains them beyond chance (false-alarm probability FALSE_ALARM over the freque
 searched) and by more than MIN_AMPLITUDE_PX, the centroids are moved back by it — and,
 along the motion, the track's crossings to when the star without it passed their pixels —
 the estimator runs again on them, and the sinusoid, its amplitude and phase refitted to the
-new fit's residuals, is added back to every row of the track. With a velocity prior the
-gyro carries the platform's motion and nothing is sought (evstar.estimation.estimate).
+new fit's residuals, is added back to every row of the track. A field is searched as one
+first: the per-frame median of its tracks' offsets (in frames of >= MIN_SHARED_TRACKS
+tracks) holds a rigid platform's vibration with the noise of many stars averaged down, and
+one found there is given to every track. With a velocity prior the gyro carries the
+platform's motion and nothing is sought (evstar.estimation.estimate).
 """
 from __future__ import annotations
 
@@ -51,6 +54,7 @@ class Vibration(NamedTuple):
     b: float
     t0_us: int
     rms: float = 0.0
+    shared: bool = False    # a field's: found in all its tracks' per-frame median (_shared)
 
     def at(self, t_us):
         ts = (np.asarray(t_us, np.float64) - self.t0_us) * 1e-6
@@ -59,32 +63,39 @@ class Vibration(NamedTuple):
 
 #: the axes of a track's own frame a vibration is sought along
 ALONG, ACROSS = 0, 1
+#: a field's shared vibration is sought in the frames where this many tracks have a row
+MIN_SHARED_TRACKS = 3
 
 
 def offsets(est, centroids):
     """Per measured row of `est` (ESTIMATE_DTYPE) with a centroid, sorted by track and time:
-    (track, t µs, its centroid's offsets (n, 2) along and across the track's motion, px)."""
+    (track, t µs, frame, its centroid's offsets (n, 2) along and across the track's motion,
+    px)."""
     est = _sorted(est)
     m = np.flatnonzero(est["centroid"] >= 0)
     p = np.column_stack([est["x"], est["y"]])
     frame = _frames(est)[m]
     c = est["centroid"][m]
     d = np.column_stack([centroids["x"][c], centroids["y"][c]]) - p[m]
-    return est["track"][m], est["t"][m], np.einsum("nij,nj->ni", frame, d)
+    return est["track"][m], est["t"][m], est["frame"][m], np.einsum("nij,nj->ni", frame, d)
 
 
 def found(est, centroids, dt_us):
     """{(track, axis): Vibration} of the tracks whose offsets along or across their motion
-    hold one (module doc); along it only where the track never reverses: a reversing star's
-    centroids trail it along its motion by a lag that follows its speed, whose harmonics
-    passed for a vibration (1.1-1.5 px at 4+ Hz on dark-sky 1 Hz sinusoids)."""
+    hold one (module doc): a field's shared one first (_shared, given to every track), else
+    each long track's own; along the motion only where a track never reverses: a reversing
+    star's centroids trail it along its motion by a lag that follows its speed, whose
+    harmonics passed for a vibration (1.1-1.5 px at 4+ Hz on dark-sky 1 Hz sinusoids)."""
+    track, t, frame, r = offsets(est, centroids)
+    turning = np.isin(track, sorted(_reversing(est)))
+    shared = _shared(track, t, frame, r, turning, dt_us)
+    if shared:
+        return {(int(tid), axis): v for axis, v in shared.items() for tid in np.unique(est["track"])}
     out = {}
-    track, t, r = offsets(est, centroids)
-    turning = _reversing(est)
     for tid, sel in zip(*groups(track)):
         if len(sel) < MIN_ROWS:
             continue
-        for axis in (ACROSS,) if tid in turning else (ALONG, ACROSS):
+        for axis in (ACROSS,) if turning[sel[0]] else (ALONG, ACROSS):
             v = _sinusoid(t[sel], r[sel, axis], dt_us)
             if v is not None:
                 out[(int(tid), axis)] = v
@@ -93,18 +104,70 @@ def found(est, centroids, dt_us):
 
 def refit(est, centroids, vibrations):
     """Each sinusoid at its frequency, its amplitude and phase fitted again to the offsets of
-    `centroids` from `est` (a fit of centroids moved back by it), and the RMS of what it
-    leaves: the track's σ is at least that (the sinusoid follows the centroids, whose own
-    lag behind a fast swing the fit cannot see)."""
-    track, t, r = offsets(est, centroids)
-    out = {}
+    `centroids` from `est` (a fit of centroids moved back by it; a shared one to the
+    per-frame median once for all tracks), and the RMS of what it leaves: the track's σ is
+    at least that (the sinusoid follows the centroids, whose own lag behind a fast swing the
+    fit cannot see)."""
+    track, t, frame, r = offsets(est, centroids)
+    turning = np.isin(track, sorted(_reversing(est)))
+    out, series = {}, {}
     for (tid, axis), v in vibrations.items():
-        sel = track == tid
-        if sel.sum() >= 3:
-            v = v._replace(**dict(zip("ab", _fit(t[sel], r[sel, axis], v.omega, v.t0_us))))
-            rest = r[sel, axis] - v.at(t[sel])
+        if v.shared:
+            if axis not in series:
+                series[axis] = _median_series(track, t, frame, r[:, axis],
+                                              ~turning if axis == ALONG else None)
+            t_k, r_k = series[axis] if series[axis] is not None else (None, None)
+        else:
+            sel = track == tid
+            t_k, r_k = t[sel], r[sel, axis]
+        if t_k is not None and len(t_k) >= 3:
+            v = v._replace(**dict(zip("ab", _fit(t_k, r_k, v.omega, v.t0_us))))
+            rest = r_k - v.at(t_k)
             out[(tid, axis)] = v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
     return out
+
+
+def _shared(track, t, frame, r, turning, dt_us):
+    """{axis: Vibration} of a field: the median over its tracks of each frame's offsets (each
+    track's mean offset taken out: its lobes' bias), in frames of at least
+    MIN_SHARED_TRACKS tracks, searched as one track's (a rigid platform moves every star;
+    the median's noise falls as the tracks grow many, faint ones' too); along the motion
+    without the reversing tracks."""
+    out = {}
+    for axis in (ALONG, ACROSS):
+        series = _median_series(track, t, frame, r[:, axis], ~turning if axis == ALONG else None)
+        v = None if series is None else _sinusoid(*series, dt_us)
+        if v is not None:
+            out[axis] = v._replace(shared=True)
+    return out
+
+
+def _median_series(track, t, frame, r, use=None):
+    """(times µs, offsets) of the frames where >= MIN_SHARED_TRACKS tracks (of those `use`
+    marks) have a row: their rows' median time and median offset less each track's mean;
+    None for fewer than MIN_ROWS such frames."""
+    if use is not None:
+        track, t, frame, r = track[use], t[use], frame[use], r[use]
+    if not len(track):
+        return None
+    _, where = np.unique(track, return_inverse=True)
+    r = r - (np.bincount(where, r) / np.bincount(where))[where]
+    # frames of enough distinct tracks
+    pairs = np.unique(np.column_stack([frame, track]), axis=0)
+    f, n = np.unique(pairs[:, 0], return_counts=True)
+    keep = np.isin(frame, f[n >= MIN_SHARED_TRACKS])
+    if (n >= MIN_SHARED_TRACKS).sum() < MIN_ROWS:
+        return None
+    return _group_medians(frame[keep], t[keep]), _group_medians(frame[keep], r[keep])
+
+
+def _group_medians(key, values):
+    """The median of `values` per distinct `key`, keys ascending (one sort)."""
+    order = np.lexsort((values, key))
+    v, k = np.asarray(values, np.float64)[order], key[order]
+    start = np.r_[0, np.flatnonzero(np.diff(k)) + 1]
+    size = np.diff(np.r_[start, len(k)])
+    return 0.5 * (v[start + (size - 1) // 2] + v[start + size // 2])
 
 
 def removed(centroids, est, vibrations):
@@ -193,7 +256,8 @@ def _sinusoid(t_us, r, dt_us):
     """The Vibration of one track's offsets r along one axis, or None (module doc)."""
     from scipy.signal import lombscargle
 
-    n = len(t_us)
+    order = np.argsort(t_us, kind="stable")     # (a field's median times may cross)
+    t_us, r, n = np.asarray(t_us, np.float64)[order], np.asarray(r, np.float64)[order], len(t_us)
     span_s = (t_us[-1] - t_us[0]) * 1e-6 if n else 0.0
     top = MAX_NYQUIST_SHARE * 0.5e6 / dt_us
     if n < MIN_ROWS or span_s <= 0 or top <= MIN_HZ or not np.ptp(r) > 0:
@@ -220,7 +284,7 @@ def _peaks(t_us, x, dt_us, top):
     at its frame, whose own time the exact periodogram then takes — each ±1 bin in quarter
     bins; the highest one's normalised power there)."""
     frame = np.round((t_us - t_us[0]) / dt_us).astype(np.int64)
-    grid = np.zeros(frame[-1] + 1)
+    grid = np.zeros(frame.max() + 1)
     np.add.at(grid, frame, x)
     size = OVERSAMPLE * len(grid)
     spec = np.abs(np.fft.rfft(grid, size)) ** 2

@@ -70,3 +70,22 @@ def test_simulate_notes_say_what_can_leave_a_recording_without_star_events(tmp_p
     assert main(["simulate", str(tmp_path / "none"), "--stars", "5", "--mag-limit", "-5",
                  "--duration", "0.05"]) == 0
     assert "no star lies in view" in capsys.readouterr().out
+
+
+def test_simulate_a_vibrating_platform(tmp_path, capsys):
+    """--jitter AMP_DEG FREQ_HZ: the star, panned along x, swings across it (in y) by the
+    amplitude's pixels at that frequency; a peak rate beyond --rate's bound is refused."""
+    out = tmp_path / "jitter"
+    assert main(["simulate", str(out), "--rate", "8", "--jitter", "0.1", "20", "--duration", "0.2",
+                 "--seed", "3"]) == 0
+    truth = sim.load_truth(out / "truth.npz")
+    t = np.arange(0, 200_000, 1000)
+    y = truth.star_position(t, star=0)[:, 1]
+    amp_px = truth.camera.fy * np.tan(np.radians(0.1))
+    assert np.ptp(y) == pytest.approx(2 * amp_px, rel=0.05)
+    spectrum = np.abs(np.fft.rfft(y - y.mean()))
+    assert np.fft.rfftfreq(len(y), 1e-3)[np.argmax(spectrum)] == pytest.approx(20.0, abs=5.0)
+    capsys.readouterr()
+    assert main(["simulate", str(tmp_path / "fast"), "--jitter", "10", "100"]) == 2
+    assert "--jitter 10 100" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "neg"), "--jitter", "-1", "20"]) == 2

@@ -49,6 +49,9 @@ def add_arguments(p):
                              f"2π·FREQ_HZ·AMP_DEG at most {P.MAX_SLEW_DPS} °/s")
     p.add_argument("--axis", type=checked(float), nargs=3, default=(0.0, -1.0, 0.0), metavar=("X", "Y", "Z"),
                    help="rotation axis in the camera frame (default 0 -1 0: camera up)")
+    p.add_argument("--jitter", type=checked(float, 0), nargs=2, metavar=("AMP_DEG", "FREQ_HZ"),
+                   help="a platform's vibration on top of the motion, e.g. 0.05 20: a sinusoidal "
+                        "turn about the image-plane axis across --axis (the x axis for a roll)")
     p.add_argument("--magnitude", type=checked(float, -30, 30), default=3.0, help="single star's magnitude (3)")
     p.add_argument("--stars", type=checked(int, 1, 100_000), default=1, metavar="N",
                    help="1: the paper's single-star simulator (default); N > 1: the N brightest "
@@ -125,6 +128,7 @@ def check_grid(args, scenario):
     cam = scenario.camera
     rate_dps = 2 * math.pi * args.sine[0] * args.sine[1] if args.sine else \
         abs(constant_rate(args))
+    rate_dps += _jitter_peak(args)
     f = max(cam.fx, cam.fy)
     widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
     px_per_s = math.radians(rate_dps) * f * widen
@@ -146,7 +150,12 @@ def check_grid(args, scenario):
 
 
 def check_motion(args):
-    """ParameterError when --sine's peak rate 2π·f·A exceeds the bound of --rate."""
+    """ParameterError when --sine's or --jitter's peak rate 2π·f·A exceeds the bound of --rate."""
+    if _jitter_peak(args) > P.MAX_SLEW_DPS:
+        amp, freq = args.jitter
+        raise ParameterError(f"--jitter {amp:g} {freq:g}: peak rate 2π·FREQ_HZ·AMP_DEG = "
+                             f"{_jitter_peak(args):.4g} °/s exceeds {P.MAX_SLEW_DPS} °/s (the bound "
+                             "of --rate); lower the amplitude or the frequency")
     if args.sine:
         amp, freq = args.sine
         peak = 2 * math.pi * freq * amp
@@ -174,9 +183,17 @@ def pointing(args):
 
 
 def _motion(sim, args, R0=None):
-    if args.sine:
-        return sim.Sinusoid(*args.sine, axis=args.axis, R0=R0)
-    return sim.ConstantRate(constant_rate(args), axis=args.axis, R0=R0)
+    base = (sim.Sinusoid(*args.sine, axis=args.axis, R0=R0) if args.sine
+            else sim.ConstantRate(constant_rate(args), axis=args.axis, R0=R0))
+    if not _jitter_peak(args):
+        return base
+    across = (-args.axis[1], args.axis[0], 0.0)    # the boresight × axis
+    return sim.Jitter(base, *args.jitter, across if any(across) else (1.0, 0.0, 0.0))
+
+
+def _jitter_peak(args):
+    """--jitter's peak rate 2π·f·A (°/s; 0 without it)."""
+    return 2 * math.pi * args.jitter[0] * args.jitter[1] if args.jitter else 0.0
 
 
 def constant_rate(args):
