@@ -152,9 +152,9 @@ def _median_series(track, t, frame, r, use=None):
         return None
     _, where = np.unique(track, return_inverse=True)
     r = r - (np.bincount(where, r) / np.bincount(where))[where]
-    # frames of enough distinct tracks
-    pairs = np.unique(np.column_stack([frame, track]), axis=0)
-    f, n = np.unique(pairs[:, 0], return_counts=True)
+    # frames of enough distinct tracks (the distinct (frame, track) keys, as one integer)
+    many = int(where.max()) + 1
+    f, n = np.unique(np.unique(frame.astype(np.int64) * many + where) // many, return_counts=True)
     keep = np.isin(frame, f[n >= MIN_SHARED_TRACKS])
     if (n >= MIN_SHARED_TRACKS).sum() < MIN_ROWS:
         return None
