@@ -118,7 +118,7 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None, measured_lag=None, rate_hz=None, near=None):
+             sensor=None, measured_lag=None, rate_hz=None, near=None, report=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
     (width, height) are dropped: there is no star to report there. measured_lag: the
@@ -126,8 +126,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     rate_hz: the measured background rate (events/pixel/s), for untracked_alpha. near:
     (t, x, y) of the events near the stars, hot pixels out, for the tracks' positions
     across their motion (evstar.across; needs `sensor`). Without a velocity prior, a
-    track's vibration across its motion is found and followed (evstar.vibration;
-    estimate.vibration)."""
+    track's or a field's vibration is found and followed (evstar.vibration;
+    estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary)."""
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near)
     rows, est, kept = _estimate(centroids, *args)
@@ -140,7 +140,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     args = (config, t0_us, None if crossings is None else
             vibration.crossings_removed(crossings, est, found)) + args[3:]
     rows, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
-    return vibration.added(rows, est, vibration.refit(est, kept, found))
+    found = vibration.refit(est, kept, found)
+    if report is not None:
+        report["vibration"] = vibration.summary(found)
+    return vibration.added(rows, est, found)
 
 
 def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,

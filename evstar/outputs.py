@@ -170,6 +170,10 @@ def summary_text(result, outdir, steady=None):
     if "imu_time_offset_us" in m:   # the gyro's record was moved (evstar.clock)
         lines += [f"IMU clock     {m['imu_time_offset_us']:+,.0f} µs more time offset than the "
                   "IMU was given (measured on the stars; used)"]
+    for v in m.get("vibration", ()):   # a platform's vibration the estimator followed
+        whose = f"{v['tracks']} tracks" if "tracks" in v else f"track {v['track']}"
+        lines += [f"vibration     {v['hz']:g} Hz, {v['amplitude_px']:g} px {v['axis']} the motion "
+                  f"({whose}; followed)"]
     if steady is None:   # a process's first run: its kernels' compile or cache load in it
         lines += [f"throughput    {_throughput(result)}",
                   "              (this process's first run, kernel compiles included; "

@@ -313,8 +313,10 @@ class Pipeline:
             crossings = state.crossings(lag)
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result)
+            positions.report = {}
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
-                                       state.sensor, lag, rate, state.near_events())
+                                       state.sensor, lag, rate, state.near_events(),
+                                       positions.report)
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
@@ -344,6 +346,8 @@ class Pipeline:
         if getattr(estimator, "clock_offset_us", None) is not None:
             # as evstar.Imu's time_offset_us counts it: t_camera = t_imu + offset
             metrics["imu_time_offset_us"] = -estimator.clock_offset_us
+        if getattr(estimator, "report", {}).get("vibration"):   # evstar.vibration.summary
+            metrics["vibration"] = estimator.report["vibration"]
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:

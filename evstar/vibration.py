@@ -170,6 +170,21 @@ def _group_medians(key, values):
     return 0.5 * (v[start + (size - 1) // 2] + v[start + size // 2])
 
 
+def summary(vibrations):
+    """The vibrations found, for metrics.json: a field's shared one per axis once ("tracks":
+    how many it was given to), each other one with its "track"; frequency (Hz) and
+    amplitude (px) along or across the motion."""
+    out, shared = [], {}
+    for (tid, axis), v in sorted(vibrations.items()):
+        entry = {"axis": ("along", "across")[axis], "hz": round(v.omega / (2 * np.pi), 2),
+                 "amplitude_px": round(float(np.hypot(v.a, v.b)), 3)}
+        if v.shared:
+            shared.setdefault(axis, {**entry, "tracks": 0})["tracks"] += 1
+        else:
+            out.append({**entry, "track": int(tid)})
+    return [shared[a] for a in sorted(shared)] + out
+
+
 def removed(centroids, est, vibrations):
     """`centroids` of the vibrating tracks moved back by their sinusoids (along and across
     est's motion at their times); a new array."""

@@ -230,3 +230,23 @@ def test_offsets_out_of_time_order_are_searched_as_in_order():
     a = vibration._sinusoid(t_swapped, r, 10_000)
     b = vibration._sinusoid(t_swapped[shuffled], r[shuffled], 10_000)
     assert a is not None and b is not None and a.omega == pytest.approx(b.omega)
+
+
+def test_the_vibration_followed_is_reported_in_the_metrics(vibrating):
+    """metrics.json's "vibration": frequency, amplitude and axis of what was followed."""
+    on = Pipeline(Config()).run(vibrating.events, vibrating.imu, vibrating.camera)
+    [v] = on.metrics["vibration"]
+    assert v["axis"] == "across" and abs(v["hz"] - 20.0) < 1.0 and 0.3 < v["amplitude_px"] < 0.6
+    assert v["track"] in on.centroids["track"]
+    off = Pipeline(Config().replace(**{"estimate.vibration": False})).run(
+        vibrating.events, vibrating.imu, vibrating.camera)
+    assert "vibration" not in off.metrics
+
+
+def test_a_shared_vibration_is_summarised_once_per_axis():
+    wave = vibration.Vibration(2 * np.pi * 15.0, 0.1, 0.0, 0, shared=True)
+    own = vibration.Vibration(2 * np.pi * 9.0, 0.0, 0.2, 0)
+    got = vibration.summary({(1, vibration.ACROSS): wave, (2, vibration.ACROSS): wave,
+                             (3, vibration.ALONG): own})
+    assert got == [{"axis": "across", "hz": 15.0, "amplitude_px": 0.1, "tracks": 2},
+                   {"axis": "along", "hz": 9.0, "amplitude_px": 0.2, "track": 3}]
