@@ -45,10 +45,15 @@ OVERSAMPLE, PEAKS = 4, 3
 #: ... where the grid's peak, this many times its power (the centroids' times off their
 #: frames' lower it, by up to ~35 % at the band's top), could pass the false-alarm test
 PRESCREEN = 2.0
+#: a field's shared vibration is sought in the frames where this many tracks have a row
+MIN_SHARED_TRACKS = 3
+#: the axes of a track's own frame a vibration is sought along
+ALONG, ACROSS = 0, 1
 
 
 class Vibration(NamedTuple):
-    """A track's sinusoid across its motion: a·cos(ω t) + b·sin(ω t), t in s from t0_us."""
+    """A track's sinusoid along or across its motion: a·cos(ω t) + b·sin(ω t) px, t in s
+    from t0_us."""
     omega: float
     a: float
     b: float
@@ -60,11 +65,6 @@ class Vibration(NamedTuple):
         ts = (np.asarray(t_us, np.float64) - self.t0_us) * 1e-6
         return self.a * np.cos(self.omega * ts) + self.b * np.sin(self.omega * ts)
 
-
-#: the axes of a track's own frame a vibration is sought along
-ALONG, ACROSS = 0, 1
-#: a field's shared vibration is sought in the frames where this many tracks have a row
-MIN_SHARED_TRACKS = 3
 
 
 def offsets(est, centroids):
@@ -110,21 +110,30 @@ def refit(est, centroids, vibrations):
     fit cannot see)."""
     track, t, frame, r = offsets(est, centroids)
     turning = np.isin(track, sorted(_reversing(est)))
-    out, series = {}, {}
+    out, shared = {}, {}
     for (tid, axis), v in vibrations.items():
         if v.shared:
-            if axis not in series:
-                series[axis] = _median_series(track, t, frame, r[:, axis],
-                                              ~turning if axis == ALONG else None)
-            t_k, r_k = series[axis] if series[axis] is not None else (None, None)
+            if axis not in shared:   # one fit for all the tracks it was given to
+                series = _median_series(track, t, frame, r[:, axis],
+                                        ~turning if axis == ALONG else None)
+                shared[axis] = None if series is None else _refitted(v, *series)
+            v = shared[axis]
         else:
             sel = track == tid
-            t_k, r_k = t[sel], r[sel, axis]
-        if t_k is not None and len(t_k) >= 3:
-            v = v._replace(**dict(zip("ab", _fit(t_k, r_k, v.omega, v.t0_us))))
-            rest = r_k - v.at(t_k)
-            out[(tid, axis)] = v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
+            v = _refitted(v, t[sel], r[sel, axis])
+        if v is not None:
+            out[(tid, axis)] = v
     return out
+
+
+def _refitted(v, t_us, r):
+    """`v` with its amplitude and phase fitted to the offsets r at t_us, and the RMS they
+    leave; None for fewer than 3."""
+    if len(t_us) < 3:
+        return None
+    v = v._replace(**dict(zip("ab", _fit(t_us, r, v.omega, v.t0_us))))
+    rest = r - v.at(t_us)
+    return v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
 
 
 def _shared(track, t, frame, r, turning, dt_us):
