@@ -139,8 +139,10 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
         return rows
     args = (config, t0_us, None if crossings is None else
             vibration.crossings_removed(crossings, est, found)) + args[3:]
-    rows, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
-    found = vibration.refit(est, kept, found)
+    again, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
+    if est is None:   # (the same tracks: never; kept as the first pass's)
+        return rows
+    rows, found = again, vibration.refit(est, kept, found)
     if report is not None:
         report["vibration"] = vibration.summary(found)
     return vibration.added(rows, est, found)
