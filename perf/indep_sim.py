@@ -310,6 +310,24 @@ class Circle:
         return f"circle {self.radius_deg:g}°/{self.freq_hz:g} Hz"
 
 
+@dataclass
+class Shaken:
+    """`base` (a Linear motion) with a `wave` (a Sinusoid, e.g. 0.05° at 20 Hz across it)
+    added: a platform's vibration on top of its turn. Planar like Circle."""
+    base: Linear
+    wave: Sinusoid
+    planar = True
+
+    def offset(self, t_s, f):
+        return self.base.offset(t_s, f) + self.wave.offset(t_s, f)
+
+    def velocity(self, t_s, f):
+        return self.base.velocity(t_s, f) + self.wave.velocity(t_s, f)
+
+    def label(self):
+        return f"{self.base.label()} + {self.wave.label()}"
+
+
 def turn_matrices(off, f):
     """(T, 3, 3) camera-frame rotations of fixed star directions for image offsets off (T, 2)
     at the principal point: about the in-image axis perpendicular to each offset, by

@@ -27,7 +27,8 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --vibe]
+        [--set KEY=VALUE --name NAME]
 
 --fresh, --fresh2 and --fresh3 run the held-out grids instead (F1–F12, written in the
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
@@ -50,6 +51,7 @@ import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import indep_sim as S  # noqa: E402
+from study_field import settings_of  # noqa: E402
 
 from evstar import Config, Imu, Pipeline, accuracy  # noqa: E402
 
@@ -171,10 +173,22 @@ FRESH3 = [
     ("davis", ("lin", 1, 45), [4], ("gauss", 0.9), "ideal", 10.0, 0, 1.0),
 ]
 FRESH3_SEED = 7000
+#: held out (--vibe, written in the forty-first session after evstar.vibration, run once):
+#: platforms vibrating across or along a constant turn, on this simulator's own sensors and
+#: PSFs; seeds 8000 + i
+VIBE = [
+    ("davis", ("vibe", 8, 0, 0.05, 20.0, 90), [3, 4], ("gauss", 1.1), "ideal", 1.0, 0, 1.0),
+    ("vga", ("vibe", 6, 30, 0.03, 15.0, 120), [3.5, 4.5, 5], ("moffat", 2.5, 3.0), "ideal", 0.5, 2, 1.0),
+    ("hd", ("vibe", 5, 200, 0.01, 25.0, 290), [3.5, 4.5], ("gauss", 1.2), "asym", 1.0, 0, 1.0),
+    ("davis", ("vibe", 10, 60, 0.04, 12.0, 60), [3, 4.5], ("defocus", 1.5, 0.5), "ideal", 1.0, 0, 1.0),
+    ("vga", ("vibe", 8, 100, 0.03, 18.0, 10), [3.5, 4], ("gauss", 1.3), "lowpass", 1.0, 0, 1.0),
+    ("davis", ("vibe", 12, 0, 0.03, 30.0, 90), [3, 3.5, 4, 4.5, 5], ("gauss", 1.0), "ideal", 1.0, 3, 1.0),
+]
+VIBE_SEED = 8000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh3": (FRESH3, FRESH3_SEED, "H"), "fresh2": (FRESH2, FRESH2_SEED, "G"),
-            "fresh": (FRESH, FRESH_SEED, "F")}
+HELD_OUT = {"vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
+            "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
@@ -195,6 +209,8 @@ def make_motion(spec):
         return S.Sinusoid(a[0], a[1], a[2])
     if kind == "circle":
         return S.Circle(a[0], a[1])
+    if kind == "vibe":   # (rate °/s, direction °, amplitude °, Hz, the wave's direction °)
+        return S.Shaken(S.Linear(a[0], a[1]), S.Sinusoid(a[2], a[3], a[4]))
     return S.Accelerating(a[0], a[1])
 
 
@@ -295,7 +311,7 @@ def scores(rows, scene, truth, frames_t, n_frames):
                               for s in range(len(scene.mags))]}
 
 
-def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0):
+def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0, settings=None):
     scene, sensor = scene_of(i, spec, duration_scale)
     t = time.perf_counter()
     run = S.simulate(scene, sensor, seed=i, imu=imu)
@@ -303,7 +319,7 @@ def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0):
         run.imu = Imu(run.imu.t - clock_offset_us, run.imu.gyro)
     sim_s = time.perf_counter() - t
     ev = run.events
-    cfg = Config().replace(**{"motion.compensate": "imu" if imu else "none"})
+    cfg = Config().replace(**{**(settings or {}), "motion.compensate": "imu" if imu else "none"})
     t0 = int(ev.t[0])
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
@@ -356,6 +372,11 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", help="comma-separated scene numbers (1-based) to run")
     ap.add_argument("--only", choices=list(SUBSETS), help="a subset of the grid")
+    ap.add_argument("--vibe", action="store_true", help="the held-out grid VIBE instead "
+                    "(vibrating platforms, scenes V1..V6)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a Config setting for both estimators' runs, e.g. "
+                    "estimate.vibration=false (repeatable; give --name too)")
     ap.add_argument("--fresh3", action="store_true", help="the third held-out grid FRESH3 "
                     "instead (scenes H1..H12)")
     ap.add_argument("--fresh2", action="store_true", help="the second held-out grid FRESH2 "
@@ -380,7 +401,8 @@ def main(argv=None):
     rows = []
     for i in pick:
         scale = 1.0 if not args.quick else 0.3 / grid[i][-1]
-        r = run_scene(i + seed0, grid[i], scale, args.imu, args.clock_offset_us)
+        r = run_scene(i + seed0, grid[i], scale, args.imu, args.clock_offset_us,
+                      settings_of(args.set))
         d = r["default"]
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
