@@ -150,3 +150,17 @@ def test_readout_gaps_lose_every_event_and_leak_fires_on():
     assert np.all(run.events.p[leak] == 1)
     # 2 Hz over 64 x 48 pixels for 0.5 s, less the gap's 10 %
     assert 0.8 * 2 * 64 * 48 * 0.45 < leak.sum() < 1.25 * 2 * 64 * 48 * 0.45
+
+
+def test_a_shaken_turn_is_its_turn_plus_the_vibration():
+    """Shaken: offsets and velocities add; the star, turned about the principal point, swings
+    across its motion at the vibration's frequency (a planar motion, like Circle)."""
+    base, wave = S.Linear(8.0, 0.0), S.Sinusoid(0.05, 20.0, 90.0)
+    move = S.Shaken(base, wave)
+    t = np.linspace(0.0, 0.2, 41)
+    assert np.allclose(move.offset(t, 300.0), base.offset(t, 300.0) + wave.offset(t, 300.0))
+    assert np.allclose(move.velocity(t, 300.0), base.velocity(t, 300.0) + wave.velocity(t, 300.0))
+    scene = S.Scene(96, 64, 300.0, [(48.0, 32.0)], [3.0], move, S.Gaussian(1.0), 0.2, "rotate")
+    y = scene.positions(t)[:, 0, 1]
+    amp = 300.0 * math.radians(0.05)
+    assert np.ptp(y) == pytest.approx(2 * amp, rel=0.05)
