@@ -13,7 +13,9 @@ explains them beyond chance (false-alarm probability FALSE_ALARM over the freque
 searched) and by more than MIN_AMPLITUDE_PX, the centroids are moved back by it — and,
 along the motion, the track's crossings to when the star without it passed their pixels —
 the estimator runs again on them, and the sinusoid, its amplitude and phase refitted to the
-new fit's residuals, is added back to every row of the track. A field is searched as one
+new fit's residuals, is added back to every row of the track. A track longer than 1.5
+WINDOW_S is searched in half-overlapping windows, each for its own sinusoid, blended between
+their centres (Waves): a vibration's frequency and amplitude drift. A field is searched as one
 first: the per-frame median of its tracks' offsets (in frames of >= MIN_SHARED_TRACKS
 tracks) holds a rigid platform's vibration with the noise of many stars averaged down, and
 one found there is given to every track. With a velocity prior the gyro carries the
@@ -47,6 +49,10 @@ OVERSAMPLE, PEAKS = 4, 3
 PRESCREEN = 2.0
 #: a field's shared vibration is sought in the frames where this many tracks have a row
 MIN_SHARED_TRACKS = 3
+#: a track longer than 1.5 x this (s) is searched in windows this long, half overlapping,
+#: each for its own sinusoid, blended between their centres: a vibration's frequency and
+#: amplitude drift (one 15 -> 25 Hz over 3 s was not found as one sinusoid)
+WINDOW_S = 1.0
 #: the axes of a track's own frame a vibration is sought along
 ALONG, ACROSS = 0, 1
 
@@ -65,6 +71,33 @@ class Vibration(NamedTuple):
         ts = (np.asarray(t_us, np.float64) - self.t0_us) * 1e-6
         return self.a * np.cos(self.omega * ts) + self.b * np.sin(self.omega * ts)
 
+
+
+class Waves(NamedTuple):
+    """A vibration over a track's windows: each window's (lo, hi) µs and Vibration (zero
+    where none was found there), blended linearly between the windows' centres."""
+    bounds: tuple
+    parts: tuple
+    shared: bool = False
+
+    def at(self, t_us):
+        t = np.asarray(t_us, np.float64)
+        if len(self.parts) == 1:
+            return self.parts[0].at(t)
+        c = np.array([(lo + hi) / 2 for lo, hi in self.bounds])
+        j = np.clip(np.searchsorted(c, t), 1, len(c) - 1)
+        w = np.clip((t - c[j - 1]) / (c[j] - c[j - 1]), 0.0, 1.0)
+        values = np.array([p.at(t) for p in self.parts])          # (parts, n)
+        n = np.arange(len(t))
+        return (1 - w) * values[j - 1, n] + w * values[j, n]
+
+    @property
+    def rms(self):
+        return max(p.rms for p in self.parts)
+
+    @property
+    def strongest(self):
+        return max(self.parts, key=lambda p: np.hypot(p.a, p.b))
 
 
 def offsets(est, centroids):
@@ -96,7 +129,7 @@ def found(est, centroids, dt_us):
         if len(sel) < MIN_ROWS:
             continue
         for axis in (ACROSS,) if turning[sel[0]] else (ALONG, ACROSS):
-            v = _sinusoid(t[sel], r[sel, axis], dt_us)
+            v = _search(t[sel], r[sel, axis], dt_us)
             if v is not None:
                 out[(int(tid), axis)] = v
     return out
@@ -126,14 +159,21 @@ def refit(est, centroids, vibrations):
     return out
 
 
-def _refitted(v, t_us, r):
-    """`v` with its amplitude and phase fitted to the offsets r at t_us, and the RMS they
-    leave; None for fewer than 3."""
-    if len(t_us) < 3:
-        return None
-    v = v._replace(**dict(zip("ab", _fit(t_us, r, v.omega, v.t0_us))))
-    rest = r - v.at(t_us)
-    return v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2))))
+def _refitted(waves, t_us, r):
+    """`waves` with each window's found sinusoid's amplitude and phase fitted to the offsets
+    r at t_us in its window, and the RMS they leave; None for fewer than 3 in a window."""
+    parts = []
+    for (lo, hi), v in zip(waves.bounds, waves.parts):
+        if v.a == 0 and v.b == 0:       # none found there
+            parts.append(v)
+            continue
+        m = (t_us >= lo) & (t_us <= hi)
+        if m.sum() < 3:
+            return None
+        v = v._replace(**dict(zip("ab", _fit(t_us[m], r[m], v.omega, v.t0_us))))
+        rest = r[m] - v.at(t_us[m])
+        parts.append(v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2)))))
+    return waves._replace(parts=tuple(parts))
 
 
 def _shared(track, t, frame, r, turning, dt_us):
@@ -145,7 +185,7 @@ def _shared(track, t, frame, r, turning, dt_us):
     out = {}
     for axis in (ALONG, ACROSS):
         series = _median_series(track, t, frame, r[:, axis], ~turning if axis == ALONG else None)
-        v = None if series is None else _sinusoid(*series, dt_us)
+        v = None if series is None else _search(*series, dt_us)
         if v is not None:
             out[axis] = v._replace(shared=True)
     return out
@@ -184,10 +224,13 @@ def summary(vibrations):
     how many it was given to), each other one with its "track"; frequency (Hz) and
     amplitude (px) along or across the motion."""
     out, shared = [], {}
-    for (tid, axis), v in sorted(vibrations.items()):
+    for (tid, axis), waves in sorted(vibrations.items()):
+        v = waves.strongest
         entry = {"axis": ("along", "across")[axis], "hz": round(v.omega / (2 * np.pi), 2),
                  "amplitude_px": round(float(np.hypot(v.a, v.b)), 3)}
-        if v.shared:
+        if len(waves.parts) > 1:   # the strongest of its windows'
+            entry["windows"] = [sum(p.a != 0 or p.b != 0 for p in waves.parts), len(waves.parts)]
+        if waves.shared:
             shared.setdefault(axis, {**entry, "tracks": 0})["tracks"] += 1
         else:
             out.append({**entry, "track": int(tid)})
@@ -274,6 +317,63 @@ def _axes_at(track, t_us):
     norm = np.maximum(np.hypot(ux, uy), 1e-12)
     u = np.column_stack([ux / norm, uy / norm])
     return np.stack([u, np.column_stack([-u[:, 1], u[:, 0]])], axis=1)
+
+
+def _search(t_us, r, dt_us):
+    """The Waves of one track's (or a field's) offsets r along one axis: a sinusoid sought in
+    each window (_windows), or None where no window holds one."""
+    order = np.argsort(t_us, kind="stable")     # (a field's median times may cross)
+    t_us, r = np.asarray(t_us, np.float64)[order], np.asarray(r, np.float64)[order]
+    bounds = _windows(t_us)
+    masks = [(t_us >= lo) & (t_us <= hi) for lo, hi in bounds]
+    parts = [_sinusoid(t_us[m], r[m], dt_us) if ok else None
+             for m, ok in zip(masks, _worth(t_us, r, masks, dt_us))]
+    if all(p is None for p in parts):
+        return None
+    zero = Vibration(0.0, 0.0, 0.0, int(t_us[0]))
+    return Waves(tuple(bounds), tuple(zero if p is None else p for p in parts))
+
+
+def _windows(t_us):
+    """(lo, hi) µs of the windows a sorted series is searched in: the whole of it up to
+    1.5 WINDOW_S long, else WINDOW_S-long ones every half window, the last one at its end."""
+    w = WINDOW_S * 1e6
+    t0, t1 = float(t_us[0]), float(t_us[-1])
+    if t1 - t0 <= 1.5 * w:
+        return [(t0, t1)]
+    starts = list(np.arange(t0, t1 - w, w / 2)) + [t1 - w]
+    return [(float(a), float(a + w)) for a in starts]
+
+
+def _worth(t_us, r, masks, dt_us):
+    """Per window (a mask of the sorted series t_us, r): could its frame-grid periodogram
+    pass the false-alarm test at all? One FFT for all the windows (a cheap screen before
+    _sinusoid's exact one; a track of 4 s has 7 windows)."""
+    top = MAX_NYQUIST_SHARE * 0.5e6 / dt_us
+    out = np.zeros(len(masks), bool)
+    rows = [np.flatnonzero(m) for m in masks]
+    ok = [len(k) >= MIN_ROWS and np.ptp(r[k]) > 0 and t_us[k[-1]] > t_us[k[0]] for k in rows]
+    if top <= MIN_HZ or not any(ok):
+        return out
+    use = [k for k, good in zip(rows, ok) if good]
+    frames = [np.round((t_us[k] - t_us[k[0]]) / dt_us).astype(np.int64) for k in use]
+    grid = np.zeros((len(use), max(int(f.max()) for f in frames) + 1))
+    x = [r[k] - r[k].mean() for k in use]
+    for row, (f, xk) in enumerate(zip(frames, x)):
+        np.add.at(grid[row], f, xk)
+    size = OVERSAMPLE * grid.shape[1]
+    spec = np.abs(np.fft.rfft(grid, size, axis=1)) ** 2
+    freq = np.fft.rfftfreq(size, dt_us * 1e-6)
+    band = (freq >= MIN_HZ) & (freq < top)
+    peak = np.zeros_like(spec, bool)
+    peak[:, 1:-1] = (spec[:, 1:-1] >= spec[:, :-2]) & (spec[:, 1:-1] >= spec[:, 2:])
+    best = np.where(peak & band, spec, 0.0).max(axis=1)
+    n = np.array([len(k) for k in use])
+    rough = 2 * best / (n * np.array([float(np.dot(xk, xk)) for xk in x]))
+    span = np.array([(t_us[k[-1]] - t_us[k[0]]) * 1e-6 for k in use])
+    m = np.maximum((top - MIN_HZ) * span, 1.0)
+    out[np.flatnonzero(ok)] = _false_alarm(np.minimum(PRESCREEN * rough, 1.0), n, m) <= FALSE_ALARM
+    return out
 
 
 def _sinusoid(t_us, r, dt_us):

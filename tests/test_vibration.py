@@ -213,8 +213,9 @@ def test_a_fields_shared_vibration_is_found_where_no_single_track_shows_it():
     assert not any(alone)
     found = vibration.found(est, cents, 10_000)
     assert sorted(found) == [(k, vibration.ACROSS) for k in range(tracks)]
-    wave = found[(0, vibration.ACROSS)]
-    assert wave.shared and abs(wave.omega / (2 * np.pi) - 15.0) < 0.5
+    waves = found[(0, vibration.ACROSS)]
+    wave = waves.strongest
+    assert waves.shared and abs(wave.omega / (2 * np.pi) - 15.0) < 0.5
     assert abs(abs(np.hypot(wave.a, wave.b)) - 0.12) < 0.04
 
 
@@ -244,9 +245,36 @@ def test_the_vibration_followed_is_reported_in_the_metrics(vibrating):
 
 
 def test_a_shared_vibration_is_summarised_once_per_axis():
-    wave = vibration.Vibration(2 * np.pi * 15.0, 0.1, 0.0, 0, shared=True)
-    own = vibration.Vibration(2 * np.pi * 9.0, 0.0, 0.2, 0)
+    wave = vibration.Waves(((0, 1e6),), (vibration.Vibration(2 * np.pi * 15.0, 0.1, 0.0, 0),),
+                           shared=True)
+    zero = vibration.Vibration(0.0, 0.0, 0.0, 0)
+    own = vibration.Waves(((0, 1e6), (5e5, 1.5e6)), (zero, vibration.Vibration(2 * np.pi * 9.0, 0.0, 0.2, 0)))
     got = vibration.summary({(1, vibration.ACROSS): wave, (2, vibration.ACROSS): wave,
                              (3, vibration.ALONG): own})
     assert got == [{"axis": "across", "hz": 15.0, "amplitude_px": 0.1, "tracks": 2},
-                   {"axis": "along", "hz": 9.0, "amplitude_px": 0.2, "track": 3}]
+                   {"axis": "along", "hz": 9.0, "amplitude_px": 0.2, "windows": [1, 2], "track": 3}]
+
+
+def test_a_long_track_is_searched_in_windows_that_follow_a_drifting_frequency():
+    """3 s of offsets swinging 0.3 px at 14 -> 26 Hz: windows of WINDOW_S every half window
+    (5 here), each with its own frequency, rising; between window centres the sinusoids blend
+    linearly, at the ends the nearest one alone."""
+    rng = np.random.default_rng(5)
+    t = (np.arange(300) * 10_000 + 5_000 + rng.integers(-2000, 2000, 300)).astype(np.int64)
+    ts = t * 1e-6
+    phase = 2 * np.pi * (14.0 * ts + 0.5 * 4.0 * ts * ts)
+    r = 0.3 * np.sin(phase) + 0.05 * rng.standard_normal(len(t))
+    assert len(vibration._windows(t.astype(float))) == 5
+    waves = vibration._search(t, r, 10_000)
+    hz = [p.omega / (2 * np.pi) for p in waves.parts if p.a or p.b]
+    assert len(hz) == 5 and np.all(np.diff(hz) > 0) and 14 < hz[0] < hz[-1] < 26
+    assert np.sqrt(np.mean((waves.at(t) - r) ** 2)) < 0.15
+    # one window alone: 1 s searched whole, as before
+    assert len(vibration._search(t[:100], r[:100], 10_000).parts) == 1
+
+
+def test_windows_blend_linearly_between_their_centres():
+    one = vibration.Vibration(0.0, 1.0, 0.0, 0)      # a constant 1 (ω 0, cos = 1)
+    two = vibration.Vibration(0.0, 3.0, 0.0, 0)
+    waves = vibration.Waves(((0.0, 1e6), (5e5, 1.5e6)), (one, two))
+    assert np.allclose(waves.at([0.0, 5e5, 7.5e5, 1e6, 2e6]), [1.0, 1.0, 2.0, 3.0, 3.0])
