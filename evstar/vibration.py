@@ -65,17 +65,16 @@ class Vibration(NamedTuple):
     b: float
     t0_us: int
     rms: float = 0.0
-    shared: bool = False    # a field's: found in all its tracks' per-frame median (_shared)
 
     def at(self, t_us):
         ts = (np.asarray(t_us, np.float64) - self.t0_us) * 1e-6
         return self.a * np.cos(self.omega * ts) + self.b * np.sin(self.omega * ts)
 
 
-
 class Waves(NamedTuple):
     """A vibration over a track's windows: each window's (lo, hi) µs and Vibration (zero
-    where none was found there), blended linearly between the windows' centres."""
+    where none was found there), blended linearly between the windows' centres; shared: a
+    field's, found in all its tracks' per-frame median (_shared)."""
     bounds: tuple
     parts: tuple
     shared: bool = False
@@ -114,7 +113,7 @@ def offsets(est, centroids):
 
 
 def found(est, centroids, dt_us):
-    """{(track, axis): Vibration} of the tracks whose offsets along or across their motion
+    """{(track, axis): Waves} of the tracks whose offsets along or across their motion
     hold one (module doc): a field's shared one first (_shared, given to every track), else
     each long track's own; along the motion only where a track never reverses: a reversing
     star's centroids trail it along its motion by a lag that follows its speed, whose
@@ -177,7 +176,7 @@ def _refitted(waves, t_us, r):
 
 
 def _shared(track, t, frame, r, turning, dt_us):
-    """{axis: Vibration} of a field: the median over its tracks of each frame's offsets (each
+    """{axis: Waves} of a field: the median over its tracks of each frame's offsets (each
     track's mean offset taken out: its lobes' bias), in frames of at least
     MIN_SHARED_TRACKS tracks, searched as one track's (a rigid platform moves every star;
     the median's noise falls as the tracks grow many, faint ones' too); along the motion
