@@ -126,9 +126,7 @@ def check_grid(args, scenario):
     per step, at least one step per ms, so a tiny --psf-sigma or --focal-length, or a long
     fast run, needs more memory than any machine has (it was killed, not refused)."""
     cam = scenario.camera
-    rate_dps = 2 * math.pi * args.sine[0] * args.sine[1] if args.sine else \
-        abs(constant_rate(args))
-    rate_dps += _jitter_peak(args)
+    rate_dps = (_peak(args.sine) if args.sine else abs(constant_rate(args))) + _peak(args.jitter)
     f = max(cam.fx, cam.fy)
     widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
     px_per_s = math.radians(rate_dps) * f * widen
@@ -151,17 +149,11 @@ def check_grid(args, scenario):
 
 def check_motion(args):
     """ParameterError when --sine's or --jitter's peak rate 2π·f·A exceeds the bound of --rate."""
-    if _jitter_peak(args) > P.MAX_SLEW_DPS:
-        amp, freq = args.jitter
-        raise ParameterError(f"--jitter {amp:g} {freq:g}: peak rate 2π·FREQ_HZ·AMP_DEG = "
-                             f"{_jitter_peak(args):.4g} °/s exceeds {P.MAX_SLEW_DPS} °/s (the bound "
-                             "of --rate); lower the amplitude or the frequency")
-    if args.sine:
-        amp, freq = args.sine
-        peak = 2 * math.pi * freq * amp
-        if peak > P.MAX_SLEW_DPS:
-            raise ParameterError(f"--sine {amp:g} {freq:g}: peak rate 2π·FREQ_HZ·AMP_DEG = "
-                                 f"{peak:.4g} °/s exceeds {P.MAX_SLEW_DPS} °/s (the bound of --rate); "
+    for option, pair in (("--jitter", args.jitter), ("--sine", args.sine)):
+        if _peak(pair) > P.MAX_SLEW_DPS:
+            amp, freq = pair
+            raise ParameterError(f"{option} {amp:g} {freq:g}: peak rate 2π·FREQ_HZ·AMP_DEG = "
+                                 f"{_peak(pair):.4g} °/s exceeds {P.MAX_SLEW_DPS} °/s (the bound of --rate); "
                                  "lower the amplitude or the frequency")
 
 
@@ -185,15 +177,15 @@ def pointing(args):
 def _motion(sim, args, R0=None):
     base = (sim.Sinusoid(*args.sine, axis=args.axis, R0=R0) if args.sine
             else sim.ConstantRate(constant_rate(args), axis=args.axis, R0=R0))
-    if not _jitter_peak(args):
+    if not _peak(args.jitter):
         return base
     across = (-args.axis[1], args.axis[0], 0.0)    # the boresight × axis
     return sim.Jitter(base, *args.jitter, across if any(across) else (1.0, 0.0, 0.0))
 
 
-def _jitter_peak(args):
-    """--jitter's peak rate 2π·f·A (°/s; 0 without it)."""
-    return 2 * math.pi * args.jitter[0] * args.jitter[1] if args.jitter else 0.0
+def _peak(pair):
+    """The peak rate 2π·f·A (°/s) of --sine's or --jitter's (AMP_DEG, FREQ_HZ); 0 without it."""
+    return 2 * math.pi * pair[0] * pair[1] if pair else 0.0
 
 
 def constant_rate(args):
