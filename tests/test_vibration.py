@@ -91,14 +91,10 @@ def test_crossings_of_a_track_vibrating_along_its_motion_move_to_its_smooth_pass
 def _vibrating(axis):
     """A magnitude-3.5 star panned at 8 °/s on a platform vibrating 0.05° at 20 Hz (0.54 px
     on the paper's camera) about `axis` (camera frame), 0.8 s."""
-    from evstar.sim.motion import FunctionTrajectory, _exp
     from evstar.sim.scene import Scenario
     from evstar.sim.targets import star_at_pixel
 
-    up = np.array([0.0, -1.0, 0.0])
-    w, amp = np.radians(8.0), np.radians(0.05)
-    move = FunctionTrajectory(lambda t: _exp(-(w * t)[:, None] * up)
-                              @ _exp(-(amp * np.sin(2 * np.pi * 20.0 * t))[:, None] * axis))
+    move = sim.Jitter(sim.ConstantRate(8.0), 0.05, 20.0, axis)
     cam = sim.camera_preset("dvxplorer-lite")
     star = star_at_pixel(cam, move.rotation(0.4)[0], (cam.cx, cam.cy), 3.5)
     return sim.simulate(Scenario(cam, star, move, 0.8), seed=6)
