@@ -101,15 +101,17 @@ class Waves(NamedTuple):
 
 def offsets(est, centroids):
     """Per measured row of `est` (ESTIMATE_DTYPE) with a centroid, sorted by track and time:
-    (track, t µs, frame, its centroid's offsets (n, 2) along and across the track's motion,
-    px)."""
+    (track, t µs, frame, its centroid's offsets (n, 2) along and across the track's motion
+    px, whether its track reverses (_reversing))."""
     est = _sorted(est)
     m = np.flatnonzero(est["centroid"] >= 0)
     p = np.column_stack([est["x"], est["y"]])
     frame = _frames(est)[m]
     c = est["centroid"][m]
     d = np.column_stack([centroids["x"][c], centroids["y"][c]]) - p[m]
-    return est["track"][m], est["t"][m], est["frame"][m], np.einsum("nij,nj->ni", frame, d)
+    track = est["track"][m]
+    return (track, est["t"][m], est["frame"][m], np.einsum("nij,nj->ni", frame, d),
+            np.isin(track, sorted(_reversing(est))))
 
 
 def found(est, centroids, dt_us):
@@ -118,8 +120,7 @@ def found(est, centroids, dt_us):
     each long track's own; along the motion only where a track never reverses: a reversing
     star's centroids trail it along its motion by a lag that follows its speed, whose
     harmonics passed for a vibration (1.1-1.5 px at 4+ Hz on dark-sky 1 Hz sinusoids)."""
-    track, t, frame, r = offsets(est, centroids)
-    turning = np.isin(track, sorted(_reversing(est)))
+    track, t, frame, r, turning = offsets(est, centroids)
     shared = _shared(track, t, frame, r, turning, dt_us)
     if shared:
         return {(int(tid), axis): v for axis, v in shared.items() for tid in np.unique(est["track"])}
@@ -140,8 +141,7 @@ def refit(est, centroids, vibrations):
     per-frame median once for all tracks), and the RMS of what it leaves: the track's σ is
     at least that (the sinusoid follows the centroids, whose own lag behind a fast swing the
     fit cannot see)."""
-    track, t, frame, r = offsets(est, centroids)
-    turning = np.isin(track, sorted(_reversing(est)))
+    track, t, frame, r, turning = offsets(est, centroids)
     out, shared = {}, {}
     for (tid, axis), v in vibrations.items():
         if v.shared:
@@ -270,8 +270,8 @@ def crossings_removed(crossings, est, vibrations):
 
 
 def _reversing(est):
-    """The tracks of `est` whose smoothed velocity turns back (two consecutive rows' opposed)."""
-    est = _sorted(est)
+    """The tracks of `est` (sorted by track and time) whose smoothed velocity turns back (two
+    consecutive rows' opposed)."""
     v = np.column_stack([est["vx"], est["vy"]])
     back = (np.sum(v[1:] * v[:-1], axis=1) < 0) & (est["track"][1:] == est["track"][:-1])
     return set(np.unique(est["track"][1:][back]).tolist())
