@@ -58,7 +58,7 @@ import numpy as np
 from evstar import Config, Pipeline, accuracy, across, estimation, sim
 from evstar.clock import on_camera_clock
 from evstar.imu import Imu
-from evstar.level_lag import LevelProfiles
+from evstar.level_lag import LevelProfiles, speed_changes
 from evstar.sim.targets import FLUX_MAG3
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
@@ -125,7 +125,16 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "ratio-3": lambda: sim.sensor_model("default", threshold_on=0.36, threshold_off=0.12),
            "refractory-3ms": lambda: sim.sensor_model("default", refractory_us=3000.0),
            "coarse-45": lambda: sim.sensor_model("default", threshold_on=0.45, threshold_off=0.45),
-           "dark-sky-busy": lambda: sim.sensor_model("dark-sky", noise_hz=3.0)}
+           "dark-sky-busy": lambda: sim.sensor_model("dark-sky", noise_hz=3.0),
+           # the forty-second session's: a 0.5 ms refractory period with 50 µs of jitter
+           # (not told), fine 0.1 thresholds, a 3 Hz leak, a dark sky whose OFF threshold
+           # is half its ON one
+           "refractory-500": lambda: sim.sensor_model("default", refractory_us=500.0,
+                                                      jitter_us=50.0),
+           "fine-10": lambda: sim.sensor_model("default", threshold_on=0.1, threshold_off=0.1),
+           "leak-3": lambda: sim.sensor_model("default", leak_hz=3.0),
+           "dark-sky-ratio": lambda: sim.sensor_model("dark-sky", threshold_on=0.3,
+                                                      threshold_off=0.15)}
 
 
 def dev_grid():
@@ -424,44 +433,76 @@ def vibration_grid():
                    seed=141, **extra)
 
 
+def fresh42_grid():
+    """Inputs no session had tried, run once when the forty-second session began (seed 42):
+    rolls about the boresight (a star off the centre, `at`, circling it), turnarounds by a
+    constant deceleration (`ramp` through 0), a lens's radial distortion (`k1`) on stars
+    off the centre, a 0.5 ms refractory period not told, fine thresholds, a 3 Hz leak, an
+    asymmetric dark sky, a magnitude-5.5 star, a slow sinusoid with the particle filter, a
+    dark-sky slew, 5 ms frames on a DVXplorer, a faint slow ramp on a quiet sensor."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (25, 3.5, 1.0, "default", "none", {"tilt": 90, "at": (0, 100)}),
+            (30, 3.0, 1.0, "default", "imu", {"tilt": 90, "at": (80, 60), "camera": "davis346"}),
+            (20, 4.0, 1.0, "dark-sky", "none", {"tilt": 90, "at": (-150, 0), "camera": "evk4"}),
+            ("ramp", 3.5, 1.0, "default", "none", {"rate": 8.0, "rate_end": -8.0}),
+            ("ramp", 4.0, 1.0, "default", "imu", {"rate": 12.0, "rate_end": -4.0,
+                                                  "camera": "davis346"}),
+            (10, 3.5, 1.0, "default", "imu", {"k1": -0.2, "at": (110, 80)}),
+            (6, 4.0, 1.1, "default", "none", {"k1": 0.15, "at": (-120, -90), "direction": 30}),
+            (8, 3.5, 1.0, "refractory-500", "none", {}),
+            (4, 4.0, 1.0, "fine-10", "none", {}),
+            (12, 4.5, 1.2, "leak-3", "imu", {}),
+            (6, 5.5, 0.9, "default", "none", {"duration": 1.0}),
+            ("sine", 3.5, 1.0, "default", "pf", {"amplitude": 5.0, "freq": 0.5, "duration": 2.0}),
+            ("slew", 3.5, 1.2, "dark-sky", "imu", {"peak": 25.0, "duration": 1.5}),
+            (18, 4.0, 1.4, "dark-sky-ratio", "none", {"direction": 135, "camera": "evk4"}),
+            (15, 3.0, 1.0, "default", "none", {"settings": {"dt_us": 5000}, "camera": "dvxplorer"}),
+            ("ramp", 5.0, 1.0, "quiet", "none", {"rate": 1.0, "rate_end": 6.0, "duration": 2.0})):
+        yield dict(set="fresh-42", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=42, **extra)
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
-         "fresh-41": fresh41_grid, "vibration": vibration_grid}
+         "fresh-41": fresh41_grid, "vibration": vibration_grid,
+         "fresh-42": fresh42_grid}
 
 
 def scenario(s):
     sensor = SENSORS[s["sensor"]]()
     # the star moves at `direction` degrees from x: a turntable axis in the image plane
-    # ... and `tilt` degrees out of the image plane (towards the boresight: a curved path)
+    # ... and `tilt` degrees out of the image plane (towards the boresight: a curved path;
+    # 90: a roll about the boresight, which moves only a star placed off the centre, `at`)
     phi, tilt = np.radians(s.get("direction", 0.0)), np.radians(s.get("tilt", 0.0))
     opts = dict(magnitude=s["mag"], sensor=sensor, psf_sigma_px=s["psf"],
                 axis=(np.sin(phi) * np.cos(tilt), -np.cos(phi) * np.cos(tilt), np.sin(tilt)),
-                camera=s.get("camera", "dvxplorer-lite"),
-                imu=sim.ImuSpec(**s.get("imu", {})),
+                camera=_camera(s), imu=sim.ImuSpec(**s.get("imu", {})),
                 flux_mag3=s.get("flux", 1.0) * FLUX_MAG3)
     if s["motion"] == "sine":   # the paper's 10°, 1 Hz unless the scene says otherwise
         return sim.paper_sinusoid(s.get("amplitude", 10.0), s.get("freq", 1.0),
                                   duration_s=s.get("duration", 1.0), **opts)
     if s["motion"] == "slew":   # rest to rest, peaking at `peak` °/s midway
-        return _slew(s["peak"], s.get("duration", 1.0), **opts)
+        from evstar.sim.motion import Slew
+
+        duration = s.get("duration", 1.0)
+        return _through(Slew(s["peak"], duration, opts["axis"]), duration, **opts)
     if s["motion"] in ("vibe", "ramp"):   # about the axis, through the centre midway
-        return _through_centre(_trajectory(s, opts["axis"]), s.get("duration", 1.0), **opts)
+        return _through(_trajectory(s, opts["axis"]), s.get("duration", 1.0), **opts)
+    if "at" in s:   # a constant rate, the star `at` (dx, dy) px from the centre midway
+        from evstar.sim.motion import ConstantRate
+
+        duration = s.get("duration", 0.5)
+        return _through(ConstantRate(float(s["motion"]), opts["axis"]), duration, at=s["at"], **opts)
     return sim.paper_preset(float(s["motion"]), duration_s=s.get("duration", 0.5), **opts)
 
 
-def _slew(peak_dps, duration_s, *, magnitude, axis, camera, **options):
-    """A rest-to-rest slew whose star crosses the image centre midway."""
-    from evstar.sim.motion import Slew
+def _camera(s):
+    """The scene's camera preset (`camera`), with radial distortion `k1` where it has one."""
     from evstar.sim.presets import camera_preset
-    from evstar.sim.scene import Scenario
-    from evstar.sim.targets import star_at_pixel
 
-    cam = camera_preset(camera)
-    motion = Slew(peak_dps, duration_s, axis)
-    stars = star_at_pixel(cam, motion.rotation(duration_s / 2)[0], (cam.cx, cam.cy), magnitude)
-    return Scenario(cam, stars, motion, duration_s, **options)
+    cam = camera_preset(s.get("camera", "dvxplorer-lite"))
+    return dataclasses.replace(cam, k1=s["k1"]) if "k1" in s else cam
 
 
 def _trajectory(s, axis):
@@ -482,15 +523,14 @@ def _trajectory(s, axis):
                               @ _exp(-(amp * np.sin(w * t))[:, None] * across))
 
 
-def _through_centre(motion, duration_s, *, magnitude, axis, camera, **options):
-    """A scene of `motion` whose star crosses the image centre midway."""
-    from evstar.sim.presets import camera_preset
+def _through(motion, duration_s, *, magnitude, axis, camera, at=(0.0, 0.0), **options):
+    """A scene of `motion` whose star lies `at` (dx, dy) px from the image centre midway."""
     from evstar.sim.scene import Scenario
     from evstar.sim.targets import star_at_pixel
 
-    cam = camera_preset(camera)
-    stars = star_at_pixel(cam, motion.rotation(duration_s / 2)[0], (cam.cx, cam.cy), magnitude)
-    return Scenario(cam, stars, motion, duration_s, **options)
+    pixel = (camera.cx + at[0], camera.cy + at[1])
+    stars = star_at_pixel(camera, motion.rotation(duration_s / 2)[0], pixel, magnitude)
+    return Scenario(camera, stars, motion, duration_s, **options)
 
 
 def scores(rows, truth, frames_t, cam, n_frames):
@@ -521,7 +561,8 @@ def run_scene(s, settings=None):
     profiles = LevelProfiles()   # the pixels' lag from the data (estimate.measure_lag)
     crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
                                            cfg.estimate.threshold_ratio, profiles=profiles)
-    lag = profiles.lag()
+    # as a run measures it (_RunState.measured_lag): the midpoints moved for the tracks' speed changes
+    lag = profiles.lag(speed_changes(linked))
     refractory_us = SENSORS[s["sensor"]]().refractory_us      # the sensor's setting, known
     # told the period, a run behind a measured low-pass takes the crossings of a run told
     # none (the pipeline's _RunState.crossings)
@@ -624,7 +665,7 @@ def plot(rows, path):
                        marker={"fresh": "^", "fresh-8": "s", "fresh-9": "D",
                                "fresh-10": "v", "fresh-11": "P", "fresh-14": "X", "fresh-22": "*",
                                "fresh-37": "h", "fresh-38": "p", "fresh-39": "*", "fresh-40": "X",
-                               "fresh-41": "d"}.get(part, "o"))
+                               "fresh-41": "d", "fresh-42": "H"}.get(part, "o"))
     lim = [0.03, 0.6]
     ax.plot(lim, lim, "k:", lw=1, label="σ_PSF/√N (one frame)")
     ax.set(xscale="log", yscale="log", xlabel="single-frame bound σ_PSF/√N (px)",
