@@ -461,12 +461,20 @@ def fresh42_grid():
         yield dict(set="fresh-42", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
                    seed=42, **extra)
 
+def dark_rates_grid():
+    """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
+    lag the level profiles miss grows as the star crosses a pixel faster than its time
+    constant (the forty-second session's diagnosis; seed 42)."""
+    for rate in (4, 8, 12, 18, 25):
+        yield dict(set="dark-rates", motion=rate, mag=4.0, psf=1.4, sensor="dark-sky",
+                   comp="none", seed=42, direction=135, camera="evk4")
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
-         "fresh-42": fresh42_grid}
+         "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid}
 
 
 def scenario(s):
