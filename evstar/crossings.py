@@ -119,13 +119,15 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
                            else _refractory_pairs(ts, *args, max_pairs))
         keep = k > 0
         change, k, sums, sq, h2 = change[keep], k[keep], sums[keep], sq[keep], h2[keep]
+        k_plain, nb = plain[keep], on_before[keep]
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
+        k_plain = k
         sums, sq, h2 = (kern.sums(change, k, r, nb) if kern is not None
                         else _pair_sums(ts, change, k, r, nb))
-    outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
-    top = top_midpoint(ts, change, plain[keep], r, on_before[keep])
+    outer = outer_half_width(ts, change, k_plain, r, nb)
+    top = top_midpoint(ts, change, k_plain, r, nb)
     mean = sums / k
     t_c = ts[change].astype(np.float64)             # sq is about the change's time
     spread = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
@@ -477,20 +479,30 @@ def _pixel_then_time(key, t, engine="taichi"):
 
 def dilate(img, radius_px):
     """Bool image `img` dilated by a square of half-width ceil(radius_px): a row dilation,
-    then a column one, each an OR of the image shifted by 1 .. r both ways (a few whole-image
-    operations: ~7x scipy's running maxima on a 1280x720 image at r = 3)."""
+    then a column one (whole-image ORs: ~7x scipy's running maxima on a 1280x720 image at
+    r = 3)."""
     r = int(np.ceil(radius_px))
     if not r:
         return img
-    out = img
-    for axis in (0, 1):
-        src, out = out, out.copy()
-        for s in range(1, min(r, src.shape[axis] - 1) + 1):
-            hi = (slice(None),) * axis + (slice(s, None),)
-            lo = (slice(None),) * axis + (slice(None, -s),)
-            out[hi] |= src[lo]
-            out[lo] |= src[hi]
-    return out
+    return _window_or(_window_or(img, r, 0), r, 1)
+
+
+def _window_or(img, r, axis):
+    """Per pixel, the OR of `img` within r of it along `axis` (clipped at the edges): the
+    image padded by r both ways, then windows doubled by ORs of shifted copies (4 ORs for
+    r = 6, where an OR per shift both ways took 12: 2-3x quicker at r = 3-6)."""
+    pad = [(0, 0)] * img.ndim
+    pad[axis] = (r, r)
+    a = np.pad(img, pad)          # a[i] = img[i - r]; below, a[i] = OR of img[i - r, i - r + w)
+
+    def cut(lo, hi):
+        return a[(slice(None),) * axis + (slice(lo, hi),)]
+
+    w, n = 1, a.shape[axis]
+    while w < 2 * r + 1:
+        s = min(w, 2 * r + 1 - w)   # the window grows by s: to 2w, or to the full 2r + 1
+        a, n, w = cut(0, n - s) | cut(s, n), n - s, w + s
+    return a
 
 
 def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):
