@@ -144,19 +144,23 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
 
 
 def stable_argsort(values):
-    """np.argsort(values, kind="stable") of floats: numpy's quicksort (~3x quicker than its
-    stable sort of 10⁵ crossing times), then each run of equal values put back in index
-    order (ties are rare); NaNs (their order unknown to the check) by the stable sort."""
-    order = np.argsort(values)
-    v = values[order]
-    if len(v) and np.isnan(v[-1]):
+    """np.argsort(values, kind="stable") of floats: first by a 16-bit key that grows with
+    the value (numpy's radix sort), then numpy's stable sort of the values in that nearly
+    sorted order (its merges find long runs there). On 78 k crossing times 1.2 ms, where
+    numpy's quicksort with its ties put back in index order took 4.2 and its stable sort
+    7.3. Equal values share a key, so they stay in index order: the same permutation.
+    Non-finite values (their keys unknown): the stable sort."""
+    values = np.asarray(values)
+    if not len(values):
         return np.argsort(values, kind="stable")
-    tie = np.flatnonzero(v[1:] == v[:-1])
-    if len(tie):
-        at = np.union1d(tie, tie + 1)                     # the places in runs of ties
-        # sorted by value (the runs in order), then index
-        order[at] = order[at][np.lexsort((order[at], v[at]))]
-    return order
+    lo = float(values.min())
+    span = float(values.max()) - lo
+    # keys below 2¹⁶ − 1, with room for the product's rounding
+    scale = 65000.0 / span if span > 0 else 0.0
+    if not (np.isfinite(span) and np.isfinite(scale)):    # NaNs, infinities
+        return np.argsort(values, kind="stable")
+    order = np.argsort(((values - lo) * scale).astype(np.uint16), kind="stable")
+    return order[np.argsort(values[order], kind="stable")]
 
 
 #: a run's outermost event belongs to it only within this many times the largest gap inside
