@@ -119,13 +119,15 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
                            else _refractory_pairs(ts, *args, max_pairs))
         keep = k > 0
         change, k, sums, sq, h2 = change[keep], k[keep], sums[keep], sq[keep], h2[keep]
+        k_plain, nb = plain[keep], on_before[keep]
     else:
         keep = plain > 0
         change, k, nb = change[keep], plain[keep], on_before[keep]
+        k_plain = k
         sums, sq, h2 = (kern.sums(change, k, r, nb) if kern is not None
                         else _pair_sums(ts, change, k, r, nb))
-    outer = outer_half_width(ts, change, plain[keep], r, on_before[keep])
-    top = top_midpoint(ts, change, plain[keep], r, on_before[keep])
+    outer = outer_half_width(ts, change, k_plain, r, nb)
+    top = top_midpoint(ts, change, k_plain, r, nb)
     mean = sums / k
     t_c = ts[change].astype(np.float64)             # sq is about the change's time
     spread = np.sqrt(np.maximum(sq / k - (mean - t_c) ** 2, 0.0))
@@ -142,19 +144,23 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
 
 
 def stable_argsort(values):
-    """np.argsort(values, kind="stable") of floats: numpy's quicksort (~3x quicker than its
-    stable sort of 10⁵ crossing times), then each run of equal values put back in index
-    order (ties are rare); NaNs (their order unknown to the check) by the stable sort."""
-    order = np.argsort(values)
-    v = values[order]
-    if len(v) and np.isnan(v[-1]):
+    """np.argsort(values, kind="stable") of floats: first by a 16-bit key that grows with
+    the value (numpy's radix sort), then numpy's stable sort of the values in that nearly
+    sorted order (its merges find long runs there). On 78 k crossing times 1.2 ms, where
+    numpy's quicksort with its ties put back in index order took 4.2 and its stable sort
+    7.3. Equal values share a key, so they stay in index order: the same permutation.
+    Non-finite values (their keys unknown): the stable sort."""
+    values = np.asarray(values)
+    if not len(values):
         return np.argsort(values, kind="stable")
-    tie = np.flatnonzero(v[1:] == v[:-1])
-    if len(tie):
-        at = np.union1d(tie, tie + 1)                     # the places in runs of ties
-        # sorted by value (the runs in order), then index
-        order[at] = order[at][np.lexsort((order[at], v[at]))]
-    return order
+    lo = float(values.min())
+    span = float(values.max()) - lo
+    # keys below 2¹⁶ − 1, with room for the product's rounding
+    scale = 65000.0 / span if span > 0 else 0.0
+    if not (np.isfinite(span) and np.isfinite(scale)):    # NaNs, infinities
+        return np.argsort(values, kind="stable")
+    order = np.argsort(((values - lo) * scale).astype(np.uint16), kind="stable")
+    return order[np.argsort(values[order], kind="stable")]
 
 
 #: a run's outermost event belongs to it only within this many times the largest gap inside
@@ -477,20 +483,30 @@ def _pixel_then_time(key, t, engine="taichi"):
 
 def dilate(img, radius_px):
     """Bool image `img` dilated by a square of half-width ceil(radius_px): a row dilation,
-    then a column one, each an OR of the image shifted by 1 .. r both ways (a few whole-image
-    operations: ~7x scipy's running maxima on a 1280x720 image at r = 3)."""
+    then a column one (whole-image ORs: ~7x scipy's running maxima on a 1280x720 image at
+    r = 3)."""
     r = int(np.ceil(radius_px))
     if not r:
         return img
-    out = img
-    for axis in (0, 1):
-        src, out = out, out.copy()
-        for s in range(1, min(r, src.shape[axis] - 1) + 1):
-            hi = (slice(None),) * axis + (slice(s, None),)
-            lo = (slice(None),) * axis + (slice(None, -s),)
-            out[hi] |= src[lo]
-            out[lo] |= src[hi]
-    return out
+    return _window_or(_window_or(img, r, 0), r, 1)
+
+
+def _window_or(img, r, axis):
+    """Per pixel, the OR of `img` within r of it along `axis` (clipped at the edges): the
+    image padded by r both ways, then windows doubled by ORs of shifted copies (4 ORs for
+    r = 6, where an OR per shift both ways took 12: 2-3x quicker at r = 3-6)."""
+    pad = [(0, 0)] * img.ndim
+    pad[axis] = (r, r)
+    a = np.pad(img, pad)          # a[i] = img[i - r]; below, a[i] = OR of img[i - r, i - r + w)
+
+    def cut(lo, hi):
+        return a[(slice(None),) * axis + (slice(lo, hi),)]
+
+    w, n = 1, a.shape[axis]
+    while w < 2 * r + 1:
+        s = min(w, 2 * r + 1 - w)   # the window grows by s: to 2w, or to the full 2r + 1
+        a, n, w = cut(0, n - s) | cut(s, n), n - s, w + s
+    return a
 
 
 def along_track(crossings, tracks, max_offset_px=3.0, min_speed_px_s=1.0):

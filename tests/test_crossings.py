@@ -284,7 +284,7 @@ def test_unequal_thresholds_no_longer_shift_the_crossings():
     assert errors["auto"] < 0.08 and errors["auto"] < 0.5 * errors[1.0], errors
 
 
-@pytest.mark.parametrize("radius", [0, 1, 2.5, 3])
+@pytest.mark.parametrize("radius", [0, 1, 2.5, 3, 6, 50])   # 6: across's; 50: > the image
 def test_dilate_is_the_square_binary_dilation(radius):
     from scipy import ndimage
 

@@ -1,5 +1,5 @@
 """Quicker paths of the whole pipeline give the bits of the ones they replace: the crossings'
-time order (a quicksort with its ties put back in index order) and the Kalman smoother's
+time order (a radix sort by a coarse key, then a stable sort of the nearly sorted values) and the Kalman smoother's
 tracks spread over a CPU loop's iterations (idle one-step tracks between them)."""
 import numpy as np
 import pytest
@@ -17,6 +17,21 @@ def test_the_crossings_time_order_is_numpys_stable_sort(n, levels):
         values[::3] = np.nan                            # NaNs: the stable sort's order too
         values[1] = -0.0
         assert np.array_equal(stable_argsort(values), np.argsort(values, kind="stable"))
+
+
+@pytest.mark.parametrize("values", [
+    [3.0, 3.0, 3.0], [0.0, -0.0, 0.0, -0.0], [-1e308, 1e308, 0.0, 1e308], [np.inf, 1.0, -np.inf, 1.0],
+    [5e-324, 0.0, 5e-324, 1e-323], [-2.5, -7.0, 1e6, -2.5, 3e6 + 0.25, 3e6, 3e6 + 0.25]])
+def test_the_crossings_time_order_at_extreme_values(values):
+    values = np.array(values)
+    assert np.array_equal(stable_argsort(values), np.argsort(values, kind="stable"))
+
+
+def test_the_crossings_time_order_of_clustered_times():
+    rng = np.random.default_rng(3)   # a few far outliers: most times share a few keys
+    values = np.r_[rng.integers(0, 50, 20_000) * 0.5 + 4e6, 0.0, 1e9]
+    rng.shuffle(values)
+    assert np.array_equal(stable_argsort(values), np.argsort(values, kind="stable"))
 
 
 def _problems(rng, lengths):
