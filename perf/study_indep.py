@@ -27,13 +27,14 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --vibe]
         [--set KEY=VALUE --name NAME]
 
 --fresh, --fresh2 and --fresh3 run the held-out grids instead (F1–F12, written in the
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
-after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md).
+after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
+(K1–K10, the forty-second session's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -87,6 +88,18 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "dark-coarse": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=1000.0, i_half=30.0, c_on=0.4,
                         c_off=0.4),
     "slow-refractory": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=2000.0),
+    # the fourth fresh grid's (--fresh4; written in the forty-second session, never tuned
+    # on): a very dark sky (5 Hz in the dark, half-way at 100 × the sky), a 1 ms refractory
+    # period with 80 µs of jitter, a dark sky whose background is mostly OFF events, a
+    # low-pass with OFF below ON and a 10 % mismatch
+    "deep-dark": dict(pixel="lowpass", f_min_hz=5.0, f_max_hz=1500.0, i_half=100.0, c_on=0.2,
+                      c_off=0.2),
+    "refractory-1ms": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=1000.0,
+                           jitter_us=80.0),
+    "dark-off-noise": dict(pixel="lowpass", f_min_hz=25.0, f_max_hz=600.0, i_half=30.0,
+                           c_on=0.22, c_off=0.22, noise_on_fraction=0.25),
+    "lowpass-off-low": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=1200.0, i_half=15.0,
+                            c_on=0.3, c_off=0.18, mismatch=0.10),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -185,9 +198,26 @@ VIBE = [
     ("davis", ("vibe", 12, 0, 0.03, 30.0, 90), [3, 3.5, 4, 4.5, 5], ("gauss", 1.0), "ideal", 1.0, 3, 1.0),
 ]
 VIBE_SEED = 8000
+#: held out (--fresh4, written in the forty-second session and run once before any change):
+#: a very dark sky, a 1 ms refractory period, OFF-heavy and asymmetric dark skies, rolls of
+#: the boresight on the HD sensor, acceleration from rest on a dark sky, five stars on a
+#: fast pan with hot pixels, a 1.5 s crawl; seeds 9000 + i
+FRESH4 = [
+    ("hd", ("lin", 12, 20), [3, 4, 5], ("gauss", 1.1), "deep-dark", 0.5, 0, 0.5),
+    ("vga", ("sine", 6, 1.0, 40), [3.5, 4.5], ("moffat", 2.2, 3.0), "refractory-1ms", 1.0, 2, 1.0),
+    ("davis", ("acc", 30, 120), [3, 4], ("gauss", 1.2), "dark", 0.5, 0, 1.0),
+    ("hd", ("circle", 3.0, 0.5), [4, 5], ("gauss", 1.3), "lowpass", 1.0, 0, 1.0),
+    ("vga", ("lin", 20, 250), [3, 3.5, 4, 5, 5.5], ("defocus", 1.6, 0.5), "asym", 2.0, 10, 0.5),
+    ("davis", ("lin", 5, 300), [4.5, 5.5], ("ellip", 1.5, 1.0, 0), "fine", 0.5, 0, 1.0),
+    ("hd", ("sine", 4, 1.5, 10), [3.5, 4.5], ("gauss", 1.0), "dark-asym", 1.0, 0, 1.0),
+    ("vga", ("lin", 10, 170), [3, 4], ("gauss", 0.8), "dark-off-noise", 1.0, 0, 1.0),
+    ("davis", ("lin", 2, 80), [3.5], ("moffat", 2.0, 4.0), "lowpass-asym", 0.3, 0, 1.5),
+    ("vga", ("lin", 8, 330), [3.5, 4.5], ("gauss", 1.1), "lowpass-off-low", 1.0, 0, 1.0),
+]
+FRESH4_SEED = 9000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
+HELD_OUT = {"fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
@@ -377,6 +407,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh4", action="store_true", help="the fourth held-out grid FRESH4 "
+                    "instead (scenes K1..K10)")
     ap.add_argument("--fresh3", action="store_true", help="the third held-out grid FRESH3 "
                     "instead (scenes H1..H12)")
     ap.add_argument("--fresh2", action="store_true", help="the second held-out grid FRESH2 "
