@@ -28,6 +28,7 @@ single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pi
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
         [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --vibe]
+        [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
 --fresh, --fresh2 and --fresh3 run the held-out grids instead (F1–F12, written in the
@@ -341,6 +342,29 @@ def scores(rows, scene, truth, frames_t, n_frames):
                               for s in range(len(scene.mags))]}
 
 
+#: `--calibrated`'s calibration recording: five stars of a VGA field on a 10°/0.5 Hz sinusoid
+#: with the gyro, 2 s (no scene of any grid)
+CALIBRATION = ("vga", ("sine", 10, 0.5, 30), [3, 3.5, 4, 4.5, 5], ("gauss", 1.2), None, 1.0, 0, 2.0)
+CALIBRATION_SEED = 12345
+
+
+def calibration_file(sensor, _done={}):
+    """`evstar calibrate`'s file (evstar.calibration.calibrate) of CALIBRATION recorded with
+    `sensor` (a SENSORS name), made once per sensor in the temporary folder."""
+    if sensor not in _done:
+        import tempfile
+
+        from evstar.calibration import calibrate
+
+        spec = CALIBRATION[:4] + (sensor,) + CALIBRATION[5:]
+        scene, sens = scene_of(CALIBRATION_SEED, spec, 1.0)
+        run = S.simulate(scene, sens, seed=CALIBRATION_SEED, imu=True)
+        path = pathlib.Path(tempfile.gettempdir()) / f"evstar-study-indep-lag_{sensor}.json"
+        calibrate(run.events, run.imu, run.camera).save(str(path))
+        _done[sensor] = str(path)
+    return _done[sensor]
+
+
 def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0, settings=None):
     scene, sensor = scene_of(i, spec, duration_scale)
     t = time.perf_counter()
@@ -416,6 +440,9 @@ def main(argv=None):
     ap.add_argument("--fresh", action="store_true", help="the held-out grid FRESH instead "
                     "(scenes F1..F12; --scenes and --only pick among them)")
     ap.add_argument("--quick", action="store_true", help="recordings shortened to 0.3 s")
+    ap.add_argument("--calibrated", action="store_true", help="each scene with the lag file "
+                    "evstar calibrate measures on a calibration recording of its sensor "
+                    "(CALIBRATION: a gyro and a sinusoid; estimate.pixel_lag_file)")
     ap.add_argument("--imu", action="store_true", help="the scenes' gyro too, and the "
                     "pipeline compensating with it (motion.compensate imu)")
     ap.add_argument("--clock-offset-us", type=int, default=0,
@@ -433,15 +460,18 @@ def main(argv=None):
     rows = []
     for i in pick:
         scale = 1.0 if not args.quick else 0.3 / grid[i][-1]
-        r = run_scene(i + seed0, grid[i], scale, args.imu, args.clock_offset_us,
-                      settings_of(args.set))
+        settings = settings_of(args.set)
+        if args.calibrated:
+            settings["estimate.pixel_lag_file"] = calibration_file(grid[i][4])
+        r = run_scene(i + seed0, grid[i], scale, args.imu, args.clock_offset_us, settings)
         d = r["default"]
         print(f"scene {r['scene']}: {r['events']:,} events, sim {r['sim_s']:.1f} s, default mean "
               f"{d['mean']:.3f} px, mean-estimator {r['mean']['mean']:.3f} px", flush=True)
         rows.append(r)
     subset = "".join(f"_{v}" for v in (held, args.only, "scenes-" + args.scenes.replace(",", "-")
                                        if args.scenes else None, "quick" if args.quick else None,
-                                       "imu" if args.imu else None, args.name) if v)
+                                       "imu" if args.imu else None,
+                                       "calibrated" if args.calibrated else None, args.name) if v)
     name = "study_indep" + subset
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
