@@ -15,7 +15,8 @@ such pairs where the path runs straight (a grid search, then Gauss-Newton steps)
 bias's constant image velocity fitted beside it, and it is taken only where the data can
 tell it: the smoothed gyro rate changes over a gap well beyond what its noise makes it
 seem to (a constant rate tells nothing), δ stands MIN_Z standard errors from zero (each
-100 ms block of pairs taken as one), and, behind a pixel lag, exceeds the lag itself.
+100 ms block of pairs taken as one), and, behind a pixel lag, exceeds the lag itself and
+stands out on the least-lagged third of the pairs too.
 Crossing times are the star's own behind a pixel lag (moved back by the measured one),
 but an error of that lag still reads as an offset: smaller ones are left as they are."""
 from __future__ import annotations
@@ -74,6 +75,12 @@ MIN_OFFSET_US = 500.0
 #: (the accuracy grid's told dark-sky sinusoids with the IMU read 9-43 % of it as an
 #: offset, and took 0.024-0.138 px to 0.375-0.535 with it)
 LAG_SHARE = 1.0
+#: ... and the offset must stand out on the least-lagged third of the pairs as well: the
+#: faint crossings' lag is the least sure (the independent simulator's HD dark-sky
+#: sinusoid, told its clock, read 509 ± 43 µs on all pairs — 1773 ± 242 on the most-lagged
+#: third, 251 ± 49 on the least — and took 0.012 px to 0.253 with it; an untold 3 ms read
+#: 2501 on all and 2752 on the least-lagged third, and is taken)
+LEAST_LAGGED = 1 / 3
 #: the gyro's rate must change over a gap this many times more than its noise alone seems
 #: to, and by more than MIN_RATE_CHANGE (rad/s RMS: a noiseless gyro at a constant rate)
 NOISE_RATIO, MIN_RATE_CHANGE = 3.0, 1e-3
@@ -135,10 +142,24 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     if len(t_cam) < 3 or not _rate_changes(imu):
         return None
     pairs = _pairs(crossings, centroids, lag, t_cam)
-    turned = _turned(t_cam, imu.gyro_cam)
-    pairs = None if pairs is None else _spread(pairs, _straight(pairs, t_cam, turned, camera))
     if pairs is None:
         return None
+    turned = _turned(t_cam, imu.gyro_cam)
+    straight = _straight(pairs, t_cam, turned, camera)
+    chosen = _spread(pairs, straight)
+    offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
+    if offset is None or not np.any(pairs[-1] > 0):
+        return offset
+    # behind a pixel lag the least-lagged pairs must tell it too (LEAST_LAGGED)
+    least = _spread(pairs, straight & _least_lagged(pairs[-1]))
+    if least is None:
+        return offset
+    confirmed = _offset_of(least, t_cam, turned, camera)
+    return offset if confirmed is not None and confirmed * offset > 0 else None
+
+
+def _offset_of(pairs, t_cam, turned, camera):
+    """The offset (µs) the pairs tell, or None where it does not stand out."""
     offset, se = _fitted(pairs, lambda some: _predicted(some, t_cam, turned, camera))
     # the pixels' own timing biases read as an offset (MIN_OFFSET_US), behind a pixel lag
     # an error of the crossings' lag too (LAG_SHARE); at the search's edge the loss had no
@@ -146,6 +167,11 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     floor = max(MIN_OFFSET_US, LAG_SHARE * float(np.median(pairs[-1])))
     inside = abs(offset) < SEARCH_US - COARSE_STEP_US
     return offset if inside and abs(offset) > max(MIN_Z * se, floor) else None
+
+
+def _least_lagged(lag):
+    """The pairs whose mean lag is within the LEAST_LAGGED share of the least."""
+    return lag <= np.quantile(lag, LEAST_LAGGED)
 
 
 def _fitted(pairs, prediction):

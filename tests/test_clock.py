@@ -114,6 +114,43 @@ def test_behind_a_pixel_lag_only_an_offset_beyond_the_lag_is_taken():
     assert err < 0.3 and before > 3 * err   # 0.213 against 1.656 px on this seed
 
 
+@pytest.fixture(scope="module")
+def hd_dark_sinusoid():
+    """The independent simulator's HD sensor on its asymmetric dark sky (a saturating
+    cutoff law, not evstar's), two stars on a 4°/1.5 Hz sinusoid with the gyro
+    (perf/study_indep.py --fresh4 K7), 1 s."""
+    import pathlib
+    import sys
+
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "perf"))
+    import study_indep as si
+
+    i, spec = si.held_out_scene("K7")
+    scene, sensor = si.scene_of(i, spec)
+    run = si.S.simulate(scene, sensor, seed=i, imu=True)
+    return run, scene
+
+
+def test_behind_a_pixel_lag_the_least_lagged_pairs_must_tell_the_offset(hd_dark_sinusoid):
+    """The faint crossings' lag errs by ms there, which all the pairs together read as a
+    0.5 ms offset of a gyro told its clock (taken before, 0.012 -> 0.253 px); the
+    least-lagged third does not confirm it, so none is taken. An untold 3 ms is confirmed
+    and taken."""
+    from evstar.clock import LEAST_LAGGED, _least_lagged
+
+    run, scene = hd_dark_sinusoid
+    told = Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(run.events, run.imu,
+                                                                          run.camera)
+    assert "imu_time_offset_us" not in told.metrics
+    late = Imu(run.imu.t - 3000, run.imu.gyro)
+    res = Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(run.events, late,
+                                                                         run.camera)
+    assert res.metrics["imu_time_offset_us"] == pytest.approx(3000, abs=700)
+    lag = np.array([5.0, 1.0, 3.0, 2.0, 4.0, 6.0])
+    assert _least_lagged(lag).sum() == round(LEAST_LAGGED * len(lag))
+    assert np.all(lag[_least_lagged(lag)] <= 2.0)
+
+
 def test_a_known_offset_is_added_to_the_imu_whichever_file_holds_it(tmp_path):
     """--imu-offset-us / imu_offset_us: the offset `evstar run` printed, given back, moves the
     IMU of an --imu CSV or of the recording itself; a fraction or a huge value is refused."""
