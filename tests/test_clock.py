@@ -127,8 +127,7 @@ def hd_dark_sinusoid():
 
     i, spec = si.held_out_scene("K7")
     scene, sensor = si.scene_of(i, spec)
-    run = si.S.simulate(scene, sensor, seed=i, imu=True)
-    return run, scene
+    return si.S.simulate(scene, sensor, seed=i, imu=True)
 
 
 def test_behind_a_pixel_lag_the_least_lagged_pairs_must_tell_the_offset(hd_dark_sinusoid):
@@ -138,13 +137,11 @@ def test_behind_a_pixel_lag_the_least_lagged_pairs_must_tell_the_offset(hd_dark_
     and taken."""
     from evstar.clock import LEAST_LAGGED, _least_lagged
 
-    run, scene = hd_dark_sinusoid
-    told = Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(run.events, run.imu,
-                                                                          run.camera)
-    assert "imu_time_offset_us" not in told.metrics
+    run = hd_dark_sinusoid
+    pipe = Pipeline(Config().replace(**{"motion.compensate": "imu"}))
+    assert "imu_time_offset_us" not in pipe.run(run.events, run.imu, run.camera).metrics
     late = Imu(run.imu.t - 3000, run.imu.gyro)
-    res = Pipeline(Config().replace(**{"motion.compensate": "imu"})).run(run.events, late,
-                                                                         run.camera)
+    res = pipe.run(run.events, late, run.camera)
     assert res.metrics["imu_time_offset_us"] == pytest.approx(3000, abs=700)
     lag = np.array([5.0, 1.0, 3.0, 2.0, 4.0, 6.0])
     assert _least_lagged(lag).sum() == round(LEAST_LAGGED * len(lag))
