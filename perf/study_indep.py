@@ -200,9 +200,9 @@ VIBE = [
 ]
 VIBE_SEED = 8000
 #: held out (--fresh4, written in the forty-second session and run once before any change):
-#: a very dark sky, a 1 ms refractory period, OFF-heavy and asymmetric dark skies, rolls of
-#: the boresight on the HD sensor, acceleration from rest on a dark sky, five stars on a
-#: fast pan with hot pixels, a 1.5 s crawl; seeds 9000 + i
+#: a very dark sky, a 1 ms refractory period, OFF-heavy and asymmetric dark skies, coning
+#: on the HD sensor, acceleration from rest on a dark sky, five stars on a fast pan with hot
+#: pixels, a 1.5 s crawl; seeds 9000 + i
 FRESH4 = [
     ("hd", ("lin", 12, 20), [3, 4, 5], ("gauss", 1.1), "deep-dark", 0.5, 0, 0.5),
     ("vga", ("sine", 6, 1.0, 40), [3.5, 4.5], ("moffat", 2.2, 3.0), "refractory-1ms", 1.0, 2, 1.0),
@@ -218,8 +218,9 @@ FRESH4 = [
 FRESH4_SEED = 9000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
-            "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
+HELD_OUT = {"fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"),
+            "fresh3": (FRESH3, FRESH3_SEED, "H"), "fresh2": (FRESH2, FRESH2_SEED, "G"),
+            "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
@@ -288,8 +289,7 @@ def held_out_scene(label):
 
 
 def scene_of(i, spec, duration_scale=1.0):
-    """Scene of seed index i (i >= FRESH_SEED: FRESH[i - FRESH_SEED]; >= FRESH2_SEED:
-    FRESH2's; >= FRESH3_SEED: FRESH3's) and spec."""
+    """Scene of seed index i (of GRID or a held-out grid, HELD_OUT's seeds) and spec."""
     cam, motion, mags, psf, sensor, noise, hot, dur, *extra = spec
     extra = extra[0] if extra else {}
     w, h, f = CAMERAS[cam]
