@@ -106,6 +106,13 @@ class PixelLag:
         on its recording, or the one it was told), None where it had too few changes."""
         return self.meta.get("threshold_ratio")
 
+    def summary(self):
+        """{source, lag_ms: [least, largest]} for a run's report: where the table came from
+        (the recording's own level profiles, or a calibration file) and its span of lags."""
+        source = "level profiles" if self.meta.get("source") == "level profiles" else "file"
+        return {"source": source, "lag_ms": [round(float(np.min(self.lag_us)) / 1e3, 2),
+                                             round(float(np.max(self.lag_us)) / 1e3, 2)]}
+
     def lag_at(self, pairs, speed_px_s, width_us=None):
         """τ in µs for crossings of `pairs` level pairs by a star moving at `speed_px_s`, and
         of outer half-widths `width_us` (µs) where given and the table has width terms."""

@@ -170,6 +170,11 @@ def summary_text(result, outdir, steady=None):
     if "imu_time_offset_us" in m:   # the gyro's record was moved (evstar.clock)
         lines += [f"IMU clock     {m['imu_time_offset_us']:+,.0f} µs more time offset than the "
                   "IMU was given (measured on the stars; used)"]
+    if "pixel_lag" in m:   # the crossings were moved back by it
+        lag = m["pixel_lag"]
+        how = ("measured from the crossings' level profiles; `evstar calibrate` measures it "
+               "against a gyro" if lag["source"] == "level profiles" else "the calibration file's")
+        lines += [f"pixel lag     {lag['lag_ms'][0]:.1f}–{lag['lag_ms'][1]:.1f} ms by brightness ({how})"]
     for v in m.get("vibration", ()):   # a platform's vibration the estimator followed
         whose = f"{v['tracks']} tracks" if "tracks" in v else f"track {v['track']}"
         lines += [f"vibration     {v['hz']:g} Hz, {v['amplitude_px']:g} px {v['axis']} the motion "

@@ -314,6 +314,9 @@ class Pipeline:
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result)
             positions.report = {}
+            used = estimation.run_lag(e, lag) if e.estimator == "crossings" else None
+            if used is not None:   # the pixels' lag the crossings are moved back by
+                positions.report["pixel_lag"] = used.summary()
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, rate, state.near_events(),
                                        positions.report)
@@ -346,8 +349,9 @@ class Pipeline:
         if getattr(estimator, "clock_offset_us", None) is not None:
             # as evstar.Imu's time_offset_us counts it: t_camera = t_imu + offset
             metrics["imu_time_offset_us"] = -estimator.clock_offset_us
-        if getattr(estimator, "report", {}).get("vibration"):   # evstar.vibration.summary
-            metrics["vibration"] = estimator.report["vibration"]
+        for key in ("pixel_lag", "vibration"):   # PixelLag.summary, evstar.vibration.summary
+            if getattr(estimator, "report", {}).get(key):
+                metrics[key] = estimator.report[key]
         if filter_result is not None and len(filter_result.bias):
             metrics["pf_final_bias_dps"] = np.degrees(filter_result.bias[-1]).tolist()
         if truth is not None:

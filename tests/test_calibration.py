@@ -128,6 +128,9 @@ def test_calibrated_lag_removes_the_dark_sky_trail(tmp_path):
         r = evstar.Pipeline(cfg).run(run.events, run.imu, run.camera, truth=run.truth)
         err[name] = r.metrics["centroid_error_px"]["mean"]
     assert err["raw"] > 0.25 and err["calibrated"] < err["raw"] / 2.5, err
+    table = PixelLag.load(str(out))
+    assert r.metrics["pixel_lag"] == {"source": "file", "lag_ms": [
+        round(float(table.lag_us.min()) / 1e3, 2), round(float(table.lag_us.max()) / 1e3, 2)]}
 
 
 def test_the_calibration_files_threshold_ratio_pairs_a_faint_stars_levels(tmp_path):

@@ -117,25 +117,36 @@ def test_level_midpoints_average_to_the_pair_sums():
         assert np.all(np.isnan(mids) == (np.arange(mids.shape[1]) >= k[m][:, None]))
 
 
-def _error(run, **settings):
+def _run(run, **settings):
     cfg = evstar.Config().replace(**{f"estimate.{k}": v for k, v in settings.items()})
-    r = evstar.Pipeline(cfg).run(run.events, None, run.camera, truth=run.truth)
-    return r.metrics["centroid_error_px"]["mean"], r.centroids
+    return evstar.Pipeline(cfg).run(run.events, None, run.camera, truth=run.truth)
 
 
-def test_measured_lag_removes_the_dark_sky_trail():
-    """A dark-sky photoreceptor (15 Hz at the background: not the preset's 30) at 8 °/s."""
+def test_measured_lag_removes_the_dark_sky_trail(tmp_path):
+    """A dark-sky photoreceptor (15 Hz at the background: not the preset's 30) at 8 °/s;
+    the run reports the lag it moved the crossings back by, and prints it."""
+    from evstar.outputs import summary_text
+
     dark = sim.SensorSpec.dark_sky(cutoff_hz_background=15.0)
     run = sim.simulate(sim.paper_preset(8.0, magnitude=3.0, sensor=dark, duration_s=0.4), seed=5)
-    raw, _ = _error(run, measure_lag=False)
-    measured, _ = _error(run)
-    assert raw > 0.25 and measured < raw / 4, (raw, measured)
+    raw = _run(run, measure_lag=False)
+    measured = _run(run)
+    raw_err, err = (r.metrics["centroid_error_px"]["mean"] for r in (raw, measured))
+    assert raw_err > 0.25 and err < raw_err / 4, (raw_err, err)
+    assert "pixel_lag" not in raw.metrics
+    lag = measured.metrics["pixel_lag"]
+    # a 15 Hz pixel's time constant is 10.6 ms: its bright levels lag less, its faint ones ms
+    assert lag["source"] == "level profiles" and 0 <= lag["lag_ms"][0] < lag["lag_ms"][1] < 10.6
+    assert lag["lag_ms"][1] > 1.0
+    line = [s for s in summary_text(measured, tmp_path).splitlines() if s.startswith("pixel lag")]
+    assert len(line) == 1 and f"{lag['lag_ms'][1]:.1f} ms" in line[0] and "calibrate" in line[0]
 
 
 def test_a_sensor_without_lowpass_is_left_as_it_was():
     run = sim.simulate(sim.paper_preset(8.0, magnitude=3.0, duration_s=0.4), seed=5)
-    (_, off), (_, on) = _error(run, measure_lag=False), _error(run)
-    np.testing.assert_array_equal(off, on)
+    off, on = _run(run, measure_lag=False), _run(run)
+    np.testing.assert_array_equal(off.centroids, on.centroids)
+    assert "pixel_lag" not in on.metrics   # no lag measured: none reported
 
 
 _TRUE_LAG_US = {1: 3100.0, 2: 3200.0, 3: 3100.0, 4: 2800.0, 5: 2400.0, 6: 2100.0, 7: 1700.0,
