@@ -40,6 +40,11 @@ MAX_PAIRS = 12
 #: speed bins (px/s, edges): a short pulse (a fast star) is delayed differently from a long
 #: one; slower crossings tell little and are left out of the fit
 SPEED_EDGES = (25.0, 50.0, 100.0, 200.0, 400.0, 800.0, 1600.0, 3200.0)
+#: a crossing lies this much further behind its track (px) than across or ahead of it and
+#: is still the track's: a lag puts it there (an EVK4's faint flank crossings at 1100 px/s
+#: lag 2.2 ms, 2.4 px, and lie up to 2.5 px across: beyond a 3 px reach, the fast k = 1 cell
+#: fitted the few nearer ones, −0.44 ms)
+BEHIND_PX = 6.0
 #: a (k, speed) cell needs this many crossings (and a track this many) to enter the fit
 MIN_CROSSINGS = 30
 _ROBUST_PASSES = 4
@@ -194,14 +199,13 @@ class PixelLag:
 
 
 def fit_pixel_lag(crossings, tracks, velocity_prior, max_pairs=MAX_PAIRS,
-                  speed_edges=SPEED_EDGES, min_crossings=MIN_CROSSINGS):
+                  speed_edges=SPEED_EDGES, min_crossings=MIN_CROSSINGS, behind_px=BEHIND_PX):
     """PixelLag from one recording's crossings (evstar.crossings.CROSSING_DTYPE), its tracks
     (rows with t, track, x, y, vx, vy, sorted by track then time) and the gyro's image
-    velocity (evstar.smoothing.imu_velocity_prior). DataError when the recording cannot
-    tell the lag (too few crossings, or no change of speed)."""
-    from .crossings import along_track
-
-    got, owner, u, _ = along_track(crossings, tracks)
+    velocity (evstar.smoothing.imu_velocity_prior); a crossing is a track's as _assigned
+    says with `behind_px`. DataError when the recording cannot tell the lag (too few
+    crossings, or no change of speed)."""
+    got, owner, u = _assigned(crossings, tracks, behind_px)
     blocks = [b for tid in np.unique(owner)
               if (b := _track_rows(crossings, got[owner == tid], u[owner == tid],
                                    velocity_prior, max_pairs, speed_edges)) is not None
@@ -223,6 +227,21 @@ def fit_pixel_lag(crossings, tracks, velocity_prior, max_pairs=MAX_PAIRS,
                         "offset (a constant slew rate?): calibrate on a slew whose rate changes")
     return _table(cells[good], tau[good], tau_se[good], max_pairs, speed_edges,
                   {"crossings": int(len(y)), "tracks": len(blocks)})
+
+
+def _assigned(crossings, tracks, behind_px):
+    """(indices into crossings, their track ids, the tracks' unit directions (n, 2)): the
+    crossings within REACH_PX of their nearest track's position at their time or of a point
+    up to behind_px behind it along its motion (where a lag puts them; 0: the reach alone,
+    evstar.crossings.along_track's)."""
+    from .assignment import REACH_PX
+    from .crossings import near_tracks
+
+    ci, tid, dx, dy, ux, uy = near_tracks(crossings, tracks, REACH_PX + behind_px)
+    along = dx * ux + dy * uy
+    back = along - np.clip(along, -behind_px, 0.0)       # along, from the nearest such point
+    k = np.flatnonzero(np.sqrt(back * back + (dx * uy - dy * ux) ** 2) < REACH_PX)
+    return ci[k], tid[k], np.column_stack([ux[k], uy[k]])
 
 
 def tracks_with_velocity(centroids):

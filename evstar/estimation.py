@@ -397,7 +397,8 @@ def _own_lag(refined, smoother, ests, groups, crossings, along_weight, t0_us, ve
                 for r, f in zip(refined, refit)]
 
     try:   # the tracks' rows once refitted with their crossings set which are whose
-        own = fit_pixel_lag(crossings, _by_track(with_far(lag)), velocity_prior)
+        # the refitted rows lie where the star is: its crossings within the reach of them
+        own = fit_pixel_lag(crossings, _by_track(with_far(lag)), velocity_prior, behind_px=0.0)
     except DataError:
         return refined
     return with_far(own)

@@ -61,6 +61,32 @@ def test_fit_recovers_a_known_lag_by_brightness_and_speed():
         assert np.max(np.abs(got - want)) < 0.12 * want.max(), (speed, got, want)
 
 
+def test_crossings_a_lag_puts_behind_a_fast_track_are_its_own():
+    """A track moving +x at 1000 px/s: a faint flank crossing 2.5 px across it and 2.4 px
+    behind (a 2.4 ms lag) lies 3.5 px from its position and was left out; it is within the
+    reach of a point behind it. Ahead of the track, or further behind than BEHIND_PX, the
+    reach alone holds; with behind_px 0 it is evstar.crossings.along_track's rule."""
+    from evstar.calibration import BEHIND_PX, _assigned
+    from evstar.crossings import along_track
+
+    t = np.arange(0, 21) * 1000.0
+    tracks = np.zeros(len(t), [("t", "<f8"), ("track", "<i8"), ("x", "<f8"), ("y", "<f8"),
+                               ("vx", "<f8"), ("vy", "<f8")])
+    tracks["t"], tracks["x"], tracks["y"], tracks["vx"] = t, 10 + t * 1e-3, 50.0, 1000.0
+    at = {"behind": (-2.4, 2.5), "near": (-1.0, 1.0), "ahead": (3.5, 0.0),
+          "too far behind": (-BEHIND_PX - 3.2, 0.0), "far across": (-2.0, 3.2)}
+    cr = np.zeros(len(at), CROSSING_DTYPE)
+    cr["t"] = 10_000.0
+    cr["x"] = [20 + a for a, _ in at.values()]
+    cr["y"] = [50 + c for _, c in at.values()]
+    got, owner, u = _assigned(cr, tracks, BEHIND_PX)
+    assert sorted(np.array(list(at))[got]) == ["behind", "near"]
+    assert np.all(owner == 0) and np.allclose(u, [1.0, 0.0])
+    plain, _, _ = _assigned(cr, tracks, 0.0)
+    np.testing.assert_array_equal(plain, along_track(cr, tracks)[0])
+    assert list(np.array(list(at))[plain]) == ["near"]
+
+
 def test_a_constant_rate_cannot_be_calibrated():
     cr, tracks, _ = _synthetic()
     with pytest.raises(DataError, match="rate changes"):
