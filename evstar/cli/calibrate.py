@@ -2,8 +2,9 @@
 
 A dim pixel's photoreceptor is slow, so a star's pixel crossings trail it by a lag that
 depends on the pixel's brightness (and the star's speed). At a constant slew rate that lag
-looks like a position offset; on a recording whose rate changes (e.g. a sinusoidal slew,
-10° at 0.5 Hz) with its IMU (--imu CSV, or the IMU stream of an AEDAT4/HDF5/NPZ input) and
+looks like a position offset; on a recording whose rate changes and turns back (e.g. a
+sinusoidal slew, 10° at 0.5 Hz; along a path that never reverses, each star's offset trades
+against the lag) with its IMU (--imu CSV, or the IMU stream of an AEDAT4/HDF5/NPZ input) and
 --camera, it is measured: one lag per brightness (level pairs per crossing) and speed, from
 all stars together, no sensor model. `evstar run` and `evstar extract` take the file as
 --pixel-lag-file (config: estimate.pixel_lag_file) and move every crossing back by its lag.
@@ -16,7 +17,7 @@ from .options import add_pipeline_options, config_from_args
 
 
 def add_arguments(p):
-    p.add_argument("input", metavar="IN", help="calibration recording (slew rate changing, with IMU)")
+    p.add_argument("input", metavar="IN", help="calibration recording (slew rate changing and turning back, with IMU)")
     p.add_argument("-o", "--output", required=True, metavar="PIXEL_LAG.json")
     add_input_options(p)
     add_pipeline_options(p)
