@@ -240,10 +240,15 @@ def run_lag(e, measured_lag):
     return pixel_lag(e.pixel_lag_file) if e.pixel_lag_file is not None else measured_lag
 
 
+def used_lag(e, measured_lag):
+    """run_lag where the crossings estimator moves the crossings back by it, else None."""
+    return run_lag(e, measured_lag) if e.estimator == "crossings" else None
+
+
 def largest_lag_us(e, measured_lag):
     """The largest lag (µs) of the table the crossings move back by (estimate settings `e`);
     0 where they move by none (no lag measured or calibrated, or no crossings estimator)."""
-    lag = run_lag(e, measured_lag) if e.estimator == "crossings" else None
+    lag = used_lag(e, measured_lag)
     return 0.0 if lag is None else float(np.max(lag.lag_us))
 
 

@@ -314,7 +314,7 @@ class Pipeline:
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result)
             positions.report = {}
-            used = estimation.run_lag(e, lag) if e.estimator == "crossings" else None
+            used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
