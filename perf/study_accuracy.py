@@ -52,7 +52,6 @@ import dataclasses
 import itertools
 import json
 import pathlib
-import tempfile
 
 import numpy as np
 
@@ -606,19 +605,13 @@ def run_scene(s, settings=None):
 CALIBRATED_REFRACTORY_US = 500.0
 
 
-def lag_file(sensor, psf, _done={}):
+def lag_file(sensor, psf):
     """`evstar calibrate`'s file for this sensor and PSF, from its own recording (a star field
     on a 10°/0.5 Hz sinusoid with IMU, seed 100: not a scene of the grid); made once."""
-    if (sensor, psf) not in _done:
-        from study_calibration import calibration_run
+    from study_calibration import cached_lag_file, calibration_run
 
-        from evstar.calibration import calibrate
-
-        cal = calibration_run(SENSORS[sensor](), psf, seed=100)
-        path = pathlib.Path(tempfile.gettempdir()) / f"evstar-study-lag_{sensor}_{psf:g}.json"
-        calibrate(cal.events, cal.imu, cal.camera).save(str(path))
-        _done[(sensor, psf)] = str(path)
-    return _done[(sensor, psf)]
+    return cached_lag_file(f"{sensor}_{psf:g}",
+                           lambda: calibration_run(SENSORS[sensor](), psf, seed=100))
 
 
 def markdown(rows):

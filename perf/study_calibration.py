@@ -31,6 +31,20 @@ SENSORS = {  # name: (SensorSpec.dark_sky overrides, PSF sigma px, held out)
 RATES, MAGS = (4.0, 8.0, 12.0, 20.0), (3.0, 4.0, 5.0)
 
 
+def cached_lag_file(name, recording, _done={}):
+    """`evstar calibrate`'s file of the recording `recording()` returns (a run with events,
+    imu and camera), made once per `name` in the temporary folder (the accuracy studies
+    calibrate each sensor once for all their scenes)."""
+    if name not in _done:
+        import tempfile
+
+        run = recording()
+        path = pathlib.Path(tempfile.gettempdir()) / f"evstar-study-lag_{name}.json"
+        calibrate(run.events, run.imu, run.camera).save(str(path))
+        _done[name] = str(path)
+    return _done[name]
+
+
 def calibration_run(spec, psf, seed):
     cam = sim.camera_preset("davis346")
     motion = sim.Sinusoid(10.0, 0.5, axis=(0.0, -1.0, 0.0), R0=sim.attitude_from_radec(83.8, -5.4))

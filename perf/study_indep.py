@@ -348,21 +348,14 @@ CALIBRATION = ("vga", ("sine", 10, 0.5, 30), [3, 3.5, 4, 4.5, 5], ("gauss", 1.2)
 CALIBRATION_SEED = 12345
 
 
-def calibration_file(sensor, _done={}):
+def calibration_file(sensor):
     """`evstar calibrate`'s file (evstar.calibration.calibrate) of CALIBRATION recorded with
     `sensor` (a SENSORS name), made once per sensor in the temporary folder."""
-    if sensor not in _done:
-        import tempfile
+    from study_calibration import cached_lag_file
 
-        from evstar.calibration import calibrate
-
-        spec = CALIBRATION[:4] + (sensor,) + CALIBRATION[5:]
-        scene, sens = scene_of(CALIBRATION_SEED, spec, 1.0)
-        run = S.simulate(scene, sens, seed=CALIBRATION_SEED, imu=True)
-        path = pathlib.Path(tempfile.gettempdir()) / f"evstar-study-indep-lag_{sensor}.json"
-        calibrate(run.events, run.imu, run.camera).save(str(path))
-        _done[sensor] = str(path)
-    return _done[sensor]
+    spec = CALIBRATION[:4] + (sensor,) + CALIBRATION[5:]
+    return cached_lag_file(f"indep_{sensor}", lambda: S.simulate(
+        *scene_of(CALIBRATION_SEED, spec, 1.0), seed=CALIBRATION_SEED, imu=True))
 
 
 def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0, settings=None):
