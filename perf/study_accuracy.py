@@ -134,7 +134,15 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "fine-10": lambda: sim.sensor_model("default", threshold_on=0.1, threshold_off=0.1),
            "leak-3": lambda: sim.sensor_model("default", leak_hz=3.0),
            "dark-sky-ratio": lambda: sim.sensor_model("dark-sky", threshold_on=0.3,
-                                                      threshold_off=0.15)}
+                                                      threshold_off=0.15),
+           # the forty-third session's: 20 Hz of background, 0.5 thresholds, a dark sky of
+           # 5 Hz (its ceiling 3 kHz), a thousand hot pixels at 20 Hz, 300 µs of jitter
+           "noisy-20": lambda: sim.sensor_model("default", noise_hz=20.0),
+           "coarse-50": lambda: sim.sensor_model("default", threshold_on=0.5, threshold_off=0.5),
+           "dark-sky-5": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=5.0,
+                                                  cutoff_hz_max=3000.0),
+           "hot-1000": lambda: sim.sensor_model("default", hot_pixels=1000, hot_pixel_hz=20.0),
+           "jitter-300": lambda: sim.sensor_model("default", jitter_us=300.0)}
 
 
 def dev_grid():
@@ -461,6 +469,34 @@ def fresh42_grid():
         yield dict(set="fresh-42", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
                    seed=42, **extra)
 
+def fresh43_grid():
+    """Inputs no session had tried, run once when the forty-third session began (seed 43):
+    45 °/s, a magnitude-1 star, an undersampled PSF (σ 0.5 px), 20 Hz of background, 0.5
+    thresholds, a ±20° sinusoid at 0.5 Hz (63 °/s at its peak) with the IMU, a 5 Hz dark
+    sky, 50 ms and 1 ms frames, a 50 Hz gyro, a thousand hot pixels, a 0.15 s recording, a
+    vibrating platform on a dark sky with the IMU, a slow faint star on the DAVIS346, a
+    0.5 °/s gyro bias with the particle filter, 300 µs of timestamp jitter."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (45, 3.0, 1.0, "default", "none", {}),
+            (6, 1.0, 1.0, "default", "none", {}),
+            (8, 3.0, 0.5, "default", "none", {}),
+            (10, 3.5, 1.0, "noisy-20", "none", {}),
+            (5, 4.0, 1.2, "coarse-50", "none", {}),
+            ("sine", 3.0, 1.0, "default", "imu", {"amplitude": 20.0, "freq": 0.5, "duration": 2.0}),
+            (12, 3.5, 1.0, "dark-sky-5", "none", {"camera": "evk4"}),
+            (3, 3.5, 1.0, "default", "none", {"settings": {"dt_us": 50000}}),
+            (20, 3.0, 1.0, "default", "none", {"settings": {"dt_us": 1000}}),
+            (10, 3.5, 1.0, "default", "imu", {"imu": {"rate_hz": 50.0}}),
+            (10, 4.0, 1.0, "hot-1000", "none", {}),
+            (15, 3.0, 1.0, "default", "none", {"duration": 0.15}),
+            ("vibe", 3.5, 1.0, "dark-sky", "imu", {"rate": 8.0, "vib": 0.05, "vib_hz": 15.0}),
+            (2, 5.0, 1.0, "quiet", "none", {"duration": 2.0, "camera": "davis346"}),
+            (10, 3.5, 1.0, "default", "pf", {"imu": {"gyro_bias": (0.01, -0.008, 0.005)}}),
+            (7, 4.0, 1.0, "jitter-300", "none", {})):
+        yield dict(set="fresh-43", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=43, **extra)
+
+
 def dark_rates_grid():
     """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
     lag the level profiles miss grows as the star crosses a pixel faster than its time
@@ -474,7 +510,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
-         "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid}
+         "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid}
 
 
 def scenario(s):
