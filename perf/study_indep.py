@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -35,7 +35,7 @@ single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pi
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
 after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
-(K1–K10, the forty-second session's) likewise.
+(K1–K10, the forty-second session's) and --fresh5 (L1–L10, the forty-third's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -101,6 +101,18 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                            c_on=0.22, c_off=0.22, noise_on_fraction=0.25),
     "lowpass-off-low": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=1200.0, i_half=15.0,
                             c_on=0.3, c_off=0.18, mismatch=0.10),
+    # the fifth fresh grid's (--fresh5; written in the forty-third session, never tuned on):
+    # a quick dark sky (80 Hz in the dark, half-way at 5 × the sky), 0.08 thresholds, OFF
+    # above ON by 2.3 ×, a dark sky with a 12 % threshold mismatch, a 200 µs refractory
+    # period with 100 µs of jitter
+    "fast-dark": dict(pixel="lowpass", f_min_hz=80.0, f_max_hz=3000.0, i_half=5.0, c_on=0.2,
+                      c_off=0.2),
+    "tiny-thresh": dict(pixel="ideal", c_on=0.08, c_off=0.08),
+    "off-high": dict(pixel="ideal", c_on=0.15, c_off=0.35),
+    "mismatch-dark": dict(pixel="lowpass", f_min_hz=25.0, f_max_hz=1000.0, i_half=25.0,
+                          c_on=0.22, c_off=0.22, mismatch=0.12),
+    "refractory-200": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=200.0,
+                           jitter_us=100.0),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -216,9 +228,27 @@ FRESH4 = [
     ("vga", ("lin", 8, 330), [3.5, 4.5], ("gauss", 1.1), "lowpass-off-low", 1.0, 0, 1.0),
 ]
 FRESH4_SEED = 9000
+#: held out (--fresh5, written in the forty-third session and run once before any change):
+#: 35 °/s, a quick dark sky on a sinusoid, a six-star field with 20 hot pixels on 3 Hz, fine
+#: thresholds, OFF far above ON with a wide Moffat, an acceleration on the HD sensor, a
+#: mismatched dark sky with an elliptical PSF, a 0.7 °/s crawl, an undersampled PSF behind a
+#: 200 µs refractory period, coning with a defocus ring on 5 Hz; seeds 10000 + i
+FRESH5 = [
+    ("davis", ("lin", 35, 70), [3, 4], ("gauss", 1.0), "ideal", 1.0, 0, 0.4),
+    ("vga", ("sine", 15, 0.7, 20), [3.5, 4.5], ("gauss", 1.2), "fast-dark", 0.5, 0, 1.0),
+    ("hd", ("lin", 9, 140), [3, 3.5, 4, 4.5, 5, 5.5], ("gauss", 1.1), "ideal", 3.0, 20, 0.6),
+    ("vga", ("lin", 7, 45), [3.5, 4.5], ("gauss", 1.0), "tiny-thresh", 1.0, 0, 1.0),
+    ("davis", ("lin", 4, 200), [4, 5], ("moffat", 3.0, 2.5), "off-high", 1.0, 0, 1.0),
+    ("hd", ("acc", 50, 300), [3.5, 4.5], ("gauss", 1.2), "ideal", 1.0, 0, 0.8),
+    ("vga", ("lin", 11, 95), [3, 4], ("ellip", 1.6, 0.9, 45), "mismatch-dark", 1.0, 0, 0.8),
+    ("davis", ("lin", 0.7, 10), [3.5], ("gauss", 0.9), "ideal", 0.2, 0, 2.5),
+    ("vga", ("lin", 15, 260), [3.5, 4.5], ("gauss", 0.6), "refractory-200", 1.0, 0, 0.8),
+    ("hd", ("circle", 5.0, 0.4), [3.5, 4.5], ("defocus", 2.0, 0.6), "ideal", 5.0, 0, 0.8),
+]
+FRESH5_SEED = 10000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"),
+HELD_OUT = {"fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"),
             "fresh3": (FRESH3, FRESH3_SEED, "H"), "fresh2": (FRESH2, FRESH2_SEED, "G"),
             "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -424,6 +454,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh5", action="store_true", help="the fifth held-out grid FRESH5 "
+                    "instead (scenes L1..L10)")
     ap.add_argument("--fresh4", action="store_true", help="the fourth held-out grid FRESH4 "
                     "instead (scenes K1..K10)")
     ap.add_argument("--fresh3", action="store_true", help="the third held-out grid FRESH3 "
