@@ -329,8 +329,8 @@ class TrackSmoother:
         ±25 % on a slow faint star; not where the first fit's speed changes less than
         SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX (a
         constant-rate pan keeps its fit); where the refit departs from the first fit by more
-        than MAX_ACCEL_DEPARTURE_PX, the constant-velocity refit on the first fit's speed
-        change instead (_refit_on_first_fit). A reversing track's crossings are moved before
+        than MAX_ACCEL_DEPARTURE_PX (_departure), the constant-velocity refit on the first
+        fit's speed change instead (_refit_on_first_fit). A reversing track's crossings are moved before
         its refit at the turns instead (_turn_flanks_corrected). `tracks` and `fitted`, per
         track (rows, crossings used), are updated in place."""
         todo = [i for i, (track, (rows, _)) in enumerate(zip(tracks, fitted))
@@ -350,7 +350,8 @@ class TrackSmoother:
             fits, _ = self._fit_accelerating(moved, w, qs)
         rest = []
         for i, t, f, ok in zip(todo, moved, fits, keep):
-            if ok and f[0] is not None and _departure(f[0], fitted[i][0]) <= MAX_ACCEL_DEPARTURE_PX:
+            if ok and f[0] is not None and _departure(f[0], fitted[i][0], t[3][0]) \
+                    <= MAX_ACCEL_DEPARTURE_PX:
                 tracks[i], fitted[i] = t, (_with_larger_sigma(f[0], fitted[i][0]), f[1])
             else:
                 rest.append(i)
@@ -979,9 +980,10 @@ ACCEL_PASSES = 2
 #: a star speeding up from rest doubles its speed across one pixel's flanks
 _ACCEL_SPEED_RATIO = 5.0
 _NEWTON_STEPS = 3        # ... solving for the passing time (converged to < 1 µs by 3)
-#: an acceleration refit is kept only where its measured rows lie within this of the
-#: constant-velocity fit's (which they leave by 0.6-1.0 px at a single star's slew ends,
-#: by a median 0.6 on an Orion DAVIS346 8 mm slew field), where a close pair's mixed
+#: an acceleration refit is kept only where its measured rows from the track's first
+#: crossing on lie within this of the constant-velocity fit's (_departure; which they leave by
+#: 0.6-1.0 px at a single star's slew ends, by a median 0.6 on an Orion DAVIS346 8 mm slew
+#: field), where a close pair's mixed
 #: crossings had let it take a track 2.5 px off its stars; the others keep the
 #: constant-velocity refit (_refit_on_first_fit)
 MAX_ACCEL_DEPARTURE_PX = 1.5
@@ -998,10 +1000,17 @@ def _speeds_change(track, rows):
     return speed.max() >= SPEED_CHANGE_RATIO * speed.min()
 
 
-def _departure(rows, other):
+def _departure(rows, other, t_cross=()):
     """The largest distance (px) between a track's measured `rows` and another fit of it
-    (`other`, interpolated to their times)."""
+    (`other`, interpolated to their times), from its first crossing on (`t_cross` µs, if
+    any): before it a constant-velocity fit only extrapolates, and where the star starts
+    from rest there it was 1.4–1.6 px behind, the acceleration fit on it (perf/study_indep.py
+    --fresh5 L6: departures of 1.85 and 1.95 px, all of it before the first crossing). After
+    the last crossing the check stays: left out there too, the common error of Cygnus
+    DVXplorer 8 mm field slews at 8 °/s went 0.042–0.058 -> 0.077–0.099 px."""
     m = rows["source"] == MEASURED
+    if len(t_cross):
+        m &= rows["t"] >= np.min(t_cross)
     if not m.any():
         return 0.0
     t, t_other = rows["t"][m].astype(np.float64), other["t"].astype(np.float64)
