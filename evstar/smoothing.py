@@ -330,9 +330,9 @@ class TrackSmoother:
         SPEED_CHANGE_RATIO or the crossings move by less than _SPEED_CHANGE_REFIT_PX (a
         constant-rate pan keeps its fit); where the refit departs from the first fit by more
         than MAX_ACCEL_DEPARTURE_PX (_departure), the constant-velocity refit on the first
-        fit's speed change instead (_refit_on_first_fit). A reversing track's crossings are moved before
-        its refit at the turns instead (_turn_flanks_corrected). `tracks` and `fitted`, per
-        track (rows, crossings used), are updated in place."""
+        fit's speed change instead (_refit_on_first_fit). A reversing track's crossings are
+        moved before its refit at the turns instead (_turn_flanks_corrected). `tracks` and
+        `fitted`, per track (rows, crossings used), are updated in place."""
         todo = [i for i, (track, (rows, _)) in enumerate(zip(tracks, fitted))
                 if _speeds_change(track, rows)]
         first, w = [tracks[i] for i in todo], [weights[i] for i in todo]
@@ -981,11 +981,10 @@ ACCEL_PASSES = 2
 _ACCEL_SPEED_RATIO = 5.0
 _NEWTON_STEPS = 3        # ... solving for the passing time (converged to < 1 µs by 3)
 #: an acceleration refit is kept only where its measured rows from the track's first
-#: crossing on lie within this of the constant-velocity fit's (_departure; which they leave by
-#: 0.6-1.0 px at a single star's slew ends, by a median 0.6 on an Orion DAVIS346 8 mm slew
-#: field), where a close pair's mixed
-#: crossings had let it take a track 2.5 px off its stars; the others keep the
-#: constant-velocity refit (_refit_on_first_fit)
+#: crossing on lie within this of the constant-velocity fit's (_departure; which they leave
+#: by 0.6-1.0 px at a single star's slew ends, by a median 0.6 on an Orion DAVIS346 8 mm
+#: slew field), where a close pair's mixed crossings had let it take a track 2.5 px off its
+#: stars; the others keep the constant-velocity refit (_refit_on_first_fit)
 MAX_ACCEL_DEPARTURE_PX = 1.5
 
 
