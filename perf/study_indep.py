@@ -248,9 +248,9 @@ FRESH5 = [
 FRESH5_SEED = 10000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"), "vibe": (VIBE, VIBE_SEED, "V"),
-            "fresh3": (FRESH3, FRESH3_SEED, "H"), "fresh2": (FRESH2, FRESH2_SEED, "G"),
-            "fresh": (FRESH, FRESH_SEED, "F")}
+HELD_OUT = {"fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+            "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
+            "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
 #: the stars are fixed and the camera turns (indep_sim's "rotate"): a translation of the whole
 #: image is no motion a camera can make, and evstar's rigid-field step fits rotations
