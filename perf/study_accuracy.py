@@ -142,7 +142,16 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-5": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=5.0,
                                                   cutoff_hz_max=3000.0),
            "hot-1000": lambda: sim.sensor_model("default", hot_pixels=1000, hot_pixel_hz=20.0),
-           "jitter-300": lambda: sim.sensor_model("default", jitter_us=300.0)}
+           "jitter-300": lambda: sim.sensor_model("default", jitter_us=300.0),
+           # the forty-fourth session's: a 2 Hz leak with a fifth of the events lost, a
+           # 25 Hz dark sky with coarse 0.4 thresholds, a 2 ms refractory period with 20 µs
+           # of jitter (not told), an OFF threshold twice the ON one
+           "leak-dropout": lambda: sim.sensor_model("default", leak_hz=2.0, dropout=0.2),
+           "dark-sky-coarse": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=25.0,
+                                                       threshold_on=0.4, threshold_off=0.4),
+           "refractory-2ms": lambda: sim.sensor_model("default", refractory_us=2000.0,
+                                                      jitter_us=20.0),
+           "ratio-half": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.3)}
 
 
 def dev_grid():
@@ -497,6 +506,36 @@ def fresh43_grid():
                    seed=43, **extra)
 
 
+def fresh44_grid():
+    """Inputs no session had tried, run once when the forty-fourth session began (seed 44):
+    a gyro ten times noisier, a gyro 3 ms late on the camera's clock, a wide PSF (σ 2 px),
+    1 °/s for 3 s, a fast small sinusoid (±3° at 2 Hz), a star off the centre moving at 60°,
+    a fast 60 Hz dark sky up and left with the IMU, 20 ms frames, an accelerating dark-sky
+    slew with the IMU, a busy background with the particle filter, four new sensors (above),
+    a bright star on the DAVIS346, 30 °/s on the EVK4 with the IMU, a fast 40 Hz vibration
+    without the IMU."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (10, 3.5, 1.0, "default", "imu", {"imu": {"gyro_noise_density": 1.2e-3}}),
+            (10, 3.5, 1.0, "default", "imu", {"imu": {"time_offset_us": 3000}}),
+            (8, 4.0, 2.0, "default", "none", {}),
+            (1, 4.5, 1.0, "default", "none", {"duration": 3.0}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 3.0, "freq": 2.0}),
+            (12, 3.5, 1.0, "default", "none", {"at": (100, 70), "direction": 60}),
+            (20, 3.0, 1.0, "dark-sky-60", "imu", {"direction": 225}),
+            (6, 4.0, 1.0, "default", "none", {"settings": {"dt_us": 20000}}),
+            ("ramp", 3.5, 1.0, "dark-sky", "imu", {"rate": 2.0, "rate_end": 20.0}),
+            (15, 4.0, 1.0, "busy", "pf", {}),
+            (9, 3.5, 1.1, "leak-dropout", "none", {}),
+            (10, 3.5, 1.0, "dark-sky-coarse", "none", {}),
+            (6, 3.5, 1.0, "refractory-2ms", "none", {}),
+            (8, 4.0, 1.0, "ratio-half", "none", {"direction": 315}),
+            (10, 2.0, 0.8, "default", "none", {"camera": "davis346"}),
+            (30, 4.0, 1.2, "default", "imu", {"camera": "evk4"}),
+            ("vibe", 4.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.02, "vib_hz": 40.0})):
+        yield dict(set="fresh-44", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=44, **extra)
+
+
 def dark_rates_grid():
     """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
     lag the level profiles miss grows as the star crosses a pixel faster than its time
@@ -510,7 +549,8 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
-         "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid}
+         "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
+         "fresh-44": fresh44_grid}
 
 
 def scenario(s):
