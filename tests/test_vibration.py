@@ -22,6 +22,15 @@ def test_a_sinusoid_in_a_tracks_offsets_is_found_with_its_frequency_and_amplitud
     assert np.sqrt(np.mean((v.at(t) - r) ** 2)) < 0.07
 
 
+def test_a_vibration_near_the_frames_nyquist_frequency_is_found():
+    """42 Hz in 10 ms frames (0.84 of Nyquist; fresh-44's 40 Hz went unfound at 0.8)."""
+    rng = np.random.default_rng(3)
+    t = _frames(rng)
+    r = 0.2 * np.sin(2 * np.pi * 42.0 * t * 1e-6 + 1.0) + 0.05 * rng.standard_normal(len(t))
+    v = vibration._sinusoid(t, r, 10_000)
+    assert v is not None and abs(v.omega / (2 * np.pi) - 42.0) < 0.5
+
+
 @pytest.mark.parametrize("seed", range(20))
 def test_white_offsets_show_no_vibration(seed):
     """Noise alone (σ 0.2 px, far above MIN_AMPLITUDE_PX) passes the false-alarm test."""
