@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --fresh6 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -35,7 +35,8 @@ single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pi
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
 after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
-(K1–K10, the forty-second session's) and --fresh5 (L1–L10, the forty-third's) likewise.
+(K1–K10, the forty-second session's), --fresh5 (L1–L10, the forty-third's) and --fresh6
+(M1–M10, the forty-fourth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -113,6 +114,16 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                           c_on=0.22, c_off=0.22, mismatch=0.12),
     "refractory-200": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=200.0,
                            jitter_us=100.0),
+    # the sixth fresh grid's (--fresh6; written in the forty-fourth session, never tuned on):
+    # a middling dark sky (40 Hz, half-way at 40 × the sky) with OFF below ON, coarse 0.3
+    # thresholds behind a 300 µs refractory period, a background of 80 % ON events with a
+    # 10 % mismatch, a dark sky with 150 µs of jitter
+    "med-dark": dict(pixel="lowpass", f_min_hz=40.0, f_max_hz=2000.0, i_half=40.0, c_on=0.25,
+                     c_off=0.2, jitter_us=20.0),
+    "coarse-ref": dict(pixel="ideal", c_on=0.3, c_off=0.3, refractory_us=300.0),
+    "on-heavy": dict(pixel="ideal", c_on=0.25, c_off=0.2, mismatch=0.10, noise_on_fraction=0.8),
+    "dark-jitter": dict(pixel="lowpass", f_min_hz=20.0, f_max_hz=1500.0, i_half=20.0,
+                        c_on=0.2, c_off=0.2, jitter_us=150.0),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -246,9 +257,27 @@ FRESH5 = [
     ("hd", ("circle", 5.0, 0.4), [3.5, 4.5], ("defocus", 2.0, 0.6), "ideal", 5.0, 0, 0.8),
 ]
 FRESH5_SEED = 10000
+#: held out (--fresh6, written in the forty-fourth session and run once before any change):
+#: 25 °/s with an elongated PSF, a diagonal low-pass sinusoid with hot pixels, a middling
+#: dark sky, a hard acceleration behind a 300 µs refractory period, a slow defocus ring,
+#: coning on 8 Hz of background, seven stars among 50 hot pixels, a 3 Hz sinusoid, an
+#: ON-heavy background, a jittery dark sky under a narrow Moffat; seeds 11000 + i
+FRESH6 = [
+    ("hd", ("lin", 25, 160), [3, 4], ("ellip", 1.4, 1.0, 80), "ideal", 1.0, 0, 0.5),
+    ("vga", ("sine", 10, 1.0, 135), [3.5, 4.5], ("moffat", 2.0, 2.2), "lowpass", 1.0, 3, 1.0),
+    ("davis", ("lin", 6, 225), [3, 3.5, 4], ("gauss", 1.4), "med-dark", 2.0, 0, 1.0),
+    ("hd", ("acc", 80, 20), [4, 5], ("gauss", 1.0), "coarse-ref", 1.0, 0, 0.6),
+    ("vga", ("lin", 2, 315), [4, 5], ("defocus", 2.5, 0.7), "ideal", 0.5, 0, 1.5),
+    ("davis", ("circle", 4.0, 1.0), [3, 4], ("gauss", 1.1), "ideal", 8.0, 0, 1.0),
+    ("hd", ("lin", 15, 5), [3, 3.5, 4, 4.5, 5, 5.5, 6], ("gauss", 1.2), "ideal", 1.0, 50, 0.6),
+    ("vga", ("sine", 4, 3.0, 60), [3.5], ("gauss", 1.0), "ideal", 1.0, 0, 1.0),
+    ("davis", ("lin", 10, 120), [3.5, 4.5], ("gauss", 1.0), "on-heavy", 1.0, 0, 1.0),
+    ("hd", ("lin", 5, 250), [3, 4.5], ("moffat", 1.6, 4.5), "dark-jitter", 1.0, 0, 1.0),
+]
+FRESH6_SEED = 11000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -454,6 +483,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh6", action="store_true", help="the sixth held-out grid FRESH6 "
+                    "instead (scenes M1..M10)")
     ap.add_argument("--fresh5", action="store_true", help="the fifth held-out grid FRESH5 "
                     "instead (scenes L1..L10)")
     ap.add_argument("--fresh4", action="store_true", help="the fourth held-out grid FRESH4 "
