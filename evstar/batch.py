@@ -58,6 +58,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
 
     from . import backends
     from .io.atomic import check_output_dir, check_outputs
+    from .outputs import check_owned
 
     paths, options = check_arguments(paths, config, outdir, client, workers, scheduler, options)
     inputs = expand_inputs(paths)
@@ -65,7 +66,8 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
         raise ParameterError("no recordings given")
     backends.require(config.device)   # once, not one failed row per recording
     outdir = check_output_dir(outdir).absolute()  # workers may run in other folders
-    check_outputs([outdir / name for name in SUMMARY], inputs)
+    check_outputs([outdir / name for name in SUMMARY], inputs + config.input_files())
+    check_owned(outdir, SUMMARY)
     # input files by their resolved paths: another spelling of a file is the same file
     options = {k: _resolved(v) if k in _FILES and v else v for k, v in options.items()}
     lag = config.estimate.pixel_lag_file
@@ -310,11 +312,13 @@ def metric_columns(metrics):
 def write_summary(outdir, table):
     """summary.csv and summary.parquet, each written atomically."""
     from .io.atomic import atomic_path
+    from .outputs import record_owned
 
     with atomic_path(pathlib.Path(outdir, SUMMARY[0])) as tmp:
         table.to_csv(tmp, index=False)
     with atomic_path(pathlib.Path(outdir, SUMMARY[1])) as tmp:
         table.to_parquet(tmp, index=False)
+    record_owned(outdir, SUMMARY)
 
 
 def _write_marker(outdir, data):

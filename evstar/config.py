@@ -119,6 +119,13 @@ class Config:
             section.validate()
         return self
 
+    def input_files(self):
+        """The files the settings name as inputs (a pixel_lag_file): an output may not be one
+        of them (evstar.io.atomic.check_outputs)."""
+        return [getattr(getattr(self, name), p.name) for name, params in P.SECTIONS.items()
+                for p in params.values() if p.checker is P.check_path
+                and getattr(getattr(self, name), p.name) is not None]
+
     def attitude_options(self):
         """[attitude_filter] as the keywords of evstar.attitude.estimate / AttitudeEstimator:
         what `evstar run`, `evstar batch` and `evstar attitude` all estimate with."""

@@ -4,7 +4,8 @@
 folder beside `outdir` and moves them in together once all are written, so a folder never
 holds a half-written run. A rerun replaces the files of the earlier run, and removes those
 of its files this run does not write (e.g. errors.png of a run with truth); other files in
-the folder are never touched. Temporary folders of runs killed before they finished carry
+the folder are never touched, and a file named as a run's output that evstar did not write
+there (no line of OWNED names it) stops the run before any work (check_owned). Temporary folders of runs killed before they finished carry
 the dead process's id and are removed by the next run writing beside them.
 """
 from __future__ import annotations
@@ -27,6 +28,9 @@ from .metrics import snr_db
 RUN_FILES = ("centroids.csv", "tracks.csv", "metrics.json", "profile.json", "config.toml",
              "denoise.png", "tracks.png", "per_frame.png", "errors.png", "attitude.csv")
 _TMP_TAG = ".evstar-tmp-"  # temporary folders: .{outdir name}.evstar-tmp-{pid}-{random}
+#: the names of the files evstar wrote into a folder, one a line: it replaces or removes
+#: those alone (a user's centroids.csv or errors.png beside them is no earlier run's)
+OWNED = ".evstar-owned"
 
 
 def run_files(outdir):
@@ -34,11 +38,41 @@ def run_files(outdir):
     return [pathlib.Path(outdir) / name for name in RUN_FILES]
 
 
+def owned(outdir):
+    """The names OWNED lists in `outdir` (none where it has no such file)."""
+    try:
+        return set((pathlib.Path(outdir) / OWNED).read_text().split("\n")) - {""}
+    except OSError:
+        return set()
+
+
+def check_owned(outdir, names):
+    """OutputError where `outdir` holds one of the files `names` that evstar did not write
+    there (nothing is replaced that evstar did not write)."""
+    outdir = pathlib.Path(outdir)
+    mine = owned(outdir)
+    foreign = sorted(n for n in names if os.path.lexists(outdir / n) and n not in mine)
+    if foreign:
+        raise OutputError(outdir, f"holds {', '.join(foreign)}, which evstar has no record of "
+                                  f"writing there ({OWNED}); evstar replaces only its own "
+                                  "files: choose another folder, or move those files away")
+
+
+def record_owned(outdir, written=(), removed=()):
+    """OWNED in `outdir` updated: the `written` names added, the `removed` ones dropped."""
+    from .io.atomic import atomic_path
+
+    names = (owned(outdir) - set(removed)) | set(written)
+    with atomic_path(pathlib.Path(outdir) / OWNED) as tmp:
+        tmp.write_text("".join(f"{n}\n" for n in sorted(names)))
+
+
 def write_run(outdir, result, config, truth=None, attitude=None):
     """Write a pipeline Result (with the Config used, the optional simulator Truth and
     attitude rows of evstar.attitude.estimate) into `outdir`, created if needed; returns
     its path."""
     outdir = check_output_dir(outdir)
+    check_owned(outdir, RUN_FILES)
     outdir.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(outdir)
     tmp = pathlib.Path(tempfile.mkdtemp(prefix=f".{outdir.name}{_TMP_TAG}{os.getpid()}-",
@@ -53,8 +87,10 @@ def write_run(outdir, result, config, truth=None, attitude=None):
         written = {f.name for f in tmp.iterdir()}
         for name in sorted(written):
             os.replace(tmp / name, outdir / name)
-        for name in set(RUN_FILES) - written:  # left by an earlier run: would mislead
+        stale = (owned(outdir) & set(RUN_FILES)) - written  # an earlier run's: would mislead
+        for name in stale:
             (outdir / name).unlink(missing_ok=True)
+        record_owned(outdir, written, stale)
     except OSError as exc:
         if isinstance(exc, EvstarError):
             raise

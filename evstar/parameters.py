@@ -174,6 +174,9 @@ STRATEGIES = ("auto", "sparse", "dense")
 #: events: GPU form (event-parallel with atomics); auto: lanes on CPU, events on CUDA
 SCHEDULES = ("auto", "lanes", "events")
 MAX_RADIUS = 64          # px; the counting kernels' disk tables stop here
+#: px; every disk radius up to 1 px holds its centre pixel alone (far below this one, r²
+#: underflows to 0 and the disk is empty)
+MIN_RADIUS = 0.5
 MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistake
 #: pseudo-frames of one stream: its per-frame arrays (int64 offsets: 0.8 GB) must fit, and
 #: 1e8 frames are 11.6 days of the default 10 ms frames (a longer span is a corrupt timestamp)
@@ -225,11 +228,11 @@ GLOBAL = Params(
 DENOISE = Params(
     "denoise",
     Param("method", str, "mr-ndsef", "denoising filter", choices=METHODS),
-    Param("radius", float, 5, "NDSEF disk radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("radius", float, 5, "NDSEF disk radius", low=MIN_RADIUS, high=MAX_RADIUS, unit="px"),
     Param("threshold", int, AUTO, "NDSEF density threshold (events in the disk)", low=1,
           high=MAX_THRESHOLD, auto=True, valid=f"'auto' or an integer >= 1{_INT32}"),
-    Param("radii", float, [3, 5, 7, 9, 11], "MR-NDSEF radii, increasing", low=0,
-          high=MAX_RADIUS, open_low=True, many=True, increasing=True, unit="px"),
+    Param("radii", float, [3, 5, 7, 9, 11], "MR-NDSEF radii, increasing", low=MIN_RADIUS,
+          high=MAX_RADIUS, many=True, increasing=True, unit="px"),
     Param("thresholds", int, AUTO, "MR-NDSEF thresholds, one per radius", low=1,
           high=MAX_THRESHOLD, many=True, auto=True,
           valid=f"'auto' or a non-empty list of integers >= 1{_INT32}"),
@@ -244,7 +247,7 @@ DENOISE = Params(
 
 EXTRACT = Params(
     "extract",
-    Param("eps", float, 2.5, "DBSCAN radius", low=0, high=MAX_RADIUS, open_low=True, unit="px"),
+    Param("eps", float, 2.5, "DBSCAN radius", low=MIN_RADIUS, high=MAX_RADIUS, unit="px"),
     Param("min_samples", int, 5, "DBSCAN min_samples (weighted events within eps)", low=1,
           high=10**6),
     Param("clustering", str, "grid", "DBSCAN backend: Taichi grid kernels or scikit-learn "
@@ -369,8 +372,8 @@ ESTIMATE = Params(
           "(auto: measured from the gyro's samples; set a datasheet value for a gyro filtered "
           "on chip)", low=0, auto=True, unit="rad/s/√Hz"),
     Param("along_weight", float, 0.1, "where crossings are used, a centroid's weight along the "
-          "motion relative to across it (its mean is biased along the motion)", low=0,
-          high=1, open_low=True),
+          "motion relative to across it (its mean is biased along the motion; below 1e-3 its "
+          "σ overflows the smoother)", low=1e-3, high=1),
     Param("process_noise", float, AUTO, "track smoother: white-acceleration spectral density q "
           "(auto: estimated per track from its centroids)", low=0, auto=True, unit="px²/s³"),
     Param("process_noise_min", float, 1.0, "floor of an estimated q (a straight track's q "
@@ -388,10 +391,10 @@ ESTIMATE = Params(
           "star, or an outlier of a short track: up to tens of px)", low=0, open_low=True,
           unit="px"),
     Param("sigma_floor_px", float, 0.02, "smallest per-axis measurement sigma of a centroid",
-          low=0, open_low=True, unit="px"),
+          low=0, high=MAX_RADIUS, open_low=True, unit="px"),
     Param("psf_sigma_px", float, None, "measurement sigma = this / sqrt(events) (default: "
-          "the centroid's spread / sqrt(2 events))", low=0, open_low=True, optional=True,
-          unit="px"),
+          "the centroid's spread / sqrt(2 events))", low=0, high=MAX_RADIUS, open_low=True,
+          optional=True, unit="px"),
     Param("min_events", int, 8, "centroids of fewer events take their track's median spread",
           low=1, high=10**6),
     Param("outlier_sigma", float, 4.0, "a centroid farther than this x its sigma from the "

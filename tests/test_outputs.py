@@ -206,14 +206,14 @@ def test_temporaries_of_killed_runs_are_removed_by_the_next_run(scene, tmp_path)
     assert not stale.exists() and live.exists() and other.exists()
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == sorted(["out", live.name, other.name])  # this run's temporary is gone too
-    assert {p.name for p in (tmp_path / "out").iterdir()} == set(outputs.RUN_FILES) - {"errors.png", "attitude.csv"}
+    assert {p.name for p in (tmp_path / "out").iterdir()} == set(outputs.RUN_FILES) - {"errors.png", "attitude.csv"} | {outputs.OWNED}
 
 
 def test_write_run_writes_the_tables_and_figures(scene, tmp_path):
     cfg = Config().replace(**{"motion.compensate": "imu"})
     result = Pipeline(cfg).run(scene.events, scene.imu, scene.camera, truth=scene.truth)
     outputs.write_run(tmp_path / "r", result, cfg, scene.truth)
-    assert {p.name for p in (tmp_path / "r").iterdir()} == set(outputs.RUN_FILES) - {"attitude.csv"}  # no attitude given
+    assert {p.name for p in (tmp_path / "r").iterdir()} == set(outputs.RUN_FILES) - {"attitude.csv"} | {outputs.OWNED}  # no attitude given
     tracks = (tmp_path / "r" / "tracks.csv").read_text().splitlines()
     assert tracks[0].startswith("track,t_first") and len(tracks) == 1 + result.metrics["tracks"]
     text = outputs.summary_text(result, tmp_path / "r")

@@ -78,8 +78,8 @@ def test_the_cases_the_layers_used_to_disagree_on():
 
 
 @pytest.mark.parametrize("argv,message", [
-    (["--radius", "100000"], "argument --radius: radius must be a number in (0, 64]"),
-    (["--radii", "3", "5", "100"], "argument --radii: radii must be a number in (0, 64]"),
+    (["--radius", "100000"], "argument --radius: radius must be a number in [0.5, 64]"),
+    (["--radii", "3", "5", "100"], "argument --radii: radii must be a number in [0.5, 64]"),
     (["--radii", "5", "3"], "--radii must be strictly increasing"),
     (["--threshold", "0"], "argument --threshold: threshold must be 'auto' or an integer >= 1"),
     (["--dt-ms", "0"], "argument --dt-ms: must be a number in [0.001, 3.6e+06] ms, got 0"),
@@ -98,7 +98,7 @@ def test_every_declaration_documents_itself():
     for params in (*P.SECTIONS.values(), P.GLOBAL, P.KERNEL, P.PARTICLE_FILTER):
         for param in params.values():
             assert param.doc and param.check(param.default) == param.default, param.name
-    assert "radius" in Config().denoise.__doc__ and "(0, 64]" in Config().denoise.__doc__
+    assert "radius" in Config().denoise.__doc__ and "[0.5, 64]" in Config().denoise.__doc__
 
 
 def test_docs_list_every_parameter_as_declared():

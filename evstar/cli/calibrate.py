@@ -36,6 +36,7 @@ def run(args):
     check_outputs([args.output], [args.input, args.imu, args.camera, getattr(args, "config", None)])
     check_new_files([args.output], args.force)
     cfg = config_from_args(args)
+    check_outputs([args.output], cfg.input_files())   # a pixel_lag_file, from a config too
     backends.require(cfg.device)   # a missing GPU before the recording is read
     rec = load(args)
     lag = calibrate(rec.events, rec.imu, rec.camera, cfg, progress=print)

@@ -1,0 +1,71 @@
+"""Sixth fuzz round (forty-fourth session): settings at the float's limits, a pixel-lag file
+named as an output, and output folders holding files evstar did not write."""
+import pytest
+
+from evstar import Config, ParameterError, io, sim
+from evstar.cli import main
+from evstar.outputs import OWNED
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rec")
+    run = sim.simulate(sim.paper_preset(12.0, duration_s=0.1), seed=3)
+    io.write(d / "ev.h5", run.events, imu=run.imu, camera=run.camera)
+    return d / "ev.h5"
+
+
+# each ended in an internal error (exit 70): an empty disk, a division by a zero area, a
+# smoother's σ overflowing to NaN
+@pytest.mark.parametrize("key, value", [
+    ("denoise.radius", 1e-200), ("denoise.radii", [1e-200, 3.0]), ("extract.eps", 1e-200),
+    ("estimate.along_weight", 1e-12), ("estimate.sigma_floor_px", 1e160),
+    ("estimate.psf_sigma_px", 1e160)])
+def test_settings_at_the_floats_limits_are_refused_naming_them(key, value):
+    with pytest.raises(ParameterError, match=key.split(".")[1]):
+        Config().replace(**{key: value})
+
+
+def test_the_smallest_radius_and_weight_allowed_run(recording, tmp_path, capsys):
+    assert main(["extract", str(recording), "-o", str(tmp_path / "c.csv"), "--radius", "0.5",
+                 "--eps", "0.5", "--along-weight", "0.001", "--sigma-floor-px", "64"]) == 0
+
+
+def test_an_output_that_is_the_pixel_lag_file_is_refused(recording, tmp_path, capsys):
+    lag = tmp_path / "lag.csv"
+    lag.write_text("a lag file\n")
+    code = main(["extract", str(recording), "-o", str(lag), "--force", "--pixel-lag-file", str(lag)])
+    assert code == 4 and "never overwrites its inputs" in capsys.readouterr().err
+    assert lag.read_text() == "a lag file\n"
+    (tmp_path / "r").mkdir()
+    profile = tmp_path / "r" / "profile.json"
+    profile.write_text("{}")
+    code = main(["run", str(recording), "-o", str(tmp_path / "r"), "--pixel-lag-file", str(profile)])
+    assert code == 4 and profile.read_text() == "{}"
+
+
+def test_a_run_replaces_only_files_it_wrote(recording, tmp_path, capsys):
+    out = tmp_path / "u"
+    out.mkdir()
+    (out / "centroids.csv").write_text("precious")
+    (out / "attitude.csv").write_text("mine")
+    assert main(["run", str(recording), "-o", str(out), "--no-progress"]) == 4
+    err = capsys.readouterr().err
+    assert "attitude.csv, centroids.csv" in err and OWNED in err
+    assert (out / "centroids.csv").read_text() == "precious" and (out / "attitude.csv").exists()
+    # its own folder: a rerun replaces them, and a run removes what an earlier run wrote
+    mine = tmp_path / "mine"
+    assert main(["run", str(recording), "-o", str(mine), "--no-progress"]) == 0
+    (mine / "errors.png").write_text("a user's figure")
+    assert main(["run", str(recording), "-o", str(mine), "--no-progress"]) == 4
+    (mine / "errors.png").unlink()
+    assert main(["run", str(recording), "-o", str(mine), "--no-progress"]) == 0
+    assert "centroids.csv" in (mine / OWNED).read_text().split()
+
+
+def test_a_batch_leaves_a_users_summary_alone(recording, tmp_path, capsys):
+    out = tmp_path / "b"
+    out.mkdir()
+    (out / "summary.csv").write_text("the user's")
+    assert main(["batch", str(recording), "-o", str(out), "--workers", "1", "--no-progress"]) == 4
+    assert (out / "summary.csv").read_text() == "the user's"
