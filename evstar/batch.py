@@ -50,7 +50,7 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
 
     `client` is a distributed.Client to run on; without one, `scheduler` (an address such
     as tcp://host:8786) is connected to, or else a LocalCluster of `workers` processes (the
-    CPU count by default) is started for the call. `options` are run_recording keywords
+    CPU count by default; one per recording at most) is started for the call. `options` are run_recording keywords
     shared by all recordings (format, sensor_size, camera, imu, sort, stream_above_mb,
     imu_offset_us).
     """
@@ -82,7 +82,10 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
     settings = backends.settings()
     if client is None and not scheduler and settings["cpu_threads"] is None:
         settings["cpu_threads"] = 1  # also for local workers restarted after a crash
-    with _client(client, workers, scheduler) as c:
+    # a local worker per recording at most: more only start processes (1000 did not start
+    # within 2 minutes on 2 cores)
+    local = min(workers or os.cpu_count() or 1, len(inputs))
+    with _client(client, local, scheduler) as c:
         futures = [c.submit(process, str(p.absolute()), str(outdir / n), spec, key, options,
                             force, settings, files, key=f"evstar-run-{n}-{call}-{i}",
                             pure=False)

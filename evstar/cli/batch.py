@@ -26,7 +26,7 @@ def add_arguments(p):
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=checked(int, 1), metavar="N",
-                       help="local worker processes (default: the CPU count)")
+                       help="local worker processes (default: the CPU count; at most one per recording)")
     where.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                        help="a running Dask scheduler, e.g. tcp://host:8786")
     p.add_argument("--force", action="store_true", help="redo recordings already done")
