@@ -83,3 +83,11 @@ def test_frame_counts_of_two_events_days_apart_are_counted_without_a_loop_per_fr
     counts = Pipeline(Config()).run(ev).frame_counts
     assert len(counts["before"]) == 2_100_001 and counts["before"].sum() == 2
     assert counts["before"][[0, -1]].tolist() == [1, 1] and abs(counts["t_s"][-1] - 21_000.005) < 1e-6
+
+
+def test_a_lens_too_short_for_a_pinhole_is_refused_naming_the_shortest(tmp_path, capsys):
+    """--focal-length 1e-6 mm put every star of the sky on a few pixels (over 15 minutes)."""
+    assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1e-6"]) == 2
+    err = capsys.readouterr().err
+    assert "--focal-length 1e-06 mm" in err and "give at least 0.991 mm" in err
+    assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1"]) == 0

@@ -25,6 +25,10 @@ MAX_GRID_STEPS = 2e8
 #: the most background and hot-pixel events a run may expect (each costs the simulator some
 #: 60 bytes at its peak, measured: 7.7e7 events took 4.8 GB; so 1e8 events ≈ 6 GB)
 MAX_NOISE_EVENTS = 1e8
+#: the widest half-angle (°, corner to centre) a simulated pinhole camera may see: towards
+#: 90° every star of the sky falls on a few central pixels (--focal-length 1e-6 mm ran for
+#: over 15 minutes)
+MAX_HALF_FOV_DEG = 75.0
 #: the files simulate writes besides the events (fixed names)
 OTHER_FILES = ("imu.csv", "camera.json", "truth.npz")
 DEFAULT_EVENTS_NAME = "events.h5"
@@ -119,6 +123,11 @@ def scenario_from(args):
     return scenario
 
 
+def half_fov_tan(cam):
+    """tan of the camera's half field of view across its diagonal."""
+    return math.hypot(cam.width, cam.height) / 2 / min(cam.fx, cam.fy)
+
+
 def check_grid(args, scenario):
     """ParameterError when the simulation would make more than MAX_NOISE_EVENTS noise events
     or take more than MAX_GRID_STEPS time steps:
@@ -126,6 +135,13 @@ def check_grid(args, scenario):
     per step, at least one step per ms, so a tiny --psf-sigma or --focal-length, or a long
     fast run, needs more memory than any machine has (it was killed, not refused)."""
     cam = scenario.camera
+    half_fov = math.degrees(math.atan(half_fov_tan(cam)))
+    if half_fov > MAX_HALF_FOV_DEG:
+        shortest = args.focal_length * half_fov_tan(cam) / math.tan(math.radians(MAX_HALF_FOV_DEG))
+        raise ParameterError(
+            f"--focal-length {args.focal_length:g} mm gives this {args.preset} sensor a field of "
+            f"view {2 * half_fov:.4g}° across its diagonal (a pinhole sees at most "
+            f"{2 * MAX_HALF_FOV_DEG:g}° here); give at least {shortest:.3g} mm")
     rate_dps = (_peak(args.sine) if args.sine else abs(constant_rate(args))) + _peak(args.jitter)
     f = max(cam.fx, cam.fy)
     widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
