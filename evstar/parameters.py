@@ -190,6 +190,9 @@ MIN_ALPHA = 1e-12
 _TAIL = f" (at least {MIN_ALPHA:g}: the Poisson quantile is computed from 1 − alpha)"
 MAX_PARTICLES = 1 << 22  # 4 M particles ≈ 0.5 GB of state and scratch
 MAX_PIXEL_RATE_HZ = 1e6  # events/pixel/s: a pixel's refractory period is ~1 µs or more
+#: the attitude filter's noise densities and prior spreads (in their units): beyond, its
+#: covariances overflow (1e300: OverflowError) or turn singular (1e-300)
+MIN_SPREAD, MAX_SPREAD = 1e-12, 1e12
 #: °/s: the fastest slew the simulator and demo take (constant rate, or a sinusoid's peak
 #: rate 2π·f·A), ten turns a second; faster slews only cost time (the simulator's steps
 #: follow the star across the image) and no star sensor tracks them
@@ -495,21 +498,21 @@ ATTITUDE_FILTER = Params(
           "frame is retried after this (0: the next frame), and a failed pooled window after "
           "max(this, pooled_window_ms)", low=0, unit="ms"),
     Param("gyro_noise", float, 2e-4, "filter's gyro white noise (with an IMU)", low=0,
-          unit="rad/s/√Hz"),
+          high=MAX_SPREAD, unit="rad/s/√Hz"),
     Param("bias_walk", float, 1e-4, "filter's gyro bias random walk (with an IMU)", low=0,
-          unit="rad/s²/√Hz"),
-    Param("bias_prior", float, 0.01, "initial gyro bias spread (with an IMU)", low=0,
-          open_low=True, unit="rad/s"),
+          high=MAX_SPREAD, unit="rad/s²/√Hz"),
+    Param("bias_prior", float, 0.01, "initial gyro bias spread (with an IMU)", low=MIN_SPREAD,
+          high=MAX_SPREAD, unit="rad/s"),
     Param("jerk_noise", float, 5.0, "white angular jerk of the constant-acceleration model "
-          "(no IMU)", low=0, open_low=True, unit="rad/s³/√Hz"),
+          "(no IMU)", low=MIN_SPREAD, high=MAX_SPREAD, unit="rad/s³/√Hz"),
     Param("rate_prior", float, 1.0, "initial rate spread without track velocities (no IMU)",
-          low=0, open_low=True, unit="rad/s"),
-    Param("accel_prior", float, 1.0, "initial angular acceleration spread (no IMU)", low=0,
-          open_low=True, unit="rad/s²"),
+          low=MIN_SPREAD, high=MAX_SPREAD, unit="rad/s"),
+    Param("accel_prior", float, 1.0, "initial angular acceleration spread (no IMU)",
+          low=MIN_SPREAD, high=MAX_SPREAD, unit="rad/s²"),
     Param("rate_prior_tracks", float, 0.005, "initial rate spread when the tracks' image "
-          "velocities gave it (no IMU)", low=0, open_low=True, unit="rad/s"),
-    Param("init_sigma_arcsec", float, 60.0, "attitude spread of a fix", low=0, open_low=True,
-          unit="arcsec"),
+          "velocities gave it (no IMU)", low=MIN_SPREAD, high=MAX_SPREAD, unit="rad/s"),
+    Param("init_sigma_arcsec", float, 60.0, "attitude spread of a fix", low=MIN_SPREAD,
+          high=MAX_SPREAD, unit="arcsec"),
     Param("sigma_px", float, 0.3, "centroid sigma where a centroid has none", low=0,
           open_low=True, unit="px"),
     Param("sigma_floor_px", float, 0.03, "smallest centroid sigma used", low=0, open_low=True,

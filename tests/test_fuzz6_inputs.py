@@ -91,3 +91,14 @@ def test_a_lens_too_short_for_a_pinhole_is_refused_naming_the_shortest(tmp_path,
     err = capsys.readouterr().err
     assert "--focal-length 1e-06 mm" in err and "give at least 0.991 mm" in err
     assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1"]) == 0
+
+
+@pytest.mark.parametrize("key, value", [
+    ("attitude_filter.jerk_noise", 1e300), ("attitude_filter.init_sigma_arcsec", 1e-300),
+    ("attitude_filter.accel_prior", 1e300), ("attitude_filter.rate_prior_tracks", 1e-300),
+    ("attitude_filter.gyro_noise", 1e300), ("attitude_filter.bias_prior", 1e-300),
+    ("attitude_filter.bias_walk", 1e300)])
+def test_attitude_filter_spreads_that_overflowed_are_refused(key, value):
+    """Each ended in an OverflowError or a singular matrix (exit 70) inside the filter."""
+    with pytest.raises(ParameterError, match=key.split(".")[1]):
+        Config().replace(**{key: value})
