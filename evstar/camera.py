@@ -12,6 +12,9 @@ from .events import is_integer_value
 
 #: from_fov's widest horizontal field of view: at 180° the focal length is 0 (tan 90° ≈ 1.6e16)
 MAX_FOV_DEG = 179.0
+#: the narrowest field of view (°, per side) a camera may have: below, a focal length is no
+#: lens's in pixels (fx 1e7 on 320 px: 0.002°; 1e300 made the rigid-field fit's SVD fail)
+MIN_FOV_DEG = 0.01
 
 
 @dataclass(frozen=True)
@@ -42,6 +45,12 @@ class Camera:
             object.__setattr__(self, name, v)
         if self.fx <= 0 or self.fy <= 0:
             raise DataError(f"camera focal lengths must be positive, got fx={self.fx}, fy={self.fy}")
+        for name, f, side in (("fx", self.fx, self.width), ("fy", self.fy, self.height)):
+            fov = 2 * math.degrees(math.atan(side / 2 / f))
+            if not MIN_FOV_DEG <= fov <= MAX_FOV_DEG:
+                raise DataError(f"camera focal length {name}={f:g} px gives the sensor's {side} px "
+                                f"a {fov:.3g}° field of view, outside {MIN_FOV_DEG:g}–"
+                                f"{MAX_FOV_DEG:g}° (a focal length in mm, not px?)")
         for name, c, side in (("cx", self.cx, self.width), ("cy", self.cy, self.height)):
             # a decentred lens may put it off the sensor, never sensors away (cx 1e9 ran,
             # every event warped off the sensor)

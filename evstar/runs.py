@@ -95,11 +95,19 @@ def attitude_rows(result, camera, imu=None, events=None, config=None):
     too) when the camera is known, else None; empty when nothing could be identified."""
     if camera is None:
         return None
-    from .attitude import estimate
-    from .config import Config
+    import warnings
 
-    return estimate(result.centroids, camera, imu, events=events,
-                    **(config or Config()).attitude_options())
+    from .attitude import estimate
+    from .attitude.solver import FieldOfViewError
+    from .config import Config
+    from .errors import EvstarWarning
+
+    try:
+        return estimate(result.centroids, camera, imu, events=events,
+                        **(config or Config()).attitude_options())
+    except FieldOfViewError as exc:   # the run's own outputs are still written
+        warnings.warn(EvstarWarning(f"no attitude: {exc}"), stacklevel=2)
+        return None
 
 
 def read_recording(input, *, format=None, sensor_size=None, camera=None, imu=None, sort=False,

@@ -87,9 +87,11 @@ def test_frame_counts_of_two_events_days_apart_are_counted_without_a_loop_per_fr
 
 def test_a_lens_too_short_for_a_pinhole_is_refused_naming_the_shortest(tmp_path, capsys):
     """--focal-length 1e-6 mm put every star of the sky on a few pixels (over 15 minutes)."""
-    assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1e-6"]) == 2
+    assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "0.5"]) == 2
     err = capsys.readouterr().err
-    assert "--focal-length 1e-06 mm" in err and "give at least 0.991 mm" in err
+    assert "--focal-length 0.5 mm" in err and "give at least 0.991 mm" in err
+    assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1e-6"]) == 2
+    assert "--focal-length 1e-06 mm" in capsys.readouterr().err
     assert main(["simulate", str(tmp_path / "s"), "--duration", "0.1", "--focal-length", "1"]) == 0
 
 
@@ -102,3 +104,29 @@ def test_attitude_filter_spreads_that_overflowed_are_refused(key, value):
     """Each ended in an OverflowError or a singular matrix (exit 70) inside the filter."""
     with pytest.raises(ParameterError, match=key.split(".")[1]):
         Config().replace(**{key: value})
+
+
+@pytest.mark.parametrize("fx", [1e7, 0.001, 1e300])
+def test_a_camera_focal_length_no_lens_has_in_pixels_is_refused(fx):
+    from evstar import Camera, DataError
+
+    with pytest.raises(DataError, match="field of view, outside 0.01–179°"):
+        Camera(320, 240, fx, fx, 160, 120)
+    Camera(320, 240, 1.5, 1.5, 160, 120)      # 179° and 0.01°: the widest and narrowest kept
+    Camera(320, 240, 1.3e6, 1.3e6, 160, 120)
+
+
+def test_a_field_too_narrow_to_identify_is_one_error_and_a_run_without_attitude(tmp_path, capsys):
+    """A 0.18° field (fx 1e5 px): tetra3rs refused its lattice, an internal error (exit 70)."""
+    assert main(["simulate", str(tmp_path / "f"), "--duration", "0.2", "--stars", "20",
+                 "--seed", "4", "--rate", "5"]) == 0
+    recording = tmp_path / "f" / "events.h5"
+    cam = tmp_path / "narrow.json"
+    cam.write_text('{"width": 320, "height": 240, "fx": 1e5, "fy": 1e5, "cx": 160, "cy": 120}')
+    out = tmp_path / "r"
+    assert main(["run", str(recording), "--camera", str(cam), "-o", str(out), "--no-progress"]) == 0
+    assert "no attitude: star identification cannot cover" in capsys.readouterr().err
+    assert (out / "centroids.csv").exists() and not (out / "attitude.csv").exists()
+    code = main(["attitude", str(out / "centroids.csv"), "--camera", str(cam), "-o",
+                 str(tmp_path / "a.csv")])
+    assert code == 3 and "cannot cover a 0.14–0.18° field of view" in capsys.readouterr().err

@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import parameters as P
 from ..camera import Camera
-from ..errors import ParameterError, ParameterTypeError
+from ..errors import DataError, ParameterError, ParameterTypeError
 from ..sim import hipparcos
 
 _cache = {}
@@ -128,6 +128,10 @@ def _tetra3rs():
     return tetra3rs
 
 
+class FieldOfViewError(DataError):
+    """A camera whose field of view the star identification cannot cover."""
+
+
 def _load_or_build(path, fov_deg, mag_limit):
     """The database of patterns that fit the field both ways (narrow..wide side: a wide
     sensor such as 1280 x 720 misses too many patterns sized for its long side alone)."""
@@ -141,10 +145,14 @@ def _load_or_build(path, fov_deg, mag_limit):
     stem = f"{path}.{uuid.uuid4().hex}"  # temporary names in the same folder: os.replace is atomic
     try:
         _write_catalog(stem + ".stars", mag_limit)
-        database = t3.SolverDatabase.generate_from_gaia(
-            catalog_path=stem + ".stars", min_fov_deg=fov_deg[0], max_fov_deg=fov_deg[1],
-            star_max_magnitude=mag_limit,
-            epoch_proper_motion_year=None)
+        try:
+            database = t3.SolverDatabase.generate_from_gaia(
+                catalog_path=stem + ".stars", min_fov_deg=fov_deg[0], max_fov_deg=fov_deg[1],
+                star_max_magnitude=mag_limit,
+                epoch_proper_motion_year=None)
+        except ValueError as exc:   # tetra3rs' limits: a 0.18° field needs 1.6e8 lattice cells
+            raise FieldOfViewError(f"star identification cannot cover a {fov_deg[0]:g}–"
+                                   f"{fov_deg[1]:g}° field of view ({exc})") from None
         database.save_to_file(stem + ".tmp")
         os.replace(stem + ".tmp", path)
     finally:

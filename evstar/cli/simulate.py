@@ -15,7 +15,7 @@ import math
 import os
 
 from .. import parameters as P
-from ..errors import OutputError, ParameterError
+from ..errors import DataError, OutputError, ParameterError
 from .common import check_events_output
 from .options import checked
 
@@ -99,7 +99,11 @@ def scenario_from(args):
         raise ParameterError(f"--axis must be a non-zero 3-vector, got {' '.join(f'{v:g}' for v in args.axis)}")
     big = max(abs(v) for v in args.axis)       # only the direction counts: 1e308 1e308 1e308
     args.axis = tuple(v / big for v in args.axis)  # would overflow its norm
-    cam = sim.camera_preset(args.preset, args.focal_length)
+    try:
+        cam = sim.camera_preset(args.preset, args.focal_length)
+    except DataError as exc:   # a lens no camera has: the option's, not an input's, error
+        raise ParameterError(f"--focal-length {args.focal_length:g} mm on the {args.preset}: "
+                             f"{exc}") from None
     if args.hot_pixels > cam.width * cam.height:
         raise ParameterError(f"--hot-pixels must be at most the {args.preset} sensor's "
                              f"{cam.width * cam.height:,} pixels ({cam.width}x{cam.height}), "
