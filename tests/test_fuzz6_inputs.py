@@ -130,3 +130,15 @@ def test_a_field_too_narrow_to_identify_is_one_error_and_a_run_without_attitude(
     code = main(["attitude", str(out / "centroids.csv"), "--camera", str(cam), "-o",
                  str(tmp_path / "a.csv")])
     assert code == 3 and "cannot cover a 0.14–0.18° field of view" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("line", ["# width=-5 height=240", "# width=0 height=240",
+                                  "# width=320"])
+def test_a_csv_size_line_that_is_no_size_is_named(tmp_path, line):
+    """It was ignored: the size then inferred from the events, without a word."""
+    from evstar import FormatError
+
+    path = tmp_path / "e.csv"
+    path.write_text(f"t,x,y,p\n{line}\n0,1,2,1\n5,3,4,0\n")
+    with pytest.raises(FormatError, match=f"line 2: '{line}' is no sensor size"):
+        io.read(path)

@@ -28,6 +28,7 @@ from .guard import check_no_implicit_index, csv_parser_error, one_line, stored_s
 ALIASES = {"t": ("t", "timestamp", "ts", "time", "t_us"), "x": ("x",), "y": ("y",),
            "p": ("p", "polarity", "pol", "on")}
 SIZE_LINE = re.compile(r"#\s*width\s*=\s*(\d+)\s+height\s*=\s*(\d+)\s*$")
+SIZE_HINT = re.compile(r"#\s*width\s*=")    # a comment meant as the size line
 COORD_LIMIT = 2 ** 31  # x, y, p beyond this cannot be pixel indices (and would not fit a cast)
 
 
@@ -41,6 +42,9 @@ def _sniff(path):
             for number, ln in enumerate(f, 1):
                 if ln.startswith("#"):
                     m = SIZE_LINE.match(ln.strip())
+                    if SIZE_HINT.match(ln) and not (m and int(m.group(1)) and int(m.group(2))):
+                        raise FormatError(path, f"line {number}: {ln.strip()!r} is no sensor "
+                                                "size (# width=W height=H, positive integers)")
                     size = size or (m and (int(m.group(1)), int(m.group(2))))
                 elif ln.strip():
                     if line:  # the first row after the header: no more size lines
