@@ -50,9 +50,9 @@ def run_many(paths, config, outdir, client=None, force=False, *, workers=None, s
 
     `client` is a distributed.Client to run on; without one, `scheduler` (an address such
     as tcp://host:8786) is connected to, or else a LocalCluster of `workers` processes (the
-    CPU count by default; one per recording at most) is started for the call. `options` are run_recording keywords
-    shared by all recordings (format, sensor_size, camera, imu, sort, stream_above_mb,
-    imu_offset_us).
+    CPU count by default; one per recording at most) is started for the call. `options`
+    are run_recording keywords shared by all recordings (format, sensor_size, camera, imu,
+    sort, stream_above_mb, imu_offset_us).
     """
     import pandas as pd
 

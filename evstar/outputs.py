@@ -5,8 +5,9 @@ folder beside `outdir` and moves them in together once all are written, so a fol
 holds a half-written run. A rerun replaces the files of the earlier run, and removes those
 of its files this run does not write (e.g. errors.png of a run with truth); other files in
 the folder are never touched, and a file named as a run's output that evstar did not write
-there (no line of OWNED names it) stops the run before any work (check_owned). Temporary folders of runs killed before they finished carry
-the dead process's id and are removed by the next run writing beside them.
+there (no line of OWNED names it) stops the run before any work (check_owned). Temporary
+folders of runs killed before they finished carry the dead process's id and are removed
+by the next run writing beside them.
 """
 from __future__ import annotations
 

@@ -33,7 +33,8 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
     if not valid_stream_above_mb(stream_above_mb):
         raise ParameterError(f"stream_above_mb must be a finite number >= 0, got {stream_above_mb!r}")
     check_output_dir(outdir)
-    check_outputs(outputs.run_files(outdir), [input, imu, camera, truth, *config.input_files()])
+    check_outputs(outputs.run_files(outdir),
+                  [input, imu, camera, truth, *config.input_files()])
     outputs.check_owned(outdir, outputs.RUN_FILES)
     truth = load_truth(truth) if truth else None
     backends.require(config.device)    # a missing GPU before the recording is read
