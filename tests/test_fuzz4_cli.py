@@ -129,7 +129,7 @@ def test_taichi_on_cuda_without_a_gpu_writes_nothing_to_stderr():
     (["--stars", "0"], ["argument --stars"]),
     (["--axis", "0", "0", "0"], ["--axis", "non-zero"]),
     (["--psf-sigma", "1e-9"], ["time steps", "--psf-sigma"]),
-    (["--focal-length", "1e-9"], ["time steps", "--focal-length"]),
+    (["--focal-length", "1e-9"], ["field of view", "--focal-length"]),   # (was: time steps)
     (["--noise-hz", "1e6"], ["noise events", "--noise-hz"]),
     (["--duration", "3600"], ["noise events", "--duration"]),
     (["--events-name", "ev"], ["--events-name", "no extension"]),
