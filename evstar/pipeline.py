@@ -592,11 +592,7 @@ class _Summary:
         if len(events):
             # events are time-sorted: a frame's events are one run, found by its bounds
             lo, bounds = frame_offsets(events.t, self.dt_us, self.t0)
-            # selected events per frame: differences of the running count at the frames'
-            # bounds (no loop over frames: a two-event file spanning days has millions)
-            self.frames.append((lo, {name: np.diff(bounds) if m is None else
-                                     np.diff(np.r_[0, np.cumsum(m)][bounds])
-                                     for name, m in series.items()}))
+            self.frames.append((lo, {name: _per_frame(m, bounds) for name, m in series.items()}))
 
     def frame_counts(self):
         if not self.frames:
@@ -608,6 +604,19 @@ class _Summary:
             for lo, counts in self.frames:   # a later chunk's count of a frame replaces it
                 out[name][lo:lo + len(counts[name])] = counts[name]
         return out
+
+
+def _per_frame(mask, bounds):
+    """The events `mask` selects (None: all) in each frame of `bounds`: a count per frame
+    that holds events (a two-event file spanning 11 days has 99 M frames, two of them not
+    empty; a running sum of a 5 M-event mask took 43 ms where 400 counts take 0.7)."""
+    sizes = np.diff(bounds)
+    if mask is None:
+        return sizes
+    out = np.zeros(len(sizes), np.int64)
+    for j in np.flatnonzero(sizes):
+        out[j] = np.count_nonzero(mask[bounds[j]:bounds[j + 1]])
+    return out
 
 
 def _add(acc, new):
