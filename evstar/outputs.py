@@ -40,11 +40,22 @@ def run_files(outdir):
 
 
 def owned(outdir):
-    """The names OWNED lists in `outdir` (none where it has no such file)."""
+    """The names OWNED lists in `outdir`; where it has none, a run folder of an evstar from
+    before OWNED (its config.toml loads as a Config, beside a metrics.json) owns RUN_FILES;
+    else none."""
+    outdir = pathlib.Path(outdir)
     try:
-        return set((pathlib.Path(outdir) / OWNED).read_text().split("\n")) - {""}
+        return set((outdir / OWNED).read_text().split("\n")) - {""}
     except OSError:
+        pass
+    from .config import Config
+
+    try:
+        Config.load(outdir / "config.toml")
+        json.loads((outdir / "metrics.json").read_text())
+    except (OSError, ValueError, EvstarError):
         return set()
+    return set(RUN_FILES)
 
 
 def check_owned(outdir, names):

@@ -142,3 +142,12 @@ def test_a_csv_size_line_that_is_no_size_is_named(tmp_path, line):
     path.write_text(f"t,x,y,p\n{line}\n0,1,2,1\n5,3,4,0\n")
     with pytest.raises(FormatError, match=f"line 2: '{line}' is no sensor size"):
         io.read(path)
+
+
+def test_a_run_folder_of_an_evstar_from_before_the_record_is_still_its_own(recording, tmp_path):
+    out = tmp_path / "old"
+    assert main(["run", str(recording), "-o", str(out), "--no-progress"]) == 0
+    (out / OWNED).unlink()              # as an earlier evstar left it: no record
+    (out / "errors.png").write_text("that run's")
+    assert main(["run", str(recording), "-o", str(out), "--no-progress"]) == 0
+    assert not (out / "errors.png").exists() and (out / OWNED).exists()
