@@ -104,6 +104,7 @@ def scenario_from(args):
     except DataError as exc:   # a lens no camera has: the option's, not an input's, error
         raise ParameterError(f"--focal-length {args.focal_length:g} mm on the {args.preset}: "
                              f"{exc}") from None
+    check_lens(args, cam)   # before the sky is searched for the stars it would see
     if args.hot_pixels > cam.width * cam.height:
         raise ParameterError(f"--hot-pixels must be at most the {args.preset} sensor's "
                              f"{cam.width * cam.height:,} pixels ({cam.width}x{cam.height}), "
@@ -127,9 +128,17 @@ def scenario_from(args):
     return scenario
 
 
-def half_fov_tan(cam):
-    """tan of the camera's half field of view across its diagonal."""
-    return math.hypot(cam.width, cam.height) / 2 / min(cam.fx, cam.fy)
+def check_lens(args, cam):
+    """ParameterError where the lens gives the sensor more than 2 x MAX_HALF_FOV_DEG across
+    its diagonal, naming the shortest focal length that does not."""
+    tan_half = math.hypot(cam.width, cam.height) / 2 / min(cam.fx, cam.fy)
+    half_fov = math.degrees(math.atan(tan_half))
+    if half_fov > MAX_HALF_FOV_DEG:
+        shortest = args.focal_length * tan_half / math.tan(math.radians(MAX_HALF_FOV_DEG))
+        raise ParameterError(
+            f"--focal-length {args.focal_length:g} mm gives this {args.preset} sensor a field of "
+            f"view {2 * half_fov:.4g}° across its diagonal (a pinhole sees at most "
+            f"{2 * MAX_HALF_FOV_DEG:g}° here); give at least {shortest:.3g} mm")
 
 
 def check_grid(args, scenario):
@@ -139,13 +148,6 @@ def check_grid(args, scenario):
     per step, at least one step per ms, so a tiny --psf-sigma or --focal-length, or a long
     fast run, needs more memory than any machine has (it was killed, not refused)."""
     cam = scenario.camera
-    half_fov = math.degrees(math.atan(half_fov_tan(cam)))
-    if half_fov > MAX_HALF_FOV_DEG:
-        shortest = args.focal_length * half_fov_tan(cam) / math.tan(math.radians(MAX_HALF_FOV_DEG))
-        raise ParameterError(
-            f"--focal-length {args.focal_length:g} mm gives this {args.preset} sensor a field of "
-            f"view {2 * half_fov:.4g}° across its diagonal (a pinhole sees at most "
-            f"{2 * MAX_HALF_FOV_DEG:g}° here); give at least {shortest:.3g} mm")
     rate_dps = (_peak(args.sine) if args.sine else abs(constant_rate(args))) + _peak(args.jitter)
     f = max(cam.fx, cam.fy)
     widen = 1 + (math.hypot(cam.width, cam.height) / 2 / f) ** 2   # off-axis stars move faster
