@@ -175,10 +175,9 @@ class Extractor:
         if self.clustering == "grid":
             from evstar_kernels.taichi import clusters_launch
 
-            x, y = (events.x, events.y) if c.coords is None else \
-                (np.ascontiguousarray(c.coords[:, 0]), np.ascontiguousarray(c.coords[:, 1]))
             return clusters_launch.moments(backends.taichi(self.device), c.offsets, c.labels,
-                                           c.first, x, y, events.t, events.p, frame_t0, k)
+                                           c.first, *c.columns(events), events.t, events.p,
+                                           frame_t0, k)
         coords = c.xy(events)
         return cluster_moments(c.labels, c.frames() - c.f0, coords[:, 0], coords[:, 1], events.t,
                                events.p, frame_t0, c.first == np.arange(len(c.first)))
@@ -244,13 +243,10 @@ class Extractor:
                                                           labels[idx], len(candidates))]
         else:
             members_all = idx[np.argsort(labels[idx], kind="stable")]
-        pts = c.xy(events, members_all)
         ids, starts, stops = frame_bounds(labels[members_all])
         p_all = events.p[members_all]
-        first = self._first_halves(pts, p_all, starts, stops,
-                                   None if peaks is None else peaks[ids, 0])
-        rows, keys = [], []
-        if first is None:  # the reference: cluster by cluster
+        if self.clustering != "grid":  # the reference: cluster by cluster
+            pts = c.xy(events, members_all)
             found = {}
             for n in range(len(ids)):
                 j, a, b = ids[n], starts[n], stops[n]
@@ -261,13 +257,27 @@ class Extractor:
                 if parts is not None:
                     found[n] = parts
         else:
+            first = self._first_halves(c.columns(events), members_all, p_all, starts, stops,
+                                       None if peaks is None else peaks[ids, 0])
+            # the rest looks only at the candidates the first test leaves open (after
+            # motion compensation nearly every star shows two peaks, its lobes, which the
+            # first test rejects): their points alone are gathered
+            big = stops - starts >= 2 * self.min_cluster_size
+            open_ = np.flatnonzero(~first.fails | (first.has & big & (axes[1][ids]
+                                                                      | by_polarity[ids])))
+            sel, bounds = _gather(starts[open_], stops[open_])
+            first = _FirstTest(first.has[open_], first.lab[sel], first.fails[open_])
+            ids, starts, stops = ids[open_], bounds[:-1], bounds[1:]
+            members_all, p_all = members_all[sel], p_all[sel]
+            pts = c.xy(events, members_all)
             found = self._split_many(pts, p_all, starts, stops, first, by_polarity[ids],
                                      None if peaks is None else peaks[ids],
                                      (axes[0][ids], axes[1][ids]))
+        rows, keys = [], []
         # (candidate n, half, its points' indices into pts) of every split's halves
         halves = [(n, half, np.flatnonzero(parts == half) + starts[n])
                   for n, parts in sorted(found.items()) for half in (0, 1)]
-        if first is None:  # the reference: half by half
+        if self.clustering != "grid":  # the reference: half by half
             pieces = [(n, half, piece) for n, half, idx in halves
                       for piece in self._pieces(pts, p_all, idx, _RESPLITS)]
         else:
@@ -368,17 +378,17 @@ class Extractor:
                                    self.split_valley, along[cand[go]])
         return {int(cand[go[i]]): lab[sub_st[i]:sub_st[i + 1]] for i in np.flatnonzero(ok)}
 
-    def _first_halves(self, pts, p, starts, stops, peaks):
+    def _first_halves(self, columns, members, p, starts, stops, peaks):
         """The first test (_FirstTest: two peaks or not, 2-means labels, whether it fails
-        whatever the rest of _halves says) of every candidate at once (grid clustering; exact for integer
-        coordinates, to the last bits of the 2-means centres for floats); else None. The
-        first test fails where a half has fewer than min_cluster_size events or the halves'
+        whatever the rest of _halves says) of every candidate at once (grid clustering: the
+        points (x[m], y[m]) of columns (x, y) for its members m = members[starts[j]:stops[j]],
+        p their polarities; exact for integer
+        coordinates, to the last bits of the 2-means centres for floats). The first test
+        fails where a half has fewer than min_cluster_size events or the halves'
         polarities differ by more than 0.5 (a moving star's lobes: the common case).
         peaks: the screen's (status, ax, ay, bx, by) of each candidate's image (_screen);
         the seeds are computed here (splitting.two_peaks_many) only where it is undecided
         (None: for all, where nothing was screened)."""
-        if self.clustering != "grid" or not len(starts):
-            return None
         if peaks is None:
             peaks = np.zeros((len(starts), 5), np.int64)
             peaks[:, 0] = PEAKS_UNSURE
@@ -389,15 +399,16 @@ class Extractor:
             sizes = (stops - starts)[todo]
             sub = ranks(sizes, starts[todo])
             sub_stops = np.cumsum(sizes)
-            has[todo], a[todo], b[todo] = splitting.two_peaks_many(np.take(pts, sub, axis=0),
-                                                                   sub_stops - sizes,
+            m = members[sub]
+            pts = np.column_stack([columns[0][m], columns[1][m]]).astype(np.float64)
+            has[todo], a[todo], b[todo] = splitting.two_peaks_many(pts, sub_stops - sizes,
                                                                    sub_stops)
         # 2-means of all (the screen leaves few without two peaks): a Taichi thread per
-        # cluster (splitting.two_means_many is its numpy form)
+        # cluster, reading the points in place (splitting.two_means_many is its numpy form)
         from evstar_kernels.taichi import clusters_launch
 
-        lab, halves = clusters_launch.two_means(backends.taichi(self.device), pts, starts, stops,
-                                                a, b, p=p)
+        lab, halves = clusters_launch.two_means_at(backends.taichi(self.device), *columns,
+                                                   members, starts, stops, a, b, p=p)
         n, on = halves[:, :2], halves[:, 2:]  # sizes and ON counts of the halves
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_p = on / n  # as p[lab == k].mean(): a sum of 0/1 over a count
@@ -529,7 +540,8 @@ class Extractor:
         seg = np.repeat(np.arange(len(go)), sizes[go])
         zero = np.zeros(len(idx), np.int64)
         m = cluster_moments(seg, zero, q[:, 0], q[:, 1], zero, pq, np.zeros(1, np.int64))
-        first = self._first_halves(q, pq, starts, stops, None)
+        first = self._first_halves((np.ascontiguousarray(q[:, 0]), np.ascontiguousarray(q[:, 1])),
+                                   np.arange(len(q)), pq, starts, stops, None)
         found = self._split_many(q, pq, starts, stops, first, np.ones(len(go), bool), None,
                                  splitting.cluster_axes(m))
         return {int(go[k]): lab for k, lab in found.items()}
@@ -608,6 +620,16 @@ class _Clusters:
         self.t0, self.f0, self.offsets = t0, f0, offsets
         self.coords, self.px, self.py = coords, px, py
         self.labels = self.first = self.frame = None
+        self._columns = None
+
+    def columns(self, events):
+        """(x, y) of every event as contiguous arrays: the events' pixels, or the float
+        coordinates' columns (copied once)."""
+        if self.coords is None:
+            return events.x, events.y
+        if self._columns is None:
+            self._columns = tuple(np.ascontiguousarray(self.coords[:, k]) for k in (0, 1))
+        return self._columns
 
     def frames(self):
         """Frame id per event."""

@@ -151,7 +151,16 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                        threshold_on=0.4, threshold_off=0.4),
            "refractory-2ms": lambda: sim.sensor_model("default", refractory_us=2000.0,
                                                       jitter_us=20.0),
-           "ratio-half": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.3)}
+           "ratio-half": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.3),
+           # the forty-fifth session's: a dark sky with 8 Hz of background, a 1 ms refractory
+           # period with 200 µs of jitter (not told), 0.12 thresholds with a 1 Hz leak, 3000
+           # hot pixels at 5 Hz
+           "noisy-dark": lambda: sim.sensor_model("dark-sky", noise_hz=8.0),
+           "jitter-refractory": lambda: sim.sensor_model("default", refractory_us=1000.0,
+                                                         jitter_us=200.0),
+           "fine-leak": lambda: sim.sensor_model("default", threshold_on=0.12,
+                                                 threshold_off=0.12, leak_hz=1.0),
+           "hot-dense": lambda: sim.sensor_model("default", hot_pixels=3000, hot_pixel_hz=5.0)}
 
 
 def dev_grid():
@@ -536,6 +545,35 @@ def fresh44_grid():
                    seed=44, **extra)
 
 
+def fresh45_grid():
+    """Inputs no session had tried, run once when the forty-fifth session began (seed 45):
+    35 °/s on the DAVIS346, a 28 °/s-peak dark-sky sinusoid with the IMU, magnitude 5.5 at
+    5 °/s on a quiet sensor, an untold gyro bias with the IMU, a dark-sky slew peaking at
+    15 °/s on the EVK4 with the IMU, four new sensors (above), a 30 Hz vibration with the
+    IMU, the particle filter on the DAVIS346, a deceleration 15 -> 3 °/s, an axis 60° out of
+    the image plane with the star off the centre, a slow wide star in 5 ms frames, a 200 Hz
+    noisy gyro."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (35, 3.5, 1.0, "default", "none", {"camera": "davis346", "direction": 200}),
+            ("sine", 4.0, 1.2, "dark-sky-40", "imu", {"amplitude": 3.0, "freq": 1.5}),
+            (5, 5.5, 1.0, "quiet", "none", {"duration": 1.5}),
+            (10, 3.5, 1.0, "default", "imu", {"imu": {"gyro_bias": (0.005, 0.003, -0.004)}}),
+            ("slew", 3.5, 1.0, "dark-sky", "imu", {"peak": 15.0, "camera": "evk4"}),
+            (7, 4.0, 1.0, "jitter-refractory", "none", {}),
+            (12, 4.0, 1.1, "noisy-dark", "imu", {}),
+            (4, 4.5, 1.0, "fine-leak", "none", {}),
+            (9, 4.0, 1.0, "hot-dense", "none", {"camera": "evk4"}),
+            ("vibe", 4.0, 1.0, "default", "imu", {"rate": 6.0, "vib": 0.04, "vib_hz": 30.0}),
+            (10, 3.5, 1.0, "default", "pf", {"camera": "davis346"}),
+            ("ramp", 4.0, 1.0, "default", "none", {"rate": 15.0, "rate_end": 3.0}),
+            (6, 3.5, 1.0, "default", "none", {"tilt": 60, "at": (-120, 50)}),
+            (2.5, 4.0, 1.6, "default", "none", {"settings": {"dt_us": 5000}}),
+            (8, 3.0, 1.0, "default", "imu", {"imu": {"rate_hz": 200.0,
+                                                     "gyro_noise_density": 5e-4}})):
+        yield dict(set="fresh-45", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=45, **extra)
+
+
 def dark_rates_grid():
     """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
     lag the level profiles miss grows as the star crosses a pixel faster than its time
@@ -550,7 +588,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
-         "fresh-44": fresh44_grid}
+         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid}
 
 
 def scenario(s):

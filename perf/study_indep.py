@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --fresh6 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --fresh6 | --fresh7 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -35,8 +35,8 @@ single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pi
 thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second: coning, leak
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
 after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
-(K1–K10, the forty-second session's), --fresh5 (L1–L10, the forty-third's) and --fresh6
-(M1–M10, the forty-fourth's) likewise.
+(K1–K10, the forty-second session's), --fresh5 (L1–L10, the forty-third's), --fresh6
+(M1–M10, the forty-fourth's) and --fresh7 (N1–N10, the forty-fifth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -124,6 +124,17 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "on-heavy": dict(pixel="ideal", c_on=0.25, c_off=0.2, mismatch=0.10, noise_on_fraction=0.8),
     "dark-jitter": dict(pixel="lowpass", f_min_hz=20.0, f_max_hz=1500.0, i_half=20.0,
                         c_on=0.2, c_off=0.2, jitter_us=150.0),
+    # the seventh fresh grid's (--fresh7; written in the forty-fifth session, never tuned
+    # on): a dark sky with readout gaps, OFF above ON behind a 800 µs refractory period, a
+    # leaky sensor with 3 Hz of background, a slow dark sky (12 Hz) that reaches its
+    # ceiling late
+    "gappy-dark": dict(pixel="lowpass", f_min_hz=50.0, f_max_hz=2000.0, i_half=30.0, c_on=0.2,
+                       c_off=0.2, gaps_s=((0.21, 0.24), (0.55, 0.58))),
+    "thresh-mix": dict(pixel="ideal", c_on=0.18, c_off=0.26, refractory_us=800.0,
+                       jitter_us=60.0),
+    "leak-2": dict(pixel="ideal", c_on=0.2, c_off=0.2, leak_hz=2.0),
+    "slow-dark": dict(pixel="lowpass", f_min_hz=12.0, f_max_hz=2500.0, i_half=60.0, c_on=0.22,
+                      c_off=0.22),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -275,9 +286,27 @@ FRESH6 = [
     ("hd", ("lin", 5, 250), [3, 4.5], ("moffat", 1.6, 4.5), "dark-jitter", 1.0, 0, 1.0),
 ]
 FRESH6_SEED = 11000
+#: held out (--fresh7, written in the forty-fifth session and run once before any change):
+#: 40 °/s under a narrow PSF, a dark-sky sinusoid, a pair 3.5 px apart, six faint stars at
+#: 3 °/s, a gappy dark sky, coning at 0.5 Hz, a fast 25 Hz vibration on the HD sensor, an
+#: acceleration behind OFF-above-ON thresholds and an 800 µs refractory period, a leaky
+#: sensor among 100 hot pixels, a slow dark sky under a wide Moffat; seeds 12000 + i
+FRESH7 = [
+    ("hd", ("lin", 40, 30), [3, 4], ("gauss", 0.9), "ideal", 1.0, 0, 0.4),
+    ("vga", ("sine", 8, 0.5, 20), [3.5, 4.5], ("gauss", 1.1), "dark", 1.0, 0, 1.5),
+    ("davis", ("lin", 6, 100), [3.5, 4], ("gauss", 1.0), "ideal", 1.0, 0, 1.0, {"pair_px": 3.5}),
+    ("hd", ("lin", 3, 290), [4, 4.5, 5, 5.5, 6, 6.5], ("gauss", 1.0), "ideal", 0.3, 0, 1.5),
+    ("vga", ("lin", 12, 200), [3.5, 4.5], ("gauss", 1.2), "gappy-dark", 1.0, 0, 0.8),
+    ("davis", ("circle", 6.0, 0.5), [3, 4], ("gauss", 1.2), "ideal", 1.0, 0, 1.0),
+    ("hd", ("vibe", 10, 45, 0.03, 25, 135), [3.5, 4.5], ("gauss", 1.0), "ideal", 1.0, 0, 1.0),
+    ("vga", ("acc", 30, 170), [3.5, 4.5], ("gauss", 1.1), "thresh-mix", 1.0, 0, 1.0),
+    ("davis", ("lin", 8, 0), [3.5, 4.5], ("gauss", 1.0), "leak-2", 3.0, 100, 1.0),
+    ("hd", ("lin", 18, 260), [3, 4], ("moffat", 1.8, 3.0), "slow-dark", 1.0, 0, 0.8),
+]
+FRESH7_SEED = 12000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -483,6 +512,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh7", action="store_true", help="the seventh held-out grid FRESH7 "
+                    "instead (scenes N1..N10)")
     ap.add_argument("--fresh6", action="store_true", help="the sixth held-out grid FRESH6 "
                     "instead (scenes M1..M10)")
     ap.add_argument("--fresh5", action="store_true", help="the fifth held-out grid FRESH5 "

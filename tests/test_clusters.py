@@ -437,6 +437,26 @@ def test_two_means_kernel_counts_the_halves():
                                                              * len(starts)).reshape(-1, 2))
 
 
+def test_two_means_reads_the_points_in_place_through_their_indices():
+    """two_means_at on every point's columns (pixels or floats) through a scattered index
+    gives two_means' labels and halves on the points gathered in that order."""
+    from evstar import splitting
+
+    pts, starts, stops = clustered_points(11, n_frames=6, per_star=100)
+    p = np.random.default_rng(11).integers(0, 2, len(pts)).astype(np.int8)
+    _, a, b = splitting.two_peaks_many(pts, starts, stops)
+    want = clusters_launch.two_means(ti(), pts, starts, stops, a, b, p=p)
+    # the points scattered over a longer array, with others between them
+    at = np.random.default_rng(12).permutation(3 * len(pts))[:len(pts)]
+    for dtype in (np.uint16, np.float64):
+        x, y = np.zeros(3 * len(pts), dtype), np.zeros(3 * len(pts), dtype)
+        x[at], y[at] = pts[:, 0], pts[:, 1]
+        got = clusters_launch.two_means_at(ti(), x, y, at, starts, stops, a, b, p=p)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+    assert 0 < want[0].mean() < 1
+
+
 @pytest.mark.parametrize("float_coords", [False, True])
 def test_split_from_the_screen_peaks_equals_the_split_without(float_coords, monkeypatch):
     """The extractor's split seeded by the screen's certain peaks gives the centroids of the

@@ -434,11 +434,13 @@ def peak_screen(base: i32_1d, box: i32_2d, polarities: u8_1d, img: f64_2d, tmp: 
 
 
 @ti.kernel
-def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d,
+def two_means(x: any_1d, y: any_1d, at: i32_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d,
               iterations: ti.i32, lab: i32_1d, p: i8_1d, halves: i64_2d):
-    """Lloyd's 2-means of each cluster's points pts[starts[j]:stops[j]] from the centres
-    seeds[j] = (ax, ay, bx, by): labels 0/1 per point, one thread per cluster; halves[j] =
-    (points labelled 0, labelled 1, those with p != 0 labelled 0, labelled 1).
+    """Lloyd's 2-means of each cluster's points (x[at[i]], y[at[i]]) for i in
+    starts[j]:stops[j] from the centres seeds[j] = (ax, ay, bx, by): labels 0/1 per i, one
+    thread per cluster; halves[j] = (points labelled 0, labelled 1, those with p[i] != 0
+    labelled 0, labelled 1). x, y: any numbers (pixels or float coordinates), read through
+    `at` (no gathered copy of the points).
 
     Specification: `evstar.extract._two_means` per cluster (stop when the labels repeat or
     one half is empty; centres: sums in point order / counts, as `evstar.splitting`'s
@@ -449,8 +451,9 @@ def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d
         for it in range(iterations):
             ones, changed = 0, 0
             for i in range(s, e):
-                d0 = (x[i] - c0x) ** 2 + (y[i] - c0y) ** 2
-                d1 = (x[i] - c1x) ** 2 + (y[i] - c1y) ** 2
+                xi, yi = ti.cast(x[at[i]], ti.f64), ti.cast(y[at[i]], ti.f64)
+                d0 = (xi - c0x) ** 2 + (yi - c0y) ** 2
+                d1 = (xi - c1x) ** 2 + (yi - c1y) ** 2
                 new = ti.cast(d1 < d0, ti.i32)
                 if it > 0:
                     changed += ti.abs(new - lab[i])
@@ -461,11 +464,12 @@ def two_means(x: f64_1d, y: f64_1d, starts: i32_1d, stops: i32_1d, seeds: f64_2d
             sx0, sy0, sx1, sy1 = ti.f64(0.0), ti.f64(0.0), ti.f64(0.0), ti.f64(0.0)
             # branch-free (~15 % quicker): finite x·1 and x·0 add the bits the branches would
             for i in range(s, e):
+                xi, yi = ti.cast(x[at[i]], ti.f64), ti.cast(y[at[i]], ti.f64)
                 one = ti.cast(lab[i], ti.f64)
-                sx1 += x[i] * one
-                sy1 += y[i] * one
-                sx0 += x[i] * (1.0 - one)
-                sy0 += y[i] * (1.0 - one)
+                sx1 += xi * one
+                sy1 += yi * one
+                sx0 += xi * (1.0 - one)
+                sy0 += yi * (1.0 - one)
             n1 = ti.cast(ones, ti.f64)
             n0 = ti.cast(e - s - ones, ti.f64)
             c0x, c0y, c1x, c1y = sx0 / n0, sy0 / n0, sx1 / n1, sy1 / n1

@@ -236,22 +236,30 @@ def two_means(ti, pts, starts, stops, a, b, iterations=10, p=None):
     centres a[j], b[j] (reference: evstar.splitting.two_means_many with integral=False).
     p (0/1 per point): also the halves' sizes and ON counts, int64 (k, 4): points labelled
     0, labelled 1, ON points labelled 0, labelled 1."""
+    pts = np.asarray(pts, np.float64)
+    return two_means_at(ti, np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]),
+                        np.arange(len(pts)), starts, stops, a, b, iterations, p)
+
+
+def two_means_at(ti, x, y, at, starts, stops, a, b, iterations=10, p=None):
+    """two_means of the points (x[at[i]], y[at[i]]) (x, y: any numbers, e.g. every event's
+    pixels or float coordinates; at: the clusters' members, cluster by cluster), read in
+    place: no gathered copy of the points; p: 0/1 per member."""
     k = len(starts)
     halves = np.zeros((k, 4), np.int64)
     if not k:
-        lab = np.zeros(len(pts), np.int64)
+        lab = np.zeros(len(at), np.int64)
         return lab if p is None else (lab, halves)
     with launch.RUNTIME_LOCK:
         arrays = launch.Arrays(ti)
-        lab, halves_d = arrays.empty(len(pts), np.int32), arrays.empty((k, 4), np.int64)
-        q = np.zeros(len(pts), np.int8) if p is None else np.asarray(p, np.int8)
-        clusters.two_means(arrays.put(pts[:, 0].astype(np.float64)),
-                           arrays.put(pts[:, 1].astype(np.float64)),
+        lab, halves_d = arrays.empty(len(at), np.int32), arrays.empty((k, 4), np.int64)
+        q = np.zeros(len(at), np.int8) if p is None else np.asarray(p, np.int8)
+        clusters.two_means(arrays.put(x), arrays.put(y), arrays.put(np.asarray(at, np.int32)),
                            arrays.put(np.asarray(starts, np.int32)),
                            arrays.put(np.asarray(stops, np.int32)),
                            arrays.put(np.column_stack([a, b]).astype(np.float64)),
                            int(iterations), lab, arrays.put(q), halves_d)
-        out = np.empty(len(pts), np.int32)
+        out = np.empty(len(at), np.int32)
         arrays.get(lab, out)
         arrays.get(halves_d, halves)
     out = out.astype(np.int64)
