@@ -202,7 +202,7 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     loose = out[centroids["track"] < 0]
     if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
         loose = loose[loose["n_events"] >= untracked_min_events(config, sensor, rate_hz)]
-    loose = loose[~lobes.behind_tracks(loose, est)]
+    loose = loose[~lobes.of_tracks(loose, est)]
     rows = _merge(loose, out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother
@@ -217,7 +217,7 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
         ok &= (rows["x"] >= -0.5) & (rows["x"] <= sensor[0] - 0.5) & \
               (rows["y"] >= -0.5) & (rows["y"] <= sensor[1] - 0.5)
     rows = rows[((rows["source"] != "coasted") | ok) & (sigma <= e.max_sigma_px)]
-    rows = without_shadows(rows)
+    rows = joined_duplicates(without_shadows(rows))
     if near is not None and sensor is not None and e.across_kernel_px:
         from . import across
 
@@ -261,6 +261,55 @@ SHADOW_PX = 3.0
 #: its track's gate had refused, σ 0.3–0.6 px, formed a second track beside its own, σ 0.06;
 #: the grid's only other overlapping pair, scene 23's, has σ within 2×)
 SHADOW_SIGMA_RATIO = 3.0
+
+
+#: two tracks whose rows lie this near (px, median over the frames both cover, each within
+#: SHADOW_PX) follow one star: half the nearest pair evstar.pairs splits (2 px), so a
+#: companion star with a track of its own is kept
+DUPLICATE_PX = 1.0
+#: ... over at least this many frames
+MIN_COMMON_FRAMES = 3
+
+
+def joined_duplicates(rows):
+    """`rows` with a track that runs beside another (DUPLICATE_PX, MIN_COMMON_FRAMES) joined
+    to it: one star's two tracks (a slow star's lone lobes, ~1.25 σ_PSF ahead of it and
+    behind, jump past the tracker's gate and start a second track beside the first; both
+    estimate the star). The longer keeps its id; in the frames both cover, the less certain
+    one's rows (median σ there) are dropped."""
+    tracked = np.flatnonzero(rows["track"] >= 0)
+    pairs = _side_by_side(rows[tracked])
+    if not pairs:
+        return rows
+    out, drop = rows.copy(), np.zeros(len(rows), bool)
+    for a, b in pairs:
+        ia, ib = np.flatnonzero(out["track"] == a), np.flatnonzero(out["track"] == b)
+        common = np.intersect1d(out["frame"][ia], out["frame"][ib])
+        ca, cb = ia[np.isin(out["frame"][ia], common)], ib[np.isin(out["frame"][ib], common)]
+        if len(common) < MIN_COMMON_FRAMES or len(ca) != len(common) or len(cb) != len(common):
+            continue      # (a track with two rows in a frame: not one star's estimate)
+        ca, cb = ca[np.argsort(out["frame"][ca])], cb[np.argsort(out["frame"][cb])]
+        d = np.hypot(out["x"][ca] - out["x"][cb], out["y"][ca] - out["y"][cb])
+        if np.median(d) > DUPLICATE_PX or d.max() > SHADOW_PX:
+            continue
+        keep, other = (a, b) if len(ia) >= len(ib) else (b, a)
+        drop[cb if np.median(out["sigma"][cb]) > np.median(out["sigma"][ca]) else ca] = True
+        out["track"][out["track"] == other] = keep
+    return out[~drop]
+
+
+def _side_by_side(tracked):
+    """The (a, b) track id pairs (a < b) with rows of one frame within SHADOW_PX."""
+    from scipy.spatial import cKDTree
+
+    if len(np.unique(tracked["track"])) < 2:
+        return []
+    # rows of one frame only: frames set 10 × SHADOW_PX apart
+    pts = np.column_stack([tracked["frame"] * (10.0 * SHADOW_PX), tracked["x"], tracked["y"]])
+    near = cKDTree(pts).query_pairs(SHADOW_PX, output_type="ndarray")
+    ids = np.sort(tracked["track"][near], axis=1)
+    ids = ids[ids[:, 0] != ids[:, 1]]
+    return [tuple(v) for v in np.unique(ids, axis=0).tolist()]
 
 
 def without_shadows(rows):

@@ -99,12 +99,18 @@ def trails(frame, n_by_p, sx, sy):
     return out
 
 
-def _behind_on_line(w, u):
+def _behind_on_line(w, u, reach=np.inf):
     """Does a point at offsets `w` (n, 2) from n centres, each moving along its unit `u`
-    (n, 2), lie behind one of them, within TRAIL_ACROSS_PX of its line?"""
+    (n, 2), lie behind one of them (less than `reach` px), within TRAIL_ACROSS_PX of its line?"""
     along = np.sum(w * u, axis=1)
     across = np.abs(w[:, 0] * u[:, 1] - w[:, 1] * u[:, 0])
-    return bool(np.any((along < 0) & (across < TRAIL_ACROSS_PX)))
+    return bool(np.any((along < 0) & (along > -reach) & (across < TRAIL_ACROSS_PX)))
+
+
+#: a slow star's lone ON lobe lies ~1.25 σ_PSF ahead of it (_LOBE_OFFSET_PER_SPREAD in
+#: evstar.pooling): within this of a track's row, ahead on its line, it is that star's
+#: (fresh-11's 2 °/s, σ 1.5 px star: lone ON lobes 2 px ahead, OFF ones 3 px behind)
+LOBE_AHEAD_PX = 4.0
 
 
 #: a track whose events are at most this share ON is a trail of OFF lobes, not a star: a
@@ -134,22 +140,26 @@ def trail_tracks(centroids):
     return ids[enough & (n_on <= TRAIL_ON_SHARE * n)]
 
 
-def behind_tracks(rows, tracks):
-    """Per row of `rows` (untracked centroids): is it a trail — TRAIL_ON_SHARE or less ON,
-    behind a track's row of its frame (`tracks`: ESTIMATE_DTYPE rows with velocities) on the
-    line through it along its motion (within TRAIL_ACROSS_PX)? trails() for the clusters no
-    track took, with the track's own motion where the frame holds no two-polarity cluster
-    ahead (IMU compensation sets the star's ON-led cluster apart from its OFF trail)."""
+def of_tracks(rows, tracks):
+    """Per row of `rows` (untracked centroids): is it a tracked star's lobe — a trail,
+    TRAIL_ON_SHARE or less ON, behind a track's row of its frame (`tracks`: ESTIMATE_DTYPE
+    rows with velocities) on the line through it along its motion (within TRAIL_ACROSS_PX),
+    or a slow star's lone ON lobe, 1 − TRAIL_ON_SHARE or more ON, ahead of one within
+    LOBE_AHEAD_PX? trails() for the clusters no track took, with the track's own motion
+    where the frame holds no two-polarity cluster ahead (IMU compensation sets the star's
+    ON-led cluster apart from its OFF trail)."""
     out = np.zeros(len(rows), bool)
     speed = np.hypot(tracks["vx"], tracks["vy"])
     moving = speed > 0
-    for i in np.flatnonzero(rows["n_on"] <= TRAIL_ON_SHARE * rows["n_events"]):
+    off = rows["n_on"] <= TRAIL_ON_SHARE * rows["n_events"]
+    on = rows["n_on"] >= (1 - TRAIL_ON_SHARE) * rows["n_events"]
+    for i in np.flatnonzero(off | on):
         s = moving & (tracks["frame"] == rows["frame"][i])
         if not s.any():
             continue
         u = np.column_stack([tracks["vx"][s], tracks["vy"][s]]) / speed[s, None]
         w = np.column_stack([rows["x"][i] - tracks["x"][s], rows["y"][i] - tracks["y"][s]])
-        out[i] = _behind_on_line(w, u)
+        out[i] = _behind_on_line(w, u) if off[i] else _behind_on_line(-w, u, LOBE_AHEAD_PX)
     return out
 
 

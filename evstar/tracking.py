@@ -1,8 +1,14 @@
 """Multi-target tracking: link centroids across pseudo-frames into tracks.
 
-Each track predicts its next position with a constant-velocity model (from its last two
-centroids); centroids of a frame are assigned to tracks by minimum total distance
-(Hungarian, scipy) within a gate. A track survives up to ``max_gap`` frames without a
+Each track predicts its next position with a constant-velocity model from its last two
+centroids; centroids of a frame are assigned to tracks by minimum total distance
+(Hungarian, scipy) within a gate. A slow star's centroids jump between its lobes (an
+ON-only cluster ~1.25 σ_PSF ahead of it, an OFF-only one as far behind) in frames too short
+to hold both: the last two then give the velocity of a lobe's jump, so where the centroid
+or one of the track's last two is a lone lobe (lobes.balanced: no), the track may also take it
+within the gate of a chord, from the oldest of its last _CHORD_CENTROIDS (three steps
+averaged). Elsewhere the chord is not used: in a crowded dark-sky field it let tracks take
+neighbours' centroids. A track survives up to ``max_gap`` frames without a
 centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
 start new tracks, so stars entering the field get fresh ids. A track that begins where
 another ended continues it (_join): at a turn a star can give two centroids in a frame,
@@ -26,6 +32,7 @@ import math
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from . import lobes
 from .errors import DataError, ParameterTypeError
 from .frames import frame_bounds
 from .parameters import TRACK as T
@@ -64,6 +71,9 @@ class Tracker:
         xy, track = np.column_stack([out["x"], out["y"]])[order], out["track"]
         spread2 = (out["spread"][order] ** 2 if "spread" in fields
                    else np.full(len(out), np.nan))
+        # lone lobes (one polarity's cluster), where the polarities are counted
+        lone = (~lobes.balanced(out[order]) & (out["n_events"][order] > 0)
+                if {"n_on", "n_events"} <= set(fields) else np.zeros(len(out), bool))
         st = _Tracks(len(out))
         live = np.zeros(0, np.int64)  # the tracks that can still take a centroid, in creation order
         for f, a, b in zip(frames, starts, stops):
@@ -71,23 +81,24 @@ class Tracker:
             # frames only grow: a track past its gap never comes back
             live = live[f - st.last_f[live] <= self.max_gap + 1]
             pts, s2 = xy[a:b], spread2[a:b]
-            t, r = self._assign(st, live, pts, f)
+            t, r = self._assign(st, live, pts, f, lone[a:b])
             t, r, blends = self._without_blends(st, live, (pts, s2), f, t, r)
-            st.extend(live[t], f, pts[r], s2[r])
+            st.extend(live[t], f, pts[r], s2[r], lone[a:b][r])
             track[rows[r]] = live[t]             # a track's id is its index
             track[rows[blends]] = BLENDED
             if len(r) + len(blends) < len(rows):  # the others start tracks
                 new = np.ones(len(rows), bool)
                 new[r] = False
                 new[blends] = False
-                born = st.start(f, pts[new], s2[new])
+                born = st.start(f, pts[new], s2[new], lone[a:b][new])
                 track[rows[new]] = born
                 live = np.concatenate([live, born])
         _join(out, st.as_dicts(), self.gate_px, self.max_gap, velocity_prior, self.min_length)
         return _drop_short(out, self.min_length)
 
-    def _assign(self, st, live, pts, f):
-        """(indices into live, rows of pts) of the frame's assignment within the gates."""
+    def _assign(self, st, live, pts, f, lone):
+        """(indices into live, rows of pts) of the frame's assignment within the gates
+        (lone: the pts that are lone lobes)."""
         if not len(live) or not len(pts):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         big = 1e9
@@ -104,6 +115,12 @@ class Tracker:
             pred[new], gates[new] = _provisional_flow(st, live[new], pts, f, self.gate_px,
                                                       self.init_gate_px)
         cost = _gated(pred, gates, pts, big)
+        chord = np.flatnonzero(n >= 3)
+        jumped = st.last_lone[live[chord]] | st.prev_lone[live[chord]]
+        if len(chord) and (lone.any() or jumped.any()):
+            either = lone[None, :] | jumped[:, None]
+            by_chord = _gated(st.predict_chord(live[chord], f), gates[chord], pts, big)
+            cost[chord] = np.where(either, np.minimum(cost[chord], by_chord), cost[chord])
         if guided:
             # or still, within gate_px: a turn stops every star, while the flow measured
             # on the frames before still has them moving
@@ -228,9 +245,17 @@ def _provisional_flow(st, new, pts, f, gate_px, init_gate_px):
     return st.last_xy[new] + vc * steps[:, None], gates
 
 
+#: centroids whose oldest and last give a track's chord prediction (_Tracks.predict_chord):
+#: its velocity over three steps. Alone it split tracks where the last two predicted
+#: better (a 1 °/s star whose OFF lobe fell 6.1 px from the chord, 4.9 from the last two),
+#: hence the nearer of the two (_assign), and only about lone lobes
+_CHORD_CENTROIDS = 4
+
+
 class _Tracks:
-    """Every track's first, last and second-to-last centroid (frame, x y) and length, as
-    arrays indexed by track id (at most one track per centroid)."""
+    """Every track's first, last and second-to-last centroid (frame, x y), its last
+    _CHORD_CENTROIDS (a ring), and length, as arrays indexed by track id (at most one track
+    per centroid)."""
 
     def __init__(self, capacity):
         self.m = 0
@@ -238,8 +263,12 @@ class _Tracks:
                                                           for _ in range(4))
         self.first_xy, self.last_xy, self.prev_xy = (np.zeros((capacity, 2)) for _ in range(3))
         self.spread2 = np.zeros(capacity)     # the sum of its clusters' spread²
+        # its last and second-to-last centroids lone lobes
+        self.last_lone, self.prev_lone = np.zeros(capacity, bool), np.zeros(capacity, bool)
+        self.ring_xy = np.zeros((capacity, _CHORD_CENTROIDS, 2))
+        self.ring_f = np.zeros((capacity, _CHORD_CENTROIDS), np.int64)
 
-    def start(self, f, pts, spread2):
+    def start(self, f, pts, spread2, lone=False):
         """New tracks at pts in frame f (their clusters' spread², NaN: unknown); their ids."""
         ids = np.arange(self.m, self.m + len(pts))
         self.m += len(pts)
@@ -248,11 +277,16 @@ class _Tracks:
         self.first_xy[ids] = self.last_xy[ids] = self.prev_xy[ids] = pts
         self.n[ids] = 1
         self.spread2[ids] = spread2
+        self.ring_xy[ids, 0], self.ring_f[ids, 0] = pts, f
+        self.last_lone[ids] = self.prev_lone[ids] = lone
         return ids
 
-    def extend(self, ids, f, pts, spread2):
+    def extend(self, ids, f, pts, spread2, lone=False):
         self.prev_f[ids], self.prev_xy[ids] = self.last_f[ids], self.last_xy.take(ids, 0)
         self.last_f[ids], self.last_xy[ids] = f, pts
+        slot = self.n[ids] % _CHORD_CENTROIDS    # the centroid n (0-based) goes to slot n mod K
+        self.ring_xy[ids, slot], self.ring_f[ids, slot] = pts, f
+        self.prev_lone[ids], self.last_lone[ids] = self.last_lone[ids], lone
         self.n[ids] += 1
         self.spread2[ids] += spread2
 
@@ -271,6 +305,15 @@ class _Tracks:
         last, f_last = self.last_xy.take(ids, 0), self.last_f[ids]
         v = self.velocity(ids)
         return np.where((self.n[ids] > 1)[:, None], last + v * (f - f_last)[:, None], last)
+
+    def predict_chord(self, ids, f):
+        """(n, 2) positions at frame f: constant velocity from each track's oldest of its
+        last _CHORD_CENTROIDS centroids to its last (tracks of 3 centroids or more)."""
+        n = self.n[ids]
+        oldest = np.where(n >= _CHORD_CENTROIDS, n % _CHORD_CENTROIDS, 0)
+        last, f_last = self.last_xy.take(ids, 0), self.last_f[ids]
+        v = (last - self.ring_xy[ids, oldest]) / (f_last - self.ring_f[ids, oldest])[:, None]
+        return last + v * (f - f_last)[:, None]
 
     def as_dicts(self):
         """_join's tracks: id, frames and xy (first and last) in creation order."""

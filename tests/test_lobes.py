@@ -183,7 +183,7 @@ def test_a_track_of_off_lobes_alone_is_a_trail_and_not_reported():
 
 def test_an_untracked_off_lobe_behind_a_track_is_a_trail():
     from evstar.extract import CENTROID_DTYPE
-    from evstar.lobes import behind_tracks
+    from evstar.lobes import of_tracks
     from evstar.smoothing import ESTIMATE_DTYPE
 
     track = np.zeros(1, ESTIMATE_DTYPE)
@@ -194,4 +194,21 @@ def test_an_untracked_off_lobe_behind_a_track_is_a_trail():
     loose["y"] = [50.5, 50.5, 50.0, 56.0, 50.0]             # one off the star's line
     loose["n_on"] = [0, 10, 0, 0, 0]                        # one of both polarities
     loose["frame"][4] = 4                                   # one in another frame
-    assert list(behind_tracks(loose, track)) == [True, False, False, False, False]
+    assert list(of_tracks(loose, track)) == [True, False, False, False, False]
+
+
+def test_an_untracked_on_lobe_just_ahead_of_a_track_is_its_lobe():
+    """A slow star's lone ON lobe ~2 px ahead of its track is the star's; an ON cluster
+    further ahead, off its line, or of both polarities is not."""
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.lobes import LOBE_AHEAD_PX, of_tracks
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    track = np.zeros(1, ESTIMATE_DTYPE)
+    track["frame"], track["x"], track["y"], track["vy"] = 3, 100.0, 50.0, -20.0   # moving -y
+    loose = np.zeros(5, CENTROID_DTYPE)
+    loose["frame"], loose["n_events"], loose["n_on"] = 3, 8, 8
+    loose["x"] = [100.3, 100.0, 100.0, 104.0, 100.0]
+    loose["y"] = [48.0, 50.0 - LOBE_AHEAD_PX - 1, 52.0, 48.0, 48.0]  # ahead; far; behind; aside
+    loose["n_on"][4] = 4                                             # both polarities
+    assert list(of_tracks(loose, track)) == [True, False, False, False, False]
