@@ -277,7 +277,7 @@ def joined_duplicates(rows):
     behind, jump past the tracker's gate and start a second track beside the first; both
     estimate the star). The longer keeps its id; in the frames both cover, the less certain
     one's rows (median σ there) are dropped."""
-    tracked = np.flatnonzero(rows["track"] >= 0)
+    tracked = np.flatnonzero((rows["track"] >= 0) & np.isfinite(rows["x"]) & np.isfinite(rows["y"]))
     pairs = _side_by_side(rows[tracked])
     if not pairs:
         return rows
