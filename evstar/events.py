@@ -20,6 +20,25 @@ T_LIMIT_US = 2 ** 61
 SORT_HINT = "pass sort=True (command line: --sort) to order them by time"
 
 
+#: timestamps whose gaps are all multiples of a step this coarse (µs) or more are on a
+#: lattice (time_lattice_us): a sensor stamping each readout, or a file written in ms
+MIN_LATTICE_US = 20
+#: ... judged on at least this many gaps between distinct timestamps
+MIN_LATTICE_GAPS = 100
+
+
+def time_lattice_us(t):
+    """The step (µs) of the lattice the timestamps `t` (sorted) lie on: the greatest common
+    divisor of the gaps between consecutive distinct ones; 0 where it is under
+    MIN_LATTICE_US or fewer than MIN_LATTICE_GAPS gaps tell."""
+    gaps = np.diff(np.asarray(t, np.int64))
+    gaps = gaps[gaps > 0]
+    if len(gaps) < MIN_LATTICE_GAPS:
+        return 0
+    step = int(np.gcd.reduce(gaps))
+    return step if step >= MIN_LATTICE_US else 0
+
+
 def check_time_range(values):
     """Index of the first timestamp outside ±T_LIMIT_US, or None (values: any numeric array)."""
     if not len(values):

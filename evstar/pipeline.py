@@ -23,7 +23,7 @@ import numpy as np
 
 from . import accuracy
 from .config import Config
-from .errors import DataError, ParameterTypeError
+from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events
 from .extract import CENTROID_DTYPE, Extractor
 from .frames import accumulated, frame_offsets, images, on_pixels
@@ -102,9 +102,11 @@ class Pipeline:
         return Tracker(**params)
 
     def calibration(self, events, t0_us):
-        """(calibration_rate, calibration_hot_pixels) from one count image of the window."""
+        """(calibration_rate, calibration_hot_pixels) from one count image of the window;
+        an EvstarWarning where the window's timestamps lie on a coarse lattice."""
         w = self._calibration_window(events, t0_us)
         counts = accumulated(w)
+        _warn_lattice(w.t)
         return self._rate(w, counts), self._hot_pixels(counts)
 
     def calibration_rate(self, events, t0_us):
@@ -428,6 +430,24 @@ def chunk_span_us(config):
     pool_frames 4 a real recording's streamed run found 147 centroids, the whole run 148)."""
     pool = config.extract.pool_frames
     return -(-config.chunk_frames // pool) * pool * config.dt_us
+
+
+def _warn_lattice(t):
+    """Warn where timestamps lie on a coarse lattice (events.time_lattice_us): positions are
+    for the stamped times, and a stamp for the start of its step reports each star where it
+    was half a step later — speed × step/2 ahead along its motion (20 °/s, 1 ms: 0.12 px,
+    perf/study_time_quantization.py); with a gyro on a changing rate, the clock measurement takes
+    it up (motion.measure_clock)."""
+    import warnings
+
+    from .events import time_lattice_us
+
+    step = time_lattice_us(t)
+    if step:
+        warnings.warn(EvstarWarning(
+            f"the timestamps lie on a {step} µs lattice: positions are for the stamped times "
+            f"(where a stamp marks the start of its {step} µs, stars are reported on average "
+            f"{step / 2:g} µs of their motion ahead)"), stacklevel=3)
 
 
 def _warp(mode):
