@@ -312,10 +312,26 @@ def _side_by_side(tracked):
     return [tuple(v) for v in np.unique(ids, axis=0).tolist()]
 
 
+#: ... or is brief (BRIEF_ROWS rows or fewer, beside a track BRIEF_RATIO times as long),
+#: made of lone lobes (_mostly_lone_lobes) and within BRIEF_PX of it: a slow star's ON-only
+#: and OFF-only clusters, 2–3 px either side of it, linked for a few frames into a track
+#: of their own (3 ms frames: one of 4 rows up to 3.5 px off)
+BRIEF_ROWS, BRIEF_RATIO, BRIEF_PX = 10, 5, 2 * SHADOW_PX
+
+
+def _mostly_lone_lobes(rows):
+    """Are at least half of the rows that hold events one polarity's (lobes.balanced: no)?"""
+    from .lobes import balanced
+
+    held = rows[rows["n_events"] > 0]
+    return bool(len(held)) and np.count_nonzero(~balanced(held)) >= len(held) / 2
+
+
 def without_shadows(rows):
     """`rows` less the tracks that shadow a longer one: a star has one track, and a shorter,
-    much less certain one lying on it over its whole span (SHADOW_PX, SHADOW_SIGMA_RATIO) is
-    made of that star's outlier centroids."""
+    much less certain one lying on it over its whole span (SHADOW_PX, SHADOW_SIGMA_RATIO),
+    or a brief one near it (BRIEF_ROWS, BRIEF_RATIO, BRIEF_PX), is made of that star's
+    outlier centroids or lone lobes."""
     from .frames import groups
 
     tracked = rows[rows["track"] >= 0]
@@ -325,19 +341,23 @@ def without_shadows(rows):
     by = {int(t): tracked[i[np.argsort(tracked["t"][i], kind="stable")]] for t, i in zip(ids, each)}
     sigma = {t: float(np.median(r["sigma"])) for t, r in by.items()}
     counts = np.array([len(i) for i in each])
+    lone = {t: _mostly_lone_lobes(r) for t, r in by.items()}
     longest_first = [int(t) for t in ids[np.argsort(-counts, kind="stable")]]
     drop = set()
     for i, b in enumerate(longest_first):
         rb = by[b]
         for a in longest_first[:i]:
             ra = by[a]
-            if a in drop or len(ra) <= len(rb) or sigma[b] < SHADOW_SIGMA_RATIO * sigma[a]:
+            brief = (len(rb) <= BRIEF_ROWS and len(ra) >= BRIEF_RATIO * len(rb)
+                     and lone[b])
+            if a in drop or len(ra) <= len(rb) or (
+                    not brief and sigma[b] < SHADOW_SIGMA_RATIO * sigma[a]):
                 continue
             if rb["t"][0] < ra["t"][0] or rb["t"][-1] > ra["t"][-1]:
                 continue
             dx = rb["x"] - np.interp(rb["t"], ra["t"], ra["x"])
             dy = rb["y"] - np.interp(rb["t"], ra["t"], ra["y"])
-            if np.all(np.hypot(dx, dy) <= SHADOW_PX):
+            if np.all(np.hypot(dx, dy) <= (BRIEF_PX if brief else SHADOW_PX)):
                 drop.add(b)
                 break
     return rows if not drop else rows[~np.isin(rows["track"], list(drop))]

@@ -44,3 +44,21 @@ def test_untracked_rows_pass_untouched():
     rows["track"][rows["track"] == 2] = -1
     out = without_shadows(rows)
     assert (out["track"] == -1).sum() == (rows["track"] == -1).sum()
+
+
+def test_a_brief_track_of_lone_lobes_beside_a_long_one_is_its_star_s():
+    """A few rows of one-polarity clusters 2–6 px beside a star's long track, however
+    certain, are that star's lone lobes linked into a track of their own; further off,
+    longer, or of both polarities (a star's) they are kept."""
+    from evstar.estimation import BRIEF_PX, BRIEF_ROWS
+
+    def brief(offset_px, rows, n_on=(8, 0)):
+        out = scene(offset_px, 1.0, span=(300_000, 300_000 + rows * 10_000))
+        out["n_events"] = 8
+        out["n_on"] = np.where(np.arange(len(out)) % 2, *n_on)      # ON-only, OFF-only, ...
+        return out
+
+    assert set(np.unique(without_shadows(brief(BRIEF_PX - 1.5, BRIEF_ROWS))["track"])) == {0, 2}
+    assert 1 in without_shadows(brief(BRIEF_PX + 0.5, BRIEF_ROWS))["track"]
+    assert 1 in without_shadows(brief(BRIEF_PX - 1.5, BRIEF_ROWS + 1))["track"]
+    assert 1 in without_shadows(brief(BRIEF_PX - 1.5, BRIEF_ROWS, n_on=(4, 4)))["track"]
