@@ -574,6 +574,18 @@ def fresh45_grid():
                    seed=45, **extra)
 
 
+def short_frames_grid():
+    """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
+    check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
+    developed on (seeds 101–108, each scene's own)."""
+    for motion, mag, psf, dt, seed in ((1.5, 4.0, 1.2, 3000, 101), (2.5, 4.5, 2.0, 5000, 102),
+                                       (4, 4.0, 1.6, 2000, 103), (1, 3.5, 1.4, 5000, 104),
+                                       (3, 5.0, 1.2, 5000, 105), (2, 4.0, 1.8, 7000, 106),
+                                       (6, 4.5, 1.5, 3000, 107), (2.5, 4.0, 1.0, 5000, 108)):
+        yield dict(set="short-frames", motion=motion, mag=mag, psf=psf, sensor="default",
+                   comp="none", seed=seed, settings={"dt_us": dt})
+
+
 def dark_rates_grid():
     """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
     lag the level profiles miss grows as the star crosses a pixel faster than its time
@@ -588,7 +600,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
-         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid}
+         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "short-frames": short_frames_grid}
 
 
 def scenario(s):
