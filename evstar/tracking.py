@@ -3,12 +3,12 @@
 Each track predicts its next position with a constant-velocity model from its last two
 centroids; centroids of a frame are assigned to tracks by minimum total distance
 (Hungarian, scipy) within a gate. A slow star's centroids jump between its lobes (an
-ON-only cluster ~1.25 σ_PSF ahead of it, an OFF-only one as far behind) in frames too short
-to hold both: the last two then give the velocity of a lobe's jump, so where the centroid
-or one of the track's last two is a lone lobe (lobes.balanced: no), the track may also take it
-within the gate of a chord, from the oldest of its last _CHORD_CENTROIDS (three steps
-averaged). Elsewhere the chord is not used: in a crowded dark-sky field it let tracks take
-neighbours' centroids. A track survives up to ``max_gap`` frames without a
+ON-only cluster ~1.25 σ_PSF ahead of it, an OFF-only one as far behind) in frames too
+short to hold both: the last two then give the velocity of a lobe's jump. So where the
+centroid, or one of the track's last two, is a lone lobe (lobes.balanced: no), the track
+may also take it within the gate of a chord from the oldest of its last _CHORD_CENTROIDS
+(three steps averaged). Elsewhere the chord is not used: in a crowded dark-sky field it
+let tracks take neighbours' centroids. A track survives up to ``max_gap`` frames without a
 centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
 start new tracks, so stars entering the field get fresh ids. A track that begins where
 another ended continues it (_join): at a turn a star can give two centroids in a frame,
