@@ -320,9 +320,9 @@ BRIEF_ROWS, BRIEF_RATIO, BRIEF_PX = 10, 5, 2 * SHADOW_PX
 
 
 def _mostly_lone_lobes(rows):
-    """Are at least half of the rows that hold events one polarity's (lobes.balanced: no)?"""
-    held = rows[rows["n_events"] > 0]
-    return bool(len(held)) and np.count_nonzero(~lobes.balanced(held)) >= len(held) / 2
+    """Are at least half of the rows that hold events lone lobes (lobes.lone)?"""
+    held = np.count_nonzero(rows["n_events"] > 0)
+    return bool(held) and np.count_nonzero(lobes.lone(rows)) >= held / 2
 
 
 def without_shadows(rows):

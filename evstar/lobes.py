@@ -35,6 +35,12 @@ def balanced(centroids):
     return (share > 1 - PURITY) & (share < PURITY)
 
 
+def lone(centroids):
+    """Per centroid (CENTROID_DTYPE): is it one lobe alone — it holds events, not both
+    polarities (balanced: no)?"""
+    return ~balanced(centroids) & (centroids["n_events"] > 0)
+
+
 def pairs(frame, n_by_p, sx, sy, max_px):
     """(ON lobes, OFF lobes): index arrays of the cluster pairs to join. frame: frame per
     cluster; n_by_p, sx, sy: per-cluster (OFF, ON) event counts and coordinate sums."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import time
+import warnings
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -24,7 +25,7 @@ import numpy as np
 from . import accuracy
 from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
-from .events import Events
+from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
 from .frames import accumulated, frame_offsets, images, on_pixels
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
@@ -438,10 +439,6 @@ def _warn_lattice(t):
     was half a step later — speed × step/2 ahead along its motion (20 °/s, 1 ms: 0.12 px,
     perf/study_time_quantization.py); with a gyro on a changing rate, the clock measurement takes
     it up (motion.measure_clock)."""
-    import warnings
-
-    from .events import time_lattice_us
-
     step = time_lattice_us(t)
     if step:
         warnings.warn(EvstarWarning(

@@ -5,7 +5,7 @@ centroids; centroids of a frame are assigned to tracks by minimum total distance
 (Hungarian, scipy) within a gate. A slow star's centroids jump between its lobes (an
 ON-only cluster ~1.25 σ_PSF ahead of it, an OFF-only one as far behind) in frames too
 short to hold both: the last two then give the velocity of a lobe's jump. So where the
-centroid, or one of the track's last two, is a lone lobe (lobes.balanced: no), the track
+centroid, or one of the track's last two, is a lone lobe (lobes.lone), the track
 may also take it within the gate of a chord from the oldest of its last _CHORD_CENTROIDS
 (three steps averaged). Elsewhere the chord is not used: in a crowded dark-sky field it
 let tracks take neighbours' centroids. A track survives up to ``max_gap`` frames without a
@@ -72,8 +72,8 @@ class Tracker:
         spread2 = (out["spread"][order] ** 2 if "spread" in fields
                    else np.full(len(out), np.nan))
         # lone lobes (one polarity's cluster), where the polarities are counted
-        lone = (~lobes.balanced(out[order]) & (out["n_events"][order] > 0)
-                if {"n_on", "n_events"} <= set(fields) else np.zeros(len(out), bool))
+        lone = (lobes.lone(out[order]) if {"n_on", "n_events"} <= set(fields)
+                else np.zeros(len(out), bool))
         st = _Tracks(len(out))
         live = np.zeros(0, np.int64)  # the tracks that can still take a centroid, in creation order
         for f, a, b in zip(frames, starts, stops):
