@@ -30,13 +30,23 @@ MIN_LATTICE_GAPS = 100
 def time_lattice_us(t):
     """The step (µs) of the lattice the timestamps `t` (sorted) lie on: the greatest common
     divisor of the gaps between consecutive distinct ones; 0 where it is under
-    MIN_LATTICE_US or fewer than MIN_LATTICE_GAPS gaps tell."""
-    gaps = np.diff(np.asarray(t, np.int64))
-    gaps = gaps[gaps > 0]
-    if len(gaps) < MIN_LATTICE_GAPS:
+    MIN_LATTICE_US or fewer than MIN_LATTICE_GAPS gaps tell. Taken block by block: a
+    divisor only shrinks, so 1 µs stamps are told in the first block (all 1.25 M of a
+    field's gaps cost 19 ms)."""
+    t = np.asarray(t, np.int64)
+    if np.count_nonzero(np.diff(t[:MIN_LATTICE_GAPS + 1])) < MIN_LATTICE_GAPS and \
+            np.count_nonzero(np.diff(t)) < MIN_LATTICE_GAPS:
         return 0
-    step = int(np.gcd.reduce(gaps))
+    step = 0
+    for i in range(0, len(t) - 1, _LATTICE_BLOCK):
+        gaps = np.diff(t[i:i + _LATTICE_BLOCK + 1])
+        step = int(np.gcd.reduce(gaps, initial=step))   # gcd(0, g) = g: ties add nothing
+        if 0 < step < MIN_LATTICE_US:
+            return 0
     return step if step >= MIN_LATTICE_US else 0
+
+
+_LATTICE_BLOCK = 1 << 12
 
 
 def check_time_range(values):
