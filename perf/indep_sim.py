@@ -12,8 +12,9 @@ Model, in the order a scene is simulated:
   Motions, as an image-plane offset added to each star's start position:
   ``Linear`` (constant rate °/s → f·rate·π/180 px/s in a direction), ``Sinusoid``
   (amplitude °, frequency Hz, along a direction), ``Accelerating`` (constant angular
-  acceleration °/s² from rest). The truth is each star's centre (x, y) as a function of
-  time: ``truth(t_us)`` -> (len(t), n_stars, 2), NaN while the centre is off the sensor.
+  acceleration °/s² from rest), ``Circle`` (coning), ``Shaken`` (a pan with a vibration)
+  and ``Rolled`` (a turn about the boresight, with a pan; projection "rotate"). The truth
+  is each star's centre (x, y) as a function of time: ``truth(t_us)`` -> (len(t), n_stars, 2), NaN while the centre is off the sensor.
 * **PSF** (all symmetric about the centre, so the intensity-weighted centre is the truth):
   ``Gaussian(sigma)``, ``Moffat(fwhm, beta)``, ``Defocus(radius, blur)`` (a uniform disk
   convolved with a Gaussian: exact radial profile from the non-central χ² CDF) and
@@ -43,7 +44,8 @@ Model, in the order a scene is simulated:
   pixel) — so with R = 0 the reference is exactly the crossed level. Timestamps are
   floored to 1 µs; events are sorted by time.
 * **Noise.** Background activity: a Poisson process per pixel, rates log-normal (σ_ln 0.7)
-  about the mean rate, ON with probability ``noise_on_fraction``; ``hot_pixels`` single
+  about the mean rate (optionally rising linearly to ``noise_growth`` times it by the end:
+  stray light), ON with probability ``noise_on_fraction``; ``hot_pixels`` single
   pixels firing at 100–1000 Hz (half ON); optional Gaussian timestamp jitter of every event
   (readout), re-sorted.
 
@@ -328,6 +330,41 @@ class Shaken:
         return f"{self.base.label()} + {self.wave.label()}"
 
 
+@dataclass
+class Rolled:
+    """A turn about the boresight (roll, °/s) on top of `base` (a Linear pan, 0 °/s for a
+    pure roll): stars circle the principal point, each at a speed growing with its distance
+    from it, the pan's added. Planar like Circle; its rotations are its own (rotations)."""
+    roll_dps: float
+    base: Linear
+    planar = True
+
+    def offset(self, t_s, f):
+        return self.base.offset(t_s, f)
+
+    def velocity(self, t_s, f):   # at the principal point: the pan's
+        return self.base.velocity(t_s, f)
+
+    def rotations(self, t_s, f):
+        """(T, 3, 3): the pan's turn, then the roll about the optical axis."""
+        a = -math.radians(self.roll_dps) * np.asarray(t_s, float)
+        Rz = np.zeros((len(a), 3, 3))
+        Rz[:, 0, 0], Rz[:, 0, 1], Rz[:, 1, 0], Rz[:, 1, 1] = np.cos(a), -np.sin(a), np.sin(a), np.cos(a)
+        Rz[:, 2, 2] = 1.0
+        return Rz @ turn_matrices(self.offset(t_s, f), f)
+
+    def label(self):
+        pan = f" + {self.base.label()}" if self.base.rate_dps else ""
+        return f"roll {self.roll_dps:g}°/s{pan}"
+
+
+def rotations(motion, t_s, f):
+    """(T, 3, 3) camera-frame rotations of fixed star directions of a planar motion."""
+    if hasattr(motion, "rotations"):
+        return motion.rotations(np.asarray(t_s, float), f)
+    return turn_matrices(motion.offset(t_s, f), f)
+
+
 def turn_matrices(off, f):
     """(T, 3, 3) camera-frame rotations of fixed star directions for image offsets off (T, 2)
     at the principal point: about the in-image axis perpendicular to each offset, by
@@ -378,7 +415,7 @@ class Scene:
         f, (cx, cy) = self.focal_px, self.principal_point
         if getattr(self.motion, "planar", False):
             r0 = np.stack([(p0[0, :, 0] - cx) / f, (p0[0, :, 1] - cy) / f, np.ones(p0.shape[1])], 1)
-            r = np.einsum("tij,sj->tsi", turn_matrices(off, f), r0)
+            r = np.einsum("tij,sj->tsi", rotations(self.motion, t_s, f), r0)
             return np.stack([cx + f * r[..., 0] / r[..., 2], cy + f * r[..., 1] / r[..., 2]], axis=-1)
         u = _unit(self.motion.direction_deg)
         theta = (off @ u) / f                                    # (T,)
@@ -423,6 +460,8 @@ class Sensor:
     noise_hz: float = 1.0           # mean background activity per pixel
     noise_sigma_ln: float = 0.7     # log-normal spread of the per-pixel rates
     noise_on_fraction: float = 0.6
+    noise_growth: float = 1.0       # background rate at the end / at the start (stray light
+                                    # rising linearly over the recording)
     hot_pixels: int = 0             # single pixels at 100–1000 Hz
     jitter_us: float = 0.0          # per-event timestamp jitter (std)
     leak_hz: float = 0.0            # leak: ON events at a steady per-pixel rate (log-normal)
@@ -606,9 +645,13 @@ def _noise_events(scene, sensor, rng):
     if sensor.noise_hz > 0:
         s = sensor.noise_sigma_ln
         rates = sensor.noise_hz * np.exp(s * rng.standard_normal(npx) - s * s / 2)
-        n = rng.poisson(rates * T)
+        a = sensor.noise_growth - 1.0           # rate ∝ 1 + a·t/T
+        n = rng.poisson(rates * T * (1 + a / 2))
         ix.append(np.repeat(np.arange(npx), n))
-        ts.append(rng.uniform(0, T, n.sum()))
+        u = rng.uniform(0, 1, n.sum())            # inverse CDF of the linear density
+        if a:
+            u = (np.sqrt(1 + 2 * a * u * (1 + a / 2)) - 1) / a
+        ts.append(u * T)
         ps.append((rng.random(n.sum()) < sensor.noise_on_fraction).astype(np.int8))
     if sensor.hot_pixels:
         where = rng.choice(npx, sensor.hot_pixels, replace=False)
@@ -673,8 +716,8 @@ def make_imu(scene, rate_hz=1000.0):
     f = scene.focal_px
     if getattr(scene.motion, "planar", False):   # ω from the turns themselves: Ṙ Rᵀ = −[ω]×
         h = 1e-6
-        R0, R1 = (turn_matrices(scene.motion.offset(t + d, f), f) for d in (-h, h))
-        W = (R1 - R0) / (2 * h) @ turn_matrices(scene.motion.offset(t, f), f).transpose(0, 2, 1)
+        R0, R1 = (rotations(scene.motion, t + d, f) for d in (-h, h))
+        W = (R1 - R0) / (2 * h) @ rotations(scene.motion, t, f).transpose(0, 2, 1)
         gyro = -np.column_stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]])
         return evstar.Imu(np.round(t * 1e6).astype(np.int64), gyro)
     gyro = np.column_stack([v[:, 1] / f, -v[:, 0] / f, np.zeros(len(t))])

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | --fresh3 | --fresh4 | --fresh5 | --fresh6 | --fresh7 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh8 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -36,7 +36,9 @@ thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
 after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
 (K1–K10, the forty-second session's), --fresh5 (L1–L10, the forty-third's), --fresh6
-(M1–M10, the forty-fourth's) and --fresh7 (N1–N10, the forty-fifth's) likewise.
+(M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's) and --fresh8 (O1–O10,
+the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light)
+likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -59,7 +61,9 @@ from study_field import settings_of  # noqa: E402
 from evstar import Config, Imu, Pipeline, accuracy  # noqa: E402
 
 RESULTS = pathlib.Path(__file__).resolve().parent / "results"
-CAMERAS = {"davis": (346, 260, 280.0), "vga": (640, 480, 540.0), "hd": (1280, 720, 1100.0)}
+CAMERAS = {"davis": (346, 260, 280.0), "vga": (640, 480, 540.0), "hd": (1280, 720, 1100.0),
+           # the eighth fresh grid's (--fresh8): a wide lens (80° across) and a telephoto
+           "wide": (640, 480, 380.0), "tele": (1280, 720, 2600.0)}
 SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "ideal": dict(pixel="ideal", c_on=0.2, c_off=0.2),
     "lowpass": dict(pixel="lowpass", f_min_hz=10.0, f_max_hz=800.0, i_half=20.0, c_on=0.2, c_off=0.2),
@@ -135,6 +139,14 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "leak-2": dict(pixel="ideal", c_on=0.2, c_off=0.2, leak_hz=2.0),
     "slow-dark": dict(pixel="lowpass", f_min_hz=12.0, f_max_hz=2500.0, i_half=60.0, c_on=0.22,
                       c_off=0.22),
+    # the eighth fresh grid's (--fresh8; written in the forty-sixth session, never tuned
+    # on): stray light raising the background 6-fold over the recording, the same 4-fold on
+    # a dark sky, a leaky dark sky with OFF above ON behind a 150 µs refractory period
+    "stray": dict(pixel="ideal", c_on=0.2, c_off=0.2, noise_growth=6.0),
+    "stray-dark": dict(pixel="lowpass", f_min_hz=30.0, f_max_hz=1500.0, i_half=30.0,
+                       c_on=0.22, c_off=0.22, noise_growth=4.0),
+    "leaky-dark": dict(pixel="lowpass", f_min_hz=35.0, f_max_hz=1800.0, i_half=15.0,
+                       c_on=0.25, c_off=0.3, leak_hz=0.3, refractory_us=150.0, jitter_us=40.0),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -304,9 +316,29 @@ FRESH7 = [
     ("hd", ("lin", 18, 260), [3, 4], ("moffat", 1.8, 3.0), "slow-dark", 1.0, 0, 0.8),
 ]
 FRESH7_SEED = 12000
+#: held out (--fresh8, written in the forty-sixth session and run once before any change):
+#: a slow roll about the boresight, a fast roll with a pan, a wide lens (stars at the edges
+#: up to 1.8 × faster than at the centre), a telephoto low-pass field, stray light rising
+#: 6-fold, stray light on a dark-sky sinusoid, ten stars among hot pixels, a roll on a
+#: low-pass sensor, a leaky dark sky under a wide Moffat, a telephoto sinusoid; seeds
+#: 13000 + i. Rolls: ("roll", roll °/s, pan °/s, pan direction °)
+FRESH8 = [
+    ("hd", ("roll", 3, 0, 0), [3, 4.5, 5], ("gauss", 1.2), "ideal", 0.5, 0, 1.5),
+    ("vga", ("roll", 20, 8, 30), [3.5, 4, 5], ("gauss", 1.1), "ideal", 1.0, 2, 1.0),
+    ("wide", ("lin", 12, 150), [3, 4, 4.5, 5], ("gauss", 1.0), "asym", 1.0, 0, 1.0),
+    ("tele", ("lin", 4, 75), [4.5, 5.5], ("gauss", 1.6), "lowpass", 1.0, 0, 1.0),
+    ("vga", ("lin", 6, 220), [3.5, 4.5, 5.5], ("gauss", 1.2), "stray", 1.0, 0, 1.0),
+    ("davis", ("sine", 6, 1.0, 100), [3, 4], ("gauss", 1.0), "stray-dark", 0.5, 0, 1.0),
+    ("vga", ("lin", 10, 60), [3, 3.5, 4, 4.5, 5, 5, 5.5, 6, 4, 3.5], ("gauss", 1.1), "ideal",
+     2.0, 10, 1.0),
+    ("hd", ("roll", 10, 0, 0), [3.5, 4.5], ("gauss", 1.2), "lowpass", 1.0, 0, 1.0),
+    ("davis", ("lin", 15, 320), [3.5, 4.5], ("moffat", 2.4, 2.8), "leaky-dark", 1.0, 0, 0.8),
+    ("tele", ("sine", 1.5, 1.5, 170), [3.5, 4.5], ("gauss", 1.3), "ideal", 1.0, 0, 1.0),
+]
+FRESH8_SEED = 13000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -329,6 +361,8 @@ def make_motion(spec):
         return S.Sinusoid(a[0], a[1], a[2])
     if kind == "circle":
         return S.Circle(a[0], a[1])
+    if kind == "roll":   # (roll °/s, pan °/s, pan direction °)
+        return S.Rolled(a[0], S.Linear(a[1], a[2]))
     if kind == "vibe":   # (rate °/s, direction °, amplitude °, Hz, the wave's direction °)
         return S.Shaken(S.Linear(a[0], a[1]), S.Sinusoid(a[2], a[3], a[4]))
     return S.Accelerating(a[0], a[1])
@@ -512,6 +546,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh8", action="store_true", help="the eighth held-out grid FRESH8 "
+                    "instead (scenes O1..O10)")
     ap.add_argument("--fresh7", action="store_true", help="the seventh held-out grid FRESH7 "
                     "instead (scenes N1..N10)")
     ap.add_argument("--fresh6", action="store_true", help="the sixth held-out grid FRESH6 "

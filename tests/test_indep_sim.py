@@ -164,3 +164,42 @@ def test_a_shaken_turn_is_its_turn_plus_the_vibration():
     y = scene.positions(t)[:, 0, 1]
     amp = 300.0 * math.radians(0.05)
     assert np.ptp(y) == pytest.approx(2 * amp, rel=0.05)
+
+
+def test_a_roll_circles_the_principal_point_and_its_gyro_compensates_it():
+    """Rolled: a pure roll keeps each star's distance from the principal point and moves it
+    at ω·r; its gyro is (0, 0, ω), and evstar's IMU warp with it draws the star's events
+    together (with the roll's sign flipped, apart)."""
+    import evstar
+    from evstar.motion import compensate
+
+    scene = S.Scene(640, 480, 540.0, [(560.0, 240.0)], [3], S.Rolled(40.0, S.Linear(0.0)),
+                    S.Gaussian(0.8), 0.3, "rotate")
+    t = np.linspace(0, 0.3, 301)
+    p = scene.positions(t)[:, 0]
+    r = np.hypot(p[:, 0] - 319.5, p[:, 1] - 239.5)
+    assert np.ptp(r) < 1e-9
+    speed = np.hypot(*np.diff(p, axis=0).T) / np.diff(t)
+    assert np.allclose(speed, math.radians(40.0) * r[0], rtol=1e-3)
+    run = S.simulate(scene, S.Sensor(noise_hz=0.0), seed=1, imu=True)
+    np.testing.assert_allclose(run.imu.gyro, [[0, 0, math.radians(40.0)]] * len(run.imu.t),
+                               atol=1e-6)
+    ev = run.events
+    frame = (ev.t - ev.t[0]) // 10_000
+
+    def spread(sign):
+        gyro = run.imu.gyro * [1, 1, sign]
+        xy = compensate(ev, evstar.Imu(run.imu.t, gyro), run.camera, 10_000,
+                        "imu").coordinates(np.arange(len(ev)))
+        return np.mean([np.hypot(*xy[frame == k].std(0)) for k in range(5, 25)])
+
+    assert spread(1) < spread(0) < spread(-1)
+
+
+def test_stray_light_raises_the_background_linearly():
+    scene = S.Scene(64, 48, 100.0, [], [], S.Linear(0.0), S.Gaussian(1.0), 1.0)
+    t = S.simulate(scene, S.Sensor(noise_hz=20.0, noise_growth=5.0), seed=2).events.t
+    first, last = np.sum(t < 100_000), np.sum(t >= 900_000)
+    # the rate ∝ 1 + 4 t/T: on average 1.2 and 4.8 × 20 Hz over the first and last tenth
+    assert last / first == pytest.approx(4.8 / 1.2, rel=0.06)
+    assert len(t) == pytest.approx(20.0 * 3.0 * 64 * 48, rel=0.05)
