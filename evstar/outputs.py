@@ -223,6 +223,10 @@ def summary_text(result, outdir, steady=None):
         how = ("measured from the crossings' level profiles; `evstar calibrate` measures it "
                "against a gyro" if lag["source"] == "level profiles" else "the calibration file's")
         lines += [f"pixel lag     {lag['lag_ms'][0]:.1f}–{lag['lag_ms'][1]:.1f} ms by brightness ({how})"]
+    if "background_hz" in m:   # stray light: the filters followed the background
+        b = m["background_hz"]
+        lines += [f"background    {b['lowest']:g}–{b['highest']:g} events/pixel/s block by block "
+                  f"blocks ({b['window']:g} in the calibration window; thresholds followed it)"]
     for v in m.get("vibration", ()):   # a platform's vibration the estimator followed
         whose = f"{v['tracks']} tracks" if "tracks" in v else f"track {v['track']}"
         lines += [f"vibration     {v['hz']:g} Hz, {v['amplitude_px']:g} px {v['axis']} the motion "

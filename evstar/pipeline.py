@@ -10,7 +10,8 @@ Every stage is also callable alone (evstar.motion.compensate, evstar.denoise, ev
 evstar.tracking). A recording larger than memory goes through :meth:`Pipeline.run_file`,
 chunk by chunk of ``config.chunk_frames`` frames, with results identical to :meth:`run`:
 both take the background rate for ``auto`` thresholds from the first ``chunk_frames``
-frames (the calibration window), frames never straddle chunks, the classical filter gets
+frames (the calibration window) and from any block of frames where it moved
+(evstar.background; blocks divide chunks), frames never straddle chunks, the classical filter gets
 the previous chunk's last ``dt`` of events as context, and tracks are linked at the end.
 """
 from __future__ import annotations
@@ -23,6 +24,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from . import accuracy
+from .background import Background, windows
 from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
@@ -120,6 +122,11 @@ class Pipeline:
         (the calibration window, as for the background rate), or None when switched off."""
         return self._hot_pixels(accumulated(self._calibration_window(events, t0_us)))
 
+    def _background(self, t0_us, rate):
+        """The run's evstar.background.Background: the calibration window's (µs from t0_us)
+        rate `rate`."""
+        return Background(rate, (t0_us, t0_us + self.config.chunk_frames * self.config.dt_us))
+
     def _calibration_window(self, events, t0_us):
         """The events of the first chunk_frames frames. A run's first kernels count them, on
         whatever Taichi runs on (frames.images): Taichi is started on the run's device here,
@@ -173,6 +180,7 @@ class Pipeline:
         timings["compensate"] = time.perf_counter() - t
         t = time.perf_counter()
         flt = self.make_filter(t0_us, rate)
+        rates = [(None, None, rate)]   # runs of blocks of one background rate
         if flt is None:
             keep_f = np.ones(len(ev_f), bool)
         elif context is not None and len(context) and self.config.denoise.method == "classical":
@@ -180,6 +188,12 @@ class Pipeline:
             keep_f = flt.apply(both)[len(context):]
         else:
             keep_f = flt.mask(ev_f) if len(ev_f) else np.zeros(0, bool)
+            if (state is not None and state.background is not None
+                    and getattr(flt, "thresholds", None) == AUTO):
+                # auto thresholds follow the background block by block (evstar.background)
+                keep_f, rates = state.background.followed(
+                    ev_f.t, keep_f, t0_us, self.config, events.width * events.height,
+                    lambda part, hz: self.make_filter(t0_us, hz).mask(ev_f[part]))
         whole = idx is None or len(idx) == len(events)   # every event stayed: idx = 0 .. n-1
         hot = None                          # per event: on a hot pixel (no star's)
         if state is not None and state.hot is not None:
@@ -210,21 +224,23 @@ class Pipeline:
             unused[kept[~members]] = True
             if hot is not None:
                 unused &= ~hot
-            cents = self._with_pooled(cents, events, unused, t0_us, rate)
+            cents = self._with_pooled(cents, events, unused, t0_us, rates)
             timings["extract"] += time.perf_counter() - t
             t = time.perf_counter()
             state.add_chunk(events, kept, cents)
             timings["estimate"] = time.perf_counter() - t
         return keep, cents, timings, comp
 
-    def _with_pooled(self, cents, events, unused, t0_us, rate):
+    def _with_pooled(self, cents, events, unused, t0_us, rates):
         """The frame centroids and the pooled ones of the events neither in a frame
         centroid's cluster nor on a hot pixel (`unused`: a mask of those; evstar.pooling),
-        in time order."""
+        in time order; each run of blocks of one background rate (`rates`:
+        Background.followed) looked at with its own."""
         from .pooling import pooled_centroids
 
-        pooled = pooled_centroids(self.config, events, unused, t0_us, rate, cents,
-                                  self._scratch["pooled"])
+        pooled = [pooled_centroids(self.config, events[part], unused[part], t0_us, hz, cents,
+                                   self._scratch["pooled"]) for part, hz in windows(events, rates)]
+        pooled = np.concatenate(pooled) if pooled else np.zeros(0, CENTROID_DTYPE)
         if not len(pooled):
             return cents
         out = np.concatenate([cents, pooled])
@@ -244,7 +260,8 @@ class Pipeline:
         span = (t0, int(events.t[-1])) if len(events) else None   # the recording's first, last µs
         rate, hot = self.calibration(events, t0)
         timings = {}
-        state = _RunState(self.config, events.width, events.height, t0, hot)
+        state = _RunState(self.config, events.width, events.height, t0, hot,
+                          self._background(t0, rate))
         keep, cents, chunk_t, comp = self._chunk(events, imu, camera, t0, rate, _warp(mode), None,
                                                  state=state)
         _add(timings, chunk_t)
@@ -257,6 +274,7 @@ class Pipeline:
         result = self._finish(cents, timings, len(events), truth, acc, filter_result,
                               *self._estimator(state, t0, imu, camera, filter_result, span, rate),
                               span_us=span)
+        _report_background(result, state)
         result.keep, result.compensation = keep, comp
         result.images = functools.partial(images, events, keep)   # a Result stays picklable
         return result
@@ -311,6 +329,9 @@ class Pipeline:
         prior = estimation.velocity_prior(self.config, imu, camera, span or (), filter_result)
         e = self.config.estimate
 
+        def highest():   # the background where it was highest: clusters must beat that
+            return rate if state.background is None else state.background.highest_hz
+
         def positions(cents):
             lag = state.measured_lag(cents)
             crossings = state.crossings(lag)
@@ -321,7 +342,7 @@ class Pipeline:
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
-                                       state.sensor, lag, rate, state.near_events(),
+                                       state.sensor, lag, highest(), state.near_events(),
                                        positions.report)
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
@@ -405,7 +426,8 @@ class Pipeline:
         timings, filter_result = {}, None
         parts, offset, first_last = [], 0, [t0, t0]
         acc = _Summary(first[1].width, first[1].height, self.config.dt_us, t0)
-        state = _RunState(self.config, first[1].width, first[1].height, t0, hot)
+        state = _RunState(self.config, first[1].width, first[1].height, t0, hot,
+                          self._background(t0, rate))
         for events, context in chunks("evstar run"):
             keep, cents, chunk_t, _ = self._chunk(events, imu, camera, t0, rate, _warp(mode),
                                                   None, context, state)
@@ -418,10 +440,11 @@ class Pipeline:
             accuracy.check_truth(truth, offset, first[1].width, first[1].height, None)
         if mode == "pf":
             filter_result, timings["particle_filter"] = self._particle_filter(_cat(parts), imu, camera)
-        return self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
-                            *self._estimator(state, t0, imu, camera, filter_result, first_last,
-                                             rate),
-                            span_us=first_last)
+        result = self._finish(_cat(parts), timings, offset, truth, acc, filter_result,
+                              *self._estimator(state, t0, imu, camera, filter_result,
+                                               first_last, rate),
+                              span_us=first_last)
+        return _report_background(result, state)
 
 
 def chunk_span_us(config):
@@ -431,6 +454,15 @@ def chunk_span_us(config):
     pool_frames 4 a real recording's streamed run found 147 centroids, the whole run 148)."""
     pool = config.extract.pool_frames
     return -(-config.chunk_frames // pool) * pool * config.dt_us
+
+
+def _report_background(result, state):
+    """result, its metrics["background_hz"] set where a block's background rate moved
+    (evstar.background.Background.summary)."""
+    moved = state.background.summary() if state.background is not None else None
+    if moved:
+        result.metrics["background_hz"] = moved
+    return result
 
 
 def _warn_lattice(t):
@@ -462,13 +494,14 @@ class _RunState:
     measured on the first span unless configured, and the
     crossings' level profiles for the lag estimate (evstar.level_lag), and the events about
     each span's frame centroids for the across step (evstar.across: 12 bytes an event, kept
-    for the run). A streamed run's chunks are those spans, so it gathers the same crossings
+    for the run), and the background's rate block by block (evstar.background). A streamed run's chunks are those spans, so it gathers the same crossings
     and events as a run in memory."""
 
-    def __init__(self, config, width, height, t0_us, hot=None):
+    def __init__(self, config, width, height, t0_us, hot=None, background=None):
         # no hot pixel found: no mask (a pass over every event finds none on it)
         hot = hot if hot is not None and hot.any() else None
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
+        self.background = background
         self._near = []
         self.t0_us, self.span_us = t0_us, chunk_span_us(config)
         e = config.estimate

@@ -85,6 +85,12 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                    threshold_off=0.18),
            # quiet sensors: a tenth of a hertz of background, or none and no hot pixels
            "quiet": lambda: sim.sensor_model("default", noise_hz=0.1),
+           # the forty-sixth session's stray light: the background rising 6-fold, 4-fold on
+           # a dark sky, 3-fold from a busy 3 Hz, and fading from 6 Hz to a fifth
+           "stray-6": lambda: sim.sensor_model("default", noise_growth=6.0),
+           "stray-dark": lambda: sim.sensor_model("dark-sky", noise_growth=4.0),
+           "stray-busy": lambda: sim.sensor_model("default", noise_hz=3.0, noise_growth=3.0),
+           "fading": lambda: sim.sensor_model("default", noise_hz=6.0, noise_growth=0.2),
            "silent": lambda: sim.sensor_model("default", noise_hz=0.0, hot_pixels=0),
            # the fourteenth session's held-out part: a 1 Hz leak, a 0.05 threshold mismatch
            "leak": lambda: sim.sensor_model("default", leak_hz=1.0),
@@ -586,6 +592,20 @@ def short_frames_grid():
                    comp="none", seed=seed, settings={"dt_us": dt})
 
 
+def stray_grid():
+    """Stray light over 1 s recordings (evstar.background; the forty-sixth session, after
+    FRESH8's O5 on the independent simulator; seed 46): slow, fast, faint stars, a dark-sky
+    sinusoid with IMU, the DAVIS346."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (8, 4.0, 1.0, "stray-6", "none", {}), (3, 5.0, 1.2, "stray-6", "none", {}),
+            ("sine", 4.0, 1.1, "stray-dark", "imu", {}), (12, 4.5, 1.0, "stray-dark", "none", {}),
+            (6, 5.0, 1.0, "fading", "none", {}), (20, 3.5, 1.0, "fading", "imu", {}),
+            (10, 4.0, 1.0, "stray-busy", "none", {"camera": "davis346"}),
+            (2, 4.5, 1.4, "stray-busy", "none", {})):
+        yield dict(set="stray", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=46, duration=1.0, **extra)
+
+
 def dark_rates_grid():
     """fresh-42's EVK4 dark-sky miss on the symmetric dark sky at 4–25 °/s, no IMU: how the
     lag the level profiles miss grows as the star crosses a pixel faster than its time
@@ -600,7 +620,8 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
-         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "short-frames": short_frames_grid}
+         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "short-frames": short_frames_grid,
+         "stray": stray_grid}
 
 
 def scenario(s):
@@ -709,6 +730,8 @@ def run_scene(s, settings=None):
     prior, _ = on_camera_clock(cfg, estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]]),
                                run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag)
     rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
+    # ... where it was highest, where a block's moved (evstar.background)
+    rate = res.metrics.get("background_hz", {}).get("highest", rate)
     near = across.near_centroids(ev, linked, hot)   # (one span: the whole run)
     # a calibration recording's lag file where the sensor lags (a dark sky) or has a long
     # refractory period (the file absorbs the bias of a period not told)

@@ -89,3 +89,24 @@ def test_simulate_a_vibrating_platform(tmp_path, capsys):
     assert main(["simulate", str(tmp_path / "fast"), "--jitter", "10", "100"]) == 2
     assert "--jitter 10 100" in capsys.readouterr().err
     assert main(["simulate", str(tmp_path / "neg"), "--jitter", "-1", "20"]) == 2
+
+
+def test_simulate_stray_light(tmp_path, capsys):
+    """--noise-growth: the background changes linearly to that multiple by the end."""
+    from evstar_kernels.reference.denoise import background_rate
+
+    out = tmp_path / "stray"
+    assert main(["simulate", str(out), "--rate", "8", "--duration", "0.5", "--noise-hz", "2",
+                 "--noise-growth", "5", "--hot-pixels", "0", "--seed", "2"]) == 0
+    ev = io.read(out / "events.h5").events
+    t0, t1 = int(ev.t[0]), int(ev.t[-1])
+
+    def rate(a, b):
+        w = ev.time_window(t0 + int(a * (t1 - t0)), t0 + int(b * (t1 - t0)))
+        return background_rate(w.t, w.x, w.y, w.width, w.height)
+
+    # 2 -> 10 events/pixel/s: 2.4 over the first tenth, 9.6 over the last
+    assert rate(0, 0.1) == pytest.approx(2.4, rel=0.1)
+    assert rate(0.9, 1.0) == pytest.approx(9.6, rel=0.1)
+    assert main(["simulate", str(tmp_path / "bad"), "--noise-growth", "0"]) == 2
+    assert "--noise-growth" in capsys.readouterr().err

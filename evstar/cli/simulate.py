@@ -71,6 +71,9 @@ def add_arguments(p):
                    help="sensor model: default (no pixel bandwidth limit) or dark-sky (photoreceptor "
                         "low-pass 30 Hz at the sky background up to 2 kHz, 0.1 Hz leak)")
     p.add_argument("--noise-hz", type=checked(float, 0, 1e6), default=1.5, help="background activity, events/pixel/s (1.5)")
+    p.add_argument("--noise-growth", type=checked(float, 0, 1e3, open_low=True), default=1.0,
+                   metavar="RATIO", help="stray light: the background at the end over that at "
+                   "the start, changing linearly (1: steady)")
     p.add_argument("--hot-pixels", type=checked(int, 0, 10**7), default=5, metavar="N",
                    help="number of hot pixels, at most the camera's pixel count (5)")
     p.add_argument("--threshold", type=checked(float, 0, 10, open_low=True), default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
@@ -110,7 +113,8 @@ def scenario_from(args):
                              f"{cam.width * cam.height:,} pixels ({cam.width}x{cam.height}), "
                              f"got {args.hot_pixels:,}")
     sensor = sim.sensor_model(args.sensor, threshold_on=args.threshold, threshold_off=args.threshold,
-                              noise_hz=args.noise_hz, hot_pixels=args.hot_pixels)
+                              noise_hz=args.noise_hz, hot_pixels=args.hot_pixels,
+                              noise_growth=args.noise_growth)
     imu = (sim.ImuSpec.ideal if args.ideal_imu else sim.ImuSpec)(rate_hz=args.imu_rate)
     duration = args.duration if args.duration is not None else (1.0 if args.sine else 0.5)
     if args.stars == 1:
@@ -155,7 +159,8 @@ def check_grid(args, scenario):
     steps_per_s = max(1e3, px_per_s / scenario.grid_step_px)
     steps = steps_per_s * max(scenario.duration_s, 0.01)
     spec, pixels = scenario.sensor, cam.width * cam.height
-    noise = (spec.noise_hz * pixels + spec.hot_pixels * spec.hot_pixel_hz) * scenario.duration_s
+    noise = (spec.noise_hz * max(spec.noise_growth, 1) * pixels
+             + spec.hot_pixels * spec.hot_pixel_hz) * scenario.duration_s
     if noise > MAX_NOISE_EVENTS:
         raise ParameterError(
             f"the simulation would make about {noise:.3g} noise events (at most {MAX_NOISE_EVENTS:g}): "

@@ -1,6 +1,7 @@
 """Sensor noise that no scene causes: background activity and hot pixels.
 
-Background activity is an independent Poisson process of `noise_hz` at every pixel. Their
+Background activity is an independent Poisson process of `noise_hz` at every pixel (or, with
+stray light, a rate changing linearly to noise_growth times that by the end). Their
 superposition is one Poisson process of rate noise_hz · n_pixels whose events fall on
 uniformly random pixels, which is how it is drawn: exponential gaps, a cumulative sum (times
 come out sorted, no sort of millions of events) and a uniform pixel per event.
@@ -40,9 +41,15 @@ def _poisson_times(rng, rate_hz, duration_s, dead_s=0.0):
         t_end, expected = t[-1], rate_hz * (duration_s - t[-1])
 
 
-def background_activity(rng, n_pixels, rate_hz, duration_s, on_fraction=0.5):
-    """(t seconds sorted, pixel index, polarity int8) of Poisson noise at rate_hz per pixel."""
-    t = _poisson_times(rng, rate_hz * n_pixels, duration_s)
+def background_activity(rng, n_pixels, rate_hz, duration_s, on_fraction=0.5, growth=1.0):
+    """(t seconds sorted, pixel index, polarity int8) of Poisson noise at rate_hz per pixel,
+    its rate changing linearly to growth × rate_hz at duration_s (stray light): drawn at the
+    higher end's rate and thinned (growth 1 draws no thinning)."""
+    peak = rate_hz * max(growth, 1.0)
+    t = _poisson_times(rng, peak * n_pixels, duration_s)
+    if growth != 1.0:
+        rate = rate_hz * (1 + (growth - 1) * t / duration_s)
+        t = t[rng.random(len(t)) * peak < rate]
     pix = rng.integers(0, n_pixels, len(t))
     pol = (rng.random(len(t)) < on_fraction).astype(np.int8)
     return t, pix, pol

@@ -50,6 +50,8 @@ class SensorSpec:
     dropout: float = 0.0               # probability that any event is lost
     noise_hz: float = 1.5              # background activity, events / pixel / s (both polarities)
     noise_on_fraction: float = 0.5
+    noise_growth: float = 1.0          # background at the end / at the start: stray light
+                                       # rising (or fading) linearly over the recording
     hot_pixels: int = 5
     hot_pixel_hz: float = 100.0        # mean rate of each hot pixel
     min_log_change: float = 0.01       # log-intensity changes below this are not rendered
@@ -59,7 +61,8 @@ class SensorSpec:
     shot_noise_hz: float = 0.0         # noise events / pixel / s per background unit of star light
 
     def __post_init__(self):
-        positive = ("threshold_on", "threshold_off", "min_log_change", "cutoff_hz_background")
+        positive = ("threshold_on", "threshold_off", "min_log_change", "cutoff_hz_background",
+                    "noise_growth")
         nonneg = ("threshold_mismatch", "refractory_us", "jitter_us", "noise_hz", "hot_pixel_hz",
                   "leak_hz", "shot_noise_hz")
         for f in fields(self):

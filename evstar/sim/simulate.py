@@ -111,7 +111,7 @@ def _events(scn, rng_thr, rng_sig, rng_hot, rng_bg, rng_drop, rng_shot):
                                                     scn.duration_s, spec.refractory_us * 1e-6)
     hot = (_to_us(t_hot, scn.t_start_us, t_end_us), pix_hot, pol_hot, np.full(len(t_hot), HOT_PIXEL, np.int32))
     t_bg, pix_bg, pol_bg = background_activity(rng_bg, n_pix, spec.noise_hz, scn.duration_s,
-                                               spec.noise_on_fraction)
+                                               spec.noise_on_fraction, spec.noise_growth)
     bg = (_to_us(t_bg, scn.t_start_us, t_end_us), pix_bg, pol_bg, np.full(len(t_bg), NOISE, np.int32))
     t, pix, pol, labels = merge_sorted(bg, merge_sorted(signal, hot))
     if spec.dropout > 0:
