@@ -205,19 +205,14 @@ def fit_lag(profiles):
     """(k values, lag µs per k, R², ρ) of the geometric model fitted to `profiles` ({k:
     (median demeaned profile, count)}), or None when fewer than two profiles have >= 3
     levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays)."""
-    # a low-pass delays a dimmer level more: every well-filled profile of three levels or more
-    # rises level by level over the levels that shape the fit (a sensor without one has
-    # profiles of jitter and refractory effects, some falling or flat, whose fit can still
-    # pass the R² gate: the default sensor at 12 °/s, seed 54, 3 pairs at -10, 0, -8 µs; the
-    # deepest level of a long profile, left out of the shape, may fall: a background event
-    # of a fast field paired there). Two-pair profiles do not vote: the faintest crossings,
-    # where a background event pairs most often (stray light rising 4-fold on a dark-sky
-    # sinusoid: k = 2 fell by 0.6 ms while k = 3-9 rose by 1.2-5 ms, no lag was measured
-    # and the gyro's clock took it up as 1.6 ms: 0.734 px, 0.035 with the lag)
+    # a low-pass delays a dimmer level more: every well-filled profile rises with depth over
+    # the levels that shape the fit (a sensor without one has profiles of jitter and refractory
+    # effects, some falling, whose fit can still pass the R² gate; the deepest level of a
+    # long profile, left out of the shape, may fall: a background event of a fast field
+    # paired there)
     fullest = max((n for D, n in profiles.values()), default=0)
     filled = {k: (D, n) for k, (D, n) in profiles.items() if n >= FILLED_SHARE * fullest}
-    if any(np.any(np.diff(D[:_levels(k)]) <= 0) for k, (D, n) in filled.items()
-           if _levels(k) >= 3):
+    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in filled.items() if k >= 2):
         return None
     shaped = {k: v for k, v in filled.items() if _levels(k) >= 3}
     deep = {k: v for k, v in shaped.items() if k >= _DROP_BOTTOM_FROM}

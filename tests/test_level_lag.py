@@ -35,20 +35,14 @@ def test_profiles_without_a_lowpass_give_none():
     assert fit_lag({3: (np.array([-1.0, 0.0, 1.0]), 50)}) is None      # one profile: no shape
 
 
-def test_a_profile_not_rising_level_by_level_is_no_lowpass():
-    """Deep profiles that a geometric lag fits (R² > 0.99) beside a 3-pair one that does not
-    rise level by level, as refractory and jitter effects made them on the default sensor
-    (12 °/s, seed 54: -10, 0, -8 µs): a low-pass delays every deeper level more, so no lag
-    is measured. A 2-pair profile falling does not decide: the faintest crossings, where
-    background events pair (stray light on a dark sky: 0.6 ms beside deeper ones rising)."""
+def test_a_profile_falling_with_depth_is_no_lowpass():
+    """Deep profiles that a geometric lag fits (R² > 0.99) beside a short one that falls with
+    depth, as refractory and jitter effects made them on the default sensor (12 °/s): a
+    low-pass delays every deeper level more, so no lag is measured."""
     prof = _profiles(1.3, 1500.0, ks=range(4, 8), noise_us=5.0)
     assert fit_lag(prof) is not None
-    prof[2] = (np.array([300.0, -300.0]), 60)
-    assert fit_lag(prof) is not None
-    prof[3] = (np.array([-10.0, 0.0, -8.0]) + 6.0, 60)
+    prof[2] = (np.array([18.0, -18.0]), 60)
     assert fit_lag(prof) is None
-    prof[3] = (np.array([-10.0, 0.0, 10.0]), 60)
-    assert fit_lag(prof) is not None
 
 
 def test_a_long_profile_s_deepest_level_does_not_decide():
