@@ -21,6 +21,7 @@ from . import assignment, lobes, vibration
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
+from .hotpixels import still_tracks
 from .parameters import AUTO, MIN_ALPHA
 from .tracking import BLENDED
 
@@ -157,9 +158,11 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     # a pooled centroid no track took is noise that once pooled into a cluster
     # (evstar.pooling); a blend of two tracks' stars is neither's position; a track of OFF
     # lobes alone is pixels relaxing behind a star (lobes.trail_tracks)
+    # ... and a track that stays still where others move is a pixel firing by itself
     centroids = centroids[((centroids["track"] >= 0) | (centroids["source"] != "pooled"))
                           & (centroids["track"] != BLENDED)
-                          & ~np.isin(centroids["track"], lobes.trail_tracks(centroids))]
+                          & ~np.isin(centroids["track"], lobes.trail_tracks(centroids))
+                          & ~np.isin(centroids["track"], still_tracks(centroids))]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)

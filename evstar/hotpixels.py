@@ -17,6 +17,10 @@ in pairs too, each the other's brightest neighbour (two adjacent pixels at ~100 
 
 The map is running: counts are kept in ``_BINS`` sub-windows, the oldest dropped as time
 passes, and the mask is re-derived from the window's total after each update.
+
+A run drops the events of the hot pixels of its calibration window (the first chunk_frames
+frames) before extraction, and the tracks that stay still where others move
+(still_tracks): a pixel that turns hot later.
 """
 from __future__ import annotations
 
@@ -159,6 +163,52 @@ def _second_neighbour(padded, iy, ix):
 def _box_sums(padded, iy, ix):
     """Counts of the _BOX × _BOX pixels centred on each (iy, ix)."""
     return _windows(padded, iy, ix, _BOX).sum(axis=1).astype(np.float64)
+
+
+#: a track whose centroids lie within this (px) of their median position ...
+STILL_PX = 0.5
+#: ... this share of them (a background event that joins a hot pixel's cluster moves its
+#: centroid: 1st-99th percentile 39.4-40.3 px on one) ...
+STILL_SHARE = 0.8
+#: ... for at least this long (µs), at least STILL_MIN_CENTROIDS of them, is a pixel firing
+#: by itself: an event camera sees no still star (a star makes events only as its light
+#: moves over pixels), and a pixel that turns hot after the calibration window (whose map
+#: drops the hot pixels it sees) otherwise made a track of 95-144 rows within 0.2 px
+STILL_US = 500_000
+STILL_MIN_CENTROIDS = 10
+#: ... where another track of the run spans at least this (px): a camera at rest sees only
+#: what flickers, and nothing there is judged (a track spanning less is examined: a
+#: background event in a hot pixel's cluster moves its centroid by up to ~eps/2)
+MOVING_PX = 5.0
+
+
+def still_tracks(centroids):
+    """Ids of the tracks of the linked `centroids` that stay still (STILL_SHARE within
+    STILL_PX of their median, over STILL_US or longer) where another track moves
+    (MOVING_PX): hot pixels the calibration window's map did not see."""
+    tracked = centroids[centroids["track"] >= 0]
+    if not len(tracked):
+        return np.zeros(0, np.int64)
+    tr = tracked[np.argsort(tracked["track"], kind="stable")]
+    starts = np.r_[0, np.flatnonzero(np.diff(tr["track"])) + 1]
+    ends = np.r_[starts[1:], len(tr)]
+
+    def ptp(v):
+        return np.maximum.reduceat(v, starts) - np.minimum.reduceat(v, starts)
+
+    extent = np.maximum(ptp(tr["x"]), ptp(tr["y"]))
+    long = (ptp(tr["t"]) >= STILL_US) & (ends - starts >= STILL_MIN_CENTROIDS)
+    candidates = np.flatnonzero(long & (extent < MOVING_PX))
+    if not len(candidates) or not np.any(extent >= MOVING_PX):
+        return np.zeros(0, np.int64)
+    still = [i for i in candidates if _still(tr[starts[i]:ends[i]])]
+    return tr["track"][starts[still]].astype(np.int64)
+
+
+def _still(rows):
+    """Whether STILL_SHARE of a track's rows lie within STILL_PX of their median position."""
+    d = np.hypot(rows["x"] - np.median(rows["x"]), rows["y"] - np.median(rows["y"]))
+    return np.mean(d <= STILL_PX) >= STILL_SHARE
 
 
 def remove_hot_centroids(centroids, hot, max_spread_px=0.5):

@@ -285,14 +285,16 @@ class Pipeline:
         f·b·dt/2, 0.06 px at 1 °/s, 10 ms, f 870 px; a second pass warped with the filter's
         attitude moved centroids by 0.0002 px median on the EVK4 fields,
         perf/study_pf_passes.py)."""
+        from .hotpixels import still_tracks
         from .lobes import trail_tracks
         from .motion import ParticleFilter
 
         tracked = self.make_tracker().link(centroids[centroids["source"] != "pooled"])
         # stars cut by the sensor edge give centroids biased by up to ~3 px, and a trail of
-        # OFF lobes is no star: leave them out
+        # OFF lobes or a still track (a hot pixel) is no star: leave them out
         obs = tracked[(tracked["track"] >= 0) & ~tracked["border"]
-                      & ~np.isin(tracked["track"], trail_tracks(tracked))]
+                      & ~np.isin(tracked["track"], trail_tracks(tracked))
+                      & ~np.isin(tracked["track"], still_tracks(tracked))]
         # a track joined where one ended as another began (tracking._join: a turn, two stars
         # side by side) can hold two centroids at one time: which is the star's is unknown
         _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,
