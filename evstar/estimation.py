@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import assignment, lobes, vibration
+from .bursts import bunched
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
@@ -206,6 +207,8 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
         loose = loose[loose["n_events"] >= untracked_min_events(config, sensor, rate_hz)]
     loose = loose[~lobes.of_tracks(loose, est)]
+    if near is not None:   # a particle's hit: a spot firing at once (evstar.bursts)
+        loose = loose[~bunched(loose, near, t0_us, config.dt_us)]
     rows = _merge(loose, out, est)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother

@@ -1,0 +1,40 @@
+"""Bursts: a spot of pixels firing at once, as a particle's hit (radiation) makes them.
+
+A star's light moves over the pixels, so the events of its cluster come all through a
+frame; a particle that hits the sensor fires a spot of pixels within a fraction of a
+millisecond. In a frame such a spot is a cluster of tens of events that DBSCAN reports and
+no track takes, and the background test for untracked centroids (its size) passes it: 50
+hits of 30 events in 1 s of the paper's scene made 53 false rows. An untracked centroid
+whose nearby events in its frame are bunched in time — their interquartile range under
+BURST_SHARE of the frame — is dropped.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+#: the events within this (px, each axis) of an untracked centroid's pixel are its own (a
+#: hit's spot; the background's events beside it are a few, which the interquartile range
+#: ignores)
+BURST_PX = 3
+#: ... and bunched where their interquartile time range is under this share of the frame (a
+#: star's: about half of it, its light passing all through the frame)
+BURST_SHARE = 0.1
+
+
+def bunched(rows, near, t0_us, dt_us):
+    """Per row of `rows` (untracked centroids, CENTROID_DTYPE): whether the events `near`
+    ((t, x, y) in time order, those about the run's frame centroids) within BURST_PX of it
+    in its frame span less than BURST_SHARE of the frame between their quartiles."""
+    t, x, y = near
+    out = np.zeros(len(rows), bool)
+    if not len(t):
+        return out
+    starts = t0_us + rows["frame"] * dt_us
+    a, b = np.searchsorted(t, starts), np.searchsorted(t, starts + dt_us)
+    for i in range(len(rows)):
+        mine = ((np.abs(x[a[i]:b[i]] - np.rint(rows["x"][i])) <= BURST_PX)
+                & (np.abs(y[a[i]:b[i]] - np.rint(rows["y"][i])) <= BURST_PX))
+        if np.count_nonzero(mine) >= 4:
+            q1, q3 = np.percentile(t[a[i]:b[i]][mine], [25, 75])
+            out[i] = q3 - q1 < BURST_SHARE * dt_us
+    return out

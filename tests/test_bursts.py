@@ -1,0 +1,52 @@
+"""Particle hits (evstar.bursts): a spot of pixels firing at once is no star, however many
+events it holds; a star's untracked centroid, whose events come all through its frame, stays."""
+import numpy as np
+
+from evstar import Config, Events, Pipeline, accuracy, sim
+from evstar.bursts import BURST_SHARE, bunched
+from evstar.extract import CENTROID_DTYPE
+
+
+def _hits(run, n, size, seed=1):
+    """run's events plus n hits of `size` events each within ±2 px and 1 ms."""
+    ev, rng = run.events, np.random.default_rng(seed)
+    t0, t1 = int(ev.t[0]), int(ev.t[-1])
+    parts = [(ev.t, ev.x, ev.y, ev.p)]
+    for _ in range(n):
+        tc, xc, yc = rng.integers(t0, t1), rng.integers(5, ev.width - 5), rng.integers(5, ev.height - 5)
+        parts.append((tc + rng.integers(0, 1000, size), xc + rng.integers(-2, 3, size),
+                      yc + rng.integers(-2, 3, size), rng.integers(0, 2, size)))
+    t, x, y, p = (np.concatenate(c) for c in zip(*parts))
+    o = np.argsort(t, kind="stable")
+    return Events(t[o], x[o].astype(ev.x.dtype), y[o].astype(ev.y.dtype), p[o].astype(ev.p.dtype),
+                  ev.width, ev.height)
+
+
+def test_particle_hits_are_not_reported_as_stars():
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=1.0, magnitude=4.0), seed=3)
+    clean = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    rows = Pipeline(Config()).run(_hits(run, 50, 30), run.imu, run.camera).centroids
+    star, err = accuracy.match(rows, run.truth.star_position)
+    clean_star, clean_err = accuracy.match(clean, run.truth.star_position)
+    # 50 hits made 53 false rows before; now as many as without them, the star as well seen
+    assert np.count_nonzero(star < 0) == np.count_nonzero(clean_star < 0) <= 1
+    assert np.count_nonzero(star >= 0) == np.count_nonzero(clean_star >= 0)
+    assert abs(err[star >= 0].mean() - clean_err[clean_star >= 0].mean()) < 0.005
+
+
+def test_bunched_events_make_a_burst_and_spread_ones_a_star():
+    dt = 10_000
+    rows = np.zeros(3, CENTROID_DTYPE)
+    rows["frame"], rows["x"], rows["y"] = [2, 2, 5], [10.0, 40.0, 10.0], [10.0, 40.0, 10.0]
+    rng = np.random.default_rng(0)
+    burst_t = 20_000 + 4000 + rng.integers(0, 600, 30)                 # frame 2, 0.6 ms
+    star_t = 20_000 + rng.integers(0, dt, 30)                           # frame 2, all through
+    late_burst = 50_000 + 9000 + rng.integers(0, 500, 20)              # frame 5
+    noise_t = 50_000 + rng.integers(0, dt, 5)                           # a few beside it
+    t = np.concatenate([burst_t, star_t, late_burst, noise_t])
+    x = np.concatenate([np.full(30, 10), np.full(30, 41), np.full(20, 11), np.full(5, 9)])
+    y = np.concatenate([np.full(30, 9), np.full(30, 40), np.full(20, 10), np.full(5, 12)])
+    o = np.argsort(t, kind="stable")
+    assert bunched(rows, (t[o], x[o], y[o]), 0, dt).tolist() == [True, False, True]
+    assert 0 < BURST_SHARE < 0.5
+    assert not bunched(rows, (t[:0], x[:0], y[:0]), 0, dt).any()
