@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import assignment, lobes, vibration
-from .bursts import bunched
+from .bursts import bunched, burst_tracks
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
 from .extract import CENTROID_DTYPE
@@ -159,11 +159,15 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     # a pooled centroid no track took is noise that once pooled into a cluster
     # (evstar.pooling); a blend of two tracks' stars is neither's position; a track of OFF
     # lobes alone is pixels relaxing behind a star (lobes.trail_tracks)
-    # ... and a track that stays still where others move is a pixel firing by itself
+    # ... and a track that stays still where others move is a pixel firing by itself, one
+    # of bunched centroids particle hits linked by chance (evstar.bursts)
+    artefacts = still_tracks(centroids)
+    if near is not None:
+        artefacts = np.r_[artefacts, burst_tracks(centroids, near, t0_us, config.dt_us)]
     centroids = centroids[((centroids["track"] >= 0) | (centroids["source"] != "pooled"))
                           & (centroids["track"] != BLENDED)
                           & ~np.isin(centroids["track"], lobes.trail_tracks(centroids))
-                          & ~np.isin(centroids["track"], still_tracks(centroids))]
+                          & ~np.isin(centroids["track"], artefacts)]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)

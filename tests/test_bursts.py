@@ -1,9 +1,10 @@
 """Particle hits (evstar.bursts): a spot of pixels firing at once is no star, however many
 events it holds; a star's untracked centroid, whose events come all through its frame, stays."""
 import numpy as np
+import pytest
 
 from evstar import Config, Events, Pipeline, accuracy, sim
-from evstar.bursts import BURST_SHARE, bunched
+from evstar.bursts import BURST_SHARE, SHORT_TRACK, bunched, burst_tracks
 from evstar.extract import CENTROID_DTYPE
 
 
@@ -22,14 +23,17 @@ def _hits(run, n, size, seed=1):
                   ev.width, ev.height)
 
 
-def test_particle_hits_are_not_reported_as_stars():
+@pytest.mark.parametrize("hits,size", [(50, 30), (200, 60)])
+def test_particle_hits_are_not_reported_as_stars(hits, size):
+    """50 hits of 30 events made 53 false rows (untracked clusters); 200 of 60 made 272, 72
+    of them on 5 tracks the tracker linked hits into."""
     run = sim.simulate(sim.paper_preset(8.0, duration_s=1.0, magnitude=4.0), seed=3)
     clean = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
-    rows = Pipeline(Config()).run(_hits(run, 50, 30), run.imu, run.camera).centroids
+    rows = Pipeline(Config()).run(_hits(run, hits, size), run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     clean_star, clean_err = accuracy.match(clean, run.truth.star_position)
-    # 50 hits made 53 false rows before; now as many as without them, the star as well seen
-    assert np.count_nonzero(star < 0) == np.count_nonzero(clean_star < 0) <= 1
+    # now as many false rows as without them, the star as well seen
+    assert np.count_nonzero(star < 0) <= np.count_nonzero(clean_star < 0) <= 1
     assert np.count_nonzero(star >= 0) == np.count_nonzero(clean_star >= 0)
     assert abs(err[star >= 0].mean() - clean_err[clean_star >= 0].mean()) < 0.005
 
@@ -50,3 +54,24 @@ def test_bunched_events_make_a_burst_and_spread_ones_a_star():
     assert bunched(rows, (t[o], x[o], y[o]), 0, dt).tolist() == [True, False, True]
     assert 0 < BURST_SHARE < 0.5
     assert not bunched(rows, (t[:0], x[:0], y[:0]), 0, dt).any()
+
+
+def test_short_tracks_of_bunched_centroids_are_hits_linked_by_chance():
+    dt = 10_000
+    rng = np.random.default_rng(2)
+    rows = np.zeros(6, CENTROID_DTYPE)
+    rows["frame"] = [1, 2, 3, 1, 2, 3]
+    rows["track"] = [0, 0, 0, 1, 1, 1]
+    rows["x"] = [10, 12, 14, 50, 52, 54]
+    rows["y"] = 20
+    t, x, y = [], [], []
+    for r in rows:
+        hit = r["track"] == 0                  # track 0: hits; track 1: a star's light
+        t.append(r["frame"] * dt + (3000 + rng.integers(0, 500, 20) if hit else rng.integers(0, dt, 20)))
+        x.append(np.full(20, r["x"])), y.append(np.full(20, 20))
+    t, x, y = (np.concatenate(v) for v in (t, x, y))
+    o = np.argsort(t, kind="stable")
+    near = (t[o], x[o], y[o])
+    assert burst_tracks(rows, near, 0, dt).tolist() == [0]
+    long = np.concatenate([rows[:3]] * (SHORT_TRACK // 3 + 1))   # longer: a star's, kept
+    assert burst_tracks(long, near, 0, dt).tolist() == []
