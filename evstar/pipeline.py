@@ -25,6 +25,7 @@ import numpy as np
 
 from . import accuracy
 from .background import Background, windows
+from .bursts import flashes
 from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
@@ -128,13 +129,16 @@ class Pipeline:
         return Background(rate, (t0_us, t0_us + self.config.chunk_frames * self.config.dt_us))
 
     def _calibration_window(self, events, t0_us):
-        """The events of the first chunk_frames frames. A run's first kernels count them, on
+        """The events of the first chunk_frames frames, less a flash's (evstar.bursts). A run's
+        first kernels count them, on
         whatever Taichi runs on (frames.images): Taichi is started on the run's device here,
         else it started on the CPU and a cuda run's filters could not switch to the GPU."""
         from .backends import taichi
 
         taichi(self.config.device)
-        return events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        w = events.time_window(t0_us, t0_us + self.config.chunk_frames * self.config.dt_us)
+        flash = flashes(w.t, t0_us, self.config.dt_us, w.width * w.height)
+        return w[~flash] if flash.any() else w      # a flash is no background, no hot pixel
 
     def _rate(self, window, counts):
         """The window's background rate, over at least one frame: events that all share a
@@ -171,7 +175,16 @@ class Pipeline:
                state=None):
         """(keep mask, centroids, timings, compensation) of one chunk; `context` are earlier
         events the classical filter needs (their own outputs are dropped). With a `state`
-        (_RunState), hot pixels' events are dropped and the chunk's crossings collected."""
+        (_RunState), hot pixels' events are dropped and the chunk's crossings collected. A
+        flash's events (evstar.bursts.flashes) are taken as lost: the chunk runs without
+        them, and they are not kept."""
+        flash = flashes(events.t, t0_us, self.config.dt_us, events.width * events.height)
+        if flash.any():
+            keep, cents, timings, comp = self._chunk(events[~flash], imu, camera, t0_us, rate,
+                                                     mode, filter_result, context, state)
+            whole = np.zeros(len(events), bool)
+            whole[~flash] = keep
+            return whole, cents, timings, comp
         timings = {}
         t = time.perf_counter()
         comp = self._compensate(events, imu, camera, t0_us, mode, filter_result)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from evstar import Config, Events, Pipeline, accuracy, sim
-from evstar.bursts import BURST_SHARE, SHORT_TRACK, bunched, burst_tracks
+from evstar.bursts import BURST_SHARE, SHORT_TRACK, bunched, burst_tracks, flashes
 from evstar.extract import CENTROID_DTYPE
 
 
@@ -75,3 +75,53 @@ def test_short_tracks_of_bunched_centroids_are_hits_linked_by_chance():
     assert burst_tracks(rows, near, 0, dt).tolist() == [0]
     long = np.concatenate([rows[:3]] * (SHORT_TRACK // 3 + 1))   # longer: a star's, kept
     assert burst_tracks(long, near, 0, dt).tolist() == []
+
+
+def _flashed(run, n, seed=4):
+    """run's events plus n flashes: every pixel firing once within 0.5 ms."""
+    ev, rng = run.events, np.random.default_rng(seed)
+    ys, xs = np.mgrid[0:ev.height, 0:ev.width]
+    parts = [(ev.t, ev.x, ev.y, ev.p)]
+    for tc in rng.integers(int(ev.t[0]) + 50_000, int(ev.t[-1]), n):
+        parts.append((tc + rng.integers(0, 500, xs.size), xs.ravel(), ys.ravel(),
+                      np.ones(xs.size, int)))
+    t, x, y, p = (np.concatenate(c) for c in zip(*parts))
+    o = np.argsort(t, kind="stable")
+    return Events(t[o], x[o].astype(ev.x.dtype), y[o].astype(ev.y.dtype), p[o].astype(ev.p.dtype),
+                  ev.width, ev.height)
+
+
+def test_a_flash_of_the_whole_sensor_is_taken_as_lost(tmp_path):
+    """Three flashes in 1 s took the star 0.022 -> 0.088 px (their events joined its
+    clusters); taken as lost, the star is as well seen as without them, whole or streamed."""
+    from evstar import io
+
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=1.0, magnitude=4.0), seed=3)
+    ev = _flashed(run, 3)
+    clean = Pipeline(Config()).run(run.events, run.imu, run.camera)
+    result = Pipeline(Config()).run(ev, run.imu, run.camera)
+    star, err = accuracy.match(result.centroids, run.truth.star_position)
+    clean_star, clean_err = accuracy.match(clean.centroids, run.truth.star_position)
+    assert abs(err[star >= 0].mean() - clean_err[clean_star >= 0].mean()) < 0.005
+    assert np.count_nonzero(star >= 0) >= 99 and np.count_nonzero(star < 0) <= 1
+    assert len(result.keep) == len(ev) and not result.keep[flashes(
+        ev.t, int(ev.t[0]), Config().dt_us, ev.width * ev.height)].any()
+    io.write(tmp_path / "events.h5", ev)
+    cfg = Config(chunk_frames=7).replace(**{"estimate.estimator": "mean"})
+    whole = Pipeline(cfg).run(ev).centroids
+    streamed = Pipeline(cfg).run_file(tmp_path / "events.h5", progress=False).centroids
+    for f in whole.dtype.names:
+        np.testing.assert_array_equal(whole[f], streamed[f])
+
+
+def test_flashes_are_bins_far_above_the_sensors_own_rate():
+    n_pixels, dt = 10_000, 10_000
+    rng = np.random.default_rng(0)
+    steady = np.sort(rng.integers(0, 100_000, 30_000))          # 300 a millisecond
+    flash = 42_000 + rng.integers(0, 900, 5000)                 # half the pixels at once
+    t = np.sort(np.r_[steady, flash])
+    got = flashes(t, 0, dt, n_pixels)
+    assert np.all(got == ((t >= 42_000) & (t < 43_000)))
+    # a sensor busy all the time (every bin 6 % of the pixels) has no flash
+    busy = np.sort(rng.integers(0, 100_000, 60_000))
+    assert not flashes(busy, 0, dt, n_pixels).any()
