@@ -225,8 +225,8 @@ def summary_text(result, outdir, steady=None):
         lines += [f"pixel lag     {lag['lag_ms'][0]:.1f}–{lag['lag_ms'][1]:.1f} ms by brightness ({how})"]
     if "background_hz" in m:   # stray light: the filters followed the background
         b = m["background_hz"]
-        lines += [f"background    {b['lowest']:g}–{b['highest']:g} events/pixel/s block by block "
-                  f"blocks ({b['window']:g} in the calibration window; thresholds followed it)"]
+        lines += [f"background    {b['lowest']:.2f}–{b['highest']:.2f} events/pixel/s, block by "
+                  f"block ({b['window']:.2f} in the calibration window; thresholds followed it)"]
     for v in m.get("vibration", ()):   # a platform's vibration the estimator followed
         whose = f"{v['tracks']} tracks" if "tracks" in v else f"track {v['track']}"
         lines += [f"vibration     {v['hz']:g} Hz, {v['amplitude_px']:g} px {v['axis']} the motion "
