@@ -41,9 +41,9 @@ MIN_BLOCK_EVENTS = 100
 
 @dataclass
 class Background:
-    """hz: the calibration window's robust rate (events/pixel/s); dropped_hz: the events the
-    density filter dropped in that window per pixel and second (None until the first chunk
-    measured it); highest_hz, lowest_hz: the highest and lowest rates a block took so far
+    """hz: the calibration window's robust rate (events/pixel/s); window_us: its (first,
+    end) µs; dropped_hz: the events the density filter dropped in it per pixel and second
+    (None until the first chunk measured it); highest_hz, lowest_hz: the highest and lowest rates a block took so far
     (the estimator takes the highest: where the background was highest, clusters must beat
     it)."""
     hz: float
@@ -60,9 +60,8 @@ class Background:
         at times `t` (a chunk of a run with frame origin t0_us, filtered at the window's rate)
         with each block whose background moved filtered again at its own rate
         (mask_at(slice, rate) -> the mask of those events; n_pixels: the sensor's), and the
-        runs of blocks of one
-        rate, the first from −∞ and the last to +∞ (one run at the window's rate where no
-        block moved, or denoise.rate_hz fixes the rate)."""
+        runs of blocks of one rate, the first from −∞ and the last to +∞ (one run at the
+        window's rate where no block moved, or denoise.rate_hz fixes the rate)."""
         whole = [(None, None, self.hz)]
         if not len(t) or config.denoise.rate_hz is not None or self.hz <= 0:
             return keep, whole
