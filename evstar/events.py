@@ -34,16 +34,14 @@ def time_lattice_us(t):
     divisor only shrinks, so 1 µs stamps are told in the first block (all 1.25 M of a
     field's gaps cost 19 ms)."""
     t = np.asarray(t, np.int64)
-    if np.count_nonzero(np.diff(t[:MIN_LATTICE_GAPS + 1])) < MIN_LATTICE_GAPS and \
-            np.count_nonzero(np.diff(t)) < MIN_LATTICE_GAPS:
-        return 0
-    step = 0
+    step = n_gaps = 0
     for i in range(0, len(t) - 1, _LATTICE_BLOCK):
         gaps = np.diff(t[i:i + _LATTICE_BLOCK + 1])
         step = int(np.gcd.reduce(gaps, initial=step))   # gcd(0, g) = g: ties add nothing
         if 0 < step < MIN_LATTICE_US:
             return 0
-    return step if step >= MIN_LATTICE_US else 0
+        n_gaps += int(np.count_nonzero(gaps))
+    return step if n_gaps >= MIN_LATTICE_GAPS and step >= MIN_LATTICE_US else 0
 
 
 _LATTICE_BLOCK = 1 << 12
