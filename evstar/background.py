@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .frames import frame_offsets
 from .parameters import MAX_PIXEL_RATE_HZ
 
 #: a block is this many pooled frames (fewer where a streamed chunk holds no whole number of
@@ -43,9 +44,9 @@ MIN_BLOCK_EVENTS = 100
 class Background:
     """hz: the calibration window's robust rate (events/pixel/s); window_us: its (first,
     end) µs; dropped_hz: the events the density filter dropped in it per pixel and second
-    (None until the first chunk measured it); highest_hz, lowest_hz: the highest and lowest rates a block took so far
-    (the estimator takes the highest: where the background was highest, clusters must beat
-    it)."""
+    (None until the first chunk measured it); highest_hz, lowest_hz: the highest and lowest
+    rates a block took so far (the estimator takes the highest: where the background was
+    highest, clusters must beat it)."""
     hz: float
     window_us: tuple
     dropped_hz: float = None
@@ -62,29 +63,28 @@ class Background:
         (mask_at(slice, rate) -> the mask of those events; n_pixels: the sensor's), and the
         runs of blocks of one rate, the first from −∞ and the last to +∞ (one run at the
         window's rate where no block moved, or denoise.rate_hz fixes the rate)."""
-        whole = [(None, None, self.hz)]
         if not len(t) or config.denoise.rate_hz is not None or self.hz <= 0:
-            return keep, whole
+            return keep, [(None, None, self.hz)]
         if self.dropped_hz is None:
             a, b = np.searchsorted(t, self.window_us)
             self.dropped_hz = _dropped_rate(t[a:b], keep[a:b], self.window_us[0], n_pixels)
-        edges = _block_edges(t, t0_us, block_frames(config) * config.dt_us)
-        cuts = np.searchsorted(t, edges)
-        rates = []
-        for k in range(len(edges) - 1):
-            part = slice(int(cuts[k]), int(cuts[k + 1]))
-            hz = self._follow(t[part], keep, part, int(edges[k]), n_pixels, mask_at)
-            rates.append(hz)
+        block_us = block_frames(config) * config.dt_us
+        first, cuts = frame_offsets(t, block_us, t0_us)
+        starts_us = t0_us + (first + np.arange(len(cuts) - 1)) * block_us
+        rates = [self._follow(t, keep, slice(int(a), int(b)), int(start), n_pixels, mask_at)
+                 for a, b, start in zip(cuts[:-1], cuts[1:], starts_us)]
         self.highest_hz = max(self.highest_hz, max(rates))
         self.lowest_hz = min(self.lowest_hz, min(rates))
         change = np.flatnonzero(np.diff(rates)) + 1
-        starts = [None, *(int(edges[k]) for k in change)]
-        ends = [*(int(edges[k]) for k in change), None]
+        starts = [None, *(int(starts_us[k]) for k in change)]
+        ends = [*(int(starts_us[k]) for k in change), None]
         return keep, [(a, b, rates[k]) for a, b, k in zip(starts, ends, [0, *change])]
 
     def _follow(self, t, keep, part, start_us, n_pixels, mask_at):
-        """The block's rate: the window's, unless its dropped rate moved by more than
-        RATE_STEP; then keep[part] is replaced by its filtering at the moved rate."""
+        """The rate of the block `part` (a slice of t and keep) from start_us: the window's,
+        unless its dropped rate moved by more than RATE_STEP; then keep[part] is replaced by
+        its filtering at the moved rate."""
+        t = t[part]
         if len(t) < MIN_BLOCK_EVENTS or not self.dropped_hz:
             return self.hz
         ratio = _dropped_rate(t, keep[part], start_us, n_pixels) / self.dropped_hz
@@ -112,12 +112,6 @@ def _dropped_rate(t, keep, start_us, n_pixels):
         return 0.0
     span_s = (int(t[-1]) + 1 - start_us) * 1e-6
     return (len(t) - int(np.count_nonzero(keep))) / (n_pixels * span_s)
-
-
-def _block_edges(t, t0_us, block_us):
-    first = (int(t[0]) - t0_us) // block_us
-    last = (int(t[-1]) - t0_us) // block_us
-    return t0_us + np.arange(first, last + 2) * block_us
 
 
 def block_frames(config):
