@@ -157,17 +157,12 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     from .smoothing import TrackSmoother
 
     # a pooled centroid no track took is noise that once pooled into a cluster
-    # (evstar.pooling); a blend of two tracks' stars is neither's position; a track of OFF
-    # lobes alone is pixels relaxing behind a star (lobes.trail_tracks)
-    # ... and a track that stays still where others move is a pixel firing by itself, one
-    # of bunched centroids particle hits linked by chance (evstar.bursts)
-    artefacts = still_tracks(centroids)
-    if near is not None:
-        artefacts = np.r_[artefacts, burst_tracks(centroids, near, t0_us, config.dt_us)]
+    # (evstar.pooling); a blend of two tracks' stars is neither's position; some tracks
+    # are no star (no_star_tracks)
     centroids = centroids[((centroids["track"] >= 0) | (centroids["source"] != "pooled"))
                           & (centroids["track"] != BLENDED)
-                          & ~np.isin(centroids["track"], lobes.trail_tracks(centroids))
-                          & ~np.isin(centroids["track"], artefacts)]
+                          & ~np.isin(centroids["track"],
+                                     no_star_tracks(centroids, near, t0_us, config.dt_us))]
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
@@ -502,6 +497,18 @@ def _by_track(ests):
     """The groups' rows in one array, sorted by track, then time."""
     every = np.concatenate(ests)
     return every[np.lexsort((every["t"], every["track"]))]
+
+
+def no_star_tracks(centroids, near=None, t0_us=0, dt_us=None):
+    """Ids of the tracks of the linked `centroids` that are no star: a track of OFF lobes
+    alone is pixels relaxing behind a star (lobes.trail_tracks), one that stays still where
+    others move a pixel firing by itself (hotpixels.still_tracks), and, given the events
+    `near` the centroids (frames of dt_us from t0_us), one of bunched centroids particle
+    hits linked by chance (bursts.burst_tracks)."""
+    ids = [lobes.trail_tracks(centroids), still_tracks(centroids)]
+    if near is not None:
+        ids.append(burst_tracks(centroids, near, t0_us, dt_us))
+    return np.concatenate(ids)
 
 
 def untracked_min_events(config, sensor, rate_hz):

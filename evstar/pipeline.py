@@ -11,8 +11,9 @@ evstar.tracking). A recording larger than memory goes through :meth:`Pipeline.ru
 chunk by chunk of ``config.chunk_frames`` frames, with results identical to :meth:`run`:
 both take the background rate for ``auto`` thresholds from the first ``chunk_frames``
 frames (the calibration window) and from any block of frames where it moved
-(evstar.background; blocks divide chunks), frames never straddle chunks, the classical filter gets
-the previous chunk's last ``dt`` of events as context, and tracks are linked at the end.
+(evstar.background; blocks divide chunks), frames never straddle chunks, the classical
+filter gets the previous chunk's last ``dt`` of events as context, and tracks are linked at
+the end.
 """
 from __future__ import annotations
 
@@ -129,10 +130,10 @@ class Pipeline:
         return Background(rate, (t0_us, t0_us + self.config.chunk_frames * self.config.dt_us))
 
     def _calibration_window(self, events, t0_us):
-        """The events of the first chunk_frames frames, less a flash's (evstar.bursts). A run's
-        first kernels count them, on
-        whatever Taichi runs on (frames.images): Taichi is started on the run's device here,
-        else it started on the CPU and a cuda run's filters could not switch to the GPU."""
+        """The events of the first chunk_frames frames, less a flash's (evstar.bursts). A
+        run's first kernels count them, on whatever Taichi runs on (frames.images): Taichi is
+        started on the run's device here, else it started on the CPU and a cuda run's filters
+        could not switch to the GPU."""
         from .backends import taichi
 
         taichi(self.config.device)
@@ -298,16 +299,14 @@ class Pipeline:
         f·b·dt/2, 0.06 px at 1 °/s, 10 ms, f 870 px; a second pass warped with the filter's
         attitude moved centroids by 0.0002 px median on the EVK4 fields,
         perf/study_pf_passes.py)."""
-        from .hotpixels import still_tracks
-        from .lobes import trail_tracks
+        from .estimation import no_star_tracks
         from .motion import ParticleFilter
 
         tracked = self.make_tracker().link(centroids[centroids["source"] != "pooled"])
         # stars cut by the sensor edge give centroids biased by up to ~3 px, and a trail of
         # OFF lobes or a still track (a hot pixel) is no star: leave them out
         obs = tracked[(tracked["track"] >= 0) & ~tracked["border"]
-                      & ~np.isin(tracked["track"], trail_tracks(tracked))
-                      & ~np.isin(tracked["track"], still_tracks(tracked))]
+                      & ~np.isin(tracked["track"], no_star_tracks(tracked))]
         # a track joined where one ended as another began (tracking._join: a turn, two stars
         # side by side) can hold two centroids at one time: which is the star's is unknown
         _, where, count = np.unique(np.column_stack([obs["track"], obs["t"]]), axis=0,
@@ -509,8 +508,9 @@ class _RunState:
     measured on the first span unless configured, and the
     crossings' level profiles for the lag estimate (evstar.level_lag), and the events about
     each span's frame centroids for the across step (evstar.across: 12 bytes an event, kept
-    for the run), and the background's rate block by block (evstar.background). A streamed run's chunks are those spans, so it gathers the same crossings
-    and events as a run in memory."""
+    for the run), and the background's rate block by block (evstar.background). A streamed
+    run's chunks are those spans, so it gathers the same crossings and events as a run in
+    memory."""
 
     def __init__(self, config, width, height, t0_us, hot=None, background=None):
         # no hot pixel found: no mask (a pass over every event finds none on it)
