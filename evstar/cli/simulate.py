@@ -71,9 +71,9 @@ def add_arguments(p):
                    help="sensor model: default (no pixel bandwidth limit) or dark-sky (photoreceptor "
                         "low-pass 30 Hz at the sky background up to 2 kHz, 0.1 Hz leak)")
     p.add_argument("--noise-hz", type=checked(float, 0, 1e6), default=1.5, help="background activity, events/pixel/s (1.5)")
-    p.add_argument("--noise-growth", type=checked(float, 0, 1e3, open_low=True), default=1.0,
+    p.add_argument("--noise-growth", type=checked(float, 0, 1e3, open_low=True),
                    metavar="RATIO", help="stray light: the background at the end over that at "
-                   "the start, changing linearly (1: steady)")
+                   "the start, changing linearly (1: steady; the sensor model's if not given)")
     p.add_argument("--hot-pixels", type=checked(int, 0, 10**7), default=5, metavar="N",
                    help="number of hot pixels, at most the camera's pixel count (5)")
     p.add_argument("--threshold", type=checked(float, 0, 10, open_low=True), default=0.2, help="ON/OFF contrast threshold, log units (0.2)")
@@ -114,7 +114,8 @@ def scenario_from(args):
                              f"got {args.hot_pixels:,}")
     sensor = sim.sensor_model(args.sensor, threshold_on=args.threshold, threshold_off=args.threshold,
                               noise_hz=args.noise_hz, hot_pixels=args.hot_pixels,
-                              noise_growth=args.noise_growth)
+                              **({} if args.noise_growth is None
+                                 else {"noise_growth": args.noise_growth}))
     imu = (sim.ImuSpec.ideal if args.ideal_imu else sim.ImuSpec)(rate_hz=args.imu_rate)
     duration = args.duration if args.duration is not None else (1.0 if args.sine else 0.5)
     if args.stars == 1:
