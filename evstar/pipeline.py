@@ -32,6 +32,7 @@ from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
 from .frames import accumulated, frame_offsets, images, on_pixels
+from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .recording import check_parts
 from .tracking import Tracker
@@ -267,6 +268,7 @@ class Pipeline:
         if not isinstance(events, Events):   # check_parts lets None through (run_file's)
             raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__}")
         check_parts(events, imu, camera, mode)
+        imu = repaired(imu) if mode != "none" else imu
         if truth is not None:
             accuracy.check_truth(truth, len(events), events.width, events.height,
                         events.t[[0, -1]] if len(events) else None)
@@ -418,6 +420,7 @@ class Pipeline:
 
         mode = self.config.motion.compensate
         check_parts(None, imu, camera, mode)
+        imu = repaired(imu) if mode != "none" else imu
         span = chunk_span_us(self.config)
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:   # no events: as a whole run of them (nothing to hold in memory)
