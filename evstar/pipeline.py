@@ -268,7 +268,7 @@ class Pipeline:
         if not isinstance(events, Events):   # check_parts lets None through (run_file's)
             raise ParameterTypeError(f"events must be an evstar.Events, got {type(events).__name__}")
         check_parts(events, imu, camera, mode)
-        imu = repaired(imu) if mode != "none" else imu
+        imu = self._repaired(imu)
         if truth is not None:
             accuracy.check_truth(truth, len(events), events.width, events.height,
                         events.t[[0, -1]] if len(events) else None)
@@ -294,6 +294,12 @@ class Pipeline:
         result.keep, result.compensation = keep, comp
         result.images = functools.partial(images, events, keep)   # a Result stays picklable
         return result
+
+    def _repaired(self, imu):
+        """The run's IMU, repaired (evstar.gyro_repair) where the run compensates with it and
+        motion.repair_gyro is on."""
+        m = self.config.motion
+        return repaired(imu) if m.compensate != "none" and m.repair_gyro else imu
 
     def _particle_filter(self, centroids, imu, camera):
         """(FilterResult, seconds): the particle filter on the run's tracked frame centroids
@@ -420,7 +426,7 @@ class Pipeline:
 
         mode = self.config.motion.compensate
         check_parts(None, imu, camera, mode)
-        imu = repaired(imu) if mode != "none" else imu
+        imu = self._repaired(imu)
         span = chunk_span_us(self.config)
         first = next(io.windows(path, span, format=format, sensor_size=sensor_size), None)
         if first is None:   # no events: as a whole run of them (nothing to hold in memory)

@@ -12,7 +12,8 @@ from filterpy.kalman import KalmanFilter, rts_smoother
 from scipy.spatial.transform import Rotation
 
 import evstar
-from evstar import sim
+from evstar import Imu, sim
+from evstar.errors import EvstarWarning
 from evstar.attitude import AttitudeEstimator, Fix, Mekf, estimate, ra_dec_roll, rotation
 from evstar.attitude.filter import exp_so3, log_so3, smooth
 from evstar.attitude.oracle import synthetic_run, truth_identifier
@@ -191,6 +192,18 @@ def test_gyro_bias_is_estimated_with_an_imu(pan):
     assert np.sqrt(np.mean(cross[5:] ** 2)) < 0.05 and np.sqrt(np.mean(about[5:] ** 2)) < 0.1
     bias = truth.gyro_bias[-1] @ truth.R_cam_imu.T
     assert np.linalg.norm(est.filt.s - bias) < 0.2 * np.linalg.norm(bias)
+
+
+def test_a_gyro_record_with_spikes_is_repaired_first(pan):
+    """Ten samples at 50x their rate (evstar.gyro_repair removes them): the same attitude."""
+    c, truth, imu = pan
+    g = imu.gyro.copy()
+    g[100:110] *= 50
+    spiked = Imu(imu.t, g, imu.accel, R_cam_imu=imu.R_cam_imu, time_offset_us=imu.time_offset_us)
+    with pytest.warns(EvstarWarning, match="10 spike sample"):
+        rows = AttitudeEstimator(CAM, spiked, identifier=truth_identifier(truth)).run(c)
+    cross, _ = errors_px(rows, truth)
+    assert np.sqrt(np.mean(cross[5:] ** 2)) < 0.05
 
 
 def test_sinusoid_is_followed_without_imu():

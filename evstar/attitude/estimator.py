@@ -485,12 +485,15 @@ def _frames(c, frame_us):
 
 
 def _checked_imu(imu, t_us, events=None):
-    """The IMU held over the span of the centroid times `t_us` (and of `events`, where the
-    pooled search reads them) as the pipeline's compensation holds it, or DataError: an IMU
-    that does not reach the data drove the filter with its end samples' rate for the whole
-    run (an IMU 10 s late: half the true rate, the attitude 0.4° off, no error)."""
+    """The IMU repaired (evstar.gyro_repair) and held over the span of the centroid times
+    `t_us` (and of `events`, where the pooled search reads them) as the pipeline's
+    compensation holds it, or DataError: an IMU that does not reach the data drove the
+    filter with its end samples' rate for the whole run (an IMU 10 s late: half the true
+    rate, the attitude 0.4° off, no error)."""
+    from ..gyro_repair import repaired
     from ..motion.imu_integration import check_coverage, hold_ends
 
+    imu = repaired(imu)
     ends = [float(np.min(t_us)), float(np.max(t_us))] if len(t_us) else []
     if events is not None and len(events):
         ends += [float(events.t[0]), float(events.t[-1])]
