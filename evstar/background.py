@@ -67,11 +67,13 @@ class Background:
             return keep, [(None, None, self.hz)]
         if self.dropped_hz is None:
             a, b = np.searchsorted(t, self.window_us)
-            self.dropped_hz = _dropped_rate(t[a:b], keep[a:b], self.window_us[0], n_pixels)
+            self.dropped_hz = _dropped_rate(t[a:b], keep[a:b], self.window_us[0], n_pixels,
+                                            config.dt_us)
         block_us = block_frames(config) * config.dt_us
         first, cuts = frame_offsets(t, block_us, t0_us)
         starts_us = t0_us + (first + np.arange(len(cuts) - 1)) * block_us
-        rates = [self._follow(t, keep, slice(int(a), int(b)), int(start), n_pixels, mask_at)
+        rates = [self._follow(t, keep, slice(int(a), int(b)), int(start), n_pixels, mask_at,
+                               config.dt_us)
                  for a, b, start in zip(cuts[:-1], cuts[1:], starts_us)]
         self.highest_hz = max(self.highest_hz, max(rates))
         self.lowest_hz = min(self.lowest_hz, min(rates))
@@ -80,20 +82,20 @@ class Background:
         ends = [*(int(starts_us[k]) for k in change), None]
         return keep, [(a, b, rates[k]) for a, b, k in zip(starts, ends, [0, *change])]
 
-    def _follow(self, t, keep, part, start_us, n_pixels, mask_at):
+    def _follow(self, t, keep, part, start_us, n_pixels, mask_at, dead_us):
         """The rate of the block `part` (a slice of t and keep) from start_us: the window's,
         unless its dropped rate moved by more than RATE_STEP; then keep[part] is replaced by
         its filtering at the moved rate."""
         t = t[part]
         if len(t) < MIN_BLOCK_EVENTS or not self.dropped_hz:
             return self.hz
-        ratio = _dropped_rate(t, keep[part], start_us, n_pixels) / self.dropped_hz
+        ratio = _dropped_rate(t, keep[part], start_us, n_pixels, dead_us) / self.dropped_hz
         if abs(math.log(max(ratio, 1e-9))) <= math.log(RATE_STEP):
             return self.hz
         for _ in range(FOLLOW_PASSES):
             hz = min(self.hz * ratio, MAX_PIXEL_RATE_HZ)
             keep[part] = mask_at(part, hz)
-            ratio = _dropped_rate(t, keep[part], start_us, n_pixels) / self.dropped_hz
+            ratio = _dropped_rate(t, keep[part], start_us, n_pixels, dead_us) / self.dropped_hz
         return hz
 
     def summary(self):
@@ -105,12 +107,16 @@ class Background:
                 "highest": round(self.highest_hz, 4)}
 
 
-def _dropped_rate(t, keep, start_us, n_pixels):
+def _dropped_rate(t, keep, start_us, n_pixels, dead_us):
     """Events not kept per pixel and second, from start_us to the last event (as a streamed
-    chunk's last block knows its span)."""
+    chunk's last block knows its span), less the time the sensor sent nothing: the parts of
+    gaps between events beyond dead_us (a frame; a readout that stalled for 300 ms had halved
+    its block's rate, whose lowered thresholds then kept noise)."""
     if not len(t):
         return 0.0
-    span_s = (int(t[-1]) + 1 - start_us) * 1e-6
+    gaps = np.diff(t, prepend=start_us)
+    dead = int(np.sum(np.maximum(gaps - dead_us, 0)))
+    span_s = (int(t[-1]) + 1 - start_us - dead) * 1e-6
     return (len(t) - int(np.count_nonzero(keep))) / (n_pixels * span_s)
 
 

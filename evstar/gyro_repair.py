@@ -5,8 +5,9 @@ Everything downstream (the IMU warp, the particle filter, the estimator's veloci
 takes the gyro as exact between samples, so one bad stretch moves every star:
 
 * A **spike** is a sample whose rate departs from the median of the SPIKE_HALF_WINDOW
-  samples either side by more than SPIKE_MADS of their robust deviation (MAD × 1.4826) and
-  by more than SPIKE_FLOOR_RAD_S (Hampel's filter), each window less its trend. A smooth
+  samples either side by more than SPIKE_MADS of their robust deviation (MAD × 1.4826; at
+  least the gyro's own noise) and by more than SPIKE_FLOOR_RAD_S (Hampel's filter), each
+  window less its trend. A smooth
   rate never trips it: within a window a smooth rate's centre departs from the median by
   at most ~1.4 deviations, a step or a ramp not at all. Runs of up to a quarter of the
   window (12 samples) are caught. On the paper's
@@ -96,6 +97,9 @@ def spikes(gyro):
         return out
     windows = np.lib.stride_tricks.sliding_window_view(gyro, width, axis=0)   # (n-w+1, 3, w)
     half = width // 2
+    # a window's spread, from few samples, can read far below the gyro's noise: then 3σ
+    # noise stood 6 spreads out (one sample in four grids' clean 1 kHz records)
+    noise = _noise(gyro)
     for lo in range(0, n, _CHUNK):
         i = np.arange(lo, min(lo + _CHUNK, n))
         # each sample's window centred on it, shifted inwards at the record's ends
@@ -113,8 +117,17 @@ def spikes(gyro):
         med = np.median(win, axis=-1)
         mad = np.median(np.abs(win - med[..., None]), axis=-1)
         off = np.abs(gyro[i] - med)
-        out[i] = np.any((off > SPIKE_MADS * 1.4826 * mad) & (off > SPIKE_FLOOR_RAD_S), axis=1)
+        out[i] = np.any((off > SPIKE_MADS * np.maximum(1.4826 * mad, noise))
+                        & (off > SPIKE_FLOOR_RAD_S), axis=1)
     return out
+
+
+def _noise(gyro):
+    """Per axis, the rates' white noise (rad/s a sample): the robust spread of their second
+    differences (6 × its variance; a slew's rate hardly changes from one sample to the
+    next)."""
+    d2 = np.diff(gyro, 2, axis=0)
+    return 1.4826 * np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) / np.sqrt(6)
 
 
 def filled(t, values):
