@@ -48,6 +48,15 @@ def test_a_steady_background_keeps_the_window_rate(scene):
     assert "background" not in summary_text(result, "out")
 
 
+def test_a_readout_stall_is_no_change_of_background(scene):
+    """300 ms without a single event (a stalled readout): the blocks it cuts keep the window's
+    rate (over the whole block it had halved one's)."""
+    ev = scene.events
+    stalled = ev[(ev.t < ev.t[0] + 420_000) | (ev.t > ev.t[0] + 720_000)]
+    bg, _, runs = _followed(stalled)
+    assert bg.summary() is None and [hz for _, _, hz in runs] == [bg.hz]
+
+
 def test_rising_stray_light_is_followed_block_by_block(stray):
     ev = stray.events
     bg, keep, runs = _followed(ev)
