@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frames import frame_offsets
+from .frames import frame_offsets, stalled_us
 from .parameters import MAX_PIXEL_RATE_HZ
 
 #: a block is this many pooled frames (fewer where a streamed chunk holds no whole number of
@@ -109,14 +109,12 @@ class Background:
 
 def _dropped_rate(t, keep, start_us, n_pixels, dead_us):
     """Events not kept per pixel and second, from start_us to the last event (as a streamed
-    chunk's last block knows its span), less the time the sensor sent nothing: the parts of
-    gaps between events beyond dead_us (a frame; a readout that stalled for 300 ms had halved
-    its block's rate, whose lowered thresholds then kept noise)."""
+    chunk's last block knows its span), less its stalls (frames.stalled_us; dead_us: a
+    frame): a readout that stalled for 300 ms had halved its block's rate, whose lowered
+    thresholds then kept noise."""
     if not len(t):
         return 0.0
-    gaps = np.diff(t, prepend=start_us)
-    dead = int(np.sum(np.maximum(gaps - dead_us, 0)))
-    span_s = (int(t[-1]) + 1 - start_us - dead) * 1e-6
+    span_s = (int(t[-1]) + 1 - start_us - stalled_us(t, dead_us, start_us)) * 1e-6
     return (len(t) - int(np.count_nonzero(keep))) / (n_pixels * span_s)
 
 

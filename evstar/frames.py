@@ -90,6 +90,24 @@ def frame_offsets(t, dt_us, t0):
     return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
 
 
+def stalled_us(t, dt_us, start_us=None):
+    """µs of the sorted times `t` (from start_us where given) in stalls (unstalled): of each
+    gap between events, what exceeds a frame."""
+    gaps = np.diff(t) if start_us is None else np.diff(t, prepend=start_us)
+    return int(np.sum(np.maximum(gaps - dt_us, 0)))
+
+
+def unstalled(t, dt_us):
+    """[(first, stop)] index ranges of the sorted times `t` between stalls: gaps between
+    consecutive events of more than a frame (dt_us), where the sensor sent nothing (a
+    readout that stalled; a sensor's background alone sends an event every few µs). A
+    pixel's events across one are no passage: an ON before a 300 ms stall and an OFF after
+    it made a crossing 100 px off its star."""
+    cut = np.flatnonzero(np.diff(t) > dt_us) + 1
+    edges = np.r_[0, cut, len(t)]
+    return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
+
+
 def nearest_in_frame(ref_xy, ref_frame, xy, frame, max_px):
     """(distance, index into ref) of the nearest reference point of the same frame to each
     point within max_px (inf and len(ref) where none is), as scipy's cKDTree.query."""

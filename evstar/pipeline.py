@@ -31,7 +31,7 @@ from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import accumulated, frame_offsets, images, on_pixels
+from .frames import accumulated, frame_offsets, images, on_pixels, stalled_us, unstalled
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .recording import check_parts
@@ -149,9 +149,12 @@ class Pipeline:
         MAX_PIXEL_RATE_HZ."""
         from evstar_kernels.reference.denoise import background_rate
 
-        span_us = int(window.t[-1]) - int(window.t[0]) if len(window) else 0
+        dt = self.config.dt_us
+        # less its stalls: a readout that stalled for 300 ms of a 1 s window had put the rate
+        # at 0.7 of the background's and the paper's sinusoid 0.018 -> 0.086 px
+        span_us = int(window.t[-1]) - int(window.t[0]) - stalled_us(window.t, dt) if len(window) else 0
         rate = background_rate(window.t, window.x, window.y, window.width, window.height,
-                               counts=counts, duration_s=max(span_us, self.config.dt_us) * 1e-6)
+                               counts=counts, duration_s=max(span_us, dt) * 1e-6)
         return min(rate, MAX_PIXEL_RATE_HZ)
 
     def _hot_pixels(self, counts):
@@ -550,7 +553,6 @@ class _RunState:
         indices) and the events near its `centroids` (evstar.across; time-ordered, as the
         extractor gives them), span by span."""
         from .across import near_centroids
-        from .estimation import chunk_crossings, chunk_crossings_both
 
         e = self.config.estimate
         with_crossings = e.estimator == "crossings"
@@ -561,30 +563,38 @@ class _RunState:
         # each span's centroids: one search, not a scan of all of them per span
         cuts = np.searchsorted(centroids["t"],
                                self.t0_us + np.arange(f0, f0 + len(bounds)) * self.span_us)
-        kept_cuts = np.searchsorted(kept, bounds)   # each span's kept events, likewise
         for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
             if across:
                 self._near.append(near_centroids(events[a:b], centroids[cuts[k]:cuts[k + 1]],
                                                  self.hot))
             if not with_crossings:
                 continue
-            mine = kept[kept_cuts[k]:kept_cuts[k + 1]] - a
-            if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
-                (crossings, r), (plain, r_plain) = chunk_crossings_both(
-                    events[a:b], mine, e.crossing_radius_px, e.refractory_us,
-                    (self._ratio(self.threshold_ratio), self._ratio(self._plain_ratio)),
-                    self.profiles, self.fallback_ratio)
-                if self._plain_ratio is None:
-                    self._plain_ratio = self.fallback_ratio if r_plain is None else r_plain
-                self._plain.append(plain)
-            else:
-                crossings, r = chunk_crossings(
-                    events[a:b], mine, e.crossing_radius_px, self._ratio(self.threshold_ratio),
-                    with_ratio=True, refractory_us=e.refractory_us, profiles=self.profiles,
-                    fallback_ratio=self.fallback_ratio)
-            if self.threshold_ratio is None:   # the first span's: the calibration window
-                self.threshold_ratio = self.fallback_ratio if r is None else r
-            self._crossings.append(crossings)
+            for a2, b2 in unstalled(events.t[a:b], self.config.dt_us):
+                piece = kept[np.searchsorted(kept, a + a2):np.searchsorted(kept, a + b2)]
+                self._add_crossings(events[a + a2:a + b2], piece - (a + a2))
+
+    def _add_crossings(self, events, mine):
+        """Gather the crossings of `events` (a span, or its part between stalls) near their
+        kept events `mine` (ascending indices into them)."""
+        from .estimation import chunk_crossings, chunk_crossings_both
+
+        e = self.config.estimate
+        if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
+            (crossings, r), (plain, r_plain) = chunk_crossings_both(
+                events, mine, e.crossing_radius_px, e.refractory_us,
+                (self._ratio(self.threshold_ratio), self._ratio(self._plain_ratio)),
+                self.profiles, self.fallback_ratio)
+            if self._plain_ratio is None:
+                self._plain_ratio = self.fallback_ratio if r_plain is None else r_plain
+            self._plain.append(plain)
+        else:
+            crossings, r = chunk_crossings(
+                events, mine, e.crossing_radius_px, self._ratio(self.threshold_ratio),
+                with_ratio=True, refractory_us=e.refractory_us, profiles=self.profiles,
+                fallback_ratio=self.fallback_ratio)
+        if self.threshold_ratio is None:   # the first span's: the calibration window
+            self.threshold_ratio = self.fallback_ratio if r is None else r
+        self._crossings.append(crossings)
 
     @staticmethod
     def _ratio(ratio):
