@@ -147,6 +147,11 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                        c_on=0.22, c_off=0.22, noise_growth=4.0),
     "leaky-dark": dict(pixel="lowpass", f_min_hz=35.0, f_max_hz=1800.0, i_half=15.0,
                        c_on=0.25, c_off=0.3, leak_hz=0.3, refractory_us=150.0, jitter_us=40.0),
+    # the ninth fresh grid's (--fresh9; written in the forty-seventh session, never tuned
+    # on): readouts that stall for 250 ms, and for 150 ms on a dark sky
+    "stall": dict(pixel="ideal", c_on=0.2, c_off=0.2, gaps_s=((0.40, 0.65),)),
+    "stall-dark": dict(pixel="lowpass", f_min_hz=35.0, f_max_hz=1500.0, i_half=25.0,
+                       c_on=0.22, c_off=0.22, gaps_s=((0.55, 0.70),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -336,9 +341,33 @@ FRESH8 = [
     ("tele", ("sine", 1.5, 1.5, 170), [3.5, 4.5], ("gauss", 1.3), "ideal", 1.0, 0, 1.0),
 ]
 FRESH8_SEED = 13000
+#: held out (--fresh9, written in the forty-seventh session and run once before any change
+#: of it): damaged gyro records (with --imu; "imu_gaps": spans in s without samples,
+#: "imu_spikes": (s, samples, factor) runs of corrupt samples), stalled readouts, a crowded
+#: field, a slow telephoto pan; seeds 14000 + i
+FRESH9 = [
+    ("vga", ("sine", 10, 1.0, 40), [3.5, 4.5], ("gauss", 1.1), "ideal", 1.0, 0, 1.0,
+     {"imu_gaps": ((0.35, 0.45),)}),
+    ("hd", ("lin", 12, 120), [3, 4, 5], ("gauss", 1.0), "ideal", 1.0, 0, 1.0,
+     {"imu_spikes": ((0.3, 10, 40.0), (0.7, 1, 80.0))}),
+    ("davis", ("sine", 4, 2.0, 0), [3, 4], ("gauss", 1.0), "dark", 1.0, 0, 1.0,
+     {"imu_gaps": ((0.6, 0.66),), "imu_spikes": ((0.2, 3, 10.0),)}),
+    ("vga", ("lin", 8, 45), [3.5, 4.5], ("gauss", 1.2), "stall", 1.0, 0, 1.2),
+    ("hd", ("sine", 5, 0.7, 100), [3, 4], ("gauss", 1.0), "stall-dark", 1.0, 0, 1.5),
+    ("vga", ("lin", 10, 30), [3, 3.5, 4, 4, 4.5, 4.5, 5, 5, 5, 5.5, 5.5, 5.5, 6, 6, 6, 3.5, 4,
+                              4.5, 5, 5.5], ("gauss", 1.0), "ideal", 1.0, 0, 1.0),
+    ("hd", ("roll", 6, 4, 60), [3.5, 4.5, 5], ("gauss", 1.2), "leaky", 1.0, 5, 1.0,
+     {"imu_gaps": ((0.5, 0.58),)}),
+    ("tele", ("lin", 2, 200), [4, 5], ("gauss", 1.4), "ideal", 0.5, 0, 1.5),
+    ("wide", ("sine", 12, 1.0, 300), [3, 4.5], ("gauss", 1.0), "asym", 2.0, 3, 1.0,
+     {"imu_spikes": ((0.5, 5, 30.0),)}),
+    ("vga", ("sine", 8, 1.5, 150), [3.5, 4.5], ("gauss", 1.1), "stall", 1.0, 0, 1.0,
+     {"imu_gaps": ((0.15, 0.25),)}),
+]
+FRESH9_SEED = 14000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -486,6 +515,8 @@ def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0, setting
     run = S.simulate(scene, sensor, seed=i, imu=imu)
     if imu and clock_offset_us:   # the gyro's clock behind the camera's, not told
         run.imu = Imu(run.imu.t - clock_offset_us, run.imu.gyro)
+    if imu and len(spec) > 8:     # a damaged gyro record (FRESH9)
+        run.imu = damaged(run.imu, spec[8])
     sim_s = time.perf_counter() - t
     ev = run.events
     cfg = Config().replace(**{**(settings or {}), "motion.compensate": "imu" if imu else "none"})
@@ -509,6 +540,19 @@ def run_scene(i, spec, duration_scale=1.0, imu=False, clock_offset_us=0, setting
         out[name] = {**scores(res.centroids, scene, run.truth, frames_t, n_frames),
                      "run_s": time.perf_counter() - t}
     return out
+
+
+def damaged(imu, extra):
+    """`imu` without its samples in extra["imu_gaps"] ((t0, t1) s) and with each run of
+    extra["imu_spikes"] ((t s, samples, factor)) multiplied by its factor."""
+    t, g = imu.t, imu.gyro.copy()
+    keep = np.ones(len(t), bool)
+    for t0, t1 in extra.get("imu_gaps", ()):
+        keep &= (t < t0 * 1e6) | (t > t1 * 1e6)
+    for at, n, factor in extra.get("imu_spikes", ()):
+        i = int(np.searchsorted(t, at * 1e6))
+        g[i:i + n] *= factor
+    return Imu(t[keep], g[keep])
 
 
 def markdown(rows):
@@ -546,6 +590,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh9", action="store_true", help="the ninth held-out grid FRESH9 "
+                    "instead (scenes P1..P10)")
     ap.add_argument("--fresh8", action="store_true", help="the eighth held-out grid FRESH8 "
                     "instead (scenes O1..O10)")
     ap.add_argument("--fresh7", action="store_true", help="the seventh held-out grid FRESH7 "
