@@ -203,3 +203,14 @@ def test_stray_light_raises_the_background_linearly():
     # the rate ∝ 1 + 4 t/T: on average 1.2 and 4.8 × 20 Hz over the first and last tenth
     assert last / first == pytest.approx(4.8 / 1.2, rel=0.06)
     assert len(t) == pytest.approx(20.0 * 3.0 * 64 * 48, rel=0.05)
+
+
+def test_a_damaged_gyro_record_of_the_fresh9_grid():
+    import study_indep
+    from evstar import Imu
+
+    t = np.arange(0, 1_000_000, 1000, dtype=np.int64)
+    imu = Imu(t, np.column_stack([np.ones(len(t)), 0 * t, 0 * t]))
+    out = study_indep.damaged(imu, {"imu_gaps": ((0.35, 0.45),), "imu_spikes": ((0.2, 3, 40.0),)})
+    assert not np.any((out.t > 350_000) & (out.t < 450_000)) and len(out) == len(t) - 101
+    assert np.array_equal(np.flatnonzero(out.gyro[:, 0] == 40.0), [200, 201, 202])
