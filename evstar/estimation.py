@@ -154,8 +154,6 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
               measured_lag, rate_hz, near):
     """estimate's rows, and the smoothed rows (ESTIMATE_DTYPE) of its tracks and the
     centroids they index (None, None where no track is smoothed)."""
-    from .smoothing import TrackSmoother
-
     # a pooled centroid no track took is noise that once pooled into a cluster
     # (evstar.pooling); a blend of two tracks' stars is neither's position; some tracks
     # are no star (no_star_tracks)
@@ -163,6 +161,56 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
                           & (centroids["track"] != BLENDED)
                           & ~np.isin(centroids["track"],
                                      no_star_tracks(centroids, near, t0_us, config.dt_us))]
+    e = config.estimate
+    centroids, owner = _pieces(centroids, 2 * e.coast_ms * 1000)
+    rows, est, kept = _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior,
+                                       span_us, sensor, measured_lag, rate_hz, near)
+    if est is None:
+        return _owned(rows, owner), None, None
+    return _owned(rows, owner), _owned(est, owner, by_track=True), _owned(kept, owner)
+
+
+def _pieces(centroids, gap_us):
+    """(`centroids` with each track cut where two of its centroids lie more than `gap_us`
+    apart, each later piece a track of its own; {piece's id: its track's}). gap_us: twice
+    coast_ms, a gap in which no frame is reported: bridged, a fit across it honoured the
+    gyro's turn over it, which a stalled readout's 250 ms took 0.012 -> 0.221 px off (P10
+    of perf/study_indep.py --fresh9), and a constant-velocity fit a sinusoid's turn."""
+    tracked = np.flatnonzero(centroids["track"] >= 0)
+    if not len(tracked):
+        return centroids, {}
+    order = tracked[np.lexsort((centroids["t"][tracked], centroids["track"][tracked]))]
+    tr, t = centroids["track"][order], centroids["t"][order]
+    cut = (tr[1:] == tr[:-1]) & (np.diff(t) > gap_us)
+    if not cut.any():
+        return centroids, {}
+    start = np.r_[True, tr[1:] != tr[:-1]]               # a track's first row
+    piece = np.cumsum(np.r_[False, cut | start[1:]])        # each row's piece, ascending
+    later = piece != np.maximum.accumulate(np.where(start, piece, 0))   # not its first
+    ids = int(centroids["track"].max()) + 1 + piece
+    new = centroids.copy()
+    new["track"][order[later]] = ids[later]
+    owner = {int(i): int(o) for i, o in zip(ids[later], tr[later])}
+    return new, owner
+
+
+def _owned(rows, owner, by_track=False):
+    """`rows` with each piece's track id (_pieces) its track's again, in their order or, by_track,
+    in track-then-time order (smoothed rows)."""
+    if not owner or not len(rows):
+        return rows
+    rows = rows.copy()
+    ids = rows["track"]
+    for piece, track in owner.items():
+        ids[ids == piece] = track
+    return rows[np.lexsort((rows["t"], rows["track"]))] if by_track else rows
+
+
+def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
+                     measured_lag, rate_hz, near):
+    """_estimate of tracks cut at their long gaps (_pieces)."""
+    from .smoothing import TrackSmoother
+
     e = config.estimate
     smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
