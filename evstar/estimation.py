@@ -120,7 +120,7 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None, measured_lag=None, rate_hz=None, near=None, report=None):
+             sensor=None, measured_lag=None, rate_hz=None, near=None, report=None, stalls=None):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
     (width, height) are dropped: there is no star to report there. measured_lag: the
@@ -129,9 +129,11 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     (t, x, y) of the events near the stars, hot pixels out, for the tracks' positions
     across their motion (evstar.across; needs `sensor`). Without a velocity prior, a
     track's or a field's vibration is found and followed (evstar.vibration;
-    estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary)."""
+    estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary).
+    stalls: (n, 2) µs spans the readout sent nothing in (frames.stalls): a track is
+    smoothed in pieces across them (_pieces)."""
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
-            near)
+            near, stalls)
     rows, est, kept = _estimate(centroids, *args)
     # with a velocity prior the gyro already carries the platform's motion
     if est is None or velocity_prior is not None or not config.estimate.vibration:
@@ -151,7 +153,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
 
 def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
-              measured_lag, rate_hz, near):
+              measured_lag, rate_hz, near, stalls=None):
     """estimate's rows, and the smoothed rows (ESTIMATE_DTYPE) of its tracks and the
     centroids they index (None, None where no track is smoothed)."""
     # a pooled centroid no track took is noise that once pooled into a cluster
@@ -162,7 +164,7 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
                           & ~np.isin(centroids["track"],
                                      no_star_tracks(centroids, near, t0_us, config.dt_us))]
     e = config.estimate
-    centroids, owner = _pieces(centroids, 2 * e.coast_ms * 1000)
+    centroids, owner = _pieces(centroids, 2 * e.coast_ms * 1000, stalls)
     rows, est, kept = _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior,
                                        span_us, sensor, measured_lag, rate_hz, near)
     if est is None:
@@ -170,18 +172,28 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     return _owned(rows, owner), _owned(est, owner, by_track=True), _owned(kept, owner)
 
 
-def _pieces(centroids, gap_us):
+def _pieces(centroids, gap_us, stalls=None):
     """(`centroids` with each track cut where two of its centroids lie more than `gap_us`
-    apart, each later piece a track of its own; {piece's id: its track's}). gap_us: twice
-    coast_ms, a gap in which no frame is reported: bridged, a fit across it honoured the
-    gyro's turn over it, which a stalled readout's 250 ms took 0.012 -> 0.221 px off (P10
-    of perf/study_indep.py --fresh9), and a constant-velocity fit a sinusoid's turn."""
+    apart across a readout stall of over half that (`stalls`: (n, 2) µs spans without
+    events),
+    each later piece a track of its own; {piece's id: its track's}). gap_us: twice
+    coast_ms, a gap in which no frame is reported. Bridged, a fit across a stall honoured
+    the gyro's turn over it, which a 250 ms stall took 0.012 -> 0.221 px off (P10 of
+    perf/study_indep.py --fresh9); but a star's own silence, as at a slow turn, is bridged
+    as before: there the gyro knows the turn (a ramp's turn, cut, went 0.037 -> 0.182)."""
     tracked = np.flatnonzero(centroids["track"] >= 0)
-    if not len(tracked):
+    if stalls is not None:
+        stalls = stalls[stalls[:, 1] - stalls[:, 0] > gap_us / 2]   # over coast_ms
+    if stalls is None or not len(stalls) or not len(tracked):
         return centroids, {}
     order = tracked[np.lexsort((centroids["t"][tracked], centroids["track"][tracked]))]
     tr, t = centroids["track"][order], centroids["t"][order]
-    cut = (tr[1:] == tr[:-1]) & (np.diff(t) > gap_us)
+    # a stall overlapping the time between two consecutive centroids: the first stall
+    # ending after the earlier one begins before the later (centroids of compensated
+    # frames carry the frame's mid-time, which may lie inside the stall)
+    k = np.minimum(np.searchsorted(stalls[:, 1], t[:-1], side="right"), len(stalls) - 1)
+    held = (stalls[k, 1] > t[:-1]) & (stalls[k, 0] < t[1:])
+    cut = (tr[1:] == tr[:-1]) & (np.diff(t) > gap_us) & held
     if not cut.any():
         return centroids, {}
     start = np.r_[True, tr[1:] != tr[:-1]]               # a track's first row

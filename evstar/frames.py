@@ -97,6 +97,17 @@ def stalled_us(t, dt_us, start_us=None):
     return int(np.sum(np.maximum(gaps - dt_us, 0)))
 
 
+def stalls(t, dt_us, before_us=None):
+    """(n, 2) int64 (last event before, first after) of each stall (unstalled) among the
+    sorted times `t`, one before t[0] included where before_us (an earlier chunk's last
+    event time) is given."""
+    t = np.asarray(t, np.int64)
+    if before_us is not None:
+        t = np.r_[np.int64(before_us), t]
+    i = np.flatnonzero(np.diff(t) > dt_us)
+    return np.column_stack([t[i], t[i + 1]])
+
+
 def unstalled(t, dt_us):
     """[(first, stop)] index ranges of the sorted times `t` between stalls: gaps between
     consecutive events of more than a frame (dt_us), where the sensor sent nothing (a

@@ -31,7 +31,8 @@ from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import accumulated, frame_offsets, images, on_pixels, stalled_us, unstalled
+from .frames import (accumulated, frame_offsets, images, on_pixels, stalled_us, stalls,
+                     unstalled)
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .recording import check_parts
@@ -368,7 +369,7 @@ class Pipeline:
                 positions.report["pixel_lag"] = used.summary()
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, highest(), state.near_events(),
-                                       positions.report)
+                                       positions.report, state.stalls())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
@@ -530,6 +531,7 @@ class _RunState:
         self.config, self._crossings, self.sensor, self.hot = config, [], (width, height), hot
         self.background = background
         self._near = []
+        self._stalls, self._last_us = [], None      # the readout's stalls (frames.stalls)
         self.t0_us, self.span_us = t0_us, chunk_span_us(config)
         e = config.estimate
         self.threshold_ratio = None if e.threshold_ratio == AUTO else e.threshold_ratio
@@ -554,6 +556,9 @@ class _RunState:
         extractor gives them), span by span."""
         from .across import near_centroids
 
+        if len(events):
+            self._stalls.append(stalls(events.t, self.config.dt_us, self._last_us))
+            self._last_us = int(events.t[-1])
         e = self.config.estimate
         with_crossings = e.estimator == "crossings"
         across = e.estimator != "mean" and e.across_kernel_px > 0
@@ -611,6 +616,10 @@ class _RunState:
         and the ratio the refractory levels measure, the pan was still 0.72)."""
         chosen = self._plain if lag is not None and self._plain else self._crossings
         return np.concatenate(chosen) if chosen else None
+
+    def stalls(self):
+        """(n, 2) µs of the run's readout stalls so far (frames.stalls)."""
+        return np.concatenate(self._stalls) if self._stalls else np.zeros((0, 2), np.int64)
 
     def near_events(self):
         """(t, x, y) of the events near a centroid (across.near_centroids), hot pixels out."""

@@ -48,17 +48,20 @@ def test_no_crossing_pairs_levels_across_a_stall(stalled, monkeypatch):
     assert res.metrics.get("background_hz") is None
 
 
-def test_a_track_is_smoothed_in_pieces_across_a_gap_no_frame_is_reported_in():
+def test_a_track_is_smoothed_in_pieces_across_a_stall_no_frame_is_reported_in():
     from evstar.estimation import _owned, _pieces
     from evstar.extract import CENTROID_DTYPE
 
     c = np.zeros(9, CENTROID_DTYPE)
     c["t"] = [0, 10_000, 20_000, 400_000, 410_000, 5_000, 15_000, 25_000, 30_000]
     c["track"] = [3, 3, 3, 3, 3, 7, 7, 7, -1]
-    cut, owner = _pieces(c, 120_000)
-    assert list(cut["track"]) == [3, 3, 3, 8 + 1, 9, 7, 7, 7, -1] and owner == {9: 3}
+    stall = np.array([[25_000, 390_000]])
+    cut, owner = _pieces(c, 120_000, stall)
+    assert list(cut["track"]) == [3, 3, 3, 9, 9, 7, 7, 7, -1] and owner == {9: 3}
     assert np.array_equal(_owned(cut, owner), c)
-    assert _pieces(c, 400_000)[1] == {}
+    assert _pieces(c, 400_000, stall)[1] == {}                 # a gap some frame is reported in
+    assert _pieces(c, 120_000, np.zeros((0, 2), np.int64))[1] == {}   # a star's own silence
+    assert _pieces(c, 120_000, np.array([[100_000, 150_000]]))[1] == {}   # a short stall
 
 
 def test_a_stall_is_no_bridge_for_the_gyro(stalled):
