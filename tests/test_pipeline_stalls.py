@@ -16,6 +16,20 @@ def test_stalls_are_the_gaps_beyond_a_frame():
     assert unstalled(t[:2], 10_000) == [(0, 2)] and stalled_us(t[:2], 10_000) == 0
 
 
+def test_stalls_found_by_empty_windows_are_every_gap_over_a_frame():
+    """stall_starts searches half-frame windows; its specification: every gap of the sorted
+    times over dt_us (np.diff), on random recordings with shared timestamps."""
+    from evstar.frames import stall_starts
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        t = np.sort(rng.integers(0, rng.integers(10, 2_000_000), rng.integers(2, 300)))
+        dt = int(rng.integers(1, 50_000))
+        assert np.array_equal(stall_starts(t, dt), np.flatnonzero(np.diff(t) > dt) + 1)
+        start = int(rng.integers(-100_000, t[0] + 1))
+        assert stalled_us(t, dt, start) == np.sum(np.maximum(np.diff(t, prepend=start) - dt, 0))
+
+
 @pytest.fixture(scope="module")
 def stalled():
     run = sim.simulate(sim.paper_sinusoid(10.0, 1.0, duration_s=1.0, magnitude=4.0), seed=62)
