@@ -26,6 +26,10 @@ from .hotpixels import still_tracks
 from .parameters import AUTO, MIN_ALPHA
 from .tracking import BLENDED
 
+#: a stall is bridged (one fit across it) where the prior's turn carries a piece's last
+#: measured position to the next one's first within this many of their σ (_bridged)
+BRIDGE_SIGMAS = 3.0
+
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
                   "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends", "speed_change")
@@ -164,9 +168,15 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
                           & ~np.isin(centroids["track"],
                                      no_star_tracks(centroids, near, t0_us, config.dt_us))]
     e = config.estimate
-    centroids, owner = _pieces(centroids, 2 * e.coast_ms * 1000, stalls)
-    rows, est, kept = _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior,
-                                       span_us, sensor, measured_lag, rate_hz, near)
+    args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
+            near)
+    cut, owner = _pieces(centroids, 2 * e.coast_ms * 1000, stalls)
+    rows, est, kept = _estimate_pieces(cut, *args)
+    bridged = _bridged(est, owner, velocity_prior) if owner and est is not None else set()
+    if bridged:   # stalls the gyro's turn bridges within the pieces' σ: fitted across
+        cut, owner = _relabelled(centroids, cut, {p: t for p, t in owner.items()
+                                                  if p not in bridged})
+        rows, est, kept = _estimate_pieces(cut, *args)
     if est is None:
         return _owned(rows, owner), None, None
     return _owned(rows, owner), _owned(est, owner, by_track=True), _owned(kept, owner)
@@ -204,6 +214,63 @@ def _pieces(centroids, gap_us, stalls=None):
     new["track"][order[later]] = ids[later]
     owner = {int(i): int(o) for i, o in zip(ids[later], tr[later])}
     return new, owner
+
+
+def _bridged(est, owner, velocity_prior):
+    """The later pieces (_pieces) whose first measured row the velocity prior carries the
+    piece before's last one to within BRIDGE_SIGMAS of their σ and the prior's walk over
+    the stall: a gyro that bridged a 150 ms stall well had kept a dark-sky sinusoid at
+    0.015 px (0.053 in pieces), one that did not put another 0.221 px off (P5, P10 of
+    perf/study_indep.py --fresh9). Without a prior, none."""
+    from .smoothing import diffusion, prior_displacement, prior_velocity
+
+    if velocity_prior is None:
+        return set()
+    measured = est[~est["coasted"]]
+    ends = {int(tr): (measured[measured["track"] == tr][[0, -1]])
+            for tr in np.unique(measured["track"])}
+    out = set()
+    for piece, track in owner.items():
+        before = _before(piece, track, owner)
+        if piece not in ends or before not in ends:
+            continue
+        a, b = ends[before][-1], ends[piece][0]
+        za, zb = np.array([a["x"], a["y"]]), np.array([b["x"], b["y"]])
+        t = np.array([a["t"], b["t"]])
+        shift = prior_displacement(velocity_prior, t, t, np.vstack([za, zb]))[1]
+        # the piece's own velocity less the prior's: a gyro bias, carried across
+        bias = np.array([a["vx"], a["vy"]]) - prior_velocity(velocity_prior, t[:1], za[:1],
+                                                              za[1:])[0]
+        miss = zb - za - shift - bias * (t[1] - t[0]) * 1e-6
+        var = (a["sigma_x"] ** 2 + a["sigma_y"] ** 2 + b["sigma_x"] ** 2 + b["sigma_y"] ** 2) / 2 \
+            + diffusion(velocity_prior) * (t[1] - t[0]) * 1e-6
+        if np.hypot(*miss) <= BRIDGE_SIGMAS * np.sqrt(var):
+            out.add(piece)
+    return out
+
+
+def _before(piece, track, owner):
+    """The piece of `track` just before `piece` (its track's own id for the first)."""
+    earlier = [p for p, t in owner.items() if t == track and p < piece]
+    return max(earlier) if earlier else track
+
+
+def _relabelled(centroids, cut, owner):
+    """(`centroids` cut only where `owner` still holds a piece: each other piece joined to
+    the one before it, the new owner map)."""
+    labels = cut["track"].copy()
+    kept = {}
+    for piece in sorted(set(labels[labels >= 0].tolist()) - set(centroids["track"].tolist())):
+        if piece in owner:
+            kept[piece] = owner[piece]
+            continue
+        # joined: to the latest kept piece of its track before it, else the track itself
+        track = int(centroids["track"][labels == piece][0])
+        earlier = [p for p, t in kept.items() if t == track and p < piece]
+        labels[labels == piece] = max(earlier) if earlier else track
+    out = cut.copy()
+    out["track"] = labels
+    return out, kept
 
 
 def _owned(rows, owner, by_track=False):

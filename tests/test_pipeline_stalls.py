@@ -101,3 +101,36 @@ def test_a_streamed_run_sees_the_same_stall(stalled, tmp_path):
     assert len(whole.centroids) > 50
     for f in whole.centroids.dtype.names:
         np.testing.assert_array_equal(whole.centroids[f], streamed.centroids[f])
+
+
+def _piece_rows(track, t_us, x0, v, sigma=0.05):
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    rows = np.zeros(len(t_us), ESTIMATE_DTYPE)
+    rows["t"], rows["track"] = t_us, track
+    rows["x"], rows["y"], rows["vx"], rows["vy"] = x0 + v * (np.asarray(t_us) * 1e-6), 50.0, v, 0.0
+    rows["sigma_x"] = rows["sigma_y"] = sigma
+    return rows
+
+
+def test_a_stall_the_gyro_carries_a_star_across_is_fitted_across():
+    """A prior moving the star at 100 px/s: the piece after a 300 ms stall where it puts it
+    is joined back; 1 px off (20 σ) it stays a piece."""
+    from evstar.estimation import _bridged, _relabelled
+    from evstar.extract import CENTROID_DTYPE
+
+    def prior(t_us, x, y):
+        return np.column_stack([np.full(len(t_us), 100.0), np.zeros(len(t_us))])
+
+    t_a, t_b = np.arange(0, 100_000, 10_000), np.arange(400_000, 500_000, 10_000)
+    est = np.concatenate([_piece_rows(3, t_a, 10.0, 100.0), _piece_rows(9, t_b, 10.0, 100.0)])
+    assert _bridged(est, {9: 3}, prior) == {9}
+    est["x"][est["track"] == 9] += 1.0
+    assert _bridged(est, {9: 3}, prior) == set() and _bridged(est, {9: 3}, None) == set()
+    # a track cut twice, its first stall bridged: one piece is left, owned by the track
+    c = np.zeros(6, CENTROID_DTYPE)
+    c["track"] = 3
+    cut = c.copy()
+    cut["track"] = [3, 3, 9, 9, 10, 10]
+    joined, owner = _relabelled(c, cut, {10: 3})
+    assert list(joined["track"]) == [3, 3, 3, 3, 10, 10] and owner == {10: 3}
