@@ -7,11 +7,10 @@ takes the gyro as exact between samples, so one bad stretch moves every star:
 * A **spike** is a sample whose rate departs from the median of the SPIKE_HALF_WINDOW
   samples either side by more than SPIKE_MADS of their robust deviation (MAD × 1.4826; at
   least the gyro's own noise) and by more than SPIKE_FLOOR_RAD_S (Hampel's filter), each
-  window less its trend. A smooth
-  rate never trips it: within a window a smooth rate's centre departs from the median by
-  at most ~1.4 deviations, a step or a ramp not at all. Runs of up to a quarter of the
-  window (12 samples) are caught. On the paper's
-  1 Hz sinusoid, ten samples at 50× their rate had put the star 0.121 px off with 7 false
+  window less its trend. A smooth rate never trips it: within a window a smooth rate's
+  centre departs from the median by at most ~1.4 deviations, a step or a ramp not at all.
+  Runs of up to a quarter of the window (12 samples) are caught. On the paper's 1 Hz
+  sinusoid, ten samples at 50× their rate had put the star 0.121 px off with 7 false
   rows; removed, 0.020 and none.
 * A **gap** (samples more than GAP_INTERVALS median intervals apart; a removed spike leaves
   one) is filled at the median interval by a cubic smoothing spline through the samples
