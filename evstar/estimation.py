@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import assignment, lobes, vibration
+from . import assignment, lobes, pieces, vibration
 from .bursts import bunched, burst_tracks
 from .crossings import CROSSING_DTYPE, dilate, sorted_crossings
 from .errors import FormatError
@@ -25,10 +25,6 @@ from .extract import CENTROID_DTYPE
 from .hotpixels import still_tracks
 from .parameters import AUTO, MIN_ALPHA
 from .tracking import BLENDED
-
-#: a stall is bridged (one fit across it) where the prior's turn carries a piece's last
-#: measured position to the next one's first within this many of their σ (_bridged)
-BRIDGE_SIGMAS = 3.0
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
@@ -135,7 +131,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     track's or a field's vibration is found and followed (evstar.vibration;
     estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary).
     stalls: (n, 2) µs spans the readout sent nothing in (frames.stalls): a track is
-    smoothed in pieces across them (_pieces)."""
+    smoothed in pieces across them (evstar.pieces)."""
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near, stalls)
     rows, est, kept = _estimate(centroids, *args)
@@ -170,124 +166,22 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     e = config.estimate
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near)
-    cut, owner = _pieces(centroids, 2 * e.coast_ms * 1000, stalls)
+    cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
     rows, est, kept = _estimate_pieces(cut, *args)
-    bridged = _bridged(est, owner, velocity_prior) if owner and est is not None else set()
+    bridged = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else set()
     if bridged:   # stalls the gyro's turn bridges within the pieces' σ: fitted across
-        cut, owner = _relabelled(centroids, cut, {p: t for p, t in owner.items()
-                                                  if p not in bridged})
+        cut, owner = pieces.rejoined(centroids, cut, {p: t for p, t in owner.items()
+                                                       if p not in bridged})
         rows, est, kept = _estimate_pieces(cut, *args)
     if est is None:
-        return _owned(rows, owner), None, None
-    return _owned(rows, owner), _owned(est, owner, by_track=True), _owned(kept, owner)
-
-
-def _pieces(centroids, gap_us, stalls=None):
-    """(`centroids` with each track cut where two of its centroids lie more than `gap_us`
-    apart across a readout stall of over half that (`stalls`: (n, 2) µs spans without
-    events),
-    each later piece a track of its own; {piece's id: its track's}). gap_us: twice
-    coast_ms, a gap in which no frame is reported. Bridged, a fit across a stall honoured
-    the gyro's turn over it, which a 250 ms stall took 0.012 -> 0.221 px off (P10 of
-    perf/study_indep.py --fresh9); but a star's own silence, as at a slow turn, is bridged
-    as before: there the gyro knows the turn (a ramp's turn, cut, went 0.037 -> 0.182)."""
-    tracked = np.flatnonzero(centroids["track"] >= 0)
-    if stalls is not None:
-        stalls = stalls[stalls[:, 1] - stalls[:, 0] > gap_us / 2]   # over coast_ms
-    if stalls is None or not len(stalls) or not len(tracked):
-        return centroids, {}
-    order = tracked[np.lexsort((centroids["t"][tracked], centroids["track"][tracked]))]
-    tr, t = centroids["track"][order], centroids["t"][order]
-    # a stall overlapping the time between two consecutive centroids: the first stall
-    # ending after the earlier one begins before the later (centroids of compensated
-    # frames carry the frame's mid-time, which may lie inside the stall)
-    k = np.minimum(np.searchsorted(stalls[:, 1], t[:-1], side="right"), len(stalls) - 1)
-    held = (stalls[k, 1] > t[:-1]) & (stalls[k, 0] < t[1:])
-    cut = (tr[1:] == tr[:-1]) & (np.diff(t) > gap_us) & held
-    if not cut.any():
-        return centroids, {}
-    start = np.r_[True, tr[1:] != tr[:-1]]               # a track's first row
-    piece = np.cumsum(np.r_[False, cut | start[1:]])        # each row's piece, ascending
-    later = piece != np.maximum.accumulate(np.where(start, piece, 0))   # not its first
-    ids = int(centroids["track"].max()) + 1 + piece
-    new = centroids.copy()
-    new["track"][order[later]] = ids[later]
-    owner = {int(i): int(o) for i, o in zip(ids[later], tr[later])}
-    return new, owner
-
-
-def _bridged(est, owner, velocity_prior):
-    """The later pieces (_pieces) whose first measured row the velocity prior carries the
-    piece before's last one to within BRIDGE_SIGMAS of their σ and the prior's walk over
-    the stall: a gyro that bridged a 150 ms stall well had kept a dark-sky sinusoid at
-    0.015 px (0.053 in pieces), one that did not put another 0.221 px off (P5, P10 of
-    perf/study_indep.py --fresh9). Without a prior, none."""
-    from .smoothing import diffusion, prior_displacement, prior_velocity
-
-    if velocity_prior is None:
-        return set()
-    measured = est[~est["coasted"]]
-    ends = {int(tr): (measured[measured["track"] == tr][[0, -1]])
-            for tr in np.unique(measured["track"])}
-    out = set()
-    for piece, track in owner.items():
-        before = _before(piece, track, owner)
-        if piece not in ends or before not in ends:
-            continue
-        a, b = ends[before][-1], ends[piece][0]
-        za, zb = np.array([a["x"], a["y"]]), np.array([b["x"], b["y"]])
-        t = np.array([a["t"], b["t"]])
-        shift = prior_displacement(velocity_prior, t, t, np.vstack([za, zb]))[1]
-        # the piece's own velocity less the prior's: a gyro bias, carried across
-        bias = np.array([a["vx"], a["vy"]]) - prior_velocity(velocity_prior, t[:1], za[:1],
-                                                              za[1:])[0]
-        miss = zb - za - shift - bias * (t[1] - t[0]) * 1e-6
-        var = (a["sigma_x"] ** 2 + a["sigma_y"] ** 2 + b["sigma_x"] ** 2 + b["sigma_y"] ** 2) / 2 \
-            + diffusion(velocity_prior) * (t[1] - t[0]) * 1e-6
-        if np.hypot(*miss) <= BRIDGE_SIGMAS * np.sqrt(var):
-            out.add(piece)
-    return out
-
-
-def _before(piece, track, owner):
-    """The piece of `track` just before `piece` (its track's own id for the first)."""
-    earlier = [p for p, t in owner.items() if t == track and p < piece]
-    return max(earlier) if earlier else track
-
-
-def _relabelled(centroids, cut, owner):
-    """(`centroids` cut only where `owner` still holds a piece: each other piece joined to
-    the one before it, the new owner map)."""
-    labels = cut["track"].copy()
-    kept = {}
-    for piece in sorted(set(labels[labels >= 0].tolist()) - set(centroids["track"].tolist())):
-        if piece in owner:
-            kept[piece] = owner[piece]
-            continue
-        # joined: to the latest kept piece of its track before it, else the track itself
-        track = int(centroids["track"][labels == piece][0])
-        earlier = [p for p, t in kept.items() if t == track and p < piece]
-        labels[labels == piece] = max(earlier) if earlier else track
-    out = cut.copy()
-    out["track"] = labels
-    return out, kept
-
-
-def _owned(rows, owner, by_track=False):
-    """`rows` with each piece's track id (_pieces) its track's again, in their order or, by_track,
-    in track-then-time order (smoothed rows)."""
-    if not owner or not len(rows):
-        return rows
-    rows = rows.copy()
-    ids = rows["track"]
-    for piece, track in owner.items():
-        ids[ids == piece] = track
-    return rows[np.lexsort((rows["t"], rows["track"]))] if by_track else rows
+        return pieces.owned(rows, owner), None, None
+    return (pieces.owned(rows, owner), pieces.owned(est, owner, by_track=True),
+            pieces.owned(kept, owner))
 
 
 def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
                      measured_lag, rate_hz, near):
-    """_estimate of tracks cut at their long gaps (_pieces)."""
+    """_estimate of tracks cut into pieces across stalls (evstar.pieces)."""
     from .smoothing import TrackSmoother
 
     e = config.estimate

@@ -63,7 +63,7 @@ def test_no_crossing_pairs_levels_across_a_stall(stalled, monkeypatch):
 
 
 def test_a_track_is_smoothed_in_pieces_across_a_stall_no_frame_is_reported_in():
-    from evstar.estimation import _owned, _pieces
+    from evstar.pieces import cut as _pieces, owned as _owned
     from evstar.extract import CENTROID_DTYPE
 
     c = np.zeros(9, CENTROID_DTYPE)
@@ -116,7 +116,7 @@ def _piece_rows(track, t_us, x0, v, sigma=0.05):
 def test_a_stall_the_gyro_carries_a_star_across_is_fitted_across():
     """A prior moving the star at 100 px/s: the piece after a 300 ms stall where it puts it
     is joined back; 1 px off (20 σ) it stays a piece."""
-    from evstar.estimation import _bridged, _relabelled
+    from evstar.pieces import bridged as _bridged, rejoined as _relabelled
     from evstar.extract import CENTROID_DTYPE
 
     def prior(t_us, x, y):
