@@ -168,15 +168,16 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
             near)
     cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
     rows, est, kept = _estimate_pieces(cut, *args)
-    bridged = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else set()
-    if bridged:   # stalls the gyro's turn bridges within the pieces' σ: fitted across
+    gaps = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else {}
+    if any(g[4] for g in gaps.values()):   # stalls the gyro's turn bridges: fitted across
         cut, owner = pieces.rejoined(centroids, cut, {p: t for p, t in owner.items()
-                                                       if p not in bridged})
+                                                       if not (p in gaps and gaps[p][4])})
         rows, est, kept = _estimate_pieces(cut, *args)
+    rows = pieces.coasted_honestly(pieces.owned(rows, owner),
+                                   [g[:4] for g in gaps.values() if not g[4]], e.coast_sigma_px)
     if est is None:
-        return pieces.owned(rows, owner), None, None
-    return (pieces.owned(rows, owner), pieces.owned(est, owner, by_track=True),
-            pieces.owned(kept, owner))
+        return rows, None, None
+    return rows, pieces.owned(est, owner, by_track=True), pieces.owned(kept, owner)
 
 
 def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,

@@ -52,19 +52,21 @@ def cut(centroids, gap_us, stalls=None):
 
 
 def bridged(est, owner, velocity_prior):
-    """The later pieces (cut) whose first measured row the velocity prior carries the
-    piece before's last one to within BRIDGE_SIGMAS of their σ and the prior's walk over
-    the stall: a gyro that bridged a 150 ms stall well had kept a dark-sky sinusoid at
-    0.015 px (0.053 in pieces), one that did not put another 0.221 px off (P5, P10 of
-    perf/study_indep.py --fresh9). Without a prior, none."""
+    """{later piece (cut): (its track, the piece before's last measured µs, its own first,
+    miss px, bridged)}: miss, how far the velocity prior's turn over the stall (and the piece
+    before's own residual velocity, a gyro bias) leaves the piece before's last measured
+    position from this one's first; bridged where that is within BRIDGE_SIGMAS of their σ
+    and the prior's walk — a gyro that bridged a 150 ms stall well had kept a dark-sky
+    sinusoid at 0.015 px (0.053 in pieces), one that did not put another 0.221 px off (P5,
+    P10 of perf/study_indep.py --fresh9). Without a prior, {}."""
     from .smoothing import diffusion, prior_displacement, prior_velocity
 
     if velocity_prior is None:
-        return set()
+        return {}
     measured = est[~est["coasted"]]
     ends = {int(tr): (measured[measured["track"] == tr][[0, -1]])
             for tr in np.unique(measured["track"])}
-    out = set()
+    out = {}
     for piece, track in owner.items():
         before = _before(piece, track, owner)
         if piece not in ends or before not in ends:
@@ -76,12 +78,31 @@ def bridged(est, owner, velocity_prior):
         # the piece's own velocity less the prior's: a gyro bias, carried across
         bias = np.array([a["vx"], a["vy"]]) - prior_velocity(velocity_prior, t[:1], za[:1],
                                                               za[1:])[0]
-        miss = zb - za - shift - bias * (t[1] - t[0]) * 1e-6
+        miss = float(np.hypot(*(zb - za - shift - bias * (t[1] - t[0]) * 1e-6)))
         var = (a["sigma_x"] ** 2 + a["sigma_y"] ** 2 + b["sigma_x"] ** 2 + b["sigma_y"] ** 2) / 2 \
             + diffusion(velocity_prior) * (t[1] - t[0]) * 1e-6
-        if np.hypot(*miss) <= BRIDGE_SIGMAS * np.sqrt(var):
-            out.add(piece)
+        out[piece] = (track, int(t[0]), int(t[1]), miss, miss <= BRIDGE_SIGMAS * np.sqrt(var))
     return out
+
+
+def coasted_honestly(rows, misses, limit_px):
+    """`rows` less the rows coasted into an unbridged stall (bridged's misses: (track, last
+    µs before, first after, miss px)) whose σ, widened by the prior's miss across the stall
+    pro rata to how far into it they lie (from the nearer side), exceeds limit_px
+    (coast_sigma_px); the others with that σ. Coasted 60 ms into a 250 ms stall from either
+    side on the gyro alone, rows had lain up to 1.6 px off with σ of a few hundredths."""
+    if not misses or not len(rows):
+        return rows
+    rows = rows.copy()
+    keep = np.ones(len(rows), bool)
+    coasted = rows["source"] == "coasted"
+    for track, t_a, t_b, miss in misses:
+        inside = coasted & (rows["track"] == track) & (rows["t"] > t_a) & (rows["t"] < t_b)
+        depth = np.minimum(rows["t"][inside] - t_a, t_b - rows["t"][inside]) / (t_b - t_a)
+        sigma = np.hypot(rows["sigma"][inside], miss * depth)
+        rows["sigma"][inside] = sigma
+        keep[np.flatnonzero(inside)[sigma > limit_px]] = False
+    return rows[keep]
 
 
 def _before(piece, track, owner):

@@ -124,9 +124,11 @@ def test_a_stall_the_gyro_carries_a_star_across_is_fitted_across():
 
     t_a, t_b = np.arange(0, 100_000, 10_000), np.arange(400_000, 500_000, 10_000)
     est = np.concatenate([_piece_rows(3, t_a, 10.0, 100.0), _piece_rows(9, t_b, 10.0, 100.0)])
-    assert _bridged(est, {9: 3}, prior) == {9}
+    (track, t_a, t_b, miss, joined), = _bridged(est, {9: 3}, prior).values()
+    assert (track, t_a, t_b, joined) == (3, 90_000, 400_000, True) and miss < 1e-6
     est["x"][est["track"] == 9] += 1.0
-    assert _bridged(est, {9: 3}, prior) == set() and _bridged(est, {9: 3}, None) == set()
+    assert _bridged(est, {9: 3}, prior)[9][3:] == (pytest.approx(1.0), False)
+    assert _bridged(est, {9: 3}, None) == {}
     # a track cut twice, its first stall bridged: one piece is left, owned by the track
     c = np.zeros(6, CENTROID_DTYPE)
     c["track"] = 3
@@ -134,3 +136,17 @@ def test_a_stall_the_gyro_carries_a_star_across_is_fitted_across():
     cut["track"] = [3, 3, 9, 9, 10, 10]
     joined, owner = _relabelled(c, cut, {10: 3})
     assert list(joined["track"]) == [3, 3, 3, 3, 10, 10] and owner == {10: 3}
+
+
+def test_rows_coasted_into_an_unbridged_stall_carry_the_gyros_miss():
+    """A 1 px miss across a 300 ms stall: a row coasted 30 ms into it gets σ ≥ 0.1 px, one
+    60 ms in 0.2 px; with a 0.15 px limit the latter goes."""
+    from evstar.extract import CENTROID_DTYPE
+    from evstar.pieces import coasted_honestly
+
+    rows = np.zeros(4, CENTROID_DTYPE)
+    rows["t"], rows["track"], rows["sigma"] = [120_000, 150_000, 200_000, 150_000], [3, 3, 3, 4], 0.01
+    rows["source"] = ["coasted", "coasted", "measured", "coasted"]
+    out = coasted_honestly(rows, [(3, 90_000, 390_000, 1.0)], 0.15)
+    assert list(out["t"]) == [120_000, 200_000, 150_000]
+    assert out["sigma"][0] == pytest.approx(np.hypot(0.01, 0.1)) and list(out["sigma"][1:]) == [0.01, 0.01]
