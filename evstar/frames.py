@@ -90,15 +90,23 @@ def frame_offsets(t, dt_us, t0):
     return f0, np.searchsorted(t, t0 + np.arange(f0, f1 + 2, dtype=np.int64) * dt_us)
 
 
+#: a stall is a gap in which at least this many events were due at the stream's mean rate
+#: (a Poisson stream leaves one such gap in e^20 ≈ 5·10⁸): on a quiet small sensor (90
+#: events a second) gaps of over a frame are the rule, no stall
+STALL_EVENTS = 20
+
+
 def stall_starts(t, dt_us):
-    """Indices i of the sorted times `t` that follow a stall: t[i] − t[i − 1] > dt_us, a
-    gap of more than a frame in which the sensor sent nothing (a readout that stalled; a
-    sensor's background alone sends an event every few µs). Such a gap holds a whole empty
-    window of a grid of half-frames, found by a search per window (a pass over a 4 s run's
-    5 M gaps took ~10 ms); only those windows' gaps are measured."""
+    """Indices i of the sorted times `t` that follow a stall: t[i] − t[i − 1] > dt_us (a
+    gap of more than a frame) and > STALL_EVENTS mean intervals, in which the sensor sent
+    nothing (a readout that stalled; a sensor's background alone sends an event every few
+    µs). Such a gap holds a whole empty window of a grid of half-frames, found by a search
+    per window (a pass over a 4 s run's 5 M gaps took ~10 ms); only those windows' gaps are
+    measured."""
     t = np.asarray(t)
     if len(t) < 2:
         return np.zeros(0, np.int64)
+    dt_us = stall_gap_us(t, dt_us)
     half = max(int(dt_us) // 2, 1)
     edges = int(t[0]) + half * np.arange((int(t[-1]) - int(t[0])) // half + 2, dtype=np.int64)
     at = np.searchsorted(t, edges)
@@ -108,13 +116,21 @@ def stall_starts(t, dt_us):
     return i[t[i] - t[i - 1] > dt_us]
 
 
+def stall_gap_us(t, dt_us):
+    """The shortest gap of the sorted times `t` that is a stall (stall_starts): over a frame
+    and over STALL_EVENTS mean intervals."""
+    if len(t) < 2:
+        return int(dt_us)
+    return max(int(dt_us), STALL_EVENTS * (int(t[-1]) - int(t[0])) // (len(t) - 1))
+
+
 def stalled_us(t, dt_us, start_us=None):
     """µs of the sorted times `t` (from start_us where given) in stalls (stall_starts): of
     each gap between events, what exceeds a frame."""
     i = stall_starts(t, dt_us)
     lost = int(np.sum(t[i] - t[i - 1] - dt_us)) if len(i) else 0
-    if start_us is not None and len(t):
-        lost += max(int(t[0]) - int(start_us) - int(dt_us), 0)
+    if start_us is not None and len(t) and int(t[0]) - int(start_us) > stall_gap_us(t, dt_us):
+        lost += int(t[0]) - int(start_us) - int(dt_us)
     return lost
 
 
@@ -125,7 +141,7 @@ def stalls(t, dt_us, before_us=None):
     t = np.asarray(t, np.int64)
     i = stall_starts(t, dt_us)
     out = np.column_stack([t[i - 1], t[i]])
-    if before_us is not None and len(t) and int(t[0]) - int(before_us) > dt_us:
+    if before_us is not None and len(t) and int(t[0]) - int(before_us) > stall_gap_us(t, dt_us):
         out = np.vstack([[[int(before_us), int(t[0])]], out])
     return out
 

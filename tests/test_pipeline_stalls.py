@@ -5,29 +5,39 @@ import numpy as np
 import pytest
 
 from evstar import Config, Pipeline, accuracy, estimation, sim
-from evstar.frames import stalled_us, unstalled
+from evstar.frames import stall_gap_us, stall_starts, stalled_us, unstalled
 
 
 def test_stalls_are_the_gaps_beyond_a_frame():
-    t = np.array([0, 5, 10_000, 10_020, 40_000, 40_001], np.int64)
-    assert unstalled(t, 10_000) == [(0, 4), (4, 6)]
-    assert stalled_us(t, 10_000) == 40_000 - 10_020 - 10_000
-    assert stalled_us(t, 10_000, start_us=-25_000) == 15_000 + 19_980
+    t = np.r_[np.arange(0, 10_000, 10), np.arange(40_000, 50_000, 10)]     # events every 10 µs
+    assert unstalled(t, 10_000) == [(0, 1000), (1000, 2000)]
+    assert stalled_us(t, 10_000) == 40_000 - 9_990 - 10_000
+    assert stalled_us(t, 10_000, start_us=-25_000) == 15_000 + 20_010
     assert unstalled(t[:2], 10_000) == [(0, 2)] and stalled_us(t[:2], 10_000) == 0
 
 
 def test_stalls_found_by_empty_windows_are_every_gap_over_a_frame():
     """stall_starts searches half-frame windows; its specification: every gap of the sorted
-    times over dt_us (np.diff), on random recordings with shared timestamps."""
-    from evstar.frames import stall_starts
-
+    times over stall_gap_us (np.diff), on random recordings with shared timestamps."""
     rng = np.random.default_rng(3)
     for _ in range(200):
         t = np.sort(rng.integers(0, rng.integers(10, 2_000_000), rng.integers(2, 300)))
         dt = int(rng.integers(1, 50_000))
-        assert np.array_equal(stall_starts(t, dt), np.flatnonzero(np.diff(t) > dt) + 1)
+        gap = stall_gap_us(t, dt)
+        assert np.array_equal(stall_starts(t, dt), np.flatnonzero(np.diff(t) > gap) + 1)
         start = int(rng.integers(-100_000, t[0] + 1))
-        assert stalled_us(t, dt, start) == np.sum(np.maximum(np.diff(t, prepend=start) - dt, 0))
+        d = np.diff(t, prepend=start)
+        assert stalled_us(t, dt, start) == np.sum(np.where(d > gap, d - dt, 0))
+
+
+def test_a_quiet_sensors_natural_gaps_are_no_stall():
+    """90 events a second (a 346x260 sensor at 0.001 Hz a pixel): gaps of over a frame are
+    the rule; only a gap of 20 mean intervals is a stall."""
+    t = np.cumsum(np.random.default_rng(5).exponential(11_000, 900)).astype(np.int64)
+    assert np.count_nonzero(np.diff(t) > 10_000) > 300
+    assert len(stall_starts(t, 10_000)) == 0 and stalled_us(t, 10_000) == 0
+    gapped = np.r_[t[:450], t[450:] + 2_000_000]
+    assert list(stall_starts(gapped, 10_000)) == [450]
 
 
 @pytest.fixture(scope="module")
