@@ -127,9 +127,10 @@ class Config:
                 and getattr(getattr(self, name), p.name) is not None]
 
     def attitude_options(self):
-        """[attitude_filter] as the keywords of evstar.attitude.estimate / AttitudeEstimator:
-        what `evstar run`, `evstar batch` and `evstar attitude` all estimate with."""
-        return asdict(self.attitude_filter)
+        """[attitude_filter] as the keywords of evstar.attitude.estimate / AttitudeEstimator,
+        and motion.repair_gyro: what `evstar run`, `evstar batch` and `evstar attitude` all
+        estimate with."""
+        return {**asdict(self.attitude_filter), "repair_gyro": self.motion.repair_gyro}
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self):

@@ -297,9 +297,9 @@ MOTION = Params(
     Param("measure_clock", bool, True, "imu, pf: measure the IMU clock's offset from the "
           "camera's on the stars' pixel crossings where the rate changes, and move the gyro's "
           "velocity prior by it (evstar.clock); false: its timestamps as they are"),
-    Param("repair_gyro", bool, True, "imu, pf: remove the gyro's spike samples and fill its "
-          "gaps of over 5 sample intervals before use (evstar.gyro_repair); false: the record "
-          "as it is, linear between samples"),
+    Param("repair_gyro", bool, True, "imu, pf and the attitude filter: remove the gyro's "
+          "spike samples and fill its gaps of over 5 sample intervals before use "
+          "(evstar.gyro_repair); false: the record as it is, linear between samples"),
 )
 
 _DEG = math.pi / 180

@@ -5,6 +5,7 @@ simulator's true positions plus noise (evstar.attitude.oracle.synthetic_run), id
 by the truth (the simulator's world frame is ICRS): fast, and with exact ground truth.
 """
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -204,6 +205,12 @@ def test_a_gyro_record_with_spikes_is_repaired_first(pan):
         rows = AttitudeEstimator(CAM, spiked, identifier=truth_identifier(truth)).run(c)
     cross, _ = errors_px(rows, truth)
     assert np.sqrt(np.mean(cross[5:] ** 2)) < 0.05
+    # motion.repair_gyro off (Config.attitude_options carries it): the record as it is
+    options = evstar.Config().replace(**{"motion.repair_gyro": False}).attitude_options()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EvstarWarning)
+        rows = AttitudeEstimator(CAM, spiked, identifier=truth_identifier(truth), **options).run(c)
+    assert np.sqrt(np.mean(errors_px(rows, truth)[0][5:] ** 2)) > 1.0
 
 
 def test_sinusoid_is_followed_without_imu():

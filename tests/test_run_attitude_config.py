@@ -65,7 +65,7 @@ def test_defaults_write_the_attitude_estimate_writes_without_options(rec, tmp_pa
     """The attitude of a default run is what it was before the section existed: the
     estimate of the run's centroids with no options at all."""
     defaults = {name: p.default for name, p in P.ATTITUDE_FILTER.items()}
-    assert Config().attitude_options() == defaults
+    assert Config().attitude_options() == {**defaults, "repair_gyro": True}
     result = runs.run_recording(rec / "ev.h5", tmp_path / "out", Config())
     events = io.read(rec / "ev.h5").events
     write_attitude(tmp_path / "before.csv", estimate(result.centroids, CAM, events=events))

@@ -66,7 +66,8 @@ class AttitudeEstimator:
     or "pooled") of each identification searched, verified (Fix.ok) or not."""
 
     def __init__(self, camera, imu=None, *, identifier=None, epoch=None, solver=None,
-                 frame_us=P.GLOBAL["dt_us"].default, **options):
+                 frame_us=P.GLOBAL["dt_us"].default,
+                 repair_gyro=P.MOTION["repair_gyro"].default, **options):
         if camera is None:
             raise ParameterError("the attitude needs the camera's intrinsics (--camera camera.json)")
         if not isinstance(camera, Camera):
@@ -81,6 +82,7 @@ class AttitudeEstimator:
         self.o = {k: A.check(k, options.get(k, p.default)) for k, p in A.items()}
         self.camera, self.imu = camera, imu
         self.frame_us = P.GLOBAL.check("dt_us", frame_us, "frame_us")
+        self.repair_gyro = P.MOTION.check("repair_gyro", repair_gyro, "repair_gyro")
         self.epoch, self._solver = epoch, solver
         if identifier is not None and not callable(identifier):
             raise ParameterTypeError("identifier must be a function (xy, t_us, weight=None) -> "
@@ -120,7 +122,7 @@ class AttitudeEstimator:
         empty = pooled and "frame" in c.dtype.names and np.all(c["frame"] >= 0)
         self._next_frame = 0
         self._gyro = None if self.imu is None else _GyroIntegral(
-            _checked_imu(self.imu, c["t"], events if pooled else None))
+            _checked_imu(self.imu, c["t"], events if pooled else None, self.repair_gyro))
         self._c, self._xy_dt = c, _track_velocity(c)
         # a pooled centroid averages pool_frames frames: biased along an acceleration
         self._updates = np.ones(len(c), bool) if self.o["pooled_centroids"] or \
@@ -484,16 +486,16 @@ def _frames(c, frame_us):
     return sorted(groups, key=lambda g: c["t"][g[-1]])
 
 
-def _checked_imu(imu, t_us, events=None):
-    """The IMU repaired (evstar.gyro_repair) and held over the span of the centroid times
-    `t_us` (and of `events`, where the pooled search reads them) as the pipeline's
-    compensation holds it, or DataError: an IMU that does not reach the data drove the
-    filter with its end samples' rate for the whole run (an IMU 10 s late: half the true
-    rate, the attitude 0.4° off, no error)."""
+def _checked_imu(imu, t_us, events=None, repair=True):
+    """The IMU repaired (evstar.gyro_repair, where `repair`: motion.repair_gyro) and held
+    over the span of the centroid times `t_us` (and of `events`, where the pooled search
+    reads them) as the pipeline's compensation holds it, or DataError: an IMU that does not
+    reach the data drove the filter with its end samples' rate for the whole run (an IMU
+    10 s late: half the true rate, the attitude 0.4° off, no error)."""
     from ..gyro_repair import repaired
     from ..motion.imu_integration import check_coverage, hold_ends
 
-    imu = repaired(imu)
+    imu = repaired(imu) if repair else imu
     ends = [float(np.min(t_us)), float(np.max(t_us))] if len(t_us) else []
     if events is not None and len(events):
         ends += [float(events.t[0]), float(events.t[-1])]
