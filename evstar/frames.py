@@ -134,24 +134,15 @@ def stalled_us(t, dt_us, start_us=None):
     return lost
 
 
-def stalls(t, dt_us, before_us=None):
-    """(n, 2) int64 (last event before, first after) of each stall (stall_starts) among the
-    sorted times `t`, one before t[0] included where before_us (an earlier chunk's last
-    event time) is given."""
+def stalls(t, starts, dt_us, before_us=None):
+    """(n, 2) int64 (last event before, first after) of each stall among the sorted times
+    `t` (`starts`: their stall_starts), one before t[0] included where before_us (an earlier
+    chunk's last event time) is given."""
     t = np.asarray(t, np.int64)
-    i = stall_starts(t, dt_us)
-    out = np.column_stack([t[i - 1], t[i]])
+    out = np.column_stack([t[starts - 1], t[starts]])
     if before_us is not None and len(t) and int(t[0]) - int(before_us) > stall_gap_us(t, dt_us):
         out = np.vstack([[[int(before_us), int(t[0])]], out])
     return out
-
-
-def unstalled(t, dt_us):
-    """[(first, stop)] index ranges of the sorted times `t` between stalls (stall_starts). A
-    pixel's events across one are no passage: an ON before a 300 ms stall and an OFF after
-    it made a crossing 100 px off its star."""
-    edges = np.r_[0, stall_starts(t, dt_us), len(t)]
-    return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
 
 
 def nearest_in_frame(ref_xy, ref_frame, xy, frame, max_px):

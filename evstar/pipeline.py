@@ -31,8 +31,8 @@ from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import (accumulated, frame_offsets, images, on_pixels, stalled_us, stalls,
-                     unstalled)
+from .frames import (accumulated, frame_offsets, images, on_pixels, stall_starts,
+                     stalled_us, stalls)
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .recording import check_parts
@@ -556,27 +556,36 @@ class _RunState:
         extractor gives them), span by span."""
         from .across import near_centroids
 
-        if len(events):
-            self._stalls.append(stalls(events.t, self.config.dt_us, self._last_us))
-            self._last_us = int(events.t[-1])
+        if not len(events):
+            return
+        f0, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
+        spans = list(zip(bounds[:-1], bounds[1:]))
+        # the readout's stalls, found span by span: the slices a streamed run's chunks are
+        starts = [stall_starts(events.t[a:b], self.config.dt_us) for a, b in spans]
+        for (a, b), s in zip(spans, starts):
+            if b > a:
+                self._stalls.append(stalls(events.t[a:b], s, self.config.dt_us, self._last_us))
+                self._last_us = int(events.t[b - 1])
         e = self.config.estimate
         with_crossings = e.estimator == "crossings"
         across = e.estimator != "mean" and e.across_kernel_px > 0
-        if not (with_crossings or across) or not len(events):
+        if not (with_crossings or across):
             return
-        f0, bounds = frame_offsets(events.t, self.span_us, self.t0_us)
         # each span's centroids: one search, not a scan of all of them per span
         cuts = np.searchsorted(centroids["t"],
                                self.t0_us + np.arange(f0, f0 + len(bounds)) * self.span_us)
-        for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        for k, (a, b) in enumerate(spans):
             if across:
                 self._near.append(near_centroids(events[a:b], centroids[cuts[k]:cuts[k + 1]],
                                                  self.hot))
             if not with_crossings:
                 continue
-            for a2, b2 in unstalled(events.t[a:b], self.config.dt_us):
-                piece = kept[np.searchsorted(kept, a + a2):np.searchsorted(kept, a + b2)]
-                self._add_crossings(events[a + a2:a + b2], piece - (a + a2))
+            # a pixel's events across a stall are no passage: an ON before a 300 ms stall
+            # and an OFF after it made a crossing 100 px off its star
+            edges = np.r_[a, a + starts[k], b]
+            for a2, b2 in zip(edges[:-1], edges[1:]):
+                piece = kept[np.searchsorted(kept, a2):np.searchsorted(kept, b2)]
+                self._add_crossings(events[a2:b2], piece - a2)
 
     def _add_crossings(self, events, mine):
         """Gather the crossings of `events` (a span, or its part between stalls) near their

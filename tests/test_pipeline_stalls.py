@@ -5,15 +5,18 @@ import numpy as np
 import pytest
 
 from evstar import Config, Pipeline, accuracy, estimation, sim
-from evstar.frames import stall_gap_us, stall_starts, stalled_us, unstalled
+from evstar.frames import stall_gap_us, stall_starts, stalled_us, stalls
 
 
 def test_stalls_are_the_gaps_beyond_a_frame():
     t = np.r_[np.arange(0, 10_000, 10), np.arange(40_000, 50_000, 10)]     # events every 10 µs
-    assert unstalled(t, 10_000) == [(0, 1000), (1000, 2000)]
+    assert list(stall_starts(t, 10_000)) == [1000]
+    assert stalls(t, stall_starts(t, 10_000), 10_000).tolist() == [[9_990, 40_000]]
+    assert stalls(t, stall_starts(t, 10_000), 10_000, before_us=-25_000).tolist() == \
+        [[-25_000, 0], [9_990, 40_000]]
     assert stalled_us(t, 10_000) == 40_000 - 9_990 - 10_000
     assert stalled_us(t, 10_000, start_us=-25_000) == 15_000 + 20_010
-    assert unstalled(t[:2], 10_000) == [(0, 2)] and stalled_us(t[:2], 10_000) == 0
+    assert len(stall_starts(t[:2], 10_000)) == 0 and stalled_us(t[:2], 10_000) == 0
 
 
 def test_stalls_found_by_empty_windows_are_every_gap_over_a_frame():
