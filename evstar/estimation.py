@@ -169,12 +169,11 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
     rows, est, kept = _estimate_pieces(cut, *args)
     gaps = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else {}
-    if any(g[4] for g in gaps.values()):   # stalls the gyro's turn bridges: fitted across
+    if any(g.bridged for g in gaps.values()):   # stalls the gyro's turn bridges: fitted across
         cut, owner = pieces.rejoined(centroids, cut, {p: t for p, t in owner.items()
-                                                       if not (p in gaps and gaps[p][4])})
+                                                       if not (p in gaps and gaps[p].bridged)})
         rows, est, kept = _estimate_pieces(cut, *args)
-    rows = pieces.coasted_honestly(pieces.owned(rows, owner),
-                                   [g[:4] for g in gaps.values() if not g[4]], e.coast_sigma_px)
+    rows = pieces.coasted_honestly(pieces.owned(rows, owner), gaps.values(), e.coast_sigma_px)
     if est is None:
         return rows, None, None
     return rows, pieces.owned(est, owner, by_track=True), pieces.owned(kept, owner)

@@ -14,6 +14,8 @@ their own while fitted (ids above the run's) and carry their track's id in the r
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 #: a stall is bridged (one fit across it) where the prior's turn carries a piece's last
@@ -51,9 +53,17 @@ def cut(centroids, gap_us, stalls=None):
     return new, owner
 
 
+class Gap(NamedTuple):
+    """A stall between two pieces of a track (bridged)."""
+    track: int
+    t_before: int        # µs: the piece before's last measured row
+    t_after: int         # µs: this piece's first
+    miss_px: float       # how far the prior's turn across it leaves the one from the other
+    bridged: bool
+
+
 def bridged(est, owner, velocity_prior):
-    """{later piece (cut): (its track, the piece before's last measured µs, its own first,
-    miss px, bridged)}: miss, how far the velocity prior's turn over the stall (and the piece
+    """{later piece (cut): its Gap}: miss, how far the velocity prior's turn over the stall (and the piece
     before's own residual velocity, a gyro bias) leaves the piece before's last measured
     position from this one's first; bridged where that is within BRIDGE_SIGMAS of their σ
     and the prior's walk — a gyro that bridged a 150 ms stall well had kept a dark-sky
@@ -81,22 +91,22 @@ def bridged(est, owner, velocity_prior):
         miss = float(np.hypot(*(zb - za - shift - bias * (t[1] - t[0]) * 1e-6)))
         var = (a["sigma_x"] ** 2 + a["sigma_y"] ** 2 + b["sigma_x"] ** 2 + b["sigma_y"] ** 2) / 2 \
             + diffusion(velocity_prior) * (t[1] - t[0]) * 1e-6
-        out[piece] = (track, int(t[0]), int(t[1]), miss, miss <= BRIDGE_SIGMAS * np.sqrt(var))
+        out[piece] = Gap(track, int(t[0]), int(t[1]), miss, miss <= BRIDGE_SIGMAS * np.sqrt(var))
     return out
 
 
-def coasted_honestly(rows, misses, limit_px):
-    """`rows` less the rows coasted into an unbridged stall (bridged's misses: (track, last
-    µs before, first after, miss px)) whose σ, widened by the prior's miss across the stall
+def coasted_honestly(rows, gaps, limit_px):
+    """`rows` less the rows coasted into an unbridged stall (bridged's Gaps) whose σ, widened by the prior's miss across the stall
     pro rata to how far into it they lie (from the nearer side), exceeds limit_px
     (coast_sigma_px); the others with that σ. Coasted 60 ms into a 250 ms stall from either
     side on the gyro alone, rows had lain up to 1.6 px off with σ of a few hundredths."""
-    if not misses or not len(rows):
+    gaps = [g for g in gaps if not g.bridged]
+    if not gaps or not len(rows):
         return rows
     rows = rows.copy()
     keep = np.ones(len(rows), bool)
     coasted = rows["source"] == "coasted"
-    for track, t_a, t_b, miss in misses:
+    for track, t_a, t_b, miss, _ in gaps:
         inside = coasted & (rows["track"] == track) & (rows["t"] > t_a) & (rows["t"] < t_b)
         depth = np.minimum(rows["t"][inside] - t_a, t_b - rows["t"][inside]) / (t_b - t_a)
         sigma = np.hypot(rows["sigma"][inside], miss * depth)

@@ -155,11 +155,12 @@ def test_rows_coasted_into_an_unbridged_stall_carry_the_gyros_miss():
     """A 1 px miss across a 300 ms stall: a row coasted 30 ms into it gets σ ≥ 0.1 px, one
     60 ms in 0.2 px; with a 0.15 px limit the latter goes."""
     from evstar.extract import CENTROID_DTYPE
-    from evstar.pieces import coasted_honestly
+    from evstar.pieces import Gap, coasted_honestly
 
     rows = np.zeros(4, CENTROID_DTYPE)
     rows["t"], rows["track"], rows["sigma"] = [120_000, 150_000, 200_000, 150_000], [3, 3, 3, 4], 0.01
     rows["source"] = ["coasted", "coasted", "measured", "coasted"]
-    out = coasted_honestly(rows, [(3, 90_000, 390_000, 1.0)], 0.15)
+    out = coasted_honestly(rows, [Gap(3, 90_000, 390_000, 1.0, False),
+                                  Gap(4, 90_000, 390_000, 9.0, True)], 0.15)
     assert list(out["t"]) == [120_000, 200_000, 150_000]
     assert out["sigma"][0] == pytest.approx(np.hypot(0.01, 0.1)) and list(out["sigma"][1:]) == [0.01, 0.01]
