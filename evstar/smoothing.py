@@ -65,6 +65,10 @@ _IGNORED_SIGMA = 1e4                   # px: the σ that makes an outlier weight
 _MIN_STIFF_CENTROIDS = 10              # centroids a track needs for the stiff outlier screen
 _PRIOR_STEP_S = 1e-3                   # s: the velocity prior is integrated on this grid
 MIN_CROSSINGS = 8                      # a track's crossings needed to refit it with them
+MULTI_NEAR = 2                         # multi-level crossings within a frame that leave out a
+                                       # one-level one (_multi_level) ...
+ONE_LEVEL_WIDTH = 0.5                  # ... which stays only where its run's outer half-width
+                                       # is under this many frames (_clean_runs)
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
 MIN_FEW_CROSSINGS = 4                  # fewer or shorter (>= this many): the centroids weigh
                                        # fully along the motion, the crossings add to them
@@ -270,7 +274,8 @@ class TrackSmoother:
         lags = []                  # the median lag (s) its crossings were moved back by
         flanks = []                # per track its crossings' (RMS half-widths, lags µs)
         for tid, rows in zip(tids, est_rows):
-            m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz)
+            m = _trusted(mine.get(tid, np.zeros(0, np.int64)), pairs, width, along, background_hz,
+                         t_got, self.dt_us)
             track = est[rows]
             radius = _turn_radius(centroids, track)
             turns = _turns(track, radius)
@@ -833,14 +838,17 @@ def _few(along):
     return len(along) < MIN_CROSSINGS or np.ptp(along) < MIN_CROSSING_SPAN_PX
 
 
-def _trusted(m, pairs, width, along, background_hz=None):
+def _trusted(m, pairs, width, along, background_hz=None, t=None, dt_us=None):
     """The crossings m of a track that its refit can trust (_multi_level); none where they
     are _few and not _clean: a few crossings cannot be screened by their own spread, and a
     background event within a run splits or stretches it (a slow star's run lasts a large
     part of a second: at 0.7–1.5 °/s on a 1.5 Hz background 15 of 31 one-level crossings
     lay 0.4–2.8 px off). width: outer half-widths (µs: about half a run); along:
-    positions along the motion (px); background_hz: events/pixel/s, None: unknown."""
-    m = _multi_level(m, pairs)
+    positions along the motion (px); background_hz: events/pixel/s, None: unknown; t, dt_us:
+    the crossings' times and the frame (µs), which keep one-level crossings where few others
+    lie near (_multi_level)."""
+    clean = None if t is None else _clean_runs(width, background_hz, dt_us)
+    m = _multi_level(m, pairs, t, dt_us, clean)
     if len(m) and _few(along[m]) and not _clean(width[m], background_hz):
         return m[:0]
     return m
@@ -854,13 +862,38 @@ def _clean(width, background_hz):
     return bool(background_hz * 2e-6 * np.median(width) <= MAX_RUN_BACKGROUND)   # NaN: no
 
 
-def _multi_level(m, pairs):
-    """The crossings m of a track less its one-level ones when enough others remain. A
-    single pair is the level just below the pixel's peak, where the intensity is flattest:
-    a threshold mismatch or a missed level moves its midpoint most (0.6 px along the motion
-    at 1–2 °/s on the paper's camera; 0.05 px at 8 °/s)."""
-    multi = m[pairs[m] >= 2]
-    return multi if len(multi) >= MIN_CROSSINGS else m
+def _clean_runs(width, background_hz, dt_us):
+    """Per crossing (outer half-width µs): is its run short, under ONE_LEVEL_WIDTH frames
+    (dt_us), and _clean? False for all where the background is unknown. A slow star's
+    one-level pair lies where its pixel's intensity is flat for long: on evstar's simulator
+    at 1–2 °/s (half-widths of 36–40 ms) they put stars 0.05 → 0.21 px and 0.24 → 0.74 px
+    off; a faint star's at 250–500 px/s (3–6 ms) follow it as its other crossings do."""
+    if background_hz is None:
+        return np.zeros(len(width), bool)
+    w = np.asarray(width)
+    return (w < ONE_LEVEL_WIDTH * dt_us) & (background_hz * 2e-6 * w <= MAX_RUN_BACKGROUND)
+
+
+def _multi_level(m, pairs, t=None, window_us=None, clean=None):
+    """The crossings m of a track less its one-level ones where enough others remain: in all
+    (t None), or near each (t: crossing times, µs) — where MULTI_NEAR multi-level crossings
+    of the track lie within window_us (a frame) of it, or where its run is not `clean` (per
+    crossing: _clean_runs, short and free of background). A single pair is the level just
+    below the pixel's peak, where the intensity is flattest: a threshold mismatch or a missed
+    level moves its midpoint most (0.6 px along the motion at 1–2 °/s on the paper's camera;
+    0.05 px at 8 °/s). Left out over the whole track, they took with them every crossing of
+    the stretches where a faint star gives one level only — where it passes pixels it
+    passed before (their references sit high after its last OFF run) on a sensor whose OFF
+    threshold is below its ON one, and the track then followed its centroids there (a
+    telephoto sinusoid behind a low-pass, mag 5: 0.44–0.57 px after its turn)."""
+    multi = pairs[m] >= 2
+    if multi.sum() < MIN_CROSSINGS:
+        return m
+    if t is None:
+        return m[multi]
+    tm, tt = np.sort(t[m[multi]]), t[m]
+    near = np.searchsorted(tm, tt + window_us, "right") - np.searchsorted(tm, tt - window_us)
+    return m[multi | ((near < MULTI_NEAR) & clean[m])]
 
 
 #: a pixel this many centroid spreads (≈ 1.4 σ_PSF for a slow star) from a turn may see

@@ -397,6 +397,46 @@ def test_one_level_crossings_are_left_out_only_when_enough_others_remain():
     assert np.array_equal(_multi_level(few, pairs), few)
 
 
+def test_one_level_crossings_stay_where_few_multi_level_ones_lie_near():
+    """A faint star's stretch of one-level crossings (a pass over pixels it passed before)
+    keeps them where their runs are clean; where multi-level crossings lie within a frame,
+    or where a run likely holds a background event, the one-level ones go."""
+    from evstar.smoothing import MIN_CROSSINGS, MULTI_NEAR, _multi_level
+
+    n = 4 * MIN_CROSSINGS
+    t = np.arange(2 * n) * 2_000.0                  # one crossing every 2 ms for 2n of them
+    pairs = np.where(np.arange(2 * n) % 2 == 0, 2, 1)
+    pairs[n:] = 1                                   # the second half: one level only
+    pairs[n + n // 2] = 3                           # ... but for one multi-level crossing
+    mine = np.arange(2 * n)
+    clean = np.ones(2 * n, bool)
+    kept = _multi_level(mine, pairs, t, DT, clean)
+    edge = DT // 2_000                              # crossings within a frame of the other half
+    first, second = kept[kept < n - edge], kept[kept >= n + edge]
+    assert len(first) == len(range(0, n - edge, 2)) and np.all(pairs[first] >= 2)
+    assert len(second) == n - edge                  # sparse: all kept (one multi < MULTI_NEAR)
+    assert MULTI_NEAR > 1
+    busy = clean.copy()
+    busy[n + edge:] = False                         # their runs likely hold background events
+    kept = _multi_level(mine, pairs, t, DT, busy)
+    assert np.all(pairs[kept[kept >= n + edge]] >= 2)
+    # without times, the rule over the whole track as before
+    assert np.all(pairs[_multi_level(mine, pairs)] >= 2)
+
+
+def test_a_one_level_run_is_clean_only_when_short_and_quiet():
+    """_clean_runs: a slow star's long runs (flat-topped pixels) and runs that likely hold
+    a background event are not; an unknown background makes none clean."""
+    from evstar.smoothing import MAX_RUN_BACKGROUND, ONE_LEVEL_WIDTH, _clean_runs
+
+    short, long_ = 0.9 * ONE_LEVEL_WIDTH * DT, 1.1 * ONE_LEVEL_WIDTH * DT
+    quiet = 0.5 * MAX_RUN_BACKGROUND / (2e-6 * short)
+    busy = 2.0 * MAX_RUN_BACKGROUND / (2e-6 * short)
+    assert list(_clean_runs(np.array([short, long_]), quiet, DT)) == [True, False]
+    assert not _clean_runs(np.array([short]), busy, DT).any()
+    assert not _clean_runs(np.array([short]), None, DT).any()
+
+
 def test_the_prior_is_used_where_it_explains_the_track_better():
     """A sinusoid's track with its true velocity as prior: used. A constant pan whose prior
     is a noisy gyro's (white noise integrating into a random walk of 0.1 px per 10 ms): not
