@@ -424,6 +424,16 @@ def test_one_level_crossings_stay_where_few_multi_level_ones_lie_near():
     assert np.all(pairs[_multi_level(mine, pairs)] >= 2)
 
 
+def test_the_pixel_lag_is_fitted_on_multi_level_crossings_where_enough():
+    from evstar.smoothing import MIN_CROSSINGS, _lag_crossings
+
+    pairs = np.array([1, 3] * MIN_CROSSINGS)
+    assert np.array_equal(_lag_crossings(pairs, len(pairs)), np.flatnonzero(pairs == 3))
+    few = pairs[: MIN_CROSSINGS]                    # half of them multi-level: too few
+    assert np.array_equal(_lag_crossings(few, len(few)), np.arange(len(few)))
+    assert np.array_equal(_lag_crossings(None, 5), np.arange(5))
+
+
 def test_a_one_level_run_is_clean_only_when_short_and_quiet():
     """_clean_runs: a slow star's long runs (flat-topped pixels) and runs that likely hold
     a background event are not; an unknown background makes none clean."""
