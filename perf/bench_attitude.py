@@ -12,7 +12,6 @@ rows/s. Writes perf/results/bench_attitude.json and prints a table.
 from __future__ import annotations
 
 import argparse
-import math
 import pathlib
 
 import numpy as np

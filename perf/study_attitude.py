@@ -41,7 +41,7 @@ from scipy.spatial.transform import Rotation
 
 import evstar
 from evstar import sim
-from evstar.attitude import AttitudeEstimator, Solver, identify, pixel_rays, rotation, wahba
+from evstar.attitude import AttitudeEstimator, Solver, identify, rotation
 from evstar.motion import AttitudeTrack
 
 RESULTS = pathlib.Path(__file__).parent / "results"

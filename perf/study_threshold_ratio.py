@@ -9,8 +9,6 @@ Writes perf/results/study_threshold_ratio.json and .md.
 """
 import pathlib
 
-import numpy as np
-
 import study_attitude as sat
 from evstar import Config, Pipeline, profiling, sim
 from evstar.crossings import _change_runs, first_of_pixel, threshold_ratio_of
