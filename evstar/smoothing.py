@@ -68,7 +68,7 @@ MIN_CROSSINGS = 8                      # a track's crossings needed to refit it 
 MULTI_NEAR = 2                         # multi-level crossings within a frame that leave out a
                                        # one-level one (_multi_level) ...
 ONE_LEVEL_WIDTH = 0.5                  # ... which stays only where its run's outer half-width
-                                       # is under this many frames (_clean_runs)
+                                       # is under this many frames (_short_and_clean)
 MIN_CROSSING_SPAN_PX = 3.0             # ... spread at least this far along the motion
 MIN_FEW_CROSSINGS = 4                  # fewer or shorter (>= this many): the centroids weigh
                                        # fully along the motion, the crossings add to them
@@ -863,7 +863,7 @@ def _trusted(m, pairs, width, along, background_hz=None, t=None, dt_us=None):
     positions along the motion (px); background_hz: events/pixel/s, None: unknown; t, dt_us:
     the crossings' times and the frame (µs), which keep one-level crossings where few others
     lie near (_multi_level)."""
-    clean = None if t is None else _clean_runs(width, background_hz, dt_us)
+    clean = None if t is None else _short_and_clean(width, background_hz, dt_us)
     m = _multi_level(m, pairs, t, dt_us, clean)
     if len(m) and _few(along[m]) and not _clean(width[m], background_hz):
         return m[:0]
@@ -878,9 +878,9 @@ def _clean(width, background_hz):
     return bool(background_hz * 2e-6 * np.median(width) <= MAX_RUN_BACKGROUND)   # NaN: no
 
 
-def _clean_runs(width, background_hz, dt_us):
+def _short_and_clean(width, background_hz, dt_us):
     """Per crossing (outer half-width µs): is its run short, under ONE_LEVEL_WIDTH frames
-    (dt_us), and _clean? False for all where the background is unknown. A slow star's
+    (dt_us), and clean (_clean)? False for all where the background is unknown. A slow star's
     one-level pair lies where its pixel's intensity is flat for long: on evstar's simulator
     at 1–2 °/s (half-widths of 36–40 ms) they put stars 0.05 → 0.21 px and 0.24 → 0.74 px
     off; a faint star's at 250–500 px/s (3–6 ms) follow it as its other crossings do."""
@@ -894,10 +894,10 @@ def _multi_level(m, pairs, t=None, window_us=None, clean=None):
     """The crossings m of a track less its one-level ones where enough others remain: in all
     (t None), or near each (t: crossing times, µs) — where MULTI_NEAR multi-level crossings
     of the track lie within window_us (a frame) of it, or where its run is not `clean` (per
-    crossing: _clean_runs, short and free of background). A single pair is the level just
-    below the pixel's peak, where the intensity is flattest: a threshold mismatch or a missed
-    level moves its midpoint most (0.6 px along the motion at 1–2 °/s on the paper's camera;
-    0.05 px at 8 °/s). Left out over the whole track, they took with them every crossing of
+    crossing: _short_and_clean). A single pair is the level just below the pixel's peak,
+    where the intensity is flattest: a threshold mismatch or a missed level moves its
+    midpoint most (0.6 px along the motion at 1–2 °/s on the paper's camera; 0.05 px at
+    8 °/s). Left out over the whole track, they took with them every crossing of
     the stretches where a faint star gives one level only — where it passes pixels it
     passed before (their references sit high after its last OFF run) on a sensor whose OFF
     threshold is below its ON one, and the track then followed its centroids there (a

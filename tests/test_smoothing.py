@@ -435,16 +435,16 @@ def test_the_pixel_lag_is_fitted_on_multi_level_crossings_where_enough():
 
 
 def test_a_one_level_run_is_clean_only_when_short_and_quiet():
-    """_clean_runs: a slow star's long runs (flat-topped pixels) and runs that likely hold
+    """_short_and_clean: a slow star's long runs (flat-topped pixels) and runs that likely hold
     a background event are not; an unknown background makes none clean."""
-    from evstar.smoothing import MAX_RUN_BACKGROUND, ONE_LEVEL_WIDTH, _clean_runs
+    from evstar.smoothing import MAX_RUN_BACKGROUND, ONE_LEVEL_WIDTH, _short_and_clean
 
     short, long_ = 0.9 * ONE_LEVEL_WIDTH * DT, 1.1 * ONE_LEVEL_WIDTH * DT
     quiet = 0.5 * MAX_RUN_BACKGROUND / (2e-6 * short)
     busy = 2.0 * MAX_RUN_BACKGROUND / (2e-6 * short)
-    assert list(_clean_runs(np.array([short, long_]), quiet, DT)) == [True, False]
-    assert not _clean_runs(np.array([short]), busy, DT).any()
-    assert not _clean_runs(np.array([short]), None, DT).any()
+    assert list(_short_and_clean(np.array([short, long_]), quiet, DT)) == [True, False]
+    assert not _short_and_clean(np.array([short]), busy, DT).any()
+    assert not _short_and_clean(np.array([short]), None, DT).any()
 
 
 def test_the_prior_is_used_where_it_explains_the_track_better():
