@@ -780,6 +780,26 @@ def test_on_a_small_sinusoid_the_speed_change_correction_brings_the_star_closer(
     assert err["none", True] < 0.95 * err["none", False]
 
 
+def test_a_faint_stars_one_level_stretches_time_it_where_nothing_else_does(monkeypatch):
+    """A magnitude-6 star on the paper's 10°/1 Hz sinusoid behind OFF thresholds below ON
+    (0.2 against 0.28): after each turn it passes pixels it passed before, whose references
+    sit high, and gives one level pair per pixel there. Dropping a track's one-level
+    crossings wherever it has enough multi-level ones (MULTI_NEAR 0: the rule before) left
+    those stretches to its centroids."""
+    from evstar import Config, Pipeline, accuracy, smoothing
+
+    sensor = sim.sensor_model("default", threshold_on=0.28, threshold_off=0.2)
+    run = sim.simulate(sim.paper_sinusoid(10.0, 1.0, duration_s=1.5, magnitude=6.0,
+                                          sensor=sensor), seed=3)
+    err, default = {}, smoothing.MULTI_NEAR
+    for near in (default, 0):
+        monkeypatch.setattr(smoothing, "MULTI_NEAR", near)
+        rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+        star, e = accuracy.match(rows, run.truth.star_position)
+        err[near] = e[star >= 0].mean()
+    assert err[default] < 0.8 * err[0]
+
+
 def test_without_imu_an_accelerating_star_is_corrected_from_its_crossings_first_fit():
     """A magnitude-3.5 star speeding up from rest (a slew's first half, no IMU): its
     crossings, moved by the speed change its first fit with them shows, beat the flanks'
