@@ -98,7 +98,7 @@ def spikes(gyro):
     half = width // 2
     # a window's spread, from few samples, can read far below the gyro's noise: then 3σ
     # noise stood 6 spreads out (one sample in four grids' clean 1 kHz records)
-    noise = _noise(gyro)
+    noise = rate_noise(gyro)
     for lo in range(0, n, _CHUNK):
         i = np.arange(lo, min(lo + _CHUNK, n))
         # each sample's window centred on it, shifted inwards at the record's ends
@@ -127,11 +127,11 @@ def _median(a):
     return np.partition(a, k // 2, axis=-1)[..., k // 2] if k % 2 else np.median(a, axis=-1)
 
 
-def _noise(gyro):
-    """Per axis, the rates' white noise (rad/s a sample): the robust spread of their second
-    differences (6 × its variance; a slew's rate hardly changes from one sample to the
-    next)."""
-    d2 = np.diff(gyro, 2, axis=0)
+def rate_noise(gyro):
+    """Per axis, an (n, 3) rate array's white noise (its units a sample): the robust spread
+    (MAD) of its second differences, which white noise gives 6 × its variance and a slew's
+    rate, hardly changing from one sample to the next, next to nothing."""
+    d2 = gyro[2:] - 2 * gyro[1:-1] + gyro[:-2]
     return 1.4826 * np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) / np.sqrt(6)
 
 

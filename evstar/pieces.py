@@ -131,9 +131,8 @@ def rejoined(centroids, split, owner):
             kept[piece] = owner[piece]
             continue
         # joined: to the latest kept piece of its track before it, else the track itself
-        track = int(centroids["track"][labels == piece][0])
-        earlier = [p for p, t in kept.items() if t == track and p < piece]
-        labels[labels == piece] = max(earlier) if earlier else track
+        labels[labels == piece] = _before(piece, int(centroids["track"][labels == piece][0]),
+                                          kept)
     out = split.copy()
     out["track"] = labels
     return out, kept

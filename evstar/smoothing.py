@@ -1385,16 +1385,15 @@ def imu_velocity_prior(imu, camera):
 
 def gyro_noise_density(imu):
     """The gyro's white-noise density (rad/s/√Hz) per camera axis, measured from its samples:
-    their second differences (a slew's rate hardly changes from one sample to the next at
-    hundreds of Hz; white noise's second difference has 6 × its variance), robust (MAD),
-    over the median sample rate. A gyro low-passed on chip before it is sampled reads low
+    their second differences' robust spread (gyro_repair.rate_noise) over the median sample
+    rate. A gyro low-passed on chip before it is sampled reads low
     (set estimate.gyro_noise from its datasheet then)."""
+    from .gyro_repair import rate_noise
+
     g = imu.gyro_cam
     if len(g) < 3:
         return np.zeros(3)
-    d2 = g[2:] - 2 * g[1:-1] + g[:-2]
-    sd = 1.4826 * np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) / np.sqrt(6)
-    return sd * np.sqrt(float(np.median(np.diff(imu.t))) * 1e-6)
+    return rate_noise(g) * np.sqrt(float(np.median(np.diff(imu.t))) * 1e-6)
 
 
 def imu_diffusion(imu, camera, density=None):
