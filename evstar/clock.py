@@ -81,24 +81,33 @@ LAG_SHARE = 1.0
 #: third, 251 ± 49 on the least — and took 0.012 px to 0.253 with it; an untold 3 ms read
 #: 2501 on all and 2752 on the least-lagged third, and is taken)
 LEAST_LAGGED = 1 / 3
+#: where no pixel lag was measured, an offset is taken only where the crossings' deepest
+#: levels pass less than this share of it after their top: a clock delays every level
+#: alike, a pixel low-pass a dimmer one more. A faint star's unmeasured lag behind a dark
+#: sky read as an offset (magnitude 6 on the paper's 10°/1 Hz sinusoid: 2.7 ms, its levels
+#: 1.4 ms apart, 1.8 px behind; the accuracy grid's stray-lit dark-sky sinusoid 1.6 ms, 1.2
+#: apart, 0.73 px), where without a low-pass the levels of a k with 100 profiles or more
+#: passed within 0.02 ms
+DELAY_SHARE = 0.25
 #: the gyro's rate must change over a gap this many times more than its noise alone seems
 #: to, and by more than MIN_RATE_CHANGE (rad/s RMS: a noiseless gyro at a constant rate)
 NOISE_RATIO, MIN_RATE_CHANGE = 3.0, 1e-3
 
 
 def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
-                    measured_lag=None, filter_result=None):
+                    measured_lag=None, filter_result=None, depth_delay_us=0.0):
     """(the velocity prior, the offset µs or None): where the run measures the clock
     (motion.measure_clock) and the crossings tell an offset, the prior
     (evstar.estimation.velocity_prior of these arguments) of the IMU moved by it; else
     `prior` as it is. measured_lag: the pixels' lag the run measured (the estimate's
-    calibration file wins)."""
+    calibration file wins); depth_delay_us: how much later the crossings' deepest levels
+    pass than their top (evstar.level_lag.LevelProfiles.depth_delay_us)."""
     from . import estimation
 
     if prior is None or crossings is None or not config.motion.measure_clock:
         return prior, None
     offset = measured_offset_us(crossings, centroids, imu, camera,
-                                estimation.run_lag(config.estimate, measured_lag))
+                                estimation.run_lag(config.estimate, measured_lag), depth_delay_us)
     if offset is None:
         return prior, None
     # the moved record covers the events as far as the given one did
@@ -133,11 +142,12 @@ def corrected(imu, offset_us):
                time_offset_us=imu.time_offset_us - int(round(offset_us)))
 
 
-def measured_offset_us(crossings, centroids, imu, camera, lag=None):
+def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_us=0.0):
     """δ (µs) such that the gyro's rate stamped camera time t + δ is the camera's at t,
     measured on `crossings` (CROSSING_DTYPE) assigned to the tracks of the linked
     `centroids`; None where the crossings do not tell it (see the module docstring). lag:
-    the pixels' PixelLag the crossings are late by, or None."""
+    the pixels' PixelLag the crossings are late by, or None; depth_delay_us: how much later
+    their deepest levels pass than their top, where no lag was measured (DELAY_SHARE)."""
     t_cam = imu.t_cam.astype(np.float64)
     if len(t_cam) < 3 or not _rate_changes(imu):
         return None
@@ -148,7 +158,9 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None):
     straight = _straight(pairs, t_cam, turned, camera)
     chosen = _spread(pairs, straight)
     offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
-    if offset is None or not np.any(pairs[-1] > 0):
+    if offset is None or lag is None and depth_delay_us > DELAY_SHARE * abs(offset):
+        return None
+    if not np.any(pairs[-1] > 0):
         return offset
     # behind a pixel lag the least-lagged pairs must tell it too (LEAST_LAGGED)
     least = _spread(pairs, straight & _least_lagged(pairs[-1]))

@@ -38,8 +38,14 @@ MIN_R2 = 0.99
 #: profiles with less than this share of the fullest one's crossings neither veto a lag
 #: (falling with depth) nor shape it: on a fast dark-sky field a k of a few dozen crossings
 #: (28 of 11 pairs beside 500s) fell where a background event was paired in it, and its
-#: shape took R² below MIN_R2 (their lag is still read off the shared fit)
+#: shape took R² below MIN_R2 (their lag is still read off the shared fit). The veto counts
+#: all the run's crossings of each k, not the MAX_PROFILES kept: a faint star on a dark sky
+#: with OFF below ON had 843 crossings of 3 pairs and 73 of 2 (a leak or slow first ON in
+#: their ON run) whose profile fell with depth; against the 500 kept, 15 % of them vetoed
+#: the lag (magnitude 5 on the paper's sinusoid with the IMU: 0.99 px; 0.06 without the veto)
 FILLED_SHARE = 0.1
+#: standard errors a profile's depth delay is taken below its median (depth_delay_us)
+DELAY_SE = 3.0
 #: profiles with at least this many levels drop their deepest from the shape fit
 _DROP_BOTTOM_FROM = 4
 #: ρ's grid: C·γ from 0.1 to 0.9 (contrast thresholds of DVS pixels are ~0.1–0.5)
@@ -52,12 +58,15 @@ class LevelProfiles:
 
     def __init__(self):
         self._by_k = {}
+        self.seen = {}          # k: all the crossings of k pairs offered (wanted or not)
 
     def wanted(self, k):
         """Indices into `k` (pairs per crossing) of the crossings still wanted: per k >= 2,
         the first up to MAX_PROFILES less those held."""
         k = np.asarray(k)
         per_k = np.bincount(k) if len(k) else np.zeros(0, np.int64)      # k >= 0
+        for kk in range(2, len(per_k)):
+            self.seen[kk] = self.seen.get(kk, 0) + int(per_k[kk])
         take = {kk: min(int(per_k[kk]), MAX_PROFILES - self._count(kk))
                 for kk in range(2, len(per_k))}
         take = {kk: n for kk, n in take.items() if n > 0}
@@ -98,6 +107,22 @@ class LevelProfiles:
                 out[kk] = (np.median(rows, axis=0), len(rows))
         return out
 
+    def depth_delay_us(self):
+        """How much later, at least, the deepest level of a crossing passes than its top: per
+        k with MIN_PROFILES, the median over its profiles of that delay less DELAY_SE of its
+        standard error (1.2533 × 1.4826 MAD / √n); the largest, or 0. A low-pass delays a
+        dimmer level more (0.7–3.8 ms on the accuracy grid's dark skies); without one the
+        levels pass together (within 0.02 ms where a k has 100 profiles or more)."""
+        out = 0.0
+        for kk, parts in self._by_k.items():
+            rows = np.concatenate([p["D"] for p in parts])
+            if len(rows) >= MIN_PROFILES:
+                d = rows[:, _levels(kk) - 1] - rows[:, 0]
+                mid = np.median(d)
+                se = 1.2533 * 1.4826 * np.median(np.abs(d - mid)) / np.sqrt(len(d))
+                out = max(out, float(mid - DELAY_SE * se))
+        return out
+
     def lag(self, speed_change=None):
         """The measured PixelLag (one speed column: the lag of a level is a time), or None
         when the profiles are too few or not a low-pass's (fit_lag); speed_change: as
@@ -105,9 +130,9 @@ class LevelProfiles:
         sinusoid, speeding up and slowing down cancel in the median profiles, and the
         centroids' κ near its turns took a fitted lag of 1.4–1.8 ms to 2.1–2.8 and
         perf/study_turns.py's dev 16 from 0.222 to 0.261 px)."""
-        fit = fit_lag(self.medians())
+        fit = fit_lag(self.medians(), self.seen)
         if fit is None and speed_change is not None:
-            fit = fit_lag(self.medians(speed_change))
+            fit = fit_lag(self.medians(speed_change), self.seen)
         if fit is None:
             return None
         from .calibration import PixelLag
@@ -201,19 +226,19 @@ def _moved(part, speed_change):
     return out
 
 
-def fit_lag(profiles):
+def fit_lag(profiles, seen=None):
     """(k values, lag µs per k, R², ρ) of the geometric model fitted to `profiles` ({k:
     (median demeaned profile, count)}), or None when fewer than two profiles have >= 3
-    levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays)."""
+    levels to shape it or R² < MIN_R2. Lags below 0 are 0 (a low-pass only delays).
+    seen: {k: the run's crossings of k pairs}, for the veto's FILLED_SHARE (None: the counts)."""
     # a low-pass delays a dimmer level more: every well-filled profile rises with depth over
     # the levels that shape the fit (a sensor without one has profiles of jitter and refractory
     # effects, some falling, whose fit can still pass the R² gate; the deepest level of a
     # long profile, left out of the shape, may fall: a background event of a fast field
     # paired there)
-    fullest = max((n for D, n in profiles.values()), default=0)
-    filled = {k: (D, n) for k, (D, n) in profiles.items() if n >= FILLED_SHARE * fullest}
-    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in filled.items() if k >= 2):
+    if any(D[_levels(k) - 1] <= D[0] for k, (D, n) in _filled(profiles, seen).items() if k >= 2):
         return None
+    filled = _filled(profiles)
     shaped = {k: v for k, v in filled.items() if _levels(k) >= 3}
     deep = {k: v for k, v in shaped.items() if k >= _DROP_BOTTOM_FROM}
     shape = deep if len(deep) >= 2 else shaped
@@ -229,6 +254,14 @@ def fit_lag(profiles):
     ks = np.array(sorted(profiles))
     lag = np.array([max(-_fit_grid(profiles[k][0], k)[0][best], 0.0) for k in ks])
     return ks, lag, r2, rho
+
+
+def _filled(profiles, seen=None):
+    """The profiles with FILLED_SHARE of the fullest one's crossings: counted in all where
+    `seen` ({k: crossings}) is given, else as kept."""
+    count = {k: n if seen is None else seen.get(k, n) for k, (D, n) in profiles.items()}
+    fullest = max(count.values(), default=0)
+    return {k: v for k, v in profiles.items() if count[k] >= FILLED_SHARE * fullest}
 
 
 def _levels(k):

@@ -362,7 +362,8 @@ class Pipeline:
             lag = state.measured_lag(cents)
             crossings = state.crossings(lag)
             moved, positions.clock_offset_us = on_camera_clock(
-                self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result)
+                self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result,
+                state.depth_delay_us())
             positions.report = {}
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
@@ -635,6 +636,11 @@ class _RunState:
         if not self._near:
             return np.zeros(0, np.int64), np.zeros(0, np.uint16), np.zeros(0, np.uint16)
         return tuple(np.concatenate(c) for c in zip(*self._near))
+
+    def depth_delay_us(self):
+        """How much later the crossings' deepest levels pass than their top (µs; 0 where
+        the run gathers no level profiles: evstar.level_lag.LevelProfiles.depth_delay_us)."""
+        return 0.0 if self.profiles is None else self.profiles.depth_delay_us()
 
     def measured_lag(self, centroids=None):
         """The pixels' lag measured from the crossings' level profiles (None: not measured,

@@ -697,9 +697,13 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     ok = np.flatnonzero(np.abs(r - med) <= gate_sigma * s_a)
     t_c, q, u, s_a = t_c[ok], q.take(ok, 0), u.take(ok, 0), s_a[ok]
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
-        fit = _lag_crossings(crossings[4][ok] if len(crossings) > 4 else None, len(ok))
-        t_c = t_c - 1e6 * (yield from _pixel_lag_s(t_c[fit], q.take(fit, 0), u.take(fit, 0),
-                                                   velocity_prior))
+        lag_s = np.zeros(len(ok))
+        for fit, rest in _lag_classes(crossings[4][ok] if len(crossings) > 4 else None, len(ok)):
+            tau = yield from _pixel_lag_s(t_c[fit], q.take(fit, 0), u.take(fit, 0), velocity_prior)
+            lag_s[fit] = tau
+            lag_s[rest] = yield from _pixel_lag_s(t_c[rest], q.take(rest, 0), u.take(rest, 0),
+                                                  velocity_prior, fallback=tau)
+        t_c = t_c - 1e6 * lag_s
     t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
     t_c = np.round(t_c).astype(np.int64)
     measured = ~est["coasted"]
@@ -787,37 +791,40 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     return _batched([_pixel_lag_s(t_us, q, u, velocity_prior, max_se_s)], velocity_prior)[0]
 
 
-def _lag_crossings(pairs, n):
-    """Indices of a track's n crossings its pixel lag is fitted on (pairs: their level pairs,
-    None: unknown): the multi-level ones where MIN_CROSSINGS are, else all. Behind a
-    low-pass a one-level crossing lags otherwise (a faint star's peak or a flank pixel: a
-    lower intensity, a lower cutoff); kept where a faint star gives one level only
-    (_multi_level), they set one lag for its whole track: a mag-5 star on a dark-sky
-    sinusoid with the IMU went 0.023 -> 0.39 px (FRESH F8), 0.016 with this."""
+def _lag_classes(pairs, n):
+    """[(fit, rest)]: indices of a track's n crossings whose pixel lag is fitted (pairs:
+    their level pairs, None: unknown), and of those that take their own where they measure
+    one, else fit's: the multi-level ones and the one-level ones where MIN_CROSSINGS are
+    multi-level, else all and none. Behind a low-pass the two classes lag apart: a one-level
+    crossing is a fainter peak or a flank pixel, and its pair is the top one. One lag for
+    the whole track set from both took a mag-5 star on a dark-sky sinusoid with the IMU
+    0.023 -> 0.39 px (FRESH F8); one from the multi-level ones put a mag-5.5 star's stretches
+    of one-level crossings (revisited pixels, OFF below ON) 0.9 px ahead of it, whose true
+    lags were 2.1 ms against the others' 3.0 (the paper's sinusoid on a dark sky)."""
     if pairs is not None:
-        multi = np.flatnonzero(pairs >= 2)
-        if len(multi) >= MIN_CROSSINGS:
-            return multi
-    return np.arange(n)
+        multi = pairs >= 2
+        if multi.sum() >= MIN_CROSSINGS:
+            return [(np.flatnonzero(multi), np.flatnonzero(~multi))]
+    return [(np.arange(n), np.arange(0))]
 
 
-def _pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
-    """pixel_lag_s as a _batched step."""
+def _pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S, fallback=0.0):
+    """pixel_lag_s as a _batched step (`fallback` where it measures none)."""
     if len(t_us) < MIN_CROSSINGS:
-        return 0.0
+        return fallback
     order = np.argsort(t_us, kind="stable")
     t_s = np.asarray(t_us, float)[order]
     y, local, lag_col, _ = yield from _lag_regression(t_s, q[order], u[order], velocity_prior)
     return _lag_fit(y, np.column_stack([local, lag_col]), max_se_s, (t_s - t_s[0]) * 1e-6,
-                    diffusion(velocity_prior))
+                    diffusion(velocity_prior), fallback)
 
 
-def _lag_fit(y, A, max_se_s, ts, w):
+def _lag_fit(y, A, max_se_s, ts, w, fallback=0.0):
     """pixel_lag_s's robust fit of its regression rows (at times ts s, sorted; the prior's
     displacement wandering as a random walk of density w px²/s): τ where its standard error
-    is within max_se_s, else 0."""
+    is within max_se_s, else `fallback`."""
     fit = _lag_estimate(y, A, ts, w)
-    return fit[0] if fit is not None and fit[1] <= max_se_s else 0.0
+    return fit[0] if fit is not None and fit[1] <= max_se_s else fallback
 
 
 def _lag_estimate(y, A, ts, w):

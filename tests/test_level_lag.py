@@ -89,6 +89,30 @@ def test_a_sparse_profile_neither_vetoes_nor_shapes_the_lag():
     assert fit_lag(prof) is None
 
 
+def test_a_falling_profile_vetoes_by_its_share_of_all_crossings_not_of_those_kept():
+    """A faint star on a dark sky with OFF below ON: 843 crossings of 3 pairs, 433 of 4 and
+    73 of 2 whose profile falls with depth (a slow first ON or a leak in their ON run).
+    Against the MAX_PROFILES kept the 73 are 15 % of the fullest and veto the lag; against
+    all the run's crossings, 9 %. Shaping still counts the kept profiles."""
+    prof = _profiles(1.3, 1500.0, ks=range(3, 6), noise_us=5.0, n=MAX_PROFILES)
+    want = fit_lag(prof)
+    prof[2] = (np.array([845.0, -845.0]), 73)
+    assert want is not None and fit_lag(prof) is None
+    seen = {2: 73, 3: 843, 4: 433, 5: 65}
+    got = fit_lag(prof, seen)
+    assert got is not None and got[3] == want[3]
+    assert fit_lag(prof, {**seen, 2: 200}) is None
+
+
+def test_profiles_count_all_the_crossings_they_are_offered():
+    prof = LevelProfiles()
+    k = np.array([1, 2, 3, 3] * (MAX_PROFILES + 10))
+    for _ in range(2):
+        sel = prof.wanted(k)
+        prof.add(k[sel], np.zeros((len(sel), 3)))
+    assert prof.seen == {2: 2 * (MAX_PROFILES + 10), 3: 4 * (MAX_PROFILES + 10)}
+
+
 def test_profiles_keep_at_most_their_cap_per_k():
     prof = LevelProfiles()
     k = np.array([1, 2, 3] * (MAX_PROFILES + 10))
@@ -460,3 +484,23 @@ def test_a_told_refractory_period_still_helps_on_fast_pixels():
         r = evstar.Pipeline(cfg).run(run.events, None, run.camera, truth=run.truth)
         errors.append(r.metrics["centroid_error_px"]["mean"])
     assert errors[1] < 0.6 * errors[0], errors
+
+
+def test_the_depth_delay_is_how_much_later_the_deepest_level_passes():
+    """Profiles whose deepest level passes 1 ms after their top (a low-pass) give about
+    that, less DELAY_SE standard errors; levels passing together within a timestamp jitter
+    give about 0; a few wild profiles (a k of 12) do not reach it."""
+    from evstar.level_lag import DELAY_SE
+
+    rng = np.random.default_rng(3)
+    prof = LevelProfiles()
+    k = np.full(400, 3)
+    mids = rng.normal(0, 20.0, (400, 3)) + np.array([0.0, 400.0, 1000.0])
+    prof.add(k, mids)
+    got = prof.depth_delay_us()
+    assert 950 < got < 1000
+    flat = LevelProfiles()
+    flat.add(k, rng.normal(0, 20.0, (400, 3)))
+    wild = np.full(12, 4)
+    flat.add(wild, rng.normal(0, 5000.0, (12, 4)))
+    assert flat.depth_delay_us() < 5 * DELAY_SE

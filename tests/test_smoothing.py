@@ -424,14 +424,18 @@ def test_one_level_crossings_stay_where_few_multi_level_ones_lie_near():
     assert np.all(pairs[_multi_level(mine, pairs)] >= 2)
 
 
-def test_the_pixel_lag_is_fitted_on_multi_level_crossings_where_enough():
-    from evstar.smoothing import MIN_CROSSINGS, _lag_crossings
+def test_the_pixel_lag_is_fitted_per_class_where_the_multi_level_ones_are_enough():
+    from evstar.smoothing import MIN_CROSSINGS, _lag_classes
 
     pairs = np.array([1, 3] * MIN_CROSSINGS)
-    assert np.array_equal(_lag_crossings(pairs, len(pairs)), np.flatnonzero(pairs == 3))
+    [(fit, rest)] = _lag_classes(pairs, len(pairs))
+    assert np.array_equal(fit, np.flatnonzero(pairs == 3))
+    assert np.array_equal(rest, np.flatnonzero(pairs == 1))
     few = pairs[: MIN_CROSSINGS]                    # half of them multi-level: too few
-    assert np.array_equal(_lag_crossings(few, len(few)), np.arange(len(few)))
-    assert np.array_equal(_lag_crossings(None, 5), np.arange(5))
+    [(fit, rest)] = _lag_classes(few, len(few))
+    assert np.array_equal(fit, np.arange(len(few))) and len(rest) == 0
+    [(fit, rest)] = _lag_classes(None, 5)
+    assert np.array_equal(fit, np.arange(5)) and len(rest) == 0
 
 
 def test_a_one_level_run_is_clean_only_when_short_and_quiet():
