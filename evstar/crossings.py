@@ -68,13 +68,14 @@ def pixel_keys(x, y, width):
 #: the run lengths are counted up to this (a hot pixel's run must not cost without bound)
 _RUN_CAP = 4096
 #: events a change needs on each flank to count in the measured threshold ratio: the first
-#: where it keeps FULL_FLANK_SHARE of the changes the second keeps, else the second. The
-#: count selects passages by where their reference began (one that began low fires more ON
-#: events and ends higher), which do not cancel as all of a pixel's passages would: on the
-#: estimator's model the ratio came out 7.5 % high at 0.714 where 3 events kept 21 % of the
-#: changes that have 2, 1.5 % with 2 (0.6 % against 0.1 % where they kept 86 %; a magnitude-5.5
-#: star on a dark sky measured 0.82 with 3). Where most changes have 3, more events a
-#: flank are the steadier (a noise event joined to a run weighs less).
+#: where it keeps FULL_FLANK_SHARE of the changes the second keeps, else the second
+#: (_ratio_changes). The count selects passages by where their reference began (one that
+#: began low fires more ON events and ends higher), which do not cancel as all of a pixel's
+#: passages would: on the estimator's model the ratio came out 7.5 % high at 0.714 where 3
+#: events kept 21 % of the changes that have 2, 1.5 % with 2 (0.6 % against 0.1 % where
+#: they kept 86 %; a magnitude-5.5 star on a dark sky measured 0.82 with 3). Where most
+#: changes have 3, more events a flank are the steadier (a noise event joined to a run
+#: weighs less).
 RATIO_FLANK_EVENTS = (3, 2)
 FULL_FLANK_SHARE = 0.5
 #: fewest such changes for a measured threshold ratio (else 1).
@@ -227,7 +228,8 @@ def threshold_ratio_of(on_before, off_after, levels=None, first=None):
     two or more passages; fresh pixels' Monte Carlo gives r within 0.5 % for r 0.375–2.5.)
     levels: (a, b) counted in levels instead of events (a pixel with a refractory period
     skips levels: run_levels). first: per change, whether it is its pixel's first (None:
-    all). Changes with >= 3 events on each flank; 1 when there are too few."""
+    all). The changes with RATIO_FLANK_EVENTS on each flank (_ratio_changes); 1 when there
+    are too few."""
     r = _measured_ratio(on_before, off_after, levels, first)
     return 1.0 if r is None else r
 
@@ -250,9 +252,13 @@ def _measured_ratio(on_before, off_after, levels=None, first=None):
 
 
 def _ratio_changes(on_before, off_after):
-    """Which changes measure the ratio: those with RATIO_FLANK_EVENTS events on each flank."""
+    """Which changes measure the ratio: those with RATIO_FLANK_EVENTS events on each flank.
+    The second count serves only where the first measures one (_MIN_RATIO_CHANGES): where
+    too few changes have 3, the 20-40 with 2 of a slow wide star or coarse thresholds read
+    1.16 and 0.89 for a true 1 (taking a slow σ 2.5 px star's frames 87 -> 80 %), and
+    the fallback serves better."""
     full, least = ((on_before >= n - 1) & (off_after >= n) for n in RATIO_FLANK_EVENTS)
-    return full if full.sum() >= FULL_FLANK_SHARE * least.sum() else least
+    return least if _MIN_RATIO_CHANGES <= full.sum() < FULL_FLANK_SHARE * least.sum() else full
 
 
 #: how far below a run's first ON (in ON steps) a pair's rising time may be extrapolated

@@ -158,6 +158,14 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "refractory-2ms": lambda: sim.sensor_model("default", refractory_us=2000.0,
                                                       jitter_us=20.0),
            "ratio-half": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.3),
+           # the forty-ninth session's: dark skies whose OFF threshold is below ON (the
+           # scene it studied), a slower one with a smaller gap, and one with OFF above ON
+           "dark-sky-asym": lambda: sim.sensor_model("dark-sky", threshold_on=0.28,
+                                                     threshold_off=0.2),
+           "dark-sky-20-asym": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=20.0,
+                                                        threshold_on=0.3, threshold_off=0.24),
+           "dark-sky-40-over": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=40.0,
+                                                        threshold_on=0.2, threshold_off=0.26),
            # the forty-fifth session's: a dark sky with 8 Hz of background, a 1 ms refractory
            # period with 200 µs of jitter (not told), 0.12 thresholds with a 1 Hz leak, 3000
            # hot pixels at 5 Hz
@@ -614,6 +622,28 @@ def dark_rates_grid():
         yield dict(set="dark-rates", motion=rate, mag=4.0, psf=1.4, sensor="dark-sky",
                    comp="none", seed=42, direction=135, camera="evk4")
 
+def faint_dark_grid():
+    """Faint stars (magnitudes 5–6) on dark-sky sinusoids, 1.5 s: the forty-ninth session's
+    scene (the paper's 10°/1 Hz, OFF 0.2 below ON 0.28; seed 3) and, held out from it, other
+    sinusoids, PSFs, photoreceptors and threshold ratios (seed 49)."""
+    for mag in (5.0, 5.5, 6.0):
+        for comp in ("none", "imu"):
+            yield dict(set="faint-dark", motion="sine", mag=mag, psf=1.0, sensor="dark-sky-asym",
+                       comp=comp, seed=3, duration=1.5)
+    yield dict(set="faint-dark", motion="sine", mag=6.0, psf=1.0, sensor="dark-sky",
+               comp="imu", seed=3, duration=1.5)
+    for motion, mag, psf, sensor, comp, extra in (
+            ("sine", 5.5, 1.2, "dark-sky-20-asym", "none", {"amplitude": 6.0, "freq": 0.8}),
+            ("sine", 5.5, 1.2, "dark-sky-20-asym", "imu", {"amplitude": 6.0, "freq": 0.8}),
+            ("sine", 5.0, 1.0, "dark-sky-40-over", "none", {}),
+            ("sine", 5.0, 1.0, "dark-sky-40-over", "imu", {}),
+            ("sine", 6.0, 1.1, "dark-sky", "imu", {"amplitude": 8.0, "freq": 1.3}),
+            ("sine", 5.5, 1.0, "dark-sky-asym", "imu", {}),
+            ("sine", 4.5, 1.3, "dark-sky-asym", "none", {"amplitude": 4.0, "freq": 1.5})):
+        yield dict(set="faint-dark-held-out", motion=motion, mag=mag, psf=psf, sensor=sensor,
+                   comp=comp, seed=49, duration=1.5, **extra)
+
+
 PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh-8": fresh8_grid,
          "fresh-9": fresh9_grid, "fresh-10": fresh10_grid, "fresh-11": fresh11_grid,
          "fresh-14": fresh14_grid, "fresh-22": fresh22_grid, "fresh-37": fresh37_grid,
@@ -621,7 +651,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "short-frames": short_frames_grid,
-         "stray": stray_grid}
+         "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 
 def scenario(s):
@@ -728,7 +758,8 @@ def run_scene(s, settings=None):
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior, _ = on_camera_clock(cfg, estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]]),
-                               run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag)
+                               run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag,
+                               depth_delay_us=profiles.depth_delay_us())
     rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
     # ... where it was highest, where a block's moved (evstar.background)
     rate = res.metrics.get("background_hz", {}).get("highest", rate)
