@@ -428,14 +428,28 @@ def test_the_pixel_lag_is_fitted_per_class_where_the_multi_level_ones_are_enough
     from evstar.smoothing import MIN_CROSSINGS, _lag_classes
 
     pairs = np.array([1, 3] * MIN_CROSSINGS)
-    [(fit, rest)] = _lag_classes(pairs, len(pairs))
+    fit, rest = _lag_classes(pairs, len(pairs))
     assert np.array_equal(fit, np.flatnonzero(pairs == 3))
     assert np.array_equal(rest, np.flatnonzero(pairs == 1))
     few = pairs[: MIN_CROSSINGS]                    # half of them multi-level: too few
-    [(fit, rest)] = _lag_classes(few, len(few))
+    fit, rest = _lag_classes(few, len(few))
     assert np.array_equal(fit, np.arange(len(few))) and len(rest) == 0
-    [(fit, rest)] = _lag_classes(None, 5)
+    fit, rest = _lag_classes(None, 5)
     assert np.array_equal(fit, np.arange(5)) and len(rest) == 0
+
+
+def test_one_level_crossings_take_their_own_lag_only_where_it_stands_apart():
+    """A faint star's one-level crossings lagged 0.64 ± 0.07 ms, its multi-level ones 1.85 ±
+    0.09: their own. Q7's 0.17 ± 0.004 against 0.22 ± 0.04 agree within 3 standard errors:
+    the multi-level one, as where either is unmeasured or too uncertain (LAG_MAX_SE_S)."""
+    from evstar.smoothing import LAG_MAX_SE_S, _classes_lags
+
+    assert _classes_lags((1.85e-3, 0.09e-3), (0.64e-3, 0.07e-3)) == (1.85e-3, 0.64e-3)
+    assert _classes_lags((0.22e-3, 0.04e-3), (0.17e-3, 0.004e-3)) == (0.22e-3, 0.22e-3)
+    assert _classes_lags((1.85e-3, 0.09e-3), None) == (1.85e-3, 1.85e-3)
+    loose = (0.64e-3, 2 * LAG_MAX_SE_S)
+    assert _classes_lags((1.85e-3, 0.09e-3), loose) == (1.85e-3, 1.85e-3)
+    assert _classes_lags(None, (0.64e-3, 0.07e-3)) == (0.0, 0.0)
 
 
 def test_a_one_level_run_is_clean_only_when_short_and_quiet():
