@@ -54,34 +54,40 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0, profiles=None, fallback_ratio=1.0):
+                    refractory_us=0.0, profiles=None, fallback_ratio=1.0, order=None):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. keep: bool per event, or
     the kept events' ascending indices (frames.kept_indices). threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
-    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed."""
+    (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed;
+    order: an evstar.polarity.PolarityOrder to feed."""
     near = _near_kept(events, keep, radius_px)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
+    if order is not None:
+        order.add(*near)
     return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
                             with_ratio=with_ratio, refractory_us=refractory_us,
                             profiles=profiles, fallback_ratio=fallback_ratio)
 
 
 def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, AUTO),
-                         profiles=None, fallback_ratio=1.0):
+                         profiles=None, fallback_ratio=1.0, order=None):
     """chunk_crossings both ways from one gathering of the events: ((crossings paired with
     the pixels' refractory period, their threshold ratio), (the crossings paired as without
     one, theirs)) — each ratio the one given in `ratios` (refractory, plain) or measured with
     that pairing's levels (None where too few changes measure it, fallback_ratio used);
     `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
-    ones: they are what a run told no period finds (_RunState.crossings)."""
+    ones: they are what a run told no period finds (_RunState.crossings). order: as
+    chunk_crossings takes it."""
     near = _near_kept(events, keep, radius_px)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
+    if order is not None:
+        order.add(*near)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
                             refractory_us=refractory_us, fallback_ratio=fallback_ratio)
     plain = sorted_crossings(*near, events.width, threshold_ratio=ratios[1], with_ratio=True,

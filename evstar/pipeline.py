@@ -35,6 +35,7 @@ from .frames import (accumulated, frame_offsets, images, on_pixels, stall_starts
                      stalled_us, stalls)
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
+from .polarity import PolarityOrder
 from .recording import check_parts
 from .tracking import Tracker
 from evstar_kernels.taichi.scratch import Scratch
@@ -364,7 +365,7 @@ class Pipeline:
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result,
                 state.depth_delay_us())
-            positions.report = {}
+            positions.report = {"polarity": state.polarity(cents)}   # evstar.polarity
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
@@ -400,7 +401,7 @@ class Pipeline:
         if getattr(estimator, "clock_offset_us", None) is not None:
             # as evstar.Imu's time_offset_us counts it: t_camera = t_imu + offset
             metrics["imu_time_offset_us"] = -estimator.clock_offset_us
-        for key in ("pixel_lag", "vibration"):   # PixelLag.summary, evstar.vibration.summary
+        for key in ("pixel_lag", "vibration", "polarity"):   # PixelLag.summary, vibration.summary
             if getattr(estimator, "report", {}).get(key):
                 metrics[key] = estimator.report[key]
         if filter_result is not None and len(filter_result.bias):
@@ -545,6 +546,7 @@ class _RunState:
             from .estimation import pixel_lag
 
             self.fallback_ratio = pixel_lag(e.pixel_lag_file).threshold_ratio or 1.0
+        self.order, self._polarity = PolarityOrder(), ()   # evstar.polarity; () undecided
         self.profiles = None
         if e.estimator == "crossings" and e.measure_lag and e.pixel_lag_file is None:
             from .level_lag import LevelProfiles
@@ -594,11 +596,12 @@ class _RunState:
         from .estimation import chunk_crossings, chunk_crossings_both
 
         e = self.config.estimate
+        order = self.order if self.order.wanted else None
         if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
             (crossings, r), (plain, r_plain) = chunk_crossings_both(
                 events, mine, e.crossing_radius_px, e.refractory_us,
                 (self._ratio(self.threshold_ratio), self._ratio(self._plain_ratio)),
-                self.profiles, self.fallback_ratio)
+                self.profiles, self.fallback_ratio, order)
             if self._plain_ratio is None:
                 self._plain_ratio = self.fallback_ratio if r_plain is None else r_plain
             self._plain.append(plain)
@@ -606,10 +609,21 @@ class _RunState:
             crossings, r = chunk_crossings(
                 events, mine, e.crossing_radius_px, self._ratio(self.threshold_ratio),
                 with_ratio=True, refractory_us=e.refractory_us, profiles=self.profiles,
-                fallback_ratio=self.fallback_ratio)
+                fallback_ratio=self.fallback_ratio, order=order)
         if self.threshold_ratio is None:   # the first span's: the calibration window
             self.threshold_ratio = self.fallback_ratio if r is None else r
         self._crossings.append(crossings)
+
+    def polarity(self, centroids):
+        """The note where the changes near the stars say the polarity is inverted
+        (evstar.polarity; warned once), else None — and None where the linked `centroids`
+        hold no track: a scene without stars may run OFF before ON (the EVT2 sample)."""
+        if self._polarity == ():
+            tracked = bool(np.any(centroids["track"] >= 0))
+            self._polarity = self.order.reversed() if tracked else None
+            if self._polarity:
+                warnings.warn(EvstarWarning(self._polarity), stacklevel=3)
+        return self._polarity
 
     @staticmethod
     def _ratio(ratio):
