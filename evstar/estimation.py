@@ -61,7 +61,7 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed;
-    order: an evstar.polarity.PolarityOrder to feed."""
+    order: an evstar.pixel_order.PixelOrder to feed."""
     near = _near_kept(events, keep, radius_px)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)

@@ -35,7 +35,7 @@ from .frames import (accumulated, frame_offsets, images, on_pixels, stall_starts
                      stalled_us, stalls)
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
-from .polarity import PolarityOrder
+from .pixel_order import PixelOrder
 from .recording import check_parts
 from .tracking import Tracker
 from evstar_kernels.taichi.scratch import Scratch
@@ -365,7 +365,7 @@ class Pipeline:
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result,
                 state.depth_delay_us())
-            positions.report = {"polarity": state.polarity(cents)}   # evstar.polarity
+            positions.report = dict(state.pixel_order(cents))   # evstar.pixel_order
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
@@ -401,7 +401,8 @@ class Pipeline:
         if getattr(estimator, "clock_offset_us", None) is not None:
             # as evstar.Imu's time_offset_us counts it: t_camera = t_imu + offset
             metrics["imu_time_offset_us"] = -estimator.clock_offset_us
-        for key in ("pixel_lag", "vibration", "polarity"):   # PixelLag.summary, vibration.summary
+        # PixelLag.summary, evstar.vibration.summary, evstar.pixel_order's notes
+        for key in ("pixel_lag", "vibration", "polarity", "repeated"):
             if getattr(estimator, "report", {}).get(key):
                 metrics[key] = estimator.report[key]
         if filter_result is not None and len(filter_result.bias):
@@ -546,7 +547,7 @@ class _RunState:
             from .estimation import pixel_lag
 
             self.fallback_ratio = pixel_lag(e.pixel_lag_file).threshold_ratio or 1.0
-        self.order, self._polarity = PolarityOrder(), ()   # evstar.polarity; () undecided
+        self.order, self._notes = PixelOrder(), None   # evstar.pixel_order; None: unread
         self.profiles = None
         if e.estimator == "crossings" and e.measure_lag and e.pixel_lag_file is None:
             from .level_lag import LevelProfiles
@@ -614,16 +615,18 @@ class _RunState:
             self.threshold_ratio = self.fallback_ratio if r is None else r
         self._crossings.append(crossings)
 
-    def polarity(self, centroids):
-        """The note where the changes near the stars say the polarity is inverted
-        (evstar.polarity; warned once), else None — and None where the linked `centroids`
-        hold no track: a scene without stars may run OFF before ON (the EVT2 sample)."""
-        if self._polarity == ():
+    def pixel_order(self, centroids):
+        """{"polarity": note, "repeated": note} of what the order of the events near the
+        stars says (evstar.pixel_order; each warned once, None where it says nothing) — and
+        nothing where the linked `centroids` hold no track: a scene without stars may run
+        OFF before ON (the EVT2 sample)."""
+        if self._notes is None:
             tracked = bool(np.any(centroids["track"] >= 0))
-            self._polarity = self.order.reversed() if tracked else None
-            if self._polarity:
-                warnings.warn(EvstarWarning(self._polarity), stacklevel=3)
-        return self._polarity
+            self._notes = {"polarity": self.order.reversed() if tracked else None,
+                           "repeated": self.order.repeated() if tracked else None}
+            for note in filter(None, self._notes.values()):
+                warnings.warn(EvstarWarning(note), stacklevel=3)
+        return self._notes
 
     @staticmethod
     def _ratio(ratio):

@@ -1,12 +1,13 @@
-"""A recording whose polarity is stored the other way round is told from the order of the
-stars' ON and OFF runs (evstar.polarity) and reported, not changed."""
+"""A recording whose polarity is stored the other way round, or whose events are given twice,
+is told from the order of the events at the stars' pixels (evstar.pixel_order) and
+reported, not changed."""
 import warnings
 
 import numpy as np
 import pytest
 
 from evstar import Config, EvstarWarning, Pipeline, sim
-from evstar.polarity import COUNT_LEAD, MIN_CHANGES, PolarityOrder
+from evstar.pixel_order import COUNT_LEAD, MIN_CHANGES, PixelOrder
 
 
 def inverted(ev):
@@ -19,7 +20,7 @@ def test_changes_between_runs_of_two_or_more_are_counted_each_way():
     keys = np.array([7, 7, 7, 7, 7, 7, 9, 9, 9])
     ts = np.array([0, 5, 15, 20, 520, 530, 0, 3, 6])
     ps = np.array([1, 1, 0, 0, 1, 1, 1, 0, 0])
-    order = PolarityOrder()
+    order = PixelOrder()
     order.add(ts, keys, ps)
     assert order.count == {"on_off": 1, "off_on": 1}
     assert order.log_gap["on_off"] == pytest.approx(np.log(10))
@@ -27,7 +28,7 @@ def test_changes_between_runs_of_two_or_more_are_counted_each_way():
 
 
 def test_the_verdict_needs_enough_reversed_changes_and_a_lead():
-    order = PolarityOrder()
+    order = PixelOrder()
     order.count = {"on_off": 10, "off_on": MIN_CHANGES - 1}
     order.log_gap = {"on_off": 10 * np.log(1e5), "off_on": (MIN_CHANGES - 1) * np.log(1e3)}
     assert order.reversed() is None                       # too few
@@ -60,3 +61,35 @@ def test_a_reversed_polarity_is_reported_and_the_right_one_is_not(scene):
     with pytest.warns(EvstarWarning, match="polarity looks inverted"):
         wrong = Pipeline(Config()).run(inverted(run.events), run.imu, run.camera)
     assert "store ON as 1" in wrong.metrics["polarity"]
+
+
+def twice(ev):
+    """Every event given twice, as two merged copies of one recording."""
+    from evstar import Events
+
+    i = np.repeat(np.arange(len(ev)), 2)
+    return Events(ev.t[i], ev.x[i], ev.y[i], ev.p[i], ev.width, ev.height)
+
+
+def test_events_given_twice_are_reported_and_a_recording_given_once_is_not():
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.5), seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EvstarWarning)
+        once = Pipeline(Config()).run(run.events, run.imu, run.camera)
+    assert "repeated" not in once.metrics
+    with pytest.warns(EvstarWarning, match="given twice"):
+        res = Pipeline(Config()).run(twice(run.events), run.imu, run.camera)
+    assert "repeat the one before them exactly" in res.metrics["repeated"]
+
+
+def test_repeats_on_a_coarse_time_lattice_are_not_taken_for_a_copy():
+    from evstar.pixel_order import MIN_REPEATED
+
+    order = PixelOrder()
+    keys = np.repeat(np.arange(2 * MIN_REPEATED), 2)
+    ts = np.repeat(np.arange(2 * MIN_REPEATED) * 1000, 2)         # a 1 ms lattice
+    order.add(ts, keys, np.ones(len(ts), np.int8))
+    assert order.repeats == 2 * MIN_REPEATED and order.lattice_us == 1000
+    assert order.repeated() is None
+    order.lattice_us = 0                                           # fine stamps
+    assert "given twice" in order.repeated()
