@@ -49,18 +49,25 @@ def test_the_verdict_needs_enough_reversed_changes_and_a_lead():
     assert "inverted" in order.reversed()
 
 
+def metrics_as_given_and_damaged(run, damaged, match):
+    """(a run's metrics on the recording as simulated: no pixel-order warning; on
+    `damaged` events: the warning `match`)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EvstarWarning)
+        right = Pipeline(Config()).run(run.events, run.imu, run.camera).metrics
+    with pytest.warns(EvstarWarning, match=match):
+        wrong = Pipeline(Config()).run(damaged, run.imu, run.camera).metrics
+    return right, wrong
+
+
 @pytest.mark.parametrize("scene", ["line", "sinusoid"])
 def test_a_reversed_polarity_is_reported_and_the_right_one_is_not(scene):
     s = (sim.paper_preset(8.0, duration_s=0.5) if scene == "line"
          else sim.paper_sinusoid(10.0, 1.0, duration_s=1.0))
     run = sim.simulate(s, seed=1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", EvstarWarning)
-        right = Pipeline(Config()).run(run.events, run.imu, run.camera)
-    assert "polarity" not in right.metrics
-    with pytest.warns(EvstarWarning, match="polarity looks inverted"):
-        wrong = Pipeline(Config()).run(inverted(run.events), run.imu, run.camera)
-    assert "store ON as 1" in wrong.metrics["polarity"]
+    right, wrong = metrics_as_given_and_damaged(run, inverted(run.events),
+                                                "polarity looks inverted")
+    assert "polarity" not in right and "store ON as 1" in wrong["polarity"]
 
 
 def twice(ev):
@@ -73,13 +80,8 @@ def twice(ev):
 
 def test_events_given_twice_are_reported_and_a_recording_given_once_is_not():
     run = sim.simulate(sim.paper_preset(8.0, duration_s=0.5), seed=1)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", EvstarWarning)
-        once = Pipeline(Config()).run(run.events, run.imu, run.camera)
-    assert "repeated" not in once.metrics
-    with pytest.warns(EvstarWarning, match="given twice"):
-        res = Pipeline(Config()).run(twice(run.events), run.imu, run.camera)
-    assert "repeat the one before them exactly" in res.metrics["repeated"]
+    once, doubled = metrics_as_given_and_damaged(run, twice(run.events), "given twice")
+    assert "repeated" not in once and "repeat the one before" in doubled["repeated"]
 
 
 def test_repeats_on_a_coarse_time_lattice_are_not_taken_for_a_copy():
