@@ -62,7 +62,8 @@ class LevelProfiles:
 
     def wanted(self, k):
         """Indices into `k` (pairs per crossing) of the crossings still wanted: per k >= 2,
-        the first up to MAX_PROFILES less those held."""
+        the first up to MAX_PROFILES less those held. Every crossing offered is counted in
+        `seen`, wanted or not (fit_lag's veto)."""
         k = np.asarray(k)
         per_k = np.bincount(k) if len(k) else np.zeros(0, np.int64)      # k >= 0
         for kk in range(2, len(per_k)):

@@ -898,11 +898,15 @@ def _trusted(m, pairs, width, along, background_hz=None, t=None, dt_us=None):
 
 
 def _clean(width, background_hz):
-    """Do runs of these outer half-widths (µs) likely hold no background event, i.e.
-    background_hz × run ≤ MAX_RUN_BACKGROUND? (the background or widths unknown: no)"""
-    if background_hz is None:
-        return False
-    return bool(background_hz * 2e-6 * np.median(width) <= MAX_RUN_BACKGROUND)   # NaN: no
+    """Do runs of these outer half-widths (µs) likely hold no background event (_quiet, at
+    their median)? The background or widths unknown: no."""
+    return background_hz is not None and bool(_quiet(np.median(width), background_hz))
+
+
+def _quiet(width, background_hz):
+    """Per run of outer half-width `width` (µs): background_hz × run ≤ MAX_RUN_BACKGROUND
+    (NaN: no)."""
+    return background_hz * 2e-6 * np.asarray(width) <= MAX_RUN_BACKGROUND
 
 
 def _short_and_clean(width, background_hz, dt_us):
@@ -913,8 +917,7 @@ def _short_and_clean(width, background_hz, dt_us):
     off; a faint star's at 250–500 px/s (3–6 ms) follow it as its other crossings do."""
     if background_hz is None:
         return np.zeros(len(width), bool)
-    w = np.asarray(width)
-    return (w < ONE_LEVEL_WIDTH * dt_us) & (background_hz * 2e-6 * w <= MAX_RUN_BACKGROUND)
+    return (np.asarray(width) < ONE_LEVEL_WIDTH * dt_us) & _quiet(width, background_hz)
 
 
 def _multi_level(m, pairs, t=None, window_us=None, clean=None):
