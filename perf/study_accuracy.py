@@ -174,7 +174,18 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                          jitter_us=200.0),
            "fine-leak": lambda: sim.sensor_model("default", threshold_on=0.12,
                                                  threshold_off=0.12, leak_hz=1.0),
-           "hot-dense": lambda: sim.sensor_model("default", hot_pixels=3000, hot_pixel_hz=5.0)}
+           "hot-dense": lambda: sim.sensor_model("default", hot_pixels=3000, hot_pixel_hz=5.0),
+           # the fiftieth session's: a dark sky whose bright pixels are slow too (a 400 Hz
+           # ceiling), a background of four OFF events to one ON, a dark sky losing 40 % of
+           # its events, a wide threshold mismatch with 80 µs of jitter, fine 0.15 thresholds
+           # behind a 200 µs refractory period
+           "dark-sky-400": lambda: sim.sensor_model("dark-sky", cutoff_hz_max=400.0),
+           "off-heavy": lambda: sim.sensor_model("default", noise_hz=2.0, noise_on_fraction=0.2),
+           "dark-sky-dropout": lambda: sim.sensor_model("dark-sky", dropout=0.4),
+           "mismatch-jitter": lambda: sim.sensor_model("default", threshold_mismatch=0.08,
+                                                       jitter_us=80.0),
+           "fine-refractory": lambda: sim.sensor_model("default", threshold_on=0.15,
+                                                       threshold_off=0.15, refractory_us=200.0)}
 
 
 def dev_grid():
@@ -588,6 +599,36 @@ def fresh45_grid():
                    seed=45, **extra)
 
 
+def fresh50_grid():
+    """Inputs no session had tried, run once when the fiftieth session began (seed 50): a
+    faint slow star with a narrow PSF, 25 °/s on the EVK4, a slow wide dark-sky sinusoid
+    (±15° at 0.3 Hz) with the IMU, five new sensors (above), a gyro 2 ms early on the
+    camera's clock, an acceleration 1 -> 10 °/s without the IMU, a slew with the particle
+    filter, a slow dark-sky vibration with the IMU, a faint dark-sky star on the DAVIS346, a
+    diagonal sinusoid on the DAVIS346 with the IMU, a bright slow star in 15 ms frames, a
+    fast roll about the boresight."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (3, 5.0, 0.8, "default", "none", {}),
+            (25, 4.0, 1.3, "default", "none", {"camera": "evk4"}),
+            ("sine", 4.0, 1.4, "dark-sky-60", "imu", {"amplitude": 15.0, "freq": 0.3,
+                                                      "duration": 1.5}),
+            ("sine", 3.5, 1.0, "dark-sky-400", "none", {}),
+            (10, 3.0, 1.0, "dark-sky-400", "imu", {}),
+            (6, 4.5, 1.2, "off-heavy", "none", {}),
+            (12, 4.0, 1.0, "dark-sky-dropout", "none", {}),
+            (5, 4.0, 1.1, "mismatch-jitter", "none", {"direction": 30}),
+            (8, 4.5, 1.0, "fine-refractory", "imu", {"imu": {"time_offset_us": -2000}}),
+            ("ramp", 4.5, 1.0, "default", "none", {"rate": 1.0, "rate_end": 10.0}),
+            ("slew", 4.0, 1.2, "default", "pf", {"peak": 20.0}),
+            ("vibe", 3.5, 1.0, "dark-sky", "imu", {"rate": 4.0, "vib": 0.03, "vib_hz": 15.0}),
+            (15, 5.0, 1.0, "dark-sky", "none", {"camera": "davis346"}),
+            ("sine", 4.5, 1.0, "default", "imu", {"camera": "davis346", "direction": 45}),
+            (2, 3.0, 1.5, "default", "none", {"settings": {"dt_us": 15000}}),
+            (18, 3.5, 1.0, "default", "none", {"tilt": 90, "at": (150, -60)})):
+        yield dict(set="fresh-50", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=50, **extra)
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -650,7 +691,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
-         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "short-frames": short_frames_grid,
+         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid, "short-frames": short_frames_grid,
          "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 
