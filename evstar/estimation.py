@@ -229,6 +229,8 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
                                velocity_prior, assigned_to, lag, rate_hz)
         ests = refined
     est = np.concatenate(ests)
+    if span_us is not None:
+        est = _last_frame_at_the_end(est, span_us[1], t0_us, config.dt_us)
     loose = out[centroids["track"] < 0]
     if rate_hz is not None and sensor is not None and e.untracked_alpha is not None:
         loose = loose[loose["n_events"] >= untracked_min_events(config, sensor, rate_hz)]
@@ -631,6 +633,22 @@ def _by_group(every, ests):
         # u (n, 2) by compress: the rows of u[m] at a tenth of its cost
         parts.append((got[m], owner[m], u.compress(m, 0), resid[m]))
     return parts
+
+
+def _last_frame_at_the_end(est, end_us, t0_us, dt_us):
+    """`est` with the coasted rows of the recording's last frame, where it ends before the
+    frame's mid-time (a recording is seldom a whole number of frames), moved back along
+    their velocity to the recording's end: else they lie past it and are dropped, and the
+    last frame of a star too faint to cluster in its remnant had no position."""
+    late = est["coasted"] & (est["t"] > end_us) & (t0_us + est["frame"] * dt_us <= end_us)
+    if not late.any():
+        return est
+    out = est.copy()
+    back_s = (out["t"][late] - end_us) * 1e-6
+    out["x"][late] -= out["vx"][late] * back_s
+    out["y"][late] -= out["vy"][late] * back_s
+    out["t"][late] = end_us
+    return out
 
 
 def _merge(unconfirmed, measured, est):

@@ -338,6 +338,24 @@ def test_the_pipeline_coasts_neither_past_the_recording_nor_off_the_sensor():
     assert (rows["x"] >= -0.5).all() and (rows["x"] <= run.events.width - 0.5).all()
 
 
+def test_a_recording_ending_within_a_frame_has_its_last_frame_at_its_end():
+    """A track measured to frame 29 of a recording that ends 3 ms into frame 30 (before its
+    mid-time): frame 30's coasted row is at the recording's end, on the line; one ending
+    in frame 29 gets none past it."""
+    from evstar import estimation
+    from evstar.config import Config
+
+    rng = np.random.default_rng(10)
+    cents = centroids(np.arange(10, 30), line, 0.2, rng, jitter_us=0)
+    cfg = Config().replace(**{"estimate.estimator": "track"})
+    end = 30 * DT + 3000
+    rows = estimation.estimate(cents, cfg, 0, span_us=(0, end))
+    last = rows[rows["frame"] == 30]
+    assert len(last) == 1 and last["source"][0] == "coasted" and last["t"][0] == end
+    assert np.hypot(last["x"][0] - line(end * 1e-6)[0, 0], last["y"][0] - line(end * 1e-6)[0, 1]) < 0.3
+    early = estimation.estimate(cents, cfg, 0, span_us=(0, 29 * DT + 6000))
+    assert early["frame"].max() == 29 and early["t"].max() <= 29 * DT + 6000
+
 @pytest.mark.parametrize("engine,atol", [("taichi", 1e-5), ("numpy", 1e-9)])
 def test_tracks_smoothed_together_equal_the_filterpy_reference_one_by_one(engine, atol):
     """The Taichi kernel (the default) and the numpy batch run the tracks together (of
@@ -483,6 +501,38 @@ def test_the_prior_is_used_where_it_explains_the_track_better():
         return true + rng.normal(0, 1 / np.sqrt(_PRIOR_STEP_S), (len(t_us), 2))
 
     assert TrackSmoother(DT).prior_helps(cents, prior) == {0, 2}
+
+
+def test_the_prior_is_used_where_the_centroids_follow_part_of_it():
+    """A pan vibrating 0.34 px across at 15 Hz, whose per-frame centroids follow half of the
+    vibration (as a dark-sky star's did): the whole prior explains them no better than
+    none, half of it does, so the prior is used. A track that does not vibrate, under the
+    same vibrating prior, is not."""
+    rng = np.random.default_rng(50)
+    amp, hz = 0.34, 15.0
+
+    def shaking(share):
+        return lambda t: line(t) + np.column_stack([np.zeros(len(t)),
+                                                    share * amp * np.sin(2 * np.pi * hz * t)])
+
+    half = centroids(np.arange(100), shaking(0.5), 0.15, rng, track=0, jitter_us=0)
+    still = centroids(np.arange(100), shaking(0.0), 0.15, rng, track=1, jitter_us=0)
+    still["y"] += 100                                   # apart from track 0
+
+    def prior(t_us, x, y):
+        t = np.asarray(t_us) * 1e-6
+        return np.column_stack([np.full(len(t), 40.0),
+                                -15.0 + amp * 2 * np.pi * hz * np.cos(2 * np.pi * hz * t)])
+
+    from evstar import smoothing
+
+    assert TrackSmoother(DT).prior_helps(np.concatenate([half, still]), prior) == {0}
+    whole_only = smoothing._PRIOR_GAINS
+    try:
+        smoothing._PRIOR_GAINS = (1.0,)
+        assert TrackSmoother(DT).prior_helps(half, prior) == set()
+    finally:
+        smoothing._PRIOR_GAINS = whole_only
 
 
 def test_crossings_go_to_the_group_of_their_nearest_track():
