@@ -63,11 +63,23 @@ def run_recording(input, outdir, config, *, truth=None, imu=None, camera=None, f
             _check_imu_span(rec.imu, rec.events, config, imu or input)
         result = pipe.run(rec.events, rec.imu, rec.camera, truth=truth)
         cam, imu_data, events = rec.camera, rec.imu, rec.events
-    # the attitude filter reads the gyro on the clock the run measured (evstar.clock)
-    imu_data = as_measured(imu_data, result, config.motion.extrapolate_us)
+    # the attitude filter reads the gyro on the clock the run measured (evstar.clock), and
+    # repaired as the run read it
+    imu_data = as_measured(_repaired_once(imu_data, config), result, config.motion.extrapolate_us)
     outputs.write_run(outdir, result, config, truth,
                       attitude=attitude_rows(result, cam, imu_data, events, config))
     return result
+
+
+def _repaired_once(imu, config):
+    """The gyro record the attitude after a run reads: repaired (evstar.gyro_repair, where
+    motion.repair_gyro) and warned of once — silently where the pipeline compensated with
+    it, which repaired its own copy and warned already."""
+    from .gyro_repair import repair_of, repaired
+
+    if imu is None or not config.motion.repair_gyro:
+        return imu
+    return repaired(imu) if config.motion.compensate == "none" else repair_of(imu)[0]
 
 
 def valid_stream_above_mb(value):

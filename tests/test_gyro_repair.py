@@ -128,3 +128,30 @@ def test_a_gap_no_arc_can_bridge_stays_within_its_neighbours_range():
     keep = (t < 1_000_000) | (t > 1_300_000)
     t2, g2, gaps = filled(t[keep], g[keep])
     assert len(gaps) == 1 and np.abs(g2).max() <= 2.0
+
+
+@pytest.mark.parametrize("mode", ["imu", "none"])
+def test_a_run_warns_once_of_a_repair_its_pipeline_and_attitude_both_read(tmp_path, mode):
+    """`evstar run` (runs.run_recording) reads the gyro twice, in the pipeline (compensate
+    imu) and in the attitude after it: one warning of the repair either way."""
+    import warnings
+
+    from evstar import Config, io, runs
+    from evstar.errors import EvstarWarning
+    from evstar.imu import Imu
+
+    cam = sim.camera_preset("davis346", 16.0)
+    traj = sim.ConstantRate(20.0, R0=sim.attitude_from_radec(83.8, -5.4))
+    stars = sim.hipparcos_field_along(cam, traj, 0.15, mag_limit=5.0)
+    run = sim.simulate(sim.Scenario(cam, stars, traj, 0.15), seed=2)
+    gyro = run.imu.gyro.copy()
+    gyro[60:63] *= 40.0                                     # three corrupt samples
+    io.write(tmp_path / "ev.h5", run.events, camera=cam,
+             imu=Imu(run.imu.t, gyro, run.imu.accel))
+    cfg = Config().replace(**{"motion.compensate": mode})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        runs.run_recording(tmp_path / "ev.h5", tmp_path / "out", cfg)
+    told = [w for w in caught if issubclass(w.category, EvstarWarning)
+            and "IMU record was repaired" in str(w.message)]
+    assert len(told) == 1, [str(w.message) for w in caught]
