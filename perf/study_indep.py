@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh8 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh11 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -36,9 +36,10 @@ thirtieth session; G1–G14, in the thirty-first; H1–H12, in the thirty-second
 events, readout gaps, a close pair, 50 hot pixels), each run once before any change made
 after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --fresh4
 (K1–K10, the forty-second session's), --fresh5 (L1–L10, the forty-third's), --fresh6
-(M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's) and --fresh8 (O1–O10,
-the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light)
-likewise.
+(M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's), --fresh8 (O1–O10,
+the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
+--fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
+--fresh11 (R1–R10, the fiftieth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -164,6 +165,19 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                           c_on=0.28, c_off=0.2, leak_hz=1.0, jitter_us=30.0),
     "stall-jitter": dict(pixel="ideal", c_on=0.2, c_off=0.2, jitter_us=120.0,
                          gaps_s=((0.30, 0.42),)),
+    # the eleventh fresh grid's (--fresh11; written in the fiftieth session, never tuned
+    # on): a dark sky whose bright pixels stay slow (a 300 Hz ceiling), fine dark-sky
+    # thresholds, OFF below ON behind a 400 µs refractory period, fine thresholds that leak
+    # on a background of 60 % ON events, a very slow dark sky (8 Hz) with a 10 % mismatch
+    "dark-ceiling": dict(pixel="lowpass", f_min_hz=30.0, f_max_hz=300.0, i_half=20.0,
+                         c_on=0.2, c_off=0.2),
+    "fine-dark": dict(pixel="lowpass", f_min_hz=20.0, f_max_hz=2000.0, i_half=20.0,
+                      c_on=0.15, c_off=0.15, mismatch=0.04),
+    "off-low-ref": dict(pixel="ideal", c_on=0.25, c_off=0.17, refractory_us=400.0,
+                        jitter_us=40.0),
+    "leaky-fine": dict(pixel="ideal", c_on=0.14, c_off=0.14, leak_hz=1.0),
+    "very-dark": dict(pixel="lowpass", f_min_hz=8.0, f_max_hz=2000.0, i_half=50.0,
+                      c_on=0.22, c_off=0.22, mismatch=0.10),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -397,9 +411,26 @@ FRESH10 = [
     ("hd", ("roll", 15, 3, 300), [3, 4, 4.5, 5], ("gauss", 1.0), "dark-25", 1.0, 0, 1.0),
 ]
 FRESH10_SEED = 15000
+#: held out (--fresh11, written in the fiftieth session and run once before any change of
+#: it): a dark-sky vibration with the gyro, five new sensors (above), a 1.5 °/s faint pair
+#: on the VGA, a fast telephoto pan, a ±12° sinusoid on the wide lens at 0.4 Hz, a roll on
+#: a leaky sensor, a 6-star dark field at 6 °/s; seeds 16000 + i
+FRESH11 = [
+    ("vga", ("vibe", 5, 20, 0.03, 15, 110), [3.5, 4.5], ("gauss", 1.1), "dark", 1.0, 0, 1.0),
+    ("hd", ("sine", 6, 1.0, 60), [3, 4.5], ("gauss", 1.2), "dark-ceiling", 0.5, 0, 1.0),
+    ("vga", ("lin", 10, 170), [3.5, 4.5, 5.5], ("gauss", 1.0), "fine-dark", 1.0, 2, 1.0),
+    ("davis", ("lin", 5, 250), [3.5, 5], ("moffat", 2.0, 3.0), "off-low-ref", 1.0, 0, 1.0),
+    ("vga", ("lin", 1.5, 40), [4.5, 5], ("gauss", 1.2), "ideal", 0.3, 0, 1.5),
+    ("tele", ("lin", 6, 300), [3.5, 4.5], ("gauss", 1.3), "leaky-fine", 1.0, 3, 0.8),
+    ("wide", ("sine", 12, 0.4, 15), [3, 4], ("gauss", 1.0), "ideal", 1.0, 0, 1.5),
+    ("hd", ("roll", 8, 2, 120), [3.5, 4.5, 5], ("gauss", 1.1), "leaky-fine", 1.0, 0, 1.0),
+    ("vga", ("lin", 6, 80), [3, 3.5, 4, 4.5, 5, 5.5], ("gauss", 1.2), "very-dark", 0.5, 0, 1.0),
+    ("davis", ("sine", 10, 1.0, 90), [4, 5], ("gauss", 1.0), "fine-dark", 1.0, 0, 1.0),
+]
+FRESH11_SEED = 16000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -622,6 +653,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh11", action="store_true", help="the eleventh held-out grid "
+                    "FRESH11 instead (scenes R1..R10)")
     ap.add_argument("--fresh10", action="store_true", help="the tenth held-out grid FRESH10 "
                     "instead (scenes Q1..Q10)")
     ap.add_argument("--fresh9", action="store_true", help="the ninth held-out grid FRESH9 "
