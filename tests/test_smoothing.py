@@ -535,6 +535,26 @@ def test_the_prior_is_used_where_the_centroids_follow_part_of_it():
         smoothing._PRIOR_GAINS = whole_only
 
 
+def test_half_the_prior_is_tried_with_the_whole_prior_s_noise():
+    """A slowly accelerating pan (6 px/s² over 4 s) under a gyro prior that knows the
+    acceleration but wanders by its white noise (declared: 0.02 px²/s). The whole prior
+    explains the centroids worse than none; half of it, allowed only a quarter of the
+    noise, would beat none by 8 — but the fit takes the prior whole, noise and all, so
+    the half-size try carries the whole noise and the prior is not used."""
+    from evstar.smoothing import _PRIOR_STEP_S, with_diffusion
+
+    rng = np.random.default_rng(1)
+    pan = centroids(np.arange(400), lambda t: np.column_stack([50 + 40.0 * t + 5.0 * t * t,
+                                                              80 - 15.0 * t]),
+                    0.05, rng, track=0, jitter_us=0)
+
+    def prior(t_us, x, y):
+        t = np.asarray(t_us) * 1e-6
+        true = np.column_stack([40.0 + 10.0 * t, np.full(len(t), -15.0)])
+        return true + rng.normal(0, np.sqrt(0.02 / _PRIOR_STEP_S), (len(t), 2))
+
+    assert TrackSmoother(DT).prior_helps(pan, with_diffusion(prior, 0.02)) == set()
+
 def test_crossings_go_to_the_group_of_their_nearest_track():
     """Tracks smoothed in two groups (with and without the prior): a crossing 1 px from
     track 0 and 2 px from track 1 refines track 0's group only."""
