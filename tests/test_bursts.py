@@ -32,9 +32,12 @@ def test_particle_hits_are_not_reported_as_stars(hits, size):
     rows = Pipeline(Config()).run(_hits(run, hits, size), run.imu, run.camera).centroids
     star, err = accuracy.match(rows, run.truth.star_position)
     clean_star, clean_err = accuracy.match(clean, run.truth.star_position)
-    # now as many false rows as without them, the star as well seen
+    # now as many false rows as without them, the star as well seen (a hit after the
+    # star's last event lengthens the recording into a partial frame: one row more, at
+    # the recording's end)
     assert np.count_nonzero(star < 0) <= np.count_nonzero(clean_star < 0) <= 1
-    assert np.count_nonzero(star >= 0) == np.count_nonzero(clean_star >= 0)
+    seen, clean_seen = np.count_nonzero(star >= 0), np.count_nonzero(clean_star >= 0)
+    assert clean_seen <= seen <= clean_seen + (rows["t"].max() > clean["t"].max())
     assert abs(err[star >= 0].mean() - clean_err[clean_star >= 0].mean()) < 0.005
 
 
