@@ -62,12 +62,10 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed;
     order: an evstar.pixel_order.PixelOrder to feed."""
-    near = _near_kept(events, keep, radius_px)
+    near = _near_kept(events, keep, radius_px, order)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    if order is not None:
-        order.add(*near)
     return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
                             with_ratio=with_ratio, refractory_us=refractory_us,
                             profiles=profiles, fallback_ratio=fallback_ratio)
@@ -82,12 +80,10 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
     ones: they are what a run told no period finds (_RunState.crossings). order: as
     chunk_crossings takes it."""
-    near = _near_kept(events, keep, radius_px)
+    near = _near_kept(events, keep, radius_px, order)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
-    if order is not None:
-        order.add(*near)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
                             refractory_us=refractory_us, fallback_ratio=fallback_ratio)
     plain = sorted_crossings(*near, events.width, threshold_ratio=ratios[1], with_ratio=True,
@@ -95,15 +91,19 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     return told, plain
 
 
-def _near_kept(events, keep, radius_px):
+def _near_kept(events, keep, radius_px, order=None):
     """(t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep: as
-    chunk_crossings takes it), in the pixel-then-time order; None where none is kept."""
+    chunk_crossings takes it), in the pixel-then-time order, fed to `order` (a
+    PixelOrder, or None); None where none is kept."""
     from .frames import events_by_pixel, kept_indices, kept_pixels
 
     keep = kept_indices(keep)
     if not len(keep):
         return None
-    return events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))
+    near = events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))
+    if order is not None:
+        order.add(*near)
+    return near
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

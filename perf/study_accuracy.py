@@ -691,8 +691,8 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-38": fresh38_grid, "fresh-39": fresh39_grid, "fresh-40": fresh40_grid,
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
-         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid, "short-frames": short_frames_grid,
-         "stray": stray_grid, "faint-dark": faint_dark_grid}
+         "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
+         "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 
 def scenario(s):
