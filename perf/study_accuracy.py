@@ -185,7 +185,20 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "mismatch-jitter": lambda: sim.sensor_model("default", threshold_mismatch=0.08,
                                                        jitter_us=80.0),
            "fine-refractory": lambda: sim.sensor_model("default", threshold_on=0.15,
-                                                       threshold_off=0.15, refractory_us=200.0)}
+                                                       threshold_off=0.15, refractory_us=200.0),
+           # the fifty-first session's: a dark sky with star-light shot noise, a leaking dark
+           # sky with a threshold mismatch, a dark sky whose OFF threshold is twice its ON
+           # one, a fifth of the events lost behind 60 µs of jitter, a dark sky behind a 1 ms
+           # refractory period, a dark sky with a hundred warm pixels at 40 Hz
+           "dark-sky-shot": lambda: sim.sensor_model("dark-sky", shot_noise_hz=2.0),
+           "dark-sky-leak-mismatch": lambda: sim.sensor_model("dark-sky", leak_hz=2.0,
+                                                              threshold_mismatch=0.04),
+           "dark-sky-off-double": lambda: sim.sensor_model("dark-sky", threshold_on=0.16,
+                                                           threshold_off=0.32),
+           "jitter-dropout": lambda: sim.sensor_model("default", jitter_us=60.0, dropout=0.25),
+           "dark-sky-refractory": lambda: sim.sensor_model("dark-sky", refractory_us=1000.0),
+           "dark-sky-warm": lambda: sim.sensor_model("dark-sky", hot_pixels=100,
+                                                     hot_pixel_hz=40.0)}
 
 
 def dev_grid():
@@ -629,6 +642,35 @@ def fresh50_grid():
                    seed=50, **extra)
 
 
+def fresh51_grid():
+    """Inputs no session had tried, run once when the fifty-first session began (seed 51):
+    six new sensors (above), a slow faint wide star with the IMU, a vibration along the
+    motion without the IMU, a dark-sky deceleration without the IMU, a fast slew on the
+    DAVIS346 with the IMU, a gyro biased by half a degree a second, a slow wide sinusoid on
+    the EVK4 with the particle filter, a curved path, a bright star at 40 °/s, 8 ms frames."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (7, 4.0, 1.0, "dark-sky-shot", "none", {}),
+            (14, 3.5, 1.2, "dark-sky-leak-mismatch", "imu", {}),
+            ("sine", 4.0, 1.0, "dark-sky-off-double", "none", {"amplitude": 5.0, "freq": 1.2}),
+            (3, 4.5, 1.3, "jitter-dropout", "none", {}),
+            (22, 3.0, 1.0, "dark-sky-refractory", "none", {"camera": "evk4"}),
+            (8, 4.0, 1.0, "dark-sky-warm", "none", {"direction": 250}),
+            (1.5, 4.5, 1.6, "quiet", "imu", {"duration": 2.0}),
+            ("vibe", 4.0, 1.2, "default", "none", {"rate": 3.0, "vib": 0.05, "vib_hz": 10.0,
+                                                   "vib_along": True}),
+            ("ramp", 4.0, 1.0, "dark-sky", "none", {"rate": 12.0, "rate_end": 2.0}),
+            ("slew", 3.0, 1.0, "default", "imu", {"peak": 30.0, "camera": "davis346"}),
+            (6, 4.0, 1.0, "default", "imu", {"imu": {"gyro_bias": (0.01, -0.008, 0.006)}}),
+            ("sine", 3.0, 1.3, "default", "pf", {"amplitude": 6.0, "freq": 0.7,
+                                                 "camera": "evk4"}),
+            (16, 4.5, 1.0, "default", "none", {"tilt": 30, "direction": 160}),
+            (40, 2.5, 1.0, "default", "none", {}),
+            (5, 3.5, 1.0, "default", "none", {"settings": {"dt_us": 8000}}),
+            ("sine", 5.0, 1.2, "dark-sky", "imu", {"amplitude": 4.0, "freq": 2.0})):
+        yield dict(set="fresh-51", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=51, **extra)
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -692,6 +734,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
+         "fresh-51": fresh51_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh11 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh12 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -39,7 +39,7 @@ after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --
 (M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's), --fresh8 (O1–O10,
 the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
---fresh11 (R1–R10, the fiftieth's) likewise.
+--fresh11 (R1–R10, the fiftieth's) and --fresh12 (S1–S10, the fifty-first's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -178,6 +178,22 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "leaky-fine": dict(pixel="ideal", c_on=0.14, c_off=0.14, leak_hz=1.0),
     "very-dark": dict(pixel="lowpass", f_min_hz=8.0, f_max_hz=2000.0, i_half=50.0,
                       c_on=0.22, c_off=0.22, mismatch=0.10),
+    # the twelfth fresh grid's (--fresh12; written in the fifty-first session, never tuned
+    # on): a dark sky among hot pixels, a slow dark sky that reaches its ceiling early with
+    # OFF above ON, coarse thresholds with 100 µs of jitter and an 8 % mismatch, a dark sky
+    # on a busy background, a dark sky behind a 700 µs refractory period, a dark sky whose
+    # OFF threshold is 1.7 × its ON one
+    "dark-hot": dict(pixel="lowpass", f_min_hz=25.0, f_max_hz=1200.0, i_half=30.0,
+                     c_on=0.22, c_off=0.22),
+    "dark-steep": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=3000.0, i_half=5.0,
+                       c_on=0.2, c_off=0.25),
+    "coarse-jitter": dict(pixel="ideal", c_on=0.3, c_off=0.3, jitter_us=100.0, mismatch=0.08),
+    "dark-busy": dict(pixel="lowpass", f_min_hz=35.0, f_max_hz=1500.0, i_half=20.0,
+                      c_on=0.2, c_off=0.2),
+    "ref-dark": dict(pixel="lowpass", f_min_hz=30.0, f_max_hz=1000.0, i_half=30.0,
+                     c_on=0.22, c_off=0.22, refractory_us=700.0),
+    "off-high-dark": dict(pixel="lowpass", f_min_hz=25.0, f_max_hz=2000.0, i_half=25.0,
+                          c_on=0.18, c_off=0.3),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -428,9 +444,30 @@ FRESH11 = [
     ("davis", ("sine", 10, 1.0, 90), [4, 5], ("gauss", 1.0), "fine-dark", 1.0, 0, 1.0),
 ]
 FRESH11_SEED = 16000
+#: held out (--fresh12, written in the fifty-first session and run once before any change of
+#: it): six new sensors (above), a slow dark-sky sinusoid on the HD sensor, a fast pan under
+#: a Moffat PSF, a 3 °/s crawl on a busy dark sky, an acceleration behind a long refractory
+#: period, a telephoto roll, a vibration on the wide lens, a circle under an elliptical
+#: PSF, a wide dark sinusoid with a gyro gap, an 8-star dark field among hot pixels; seeds
+#: 17000 + i
+FRESH12 = [
+    ("vga", ("lin", 9, 200), [3.5, 4.5], ("gauss", 1.1), "dark-hot", 1.0, 30, 1.0),
+    ("hd", ("sine", 8, 0.8, 45), [3, 4], ("gauss", 1.2), "dark-steep", 0.5, 0, 1.2),
+    ("davis", ("lin", 18, 330), [3, 4], ("moffat", 1.8, 3.5), "coarse-jitter", 1.0, 0, 0.8),
+    ("vga", ("lin", 3, 100), [4, 5], ("gauss", 1.3), "dark-busy", 4.0, 0, 1.5),
+    ("hd", ("acc", 40, 250), [3.5, 4.5], ("gauss", 1.0), "ref-dark", 1.0, 0, 0.8),
+    ("tele", ("roll", 5, 3, 200), [3.5, 4.5], ("gauss", 1.4), "ideal", 1.0, 0, 1.0),
+    ("wide", ("vibe", 6, 140, 0.05, 8, 50), [3, 4], ("gauss", 1.0), "off-high-dark", 1.0, 0, 1.0),
+    ("vga", ("circle", 3, 1.2), [3.5, 5], ("ellip", 1.5, 1.0, 120), "ideal", 1.0, 5, 1.0),
+    ("davis", ("sine", 20, 0.5, 10), [3, 4], ("gauss", 1.0), "dark-steep", 1.0, 0, 1.5,
+     {"imu_gaps": ((0.9, 0.95),)}),
+    ("hd", ("lin", 12, 20), [3, 3.5, 4, 4.5, 5, 5.5, 6, 4], ("gauss", 1.1), "dark-hot", 1.5, 30,
+     0.8),
+]
+FRESH12_SEED = 17000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -653,6 +690,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh12", action="store_true", help="the twelfth held-out grid "
+                    "FRESH12 instead (scenes S1..S10)")
     ap.add_argument("--fresh11", action="store_true", help="the eleventh held-out grid "
                     "FRESH11 instead (scenes R1..R10)")
     ap.add_argument("--fresh10", action="store_true", help="the tenth held-out grid FRESH10 "
