@@ -905,15 +905,16 @@ def _lag_estimate(y, A, ts, w):
     info = float((a ** 2).sum())
     if info <= 1e-9 * float((A[:, 4] ** 2).sum()):
         return None
-    fit = _walk_gls(y, A, ts, w) if w > 0 else None
+    sol, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ sol
+    fit = _walk_gls(y, A, ts, w, r) if w > 0 else None
     if fit is not None:
         return fit
-    sol, *_ = np.linalg.lstsq(A, y, rcond=None)
-    s2 = float(((y - A @ sol) ** 2).sum()) / max(len(y) - A.shape[1], 1)
+    s2 = float((r ** 2).sum()) / max(len(y) - A.shape[1], 1)
     return float(sol[4]), float(np.sqrt(s2 / info))
 
 
-def _walk_gls(y, A, ts, w):
+def _walk_gls(y, A, ts, w, resid):
     """(τ s, its standard error s): the lag regression's generalised least squares where
     each row's error is u·W(t) + ε — W the prior's 2-D random walk (w px²/s per axis), ε
     the crossings' own white noise — so Cov = s²·I + w·min(t_i, t_j) along the track's
@@ -923,7 +924,8 @@ def _walk_gls(y, A, ts, w):
     with an ideal pixel it read 0.138 ± 0.147 ms for no lag (0.11 px ahead), fresh-39's
     EVK4 sinusoid −0.064 ± 0.071 ms (here −0.057 ± 0.04). Σ⁻¹ = (I − (Q + I/s²)⁻¹/s²)/s²
     with Q the walk's tridiagonal precision: one banded solve. s² from the differences of
-    consecutive residuals (the walk moves little between them); the standard error
+    consecutive ordinary least-squares residuals `resid` (the walk moves little between
+    them); the standard error
     scaled up by the fit's χ²/dof where it exceeds 1. None where the walk over the whole
     pass stays within the crossings' own noise (w·span <= s²): ordinary least squares is
     then as good, and the walk's huge precision between close rows makes the solve
@@ -936,8 +938,7 @@ def _walk_gls(y, A, ts, w):
     turn = np.where(u @ main >= 0, 1.0, -1.0)
     y, A = turn * y, turn[:, None] * A
     n, p = A.shape
-    sol, *_ = np.linalg.lstsq(A, y, rcond=None)
-    d = np.diff(y - A @ sol)
+    d = np.diff(turn * resid)
     s2 = max((1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 2, _GLS_MIN_S2)
     if w * (ts[-1] - ts[0]) <= s2:
         return None
