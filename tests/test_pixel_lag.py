@@ -93,17 +93,82 @@ def test_a_noisy_gyro_s_walk_is_in_the_lag_s_uncertainty():
     several times what the crossings' own scatter says; a lag that uncertain is not applied."""
     from evstar.smoothing import _lag_estimate, with_diffusion
 
-    taus, se_walk, se_white = [], [], []
+    taus, se_walk, se_white, walk_part = [], [], [], []
     for seed in range(40):
         (y, A, ts), (t, q, u, prior) = noisy_regression(seed)
-        tau, se = _lag_estimate(y, A, ts, 0.4 ** 2)
+        tau, se, walk = _lag_estimate(y, A, ts, 0.4 ** 2)
         taus.append(tau)
         se_walk.append(se)
+        walk_part.append(walk)
+        assert walk <= se
         se_white.append(_lag_estimate(y, A, ts, 0.0)[1])
         assert pixel_lag_s(t, q, u, with_diffusion(prior, 0.4 ** 2), max_se_s=0.1e-3) == 0.0
     scatter = float(np.sqrt(np.mean(np.square(taus))))
     assert np.mean(se_walk) == pytest.approx(scatter, rel=0.35)
     assert np.mean(se_white) < 0.2 * scatter
+    # most of it the walk's (0.11 of 0.14 ms): what pooling a field's tracks cannot shrink
+    assert np.mean(walk_part) > 0.7 * np.mean(se_walk)
+
+
+def test_an_ordinary_fit_s_error_holds_the_walk_too():
+    """Where each crossing's own noise exceeds the walk over the whole pass, the lag is
+    fitted by ordinary least squares (_walk_gls falls back); over 3000 crossings the walk
+    still dominates its error: over 40 gyros the fits scatter as the standard error that
+    adds the walk's part (_ols_walk_var) says, within 40 %, several times the crossings'
+    own."""
+    from evstar.smoothing import _batched, _lag_estimate, _lag_regression
+
+    taus, ses, white = [], [], []
+    for seed in range(40):
+        prior, true = noisy_prior(seed)
+        t = np.sort(np.random.default_rng(200 + seed).uniform(0.02e6, 0.98e6, 3000))
+        q, u = crossings_along(true, 0.0, t, noise_px=0.5, seed=seed)
+        y, local, lag_col, _ = _batched([_lag_regression(t, q, u, prior)], prior)[0]
+        A, ts = np.column_stack([local, lag_col]), (t - t[0]) * 1e-6
+        tau, se, walk = _lag_estimate(y, A, ts, 0.4 ** 2)
+        assert 0 < walk <= se
+        taus.append(tau)
+        ses.append(se)
+        white.append(_lag_estimate(y, A, ts, 0.0).se)
+    scatter = float(np.sqrt(np.mean(np.square(taus))))
+    assert np.mean(ses) == pytest.approx(scatter, rel=0.4)
+    assert np.mean(white) < 0.35 * scatter
+
+
+def _fits(taus, se, walk):
+    """_lag_fits-shaped entries of tracks whose multi-level fits are LagFit(τ, se, walk)."""
+    from evstar.smoothing import LagFit
+
+    return [(np.arange(10), np.arange(0), [LagFit(t, se, walk), None]) for t in taus]
+
+
+def test_a_field_s_lags_pool_where_they_agree_but_not_below_the_walk():
+    """Tracks of one sensor behind one gyro: their fits differ by no more than their white
+    noise says, so each takes their weighted mean, whose error keeps the walk's part (the
+    same gyro's walk for all); too few tracks, or none passed, each keeps its own."""
+    from evstar.smoothing import LAG_POOL_TRACKS, _pooled_lags
+
+    rng = np.random.default_rng(3)
+    taus = 0.04e-3 + rng.normal(0, 0.02e-3, 30)      # white part 0.02 ms of se 0.08 ms
+    out = _pooled_lags(_fits(taus, 0.08e-3, np.sqrt(0.08e-3 ** 2 - 0.02e-3 ** 2)))
+    pooled = np.array([f[2][0].tau for f in out])
+    assert np.allclose(pooled, np.mean(taus), atol=1e-12)
+    assert all(0.075e-3 <= f[2][0].se <= 0.08e-3 for f in out)
+    few = _fits(taus[:LAG_POOL_TRACKS - 1], 0.08e-3, 0.07e-3)
+    assert _pooled_lags(few) == few
+    assert _pooled_lags([None] * 10) == [None] * 10
+
+
+def test_a_field_s_lags_that_differ_keep_their_own():
+    """Stars whose lags differ far beyond their errors (a dark sky's faint and bright ones)
+    keep their own (within a tenth of the difference), and so does the error."""
+    from evstar.smoothing import _pooled_lags
+
+    taus = np.repeat([1.0e-3, 3.0e-3], 6) + np.random.default_rng(4).normal(0, 0.02e-3, 12)
+    out = _pooled_lags(_fits(taus, 0.03e-3, 0.01e-3))
+    pooled = np.array([f[2][0].tau for f in out])
+    assert np.all(np.abs(pooled - taus) < 0.2e-3)
+    assert all(f[2][0].se == pytest.approx(0.03e-3, rel=0.1) for f in out)
 
 
 def test_the_walk_s_generalised_least_squares_scatters_less_than_ordinary():
