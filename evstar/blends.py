@@ -33,6 +33,7 @@ import numpy as np
 
 from . import paths
 from .pairs import MAX_TURN_DEG
+from .robust import robust_sigma
 
 #: crossings within this of a track's path across its motion (px): its centre line
 CENTRE_PX = 1.0
@@ -109,7 +110,7 @@ def track_shifts(path, crossings, near):
     shift = np.zeros(n_tr)
     for j in np.flatnonzero(maybe):                 # a few tracks: their scatter one by one
         mine = off[g == ids[j]]
-        se = 1.4826 * np.median(np.abs(mine - med[j])) / np.sqrt(n[j])
+        se = robust_sigma(mine, med[j]) / np.sqrt(n[j])
         shift[ids[j]] = med[j] if abs(med[j]) >= SHIFT_SES * se else 0.0
     return shift
 

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import DataError, FormatError
+from .robust import robust_sigma
 
 FORMAT = "evstar-pixel-lag"
 VERSION = 1
@@ -337,7 +338,7 @@ def _robust_lstsq(A, y):
     for _ in range(_ROBUST_PASSES):
         sol, *_ = np.linalg.lstsq(A[keep], y[keep], rcond=None)
         r = y - A @ sol
-        keep = np.abs(r) <= 5 * 1.4826 * np.median(np.abs(r[keep])) + 1e-12
+        keep = np.abs(r) <= 5 * robust_sigma(r[keep], 0.0) + 1e-12
     dof = max(int(keep.sum()) - A.shape[1], 1)
     s2 = float((r[keep] ** 2).sum()) / dof
     cov = s2 * np.linalg.pinv(A[keep].T @ A[keep])

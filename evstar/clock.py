@@ -28,6 +28,7 @@ from .crossings import near_tracks
 from .frames import groups
 from .motion.imu_integration import interp_rows
 from .smoothing import lag_corrected
+from .robust import robust_sigma
 
 #: the most the IMU's clock is searched off the camera's (µs each way)
 SEARCH_US = 25_000
@@ -243,8 +244,7 @@ def _speed_class_weights(r, speed):
     scatter = np.empty(len(r))
     for c in np.unique(cls):
         m = cls == c
-        mad = np.median(np.abs(r[m] - np.median(r[m])))
-        scatter[m] = max(1.4826 * mad, MIN_SCATTER_PX)
+        scatter[m] = max(robust_sigma(r[m]), MIN_SCATTER_PX)
     return 1 / scatter ** 2, np.minimum(CLIP_SIGMA * scatter, CLIP_PX)
 
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from .errors import EvstarWarning, ParameterTypeError
 from .imu import Imu
+from .robust import MAD_TO_SIGMA, robust_sigma
 
 SPIKE_HALF_WINDOW = 25       # samples either side of the median a sample is compared with
 SPIKE_MADS = 6.0             # robust deviations beyond which a sample is a spike ...
@@ -115,7 +116,7 @@ def spikes(gyro):
         med = _median(win)
         mad = _median(np.abs(win - med[..., None]))
         off = np.abs(gyro[i] - med)
-        out[i] = np.any((off > SPIKE_MADS * np.maximum(1.4826 * mad, noise))
+        out[i] = np.any((off > SPIKE_MADS * np.maximum(MAD_TO_SIGMA * mad, noise))
                         & (off > SPIKE_FLOOR_RAD_S), axis=1)
     return out
 
@@ -132,7 +133,7 @@ def rate_noise(gyro):
     (MAD) of its second differences, which white noise gives 6 × its variance and a slew's
     rate, hardly changing from one sample to the next, next to nothing."""
     d2 = gyro[2:] - 2 * gyro[1:-1] + gyro[:-2]
-    return 1.4826 * np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0) / np.sqrt(6)
+    return robust_sigma(d2, axis=0) / np.sqrt(6)
 
 
 def filled(t, values):
@@ -179,7 +180,7 @@ def _fill(t, values, i, new, dt):
     for k in range(near.shape[1]):
         spline = make_smoothing_spline(s, near[:, k])
         resid = near[:, k] - spline(s)
-        spread = 1.4826 * np.median(np.abs(resid - np.median(resid)))
+        spread = robust_sigma(resid)
         arc = spline(at)
         if np.max(np.abs(arc - line[:, k]), initial=0.0) > GAP_SIGMAS * spread:
             out[:, k], curved = arc, True

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .frames import stable_order
+from .robust import robust_sigma
 
 #: fewest crossings with k pairs for a profile of k
 MIN_PROFILES = 10
@@ -120,7 +121,7 @@ class LevelProfiles:
             if len(rows) >= MIN_PROFILES:
                 d = rows[:, _levels(kk) - 1] - rows[:, 0]
                 mid = np.median(d)
-                se = 1.2533 * 1.4826 * np.median(np.abs(d - mid)) / np.sqrt(len(d))
+                se = 1.2533 * robust_sigma(d, mid) / np.sqrt(len(d))
                 out = max(out, float(mid - DELAY_SE * se))
         return out
 
@@ -397,7 +398,7 @@ def _within(v):
     if not len(v):
         return np.zeros(0, bool)
     dev = np.abs(v - np.median(v))
-    return dev <= _SLOPE_CLIP * max(1.4826 * np.median(dev), 1e-9)
+    return dev <= _SLOPE_CLIP * max(robust_sigma(dev, 0.0), 1e-9)
 
 
 def _width_slopes(rel, x, k, pairs):

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import paths
+from .robust import robust_sigma
 
 #: crossings within this distance of a track's position count for its spread: a pair 5 px
 #: apart has each star 2.5 px off its blend and a profile reaching ~4 px further
@@ -126,7 +127,7 @@ def _pairs(st):
         return {}
     width = _power_law(var_ac[ref], logb[ref])
     single = _expected(var_ac, logb, ref)
-    scale = _robust_scale(np.log(var_ac[ref] / single[ref]))
+    scale = float(robust_sigma(np.log(var_ac[ref] / single[ref])))
     along = max(float(np.median(var_al[ref])), MIN_ALONG_VAR_PX2)
     wide = (st["steady"][measured] & _stands_out(var_ac, single)
             & (np.log(var_ac / single) >= EXCESS_MADS * scale))
@@ -246,9 +247,6 @@ def _stands_out(var, width):
     """A variance a single star of that width does not reach (MIN_EXCESS_PX2, MIN_RATIO)."""
     return (var - width >= MIN_EXCESS_PX2) & (var >= MIN_RATIO * width)
 
-
-def _robust_scale(r):
-    return 1.4826 * float(np.median(np.abs(r - np.median(r))))
 
 
 def _with_pairs(rows, found):

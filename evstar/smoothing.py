@@ -44,6 +44,7 @@ from . import kalman, kalman_ca, lobes
 from .errors import ParameterError
 from .frames import groups
 from .parameters import AUTO, ESTIMATE, SMOOTHER
+from .robust import robust_sigma
 
 # rows of (n, 2) and (n, 2, 2) arrays are gathered with take / compress (axis 0) on the hot
 # paths: the same values as a[index], which costs ~10x on them in numpy 2
@@ -990,7 +991,7 @@ def _lag_estimate(y, A, ts, w):
     for _ in range(3):
         sol, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ sol
-        keep = np.abs(r) <= 5 * 1.4826 * np.median(np.abs(r)) + 1e-9
+        keep = np.abs(r) <= 5 * robust_sigma(r, 0.0) + 1e-9
         if keep.sum() < MIN_CROSSINGS:
             return None
         A, y, ts = A[keep], y[keep], ts[keep]
@@ -1055,7 +1056,7 @@ def _walk_gls(y, A, ts, w, resid):
     y, A = turn * y, turn[:, None] * A
     n, p = A.shape
     d = np.diff(turn * resid)
-    s2 = max((1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 2, _GLS_MIN_S2)
+    s2 = max(float(robust_sigma(d)) ** 2 / 2, _GLS_MIN_S2)
     if w * (ts[-1] - ts[0]) <= s2:
         return None
     dt = np.maximum(np.diff(ts, prepend=ts[0] - _GLS_MIN_DT_S), _GLS_MIN_DT_S)
@@ -1477,7 +1478,7 @@ def _class_scatter(r, levels, floor):
     med, s = np.zeros(len(r)), np.zeros(len(r))
     for c in classes:
         med[c] = np.median(r[c])
-        s[c] = max(1.4826 * np.median(np.abs(r[c] - med[c])), floor)
+        s[c] = max(robust_sigma(r[c], med[c]), floor)
     return med, s
 
 

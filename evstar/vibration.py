@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .frames import groups
+from .robust import robust_sigma
 
 #: the slowest vibration searched for (Hz): slower motion the smoother's own q follows
 MIN_HZ = 4.0
@@ -346,7 +347,7 @@ def _clipped(r):
     motion: 1.4-2.2 px off among 0.5 px swings) hid fresh-51's 10 Hz sinusoid from the
     false-alarm test (its power 0.36 of the variance)."""
     med = np.median(r)
-    spread = CLIP_MADS * 1.4826 * np.median(np.abs(r - med))
+    spread = CLIP_MADS * robust_sigma(r, med)
     return np.clip(r, med - spread, med + spread) if spread > 0 else r
 
 
