@@ -119,6 +119,15 @@ class LagFit(NamedTuple):
     walk_se: float
 
 
+class _TrackLags(NamedTuple):
+    """A track's lag fits (_lag_fits): the indices of its crossings the multi-level fit
+    covers and of the rest (_lag_classes), and the two classes' LagFits (None: too few)."""
+    fit: np.ndarray
+    rest: np.ndarray
+    multi: LagFit | None
+    one: LagFit | None
+
+
 class _Track(NamedTuple):
     """One track's smoothing problem: its centroids, their σ and indices, the coasted frames,
     all steps' times (µs; s from the first: ts), which are measured, the prior's
@@ -477,7 +486,7 @@ class TrackSmoother:
     def _fit_along(self, tracks, weights, velocity_prior, lags=None):
         """Per track (full rows, centroid positions, their σ, crossings, turns) and its
         centroids' along weights: (refitted rows or None where nothing to fit, crossings
-        used), all tracks' filters batched. lags: per track its _lag_fits (_field_lags)
+        used), all tracks' filters batched. lags: per track its _TrackLags (_field_lags)
         where the caller has them, else each fits its own."""
         lags = [None] * len(tracks) if lags is None else lags
         steps = [_along_track_problem(full, z, s, cr, velocity_prior, along_weight=w,
@@ -736,7 +745,7 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
                          gate_sigma=GATE_SIGMA, sigma_floor_px=0.01, pool_us=10_000,
                          lag_fits=None):
     """along_track_fit up to the filter: an _AlongTrack, or None when the crossings do not
-    pin the track (a _batched step). lag_fits: _lag_fits's of the track where the caller
+    pin the track (a _batched step). lag_fits: the track's _TrackLags where the caller
     has them (a field's, pooled: _pooled_lags), else fitted here."""
     kept = _kept_crossings(crossings, gate_sigma, sigma_floor_px)
     if kept is None:
@@ -748,9 +757,8 @@ def _along_track_problem(est, z_cent, sigma, crossings, velocity_prior=None, alo
     if velocity_prior is not None:  # IMU-known changes of speed reveal the pixels' lag
         if lag_fits is None:
             lag_fits = yield from _lag_fits(crossings, ok, velocity_prior)
-        fit, rest, fits = lag_fits
         lag_s = np.zeros(len(ok))
-        lag_s[fit], lag_s[rest] = _classes_lags(*fits)
+        lag_s[lag_fits.fit], lag_s[lag_fits.rest] = _classes_lags(lag_fits.multi, lag_fits.one)
         t_c = t_c - 1e6 * lag_s
     t_c, q, u, s_c = _pool_crossings(t_c, q, u, est, s_a, pool_us)
     t_c = np.round(t_c).astype(np.int64)
@@ -797,19 +805,18 @@ def _kept_crossings(crossings, gate_sigma, sigma_floor_px):
 
 
 def _lag_fits(crossings, ok, velocity_prior):
-    """(the lag's classes fit, rest: _lag_classes; their _pixel_lag_fit's) of a track's
-    crossings `ok` (a _batched step)."""
+    """The _TrackLags of a track's crossings `ok` (a _batched step)."""
     t_c, q, u = crossings[0][ok], crossings[1].take(ok, 0), crossings[2].take(ok, 0)
     fit, rest = _lag_classes(crossings[4][ok] if len(crossings) > 4 else None, len(ok))
     fits = []
     for m in (fit, rest):
         fits.append((yield from _pixel_lag_fit(t_c[m], q.take(m, 0), u.take(m, 0),
                                                velocity_prior)))
-    return fit, rest, fits
+    return _TrackLags(fit, rest, *fits)
 
 
 def _field_lags(tracks, velocity_prior, sigma_floor_px):
-    """Per track (as TrackSmoother._fit_along takes them) its _lag_fits, pooled over the
+    """Per track (as TrackSmoother._fit_along takes them) its _TrackLags, pooled over the
     tracks (_pooled_lags); None each without a velocity prior (nothing to fit a lag with)."""
     if velocity_prior is None:
         return [None] * len(tracks)
@@ -818,7 +825,7 @@ def _field_lags(tracks, velocity_prior, sigma_floor_px):
 
 
 def _track_lag_fits(crossings, velocity_prior, sigma_floor_px):
-    """_lag_fits of a track's crossings as _along_track_problem keeps them (its default
+    """The _TrackLags of a track's crossings as _along_track_problem keeps them (its default
     gate), or None where it keeps none (a _batched step)."""
     kept = _kept_crossings(crossings, GATE_SIGMA, sigma_floor_px)
     if kept is None:
@@ -827,7 +834,7 @@ def _track_lag_fits(crossings, velocity_prior, sigma_floor_px):
 
 
 def _pooled_lags(lags):
-    """The tracks' _lag_fits with their multi-level class's fit pooled over the tracks
+    """The tracks' _TrackLags with their multi-level class's fit pooled over the tracks
     (random effects: a sensor's lag is one, or varies from star to star by an amount the
     fits' spread measures). Where LAG_POOL_TRACKS or more fits are within LAG_MAX_SE_S,
     each of those becomes μ + B·(τ − μ): μ their mean weighted by 1/se², B = σ_b²/(σ_b² +
@@ -839,11 +846,11 @@ def _pooled_lags(lags):
     EVK4 field at 20 °/s with the IMU (true lag −0.066 ms: a noiseless gyro's fit), each
     track's own fit (se 0.085 ms, 0.080 of it the walk's) put 26 of them 0.1–0.3 ms off,
     their stars' 90th percentile 0.084 -> 0.104 px; pooled, μ = 0.045 ± 0.080 ms, not taken."""
-    multi = [i for i, f in enumerate(lags) if f is not None and f[2][0] is not None
-             and f[2][0].se <= LAG_MAX_SE_S]
+    multi = [i for i, f in enumerate(lags) if f is not None and f.multi is not None
+             and f.multi.se <= LAG_MAX_SE_S]
     if len(multi) < LAG_POOL_TRACKS:
         return lags
-    fits = [lags[i][2][0] for i in multi]
+    fits = [lags[i].multi for i in multi]
     tau = np.array([f.tau for f in fits])
     walk = np.array([f.walk_se for f in fits])
     se2 = np.maximum(np.array([f.se for f in fits]) ** 2, _POOL_MIN_E2)
@@ -860,8 +867,7 @@ def _pooled_lags(lags):
     se = np.sqrt(walk_i ** 2 + (1 - b) ** 2 * white_mu + b ** 2 * e2)
     out = list(lags)
     for i, t, s_i, wk in zip(multi, mu + b * (tau - mu), se, walk_i):
-        out[i] = (lags[i][0], lags[i][1], [LagFit(float(t), float(s_i), float(wk)),
-                                           lags[i][2][1]])
+        out[i] = lags[i]._replace(multi=LagFit(float(t), float(s_i), float(wk)))
     return out
 
 

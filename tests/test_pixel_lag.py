@@ -136,10 +136,10 @@ def test_an_ordinary_fit_s_error_holds_the_walk_too():
 
 
 def _fits(taus, se, walk):
-    """_lag_fits-shaped entries of tracks whose multi-level fits are LagFit(τ, se, walk)."""
-    from evstar.smoothing import LagFit
+    """_TrackLags of tracks whose multi-level fits are LagFit(τ, se, walk)."""
+    from evstar.smoothing import LagFit, _TrackLags
 
-    return [(np.arange(10), np.arange(0), [LagFit(t, se, walk), None]) for t in taus]
+    return [_TrackLags(np.arange(10), np.arange(0), LagFit(t, se, walk), None) for t in taus]
 
 
 def test_a_field_s_lags_pool_where_they_agree_but_not_below_the_walk():
@@ -151,9 +151,9 @@ def test_a_field_s_lags_pool_where_they_agree_but_not_below_the_walk():
     rng = np.random.default_rng(3)
     taus = 0.04e-3 + rng.normal(0, 0.02e-3, 30)      # white part 0.02 ms of se 0.08 ms
     out = _pooled_lags(_fits(taus, 0.08e-3, np.sqrt(0.08e-3 ** 2 - 0.02e-3 ** 2)))
-    pooled = np.array([f[2][0].tau for f in out])
+    pooled = np.array([f.multi.tau for f in out])
     assert np.allclose(pooled, np.mean(taus), atol=1e-12)
-    assert all(0.075e-3 <= f[2][0].se <= 0.08e-3 for f in out)
+    assert all(0.075e-3 <= f.multi.se <= 0.08e-3 for f in out)
     few = _fits(taus[:LAG_POOL_TRACKS - 1], 0.08e-3, 0.07e-3)
     assert _pooled_lags(few) == few
     assert _pooled_lags([None] * 10) == [None] * 10
@@ -166,9 +166,9 @@ def test_a_field_s_lags_that_differ_keep_their_own():
 
     taus = np.repeat([1.0e-3, 3.0e-3], 6) + np.random.default_rng(4).normal(0, 0.02e-3, 12)
     out = _pooled_lags(_fits(taus, 0.03e-3, 0.01e-3))
-    pooled = np.array([f[2][0].tau for f in out])
+    pooled = np.array([f.multi.tau for f in out])
     assert np.all(np.abs(pooled - taus) < 0.2e-3)
-    assert all(f[2][0].se == pytest.approx(0.03e-3, rel=0.1) for f in out)
+    assert all(f.multi.se == pytest.approx(0.03e-3, rel=0.1) for f in out)
 
 
 def test_the_walk_s_generalised_least_squares_scatters_less_than_ordinary():
