@@ -95,7 +95,7 @@ LAG_SURE_SE_S = 0.05e-3                # s: ... one fitted this precisely is, wh
 LAG_CLASSES_APART = 3.0                # standard errors a track's one-level crossings' lag
                                        # must stand from its multi-level ones' to be theirs
 LAG_POOL_TRACKS = 5                    # lag fits a field pools (_pooled_lags) from
-_POOL_MIN_E2 = 1e-14                   # s²: the least white variance a pooled fit takes
+_POOL_MIN_SE2 = 1e-14                  # s²: the least variance a pooled fit's error is taken at
 #: the lag's generalised least squares (_walk_gls): the least white variance (px²) and the
 #: least time between rows (s) it takes (crossings within 10 µs are simultaneous to a walk;
 #: residuals that agree exactly)
@@ -853,7 +853,7 @@ def _pooled_lags(lags):
     fits = [lags[i].multi for i in multi]
     tau = np.array([f.tau for f in fits])
     walk = np.array([f.walk_se for f in fits])
-    se2 = np.maximum(np.array([f.se for f in fits]) ** 2, _POOL_MIN_E2)
+    se2 = np.maximum(np.array([f.se for f in fits]) ** 2, _POOL_MIN_SE2)
     e2 = np.maximum(se2 - walk ** 2, 0.0)
     w = 1.0 / se2
     mu = float((w * tau).sum() / w.sum())
