@@ -112,8 +112,8 @@ _ENGINES = {
 
 class LagFit(NamedTuple):
     """A track's pixel lag fit (_lag_estimate): τ (s), its standard error (s), and the part
-    of that error the prior's random walk makes (s; 0 by ordinary least squares) — one gyro's
-    walk, the same for every track that passes at the same time."""
+    of that error the prior's random walk makes (s) — one gyro's walk, the same for every
+    track that passes at the same time."""
     tau: float
     se: float
     walk_se: float
@@ -701,8 +701,7 @@ def _track_rows(centroids):
 
 def along_track_fit(est, z_cent, sigma, crossings, velocity_prior=None, along_weight=0.1,
                     gate_sigma=GATE_SIGMA, sigma_floor_px=0.01, process_noise_min=1.0,
-                    pool_us=10_000,
-                    engine=SMOOTHER["engine"].default):
+                    pool_us=10_000, engine=SMOOTHER["engine"].default):
     """Refit one track's smoothed rows `est` with crossing times as along-track measurements.
 
     A crossing says the star's centre passed pixel q at time t: a measurement of the position
@@ -1014,7 +1013,12 @@ def _lag_estimate(y, A, ts, w):
     if fit is not None:
         return fit
     s2 = float((r ** 2).sum()) / max(len(y) - A.shape[1], 1)
-    walk = _ols_walk_var(A, ts, w) if w > 0 else 0.0
+    # τ = Σ a·y / info, so the walk adds w·Σ_k Δt_k (Σ_{i≥k} a_i)² / info² (a's rows turned
+    # to the main direction: _walk_signs). Where the walk over the pass stays within each
+    # crossing's noise (_walk_gls falls back), its sum over a few thousand crossings need
+    # not: left out, the error said 0.007 ms where the walk's was ~0.08 (a bright star of
+    # a 130-star EVK4 field)
+    walk = w * _walk_sum(a * _walk_signs(A[:, :2]), ts) / info ** 2
     return LagFit(float(sol[4]), float(np.sqrt(s2 / info + walk)), float(np.sqrt(walk)))
 
 
@@ -1025,24 +1029,17 @@ def _walk_signs(u):
     return np.where(u @ main >= 0, 1.0, -1.0)
 
 
-def _ols_walk_var(A, ts, w):
-    """The variance (s²) the prior's random walk (w px²/s) adds to the lag's ordinary
-    least-squares fit (the regression's rows A at times ts, s): (AᵀA)⁻¹Aᵀ C A(AᵀA)⁻¹ with
-    C = w·min(t_i, t_j) along the main direction (_walk_signs). Where the walk over the pass
-    stays within each crossing's noise (_walk_gls falls back), its sum over a few thousand
-    crossings need not: the ordinary fit's error said 0.007 ms where the walk's was
-    ~0.07 (a bright star of a 130-star EVK4 field)."""
-    a = _walk_signs(A[:, :2])[:, None] * A
-    cov = np.linalg.pinv(a.T @ a)
-    dt = np.diff(ts, prepend=ts[0])
-    b = np.cumsum(a[::-1], axis=0)[::-1]
-    return float(max((cov @ (w * (b * dt[:, None]).T @ b) @ cov)[4, 4], 0.0))
+def _walk_sum(g, ts, dt=None):
+    """Σ_k Δt_k (Σ_{i≥k} g_i)² = Σ_ij g_i g_j min(t_i, t_j) (from the first row's time; Δt:
+    the rows' spacing, `dt` where given): a unit random walk's variance in Σ g_i W(t_i)."""
+    dt = np.diff(ts, prepend=ts[0]) if dt is None else dt
+    return float((dt * np.cumsum(g[::-1])[::-1] ** 2).sum())
 
 
 def _walk_gls(y, A, ts, w, resid):
     """A LagFit (walk_se: the part of the standard error the walk makes) by the lag
-    regression's generalised least squares where each row's error is u·W(t) + ε — W the prior's 2-D random walk (w px²/s per axis), ε
-    the crossings' own white noise — so Cov = s²·I + w·min(t_i, t_j) along the track's
+    regression's generalised least squares where each row's error is u·W(t) + ε — W the
+    prior's 2-D random walk (w px²/s per axis), ε the crossings' own white noise — so Cov = s²·I + w·min(t_i, t_j) along the track's
     main direction (rows whose motion u points the other way, a sinusoid's other half,
     turned round: their walk is the same W seen from behind). Ordinary least squares
     weighed the walk's slow wander like independent noise: on an EVK4 26 °/s-peak sinusoid
@@ -1050,8 +1047,7 @@ def _walk_gls(y, A, ts, w, resid):
     EVK4 sinusoid −0.064 ± 0.071 ms (here −0.057 ± 0.04). Σ⁻¹ = (I − (Q + I/s²)⁻¹/s²)/s²
     with Q the walk's tridiagonal precision: one banded solve. s² from the differences of
     consecutive ordinary least-squares residuals `resid` (the walk moves little between
-    them); the standard error
-    scaled up by the fit's χ²/dof where it exceeds 1. None where the walk over the whole
+    them); the standard error scaled up by the fit's χ²/dof where it exceeds 1. None where the walk over the whole
     pass stays within the crossings' own noise (w·span <= s²): ordinary least squares is
     then as good, and the walk's huge precision between close rows makes the solve
     ill-conditioned (a 0.54 s pass behind a 10⁻⁵ px²/s walk read 2.9 ± 0.1 ms for a lag
@@ -1076,10 +1072,8 @@ def _walk_gls(y, A, ts, w, resid):
     beta = cov @ (A.T @ wz[:, 0])
     res = y - A @ beta
     scale = max(float(res @ (res - solveh_banded(band, res) / s2)) / s2 / max(n - p, 1), 1.0)
-    # the walk's share of β's covariance: cov·Aᵀ Σ⁻¹ (w·min(t_i, t_j)) Σ⁻¹ A·cov, with
-    # min(t_i, t_j) = Σ_k≤i,j dt_k: the reversed cumulative sums of Σ⁻¹A's rows
-    b = np.cumsum(wz[::-1, 1:], axis=0)[::-1]
-    walk = (cov @ (w * (b * dt[:, None]).T @ b) @ cov)[4, 4]
+    # the walk's share of τ's variance: τ = Σ g·y with g = Σ⁻¹A·cov's τ column
+    walk = w * _walk_sum(wz[:, 1:] @ cov[4], ts, dt)
     return LagFit(float(beta[4]), float(np.sqrt(cov[4, 4] * scale)),
                   float(np.sqrt(min(walk, cov[4, 4]) * scale)))
 

@@ -114,7 +114,7 @@ def test_an_ordinary_fit_s_error_holds_the_walk_too():
     """Where each crossing's own noise exceeds the walk over the whole pass, the lag is
     fitted by ordinary least squares (_walk_gls falls back); over 3000 crossings the walk
     still dominates its error: over 40 gyros the fits scatter as the standard error that
-    adds the walk's part (_ols_walk_var) says, within 40 %, several times the crossings'
+    adds the walk's part (_walk_sum) says, within 40 %, several times the crossings'
     own."""
     from evstar.smoothing import _batched, _lag_estimate, _lag_regression
 
