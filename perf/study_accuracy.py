@@ -198,7 +198,24 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "jitter-dropout": lambda: sim.sensor_model("default", jitter_us=60.0, dropout=0.25),
            "dark-sky-refractory": lambda: sim.sensor_model("dark-sky", refractory_us=1000.0),
            "dark-sky-warm": lambda: sim.sensor_model("dark-sky", hot_pixels=100,
-                                                     hot_pixel_hz=40.0)}
+                                                     hot_pixel_hz=40.0),
+           # the fifty-third session's: a dark sky with 150 µs of timestamp jitter, a faster
+           # dark sky (70 Hz, its ceiling 800 Hz) with a 0.04 threshold mismatch, unequal
+           # thresholds losing 30 % of the events, a busy background with 500 warm pixels, a
+           # slow dark sky (12 Hz) with fine thresholds, a 300 µs refractory period (not told)
+           # with a 0.05 mismatch
+           "dark-sky-jitter": lambda: sim.sensor_model("dark-sky", jitter_us=150.0),
+           "dark-sky-70": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=70.0,
+                                                   cutoff_hz_max=800.0,
+                                                   threshold_mismatch=0.04),
+           "ratio-dropout": lambda: sim.sensor_model("default", threshold_on=0.3,
+                                                     threshold_off=0.2, dropout=0.3),
+           "busy-warm": lambda: sim.sensor_model("default", noise_hz=4.0, hot_pixels=500,
+                                                 hot_pixel_hz=10.0),
+           "dark-sky-12-fine": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=12.0,
+                                                        threshold_on=0.15, threshold_off=0.15),
+           "refractory-300-mismatch": lambda: sim.sensor_model("default", refractory_us=300.0,
+                                                               threshold_mismatch=0.05)}
 
 
 def dev_grid():
@@ -671,6 +688,34 @@ def fresh51_grid():
                    seed=51, **extra)
 
 
+def fresh53_grid():
+    """Inputs no session had tried, run once when the fifty-third session began (seed 53):
+    six new sensors (above), a dark-sky slew on the EVK4, a deceleration and a 25 Hz
+    vibration with the IMU, a 0.7 °/s star for 2 s, a wide slow sinusoid on the DAVIS346, a
+    fast dark-sky star on the DAVIS346 with the IMU, a magnitude-5.5 star on a quiet sensor,
+    the particle filter at 12 °/s, 20 ms frames, a star off the centre on a tilted axis."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (9, 4.0, 1.1, "dark-sky-jitter", "none", {}),
+            ("sine", 4.0, 1.2, "dark-sky-70", "imu", {"amplitude": 8.0, "freq": 1.5}),
+            (4, 4.5, 1.4, "ratio-dropout", "none", {}),
+            (2, 4.0, 1.0, "busy-warm", "none", {}),
+            (10, 3.5, 1.0, "dark-sky-12-fine", "imu", {}),
+            (16, 4.0, 1.3, "refractory-300-mismatch", "none", {"direction": 120}),
+            ("slew", 4.0, 1.1, "dark-sky", "none", {"peak": 15.0, "camera": "evk4"}),
+            ("ramp", 4.0, 1.2, "default", "imu", {"rate": 15.0, "rate_end": 3.0}),
+            ("vibe", 4.0, 1.0, "default", "imu", {"rate": 6.0, "vib": 0.04, "vib_hz": 25.0}),
+            (0.7, 4.0, 1.2, "default", "none", {"duration": 2.0}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 20.0, "freq": 0.5,
+                                                   "camera": "davis346"}),
+            (28, 3.0, 1.2, "dark-sky", "imu", {"camera": "davis346"}),
+            (5, 5.5, 1.0, "quiet", "none", {}),
+            (12, 4.0, 1.0, "default", "pf", {"direction": 200}),
+            (7, 4.0, 1.5, "default", "none", {"settings": {"dt_us": 20000}}),
+            (20, 3.5, 1.0, "default", "none", {"tilt": 45, "at": (40, -30)})):
+        yield dict(set="fresh-53", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=53, **extra)
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -734,7 +779,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-41": fresh41_grid, "vibration": vibration_grid,
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
-         "fresh-51": fresh51_grid,
+         "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 
