@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh12 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh13 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -39,7 +39,8 @@ after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --
 (M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's), --fresh8 (O1–O10,
 the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
---fresh11 (R1–R10, the fiftieth's) and --fresh12 (S1–S10, the fifty-first's) likewise.
+--fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's) and --fresh13
+(T1–T10, the fifty-third's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -194,6 +195,19 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                      c_on=0.22, c_off=0.22, refractory_us=700.0),
     "off-high-dark": dict(pixel="lowpass", f_min_hz=25.0, f_max_hz=2000.0, i_half=25.0,
                           c_on=0.18, c_off=0.3),
+    # the thirteenth fresh grid's (--fresh13; written in the fifty-third session, never
+    # tuned on): a 40 Hz dark sky with a 6 % mismatch and 80 µs of jitter, fine thresholds
+    # with OFF below ON behind 150 µs, a dark sky whose background triples and is mostly OFF
+    # events, coarse 0.32 thresholds that leak, with 60 µs of jitter, a dark sky with OFF
+    # above ON and a 60 ms readout stall
+    "dark-40-jitter": dict(pixel="lowpass", f_min_hz=40.0, f_max_hz=1200.0, i_half=15.0,
+                           c_on=0.2, c_off=0.2, mismatch=0.06, jitter_us=80.0),
+    "fine-off-low": dict(pixel="ideal", c_on=0.14, c_off=0.1, refractory_us=150.0),
+    "dark-stray-off": dict(pixel="lowpass", f_min_hz=20.0, f_max_hz=2500.0, i_half=40.0,
+                           c_on=0.25, c_off=0.25, noise_growth=3.0, noise_on_fraction=0.4),
+    "coarse-leak": dict(pixel="ideal", c_on=0.32, c_off=0.32, leak_hz=1.5, jitter_us=60.0),
+    "dark-gap-asym": dict(pixel="lowpass", f_min_hz=30.0, f_max_hz=1500.0, i_half=25.0,
+                          c_on=0.22, c_off=0.3, gaps_s=((0.30, 0.36),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -465,9 +479,29 @@ FRESH12 = [
      0.8),
 ]
 FRESH12_SEED = 17000
+#: held out (--fresh13, written in the fifty-third session and run once before any change of
+#: it): five new sensors (above), a 7 °/s pan of three stars on the HD sensor, a sinusoid
+#: under a Moffat PSF among hot pixels, a 2 °/s crawl on a brightening dark sky, a pan
+#: through the telephoto under an elliptical PSF, an acceleration from rest across a stall,
+#: a fast pan on the wide lens under a defocused PSF, a roll of four stars, a vibration on
+#: the DAVIS346, coning on the HD sensor, a 25 °/s pan across a stall; seeds 18000 + i
+FRESH13 = [
+    ("hd", ("lin", 7, 300), [3.5, 4.5, 5.5], ("gauss", 1.2), "dark-40-jitter", 1.0, 0, 1.0),
+    ("vga", ("sine", 5, 1.2, 20), [3.5, 5], ("moffat", 1.6, 2.8), "fine-off-low", 1.0, 10, 1.0),
+    ("davis", ("lin", 2, 135), [4, 5], ("gauss", 1.4), "dark-stray-off", 0.5, 0, 1.5),
+    ("tele", ("lin", 4, 60), [3, 4], ("ellip", 1.3, 0.9, 45), "coarse-leak", 1.0, 0, 1.0),
+    ("hd", ("acc", 25, 10), [3, 4], ("gauss", 1.1), "dark-gap-asym", 1.0, 0, 1.0),
+    ("wide", ("lin", 15, 200), [3.5, 4.5], ("defocus", 1.8, 0.6), "ideal", 2.0, 20, 0.8),
+    ("vga", ("roll", 6, 1.5, 30), [3.5, 4, 4.5, 5], ("gauss", 1.0), "dark-40-jitter", 1.0, 0, 1.0),
+    ("davis", ("vibe", 4, 300, 0.04, 12, 30), [3.5, 4.5], ("gauss", 1.2), "fine-off-low", 1.0,
+     0, 1.0),
+    ("hd", ("circle", 5, 0.8), [3, 4.5], ("gauss", 1.3), "dark-stray-off", 1.0, 0, 1.0),
+    ("vga", ("lin", 25, 240), [3, 4], ("gauss", 1.0), "dark-gap-asym", 1.0, 0, 0.6),
+]
+FRESH13_SEED = 18000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -690,6 +724,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh13", action="store_true", help="the thirteenth held-out grid "
+                    "FRESH13 instead (scenes T1..T10)")
     ap.add_argument("--fresh12", action="store_true", help="the twelfth held-out grid "
                     "FRESH12 instead (scenes S1..S10)")
     ap.add_argument("--fresh11", action="store_true", help="the eleventh held-out grid "
