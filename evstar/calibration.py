@@ -287,7 +287,9 @@ def calibrate(events, imu, camera, config=None, progress=None):
         progress(f"{result.metrics['tracks']} track(s), {result.metrics['centroids']:,} rows")
     crossings, ratio = chunk_crossings(events, result.keep, config.estimate.crossing_radius_px,
                                        config.estimate.threshold_ratio, with_ratio=True,
-                                       refractory_us=config.estimate.refractory_us)
+                                       refractory_us=config.estimate.refractory_us,
+                                       background_hz=Pipeline(config).calibration_rate(
+                                           events, int(events.t[0])))
     lag = fit_pixel_lag(crossings, tracks_with_velocity(result.centroids),
                         velocity_prior(config, imu, camera, events.t))
     # runs that read the file pair levels with this ratio unless told one: a faint star's

@@ -99,7 +99,8 @@ def by_pixel_then_time(t, key, p, engine="taichi"):
 
 
 def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", threshold_ratio=AUTO,
-                     with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0):
+                     with_ratio=False, refractory_us=0.0, profiles=None, fallback_ratio=1.0,
+                     background_hz=None):
     """pixel_crossings of events in the pixel-then-time order: their times ts (int64),
     pixel_keys and polarities. engine "taichi": the level pairs by Taichi kernels
     (evstar_kernels.taichi.crossings); "numpy": their specification (the same integers; times within 1e-6 µs).
@@ -108,7 +109,9 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
     levels each event skipped (_refractory_pairs). with_ratio: return (crossings, the
     ratio: the one given, or the measured one — None where too few changes measure it and
     fallback_ratio was used). profiles: an evstar.level_lag.LevelProfiles that takes the level midpoints
-    of the crossings it still wants (pairs as without a refractory period)."""
+    of the crossings it still wants (pairs as without a refractory period). background_hz:
+    the (ON, OFF) background rates (background_rates), whose events in the runs a measured
+    ratio discounts; None: not."""
     kern, (change, on_before, off_after) = _change_runs(ts, keys, ps, engine)
     pixel = keys[change]
     on_before, off_after = (kern.without_strays(change, on_before, off_after, STRAY_GAP_FACTOR)
@@ -118,7 +121,8 @@ def sorted_crossings(ts, keys, ps, width, max_pairs=16, engine="taichi", thresho
         r = float(threshold_ratio)
     else:
         levels = run_levels(ts, change, on_before, off_after, refractory_us) if refractory_us > 0 else None
-        measured = _measured_ratio(on_before, off_after, levels, first_of_pixel(pixel))
+        measured = _measured_ratio(on_before, off_after, levels, first_of_pixel(pixel),
+                                   None if background_hz is None else (ts, keys, change, background_hz))
         r = fallback_ratio if measured is None else measured
     # pairs as without a refractory period: the profiles' and the outer width's
     plain = _pair_counts(on_before, off_after, r, max_pairs)
@@ -193,13 +197,20 @@ def without_strays(ts, change, on_before, off_after):
         return nb, na
     gaps = np.append(np.diff(ts), 0)              # gaps[i]: event i to i + 1 (in the order)
     first, last = change - nb, change + na
-    lo = np.where(nb >= 1, first + 1, first)
-    hi = np.where(na >= 2, last - 1, last)       # the inside gaps: lo .. hi - 1
-    inside = np.maximum.reduceat(gaps, np.ravel(np.column_stack([lo, hi])))[::2]
-    limit = STRAY_GAP_FACTOR * inside
+    limit = STRAY_GAP_FACTOR * _inside_gaps(gaps, change, nb, na)
     has_on = nb >= 1
     off = has_on & (na >= 2) & (gaps[last - 1] > limit)
     return nb - (has_on & (gaps[first] > limit)), na - off
+
+
+def _inside_gaps(gaps, change, on_before, off_after):
+    """Per change, the largest of `gaps` (event i to i + 1 in the pixel-then-time order)
+    between its passage's events from its ON run's second to its OFF run's second last (the
+    change's own gap always among them)."""
+    first, last = change - on_before, change + off_after
+    lo = np.where(on_before >= 1, first + 1, first)
+    hi = np.where(off_after >= 2, last - 1, last)       # the inside gaps: lo .. hi - 1
+    return np.maximum.reduceat(gaps, np.ravel(np.column_stack([lo, hi])))[::2]
 
 
 def _change_runs(ts, keys, ps, engine):
@@ -241,14 +252,77 @@ def first_of_pixel(pixels):
     return np.r_[True, k[1:] != k[:-1]] if len(k) else np.zeros(0, bool)
 
 
-def _measured_ratio(on_before, off_after, levels=None, first=None):
-    """threshold_ratio_of, or None when too few changes tell."""
+def _measured_ratio(on_before, off_after, levels=None, first=None, runs=None):
+    """threshold_ratio_of, or None when too few changes tell. runs: (ts, keys, change, (ON,
+    OFF) background rates, events / pixel / s) of the changes' events in the pixel-then-time
+    order: the background events their runs hold are taken off their counts
+    (_background_in_runs); None: not."""
     m = _ratio_changes(np.asarray(on_before), np.asarray(off_after))
     a, b = (np.asarray(on_before) + 1, np.asarray(off_after)) if levels is None else levels
     if m.sum() < _MIN_RATIO_CHANGES:
         return None
-    fresh = m.sum() if first is None else np.asarray(first)[m].sum()
-    return float(np.clip((np.sum(a[m]) - 0.5 * fresh) / np.sum(b[m]), 0.25, 4.0))
+    ons = a[m] - 0.5 * (np.ones(m.sum()) if first is None else np.asarray(first)[m])
+    r = np.sum(ons) / np.sum(b[m])
+    if runs is not None:
+        on, off, breaks = _background_in_runs(*runs[:2], np.asarray(runs[2])[m],
+                                              np.asarray(on_before)[m],
+                                              np.asarray(off_after)[m], runs[3])
+        told = (np.sum(ons) - on) / (np.sum(b[m]) - off)
+        # only a shift the changes can tell from their own scatter (below it the discount
+        # moved a low-pass sensor's profiles across their fit's gate: study_indep's scene 7,
+        # 1.473 -> 1.483 for a true 1.5, lost its 3-6 ms lag, 0.139 -> 0.238 px), and only
+        # while the background leaves the runs whole (MAX_BREAKS_PER_RUN: a 20 Hz one, 1.5
+        # events of the other polarity a run, took 0.978 to 1.040 for a true 1)
+        if breaks <= MAX_BREAKS_PER_RUN * m.sum() and \
+                abs(told - r) > np.sqrt(np.sum((ons - r * b[m]) ** 2)) / np.sum(b[m]):
+            r = told
+    return float(np.clip(r, 0.25, 4.0))
+
+
+def _background_in_runs(ts, keys, change, on_before, off_after, rates_hz):
+    """(ON, OFF, other) events of the background the changes' runs hold, expected: a pixel's noise
+    or leak event inside a passage's run, or before (after) it within the stray test's
+    reach (without_strays) and after the pixel's event before the run (before its event
+    after it), counts as one of the star's levels — each polarity's rate (rates_hz) times
+    those stretches. ON-only leak events (1.5 Hz; perf/study_indep.py's T4, a slow pan
+    through a telephoto) took the measured ratio to 1.15 for a true 1, and the stars 0.14
+    px ahead. other: those of the opposite polarity inside the runs (OFF in the ON run, ON
+    in the OFF run), which split a run rather than join it."""
+    gaps = np.append(np.diff(ts), 0)
+    reach = STRAY_GAP_FACTOR * _inside_gaps(gaps, change, on_before, off_after)
+    first, last = change - on_before, change + off_after
+    # the stretch to the pixel's neighbouring event (none: the events' first or last time)
+    before = np.where((first > 0) & (keys[np.maximum(first - 1, 0)] == keys[first]),
+                      gaps[np.maximum(first - 1, 0)], ts[first] - ts.min())
+    after = np.where((last + 1 < len(ts)) & (keys[np.minimum(last + 1, len(ts) - 1)] == keys[last]),
+                     gaps[last], ts.max() - ts[last])
+    rise, fall = ts[change] - ts[first], ts[last] - ts[change]
+    stretches = (np.minimum(reach, before) + rise, np.minimum(reach, after) + fall)
+    on, off = (1e-6 * float(rate) * float(np.sum(span, dtype=np.float64))
+               for rate, span in zip(rates_hz, stretches))
+    other = 1e-6 * (float(rates_hz[1]) * float(np.sum(rise, dtype=np.float64))
+                    + float(rates_hz[0]) * float(np.sum(fall, dtype=np.float64)))
+    return on, off, other
+
+
+#: background events of the other polarity a passage's runs may hold, expected, for a
+#: measured ratio to discount the background (_measured_ratio): each splits its run
+#: instead of joining it
+MAX_BREAKS_PER_RUN = 1.0
+#: events of a span sampled (every k-th) for its background's ON share: ~0.3 % precision
+SHARE_SAMPLE = 200_000
+
+
+def background_rates(events, near, rate_hz):
+    """(ON, OFF) background rates (events / pixel / s): the background's `rate_hz` split by
+    the ON share of the `events` (evstar.Events; a strided sample of SHARE_SAMPLE) on
+    pixels away from the stars (`near`: a (height, width) bool image of those near them),
+    an even split where none is away."""
+    step = max(1, len(events) // SHARE_SAMPLE)
+    x, y, p = events.x[::step], events.y[::step], events.p[::step]
+    away = ~near[y, x]
+    share = float(np.mean(p[away] > 0)) if away.any() else 0.5
+    return rate_hz * share, rate_hz * (1.0 - share)
 
 
 def _ratio_changes(on_before, off_after):

@@ -54,56 +54,66 @@ _LAG_FILES = {}
 
 
 def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=False,
-                    refractory_us=0.0, profiles=None, fallback_ratio=1.0, order=None):
+                    refractory_us=0.0, profiles=None, fallback_ratio=1.0, order=None,
+                    background_hz=None):
     """Pixel crossings of all events within `radius_px` of a kept event: a density filter
     drops a faint star's flank events, which the level pairs need. keep: bool per event, or
     the kept events' ascending indices (frames.kept_indices). threshold_ratio: the
     sensor's C_off / C_on or "auto" (evstar.crossings.threshold_ratio_of); refractory_us:
     the pixels' refractory period (evstar.crossings.sorted_crossings). with_ratio: return
     (crossings, the ratio used). profiles: an evstar.level_lag.LevelProfiles to feed;
-    order: an evstar.pixel_order.PixelOrder to feed."""
-    near = _near_kept(events, keep, radius_px, order)
+    order: an evstar.pixel_order.PixelOrder to feed. background_hz: the background's rate
+    (events / pixel / s), whose events in the runs a measured ratio discounts, split by
+    polarity as the events away from the stars are (evstar.crossings.background_rates);
+    None: not."""
+    near, rates = _near_kept(events, keep, radius_px, order, background_hz)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
     return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
                             with_ratio=with_ratio, refractory_us=refractory_us,
-                            profiles=profiles, fallback_ratio=fallback_ratio)
+                            profiles=profiles, fallback_ratio=fallback_ratio,
+                            background_hz=rates)
 
 
 def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, AUTO),
-                         profiles=None, fallback_ratio=1.0, order=None):
+                         profiles=None, fallback_ratio=1.0, order=None, background_hz=None):
     """chunk_crossings both ways from one gathering of the events: ((crossings paired with
     the pixels' refractory period, their threshold ratio), (the crossings paired as without
     one, theirs)) — each ratio the one given in `ratios` (refractory, plain) or measured with
     that pairing's levels (None where too few changes measure it, fallback_ratio used);
     `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
-    ones: they are what a run told no period finds (_RunState.crossings). order: as
-    chunk_crossings takes it."""
-    near = _near_kept(events, keep, radius_px, order)
+    ones: they are what a run told no period finds (_RunState.crossings). order and
+    background_hz: as chunk_crossings takes them."""
+    near, rates = _near_kept(events, keep, radius_px, order, background_hz)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
-                            refractory_us=refractory_us, fallback_ratio=fallback_ratio)
+                            refractory_us=refractory_us, fallback_ratio=fallback_ratio,
+                            background_hz=rates)
     plain = sorted_crossings(*near, events.width, threshold_ratio=ratios[1], with_ratio=True,
-                             profiles=profiles, fallback_ratio=fallback_ratio)
+                             profiles=profiles, fallback_ratio=fallback_ratio,
+                             background_hz=rates)
     return told, plain
 
 
-def _near_kept(events, keep, radius_px, order=None):
-    """(t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep: as
-    chunk_crossings takes it), in the pixel-then-time order, fed to `order` (a
-    PixelOrder, or None); None where none is kept."""
+def _near_kept(events, keep, radius_px, order=None, background_hz=None):
+    """((t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep:
+    as chunk_crossings takes it), in the pixel-then-time order, fed to `order` (a
+    PixelOrder, or None), and the (ON, OFF) rates of a background of `background_hz`
+    (None: None)); (None, None) where none is kept."""
+    from .crossings import background_rates
     from .frames import events_by_pixel, kept_indices, kept_pixels
 
     keep = kept_indices(keep)
     if not len(keep):
-        return None
-    near = events_by_pixel(events, dilate(kept_pixels(events, keep), radius_px))
+        return None, None
+    mask = dilate(kept_pixels(events, keep), radius_px)
+    near = events_by_pixel(events, mask)
     if order is not None:
         order.add(*near)
-    return near
+    return near, (None if background_hz is None else background_rates(events, mask, background_hz))
 
 
 def velocity_prior(config, imu, camera, t_events, filter_result=None):

@@ -598,11 +598,16 @@ class _RunState:
 
         e = self.config.estimate
         order = self.order if self.order.wanted else None
-        if e.refractory_us > 0 and self.profiles is not None:   # a low-pass may show
+        both = e.refractory_us > 0 and self.profiles is not None     # a low-pass may show
+        # the background of the span that measures the ratio (the calibration window's
+        # rate): a measured ratio discounts its events in the runs
+        measuring = self.threshold_ratio is None or (both and self._plain_ratio is None)
+        rates = self.background.hz if measuring and self.background is not None else None
+        if both:
             (crossings, r), (plain, r_plain) = chunk_crossings_both(
                 events, mine, e.crossing_radius_px, e.refractory_us,
                 (self._ratio(self.threshold_ratio), self._ratio(self._plain_ratio)),
-                self.profiles, self.fallback_ratio, order)
+                self.profiles, self.fallback_ratio, order, rates)
             if self._plain_ratio is None:
                 self._plain_ratio = self.fallback_ratio if r_plain is None else r_plain
             self._plain.append(plain)
@@ -610,7 +615,7 @@ class _RunState:
             crossings, r = chunk_crossings(
                 events, mine, e.crossing_radius_px, self._ratio(self.threshold_ratio),
                 with_ratio=True, refractory_us=e.refractory_us, profiles=self.profiles,
-                fallback_ratio=self.fallback_ratio, order=order)
+                fallback_ratio=self.fallback_ratio, order=order, background_hz=rates)
         if self.threshold_ratio is None:   # the first span's: the calibration window
             self.threshold_ratio = self.fallback_ratio if r is None else r
         self._crossings.append(crossings)

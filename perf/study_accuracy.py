@@ -873,8 +873,10 @@ def run_scene(s, settings=None):
     n_frames = int((ev.t[-1] - t0) // cfg.dt_us) + 1
     frames_t = t0 + (np.arange(n_frames) + 0.5) * cfg.dt_us
     profiles = LevelProfiles()   # the pixels' lag from the data (estimate.measure_lag)
+    rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
     crossings = estimation.chunk_crossings(ev, res.keep, cfg.estimate.crossing_radius_px,
-                                           cfg.estimate.threshold_ratio, profiles=profiles)
+                                           cfg.estimate.threshold_ratio, profiles=profiles,
+                                           background_hz=rate)
     # as a run measures it (_RunState.measured_lag): the midpoints moved for the tracks' speed changes
     lag = profiles.lag(speed_changes(linked))
     refractory_us = SENSORS[s["sensor"]]().refractory_us      # the sensor's setting, known
@@ -882,15 +884,14 @@ def run_scene(s, settings=None):
     # none (the pipeline's _RunState.crossings)
     crossings_r = crossings if lag is not None else estimation.chunk_crossings(
         ev, res.keep, cfg.estimate.crossing_radius_px, cfg.estimate.threshold_ratio,
-        refractory_us=refractory_us)
+        refractory_us=refractory_us, background_hz=rate)
     signal = (run.truth.labels >= 0).sum() / n_frames
     out = {**{k: v for k, v in s.items()}, "events_per_frame": float(signal),
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior, _ = on_camera_clock(cfg, estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]]),
                                run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag,
                                depth_delay_us=profiles.depth_delay_us())
-    rate, hot = Pipeline(cfg).calibration(ev, t0)      # the background, as a run measures it
-    # ... where it was highest, where a block's moved (evstar.background)
+    # the background where it was highest, where a block's moved (evstar.background)
     rate = res.metrics.get("background_hz", {}).get("highest", rate)
     near = across.near_centroids(ev, linked, hot)   # (one span: the whole run)
     # a calibration recording's lag file where the sensor lags (a dark sky) or has a long

@@ -44,7 +44,7 @@ SCENES = [
 def measure(scenario, seed=2):
     run = sim.simulate(scenario, seed=seed)
     res = Pipeline(Config()).run(run.events, run.imu, run.camera)
-    ts, keys, ps = _near_kept(run.events, res.keep, Config().estimate.crossing_radius_px)
+    (ts, keys, ps), _ = _near_kept(run.events, res.keep, Config().estimate.crossing_radius_px)
     _, (change, on_before, off_after) = _change_runs(ts, keys, ps, "numpy")
     first = first_of_pixel(keys[change])
     return (float(first.mean()), threshold_ratio_of(on_before, off_after),

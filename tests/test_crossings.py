@@ -247,7 +247,7 @@ def test_a_slow_faint_stars_few_runs_still_measure_the_ratio():
     sensor = sim.sensor_model("default", threshold_on=0.25, threshold_off=0.15)
     run = sim.simulate(sim.paper_preset(2.0, magnitude=4.5, psf_sigma_px=1.3, sensor=sensor),
                        seed=21)
-    ts, keys, ps = _near_kept(run.events, denoise.MRNDSEF().apply(run.events), 3)
+    (ts, keys, ps), _ = _near_kept(run.events, denoise.MRNDSEF().apply(run.events), 3)
     _, (_, before, after) = _change_runs(ts, keys, ps, "numpy")
     from evstar.crossings import _ratio_changes
 
@@ -718,6 +718,76 @@ def test_ON_strays_no_longer_raise_the_measured_threshold_ratio():
     assert (nb2 < nb).sum() > 20                           # leak events left the ON runs
     assert _measured_ratio(nb, na, first=first) > 1.03
     assert _measured_ratio(nb2, na2, first=first) == pytest.approx(1.0, abs=0.03)
+
+
+def test_the_background_in_a_passages_runs_is_its_rate_times_the_stretches_open_to_it():
+    """One pixel: an OFF at 0, then a passage ON 100 110 120 | OFF 130 150 160, then an ON
+    at 400 (µs). The largest inside gap is 20 (130 -> 150), so the stray test reaches 100
+    each way; before the passage only 100 of the 100 µs since the OFF are open, after it
+    the ON at 400 leaves the whole reach: ON (100 + 20) µs, OFF (100 + 40) µs."""
+    from evstar.crossings import _background_in_runs
+
+    ts = np.array([0, 100, 110, 120, 130, 150, 160, 400], np.int64)
+    keys = np.full(len(ts), 7)
+    on, off, other = _background_in_runs(ts, keys, np.array([3]), np.array([2]), np.array([3]),
+                                         (1e4, 2e4))
+    assert on == pytest.approx(1e-6 * 1e4 * 120) and off == pytest.approx(1e-6 * 2e4 * 140)
+    assert other == pytest.approx(1e-6 * (2e4 * 20 + 1e4 * 40))   # OFF in the rise, ON in the fall
+    # the OFF before it 30 µs earlier: only those 30 are open
+    ts2 = ts.copy()
+    ts2[0] = 70
+    on2, _, _ = _background_in_runs(ts2, keys, np.array([3]), np.array([2]), np.array([3]),
+                                    (1e4, 2e4))
+    assert on2 == pytest.approx(1e-6 * 1e4 * (30 + 20))
+
+
+def test_background_rates_split_the_rate_as_the_events_away_from_the_stars():
+    from evstar import Events
+    from evstar.crossings import background_rates
+
+    rng = np.random.default_rng(5)
+    w, h, span = 100, 80, 2_000_000
+    n_on, n_off = rng.poisson(2.0 * w * h * 2), rng.poisson(0.5 * w * h * 2)   # 2 and 0.5 Hz
+    # a star's path, mostly OFF events (a sensor whose OFF threshold is below ON)
+    t = np.r_[rng.integers(0, span, n_on + n_off), rng.integers(0, span, 20_000)]
+    x = np.r_[rng.integers(0, w, n_on + n_off), rng.integers(40, 43, 20_000)]
+    y = np.r_[rng.integers(0, h, n_on + n_off), rng.integers(10, 60, 20_000)]
+    p = np.r_[np.ones(n_on), np.zeros(n_off), rng.random(20_000) < 0.2].astype(np.int8)
+    o = np.argsort(t, kind="stable")
+    ev = Events(t[o], x[o].astype(np.uint16), y[o].astype(np.uint16), p[o], w, h)
+    near = np.zeros((h, w), bool)
+    near[8:62, 38:45] = True
+    on, off = background_rates(ev, near, 2.5)
+    assert on == pytest.approx(2.0, rel=0.03) and off == pytest.approx(0.5, rel=0.1)
+    assert background_rates(ev, np.ones((h, w), bool), 2.5) == (1.25, 1.25)  # none away
+
+
+@pytest.mark.parametrize("leak_hz, noise_hz", [(3.0, 0.0), (0.0, 3.0)])
+def test_a_measured_ratio_discounts_the_background_in_the_runs(leak_hz, noise_hz):
+    """ON-only leak events inside and just before a slow star's ON runs count as levels:
+    the measured OFF/ON ratio of equal thresholds came out 1.23. With the background's rate
+    per polarity taken off, near 1; a background of both polarities is left as it was."""
+    from evstar import Config, Pipeline, estimation
+    from evstar.crossings import (_change_runs, _measured_ratio, first_of_pixel,
+                                  without_strays)
+
+    sensor = sim.sensor_model("default", leak_hz=leak_hz, noise_hz=noise_hz)
+    run = sim.simulate(sim.paper_preset(4.0, magnitude=4.5, duration_s=1.0, sensor=sensor),
+                       seed=53)
+    pipe = Pipeline(Config())
+    res = pipe.run(run.events, run.imu, run.camera)
+    rate = pipe.calibration_rate(run.events, int(run.events.t[0]))
+    (ts, keys, ps), rates = estimation._near_kept(run.events, res.keep, 3.0, background_hz=rate)
+    assert rates[0] == pytest.approx(leak_hz + noise_hz / 2, rel=0.15)
+    _, (change, nb, na) = _change_runs(ts, keys, ps, "numpy")
+    nb, na = without_strays(ts, change, nb, na)
+    first = first_of_pixel(keys[change])
+    plain = _measured_ratio(nb, na, first=first)
+    told = _measured_ratio(nb, na, first=first, runs=(ts, keys, change, rates))
+    if leak_hz:
+        assert plain > 1.15 and abs(told - 1.0) < 0.06
+    else:
+        assert abs(told - plain) < 0.02
 
 
 @pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
