@@ -215,7 +215,23 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-12-fine": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=12.0,
                                                         threshold_on=0.15, threshold_off=0.15),
            "refractory-300-mismatch": lambda: sim.sensor_model("default", refractory_us=300.0,
-                                                               threshold_mismatch=0.05)}
+                                                               threshold_mismatch=0.05),
+           # the fifty-fourth session's: a 25 Hz dark sky whose ceiling is 600 Hz, OFF below ON
+           # with 40 % of events dropped, a dark sky with shot noise and a 6 % mismatch, a
+           # background rising threefold and mostly OFF, a 50 Hz dark sky leaking 1 Hz of ON
+           # events, 0.35 thresholds with 80 µs of jitter
+           "dark-sky-25-low-ceiling": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=25.0,
+                                                               cutoff_hz_max=600.0),
+           "off-low-dropout": lambda: sim.sensor_model("default", threshold_on=0.24,
+                                                       threshold_off=0.16, dropout=0.4),
+           "dark-sky-shot": lambda: sim.sensor_model("dark-sky", shot_noise_hz=1.5,
+                                                     threshold_mismatch=0.06),
+           "rising-off": lambda: sim.sensor_model("default", noise_hz=1.5, noise_growth=3.0,
+                                                  noise_on_fraction=0.3),
+           "dark-sky-50-leak": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=50.0,
+                                                        leak_hz=1.0),
+           "coarse-jitter": lambda: sim.sensor_model("default", threshold_on=0.35,
+                                                     threshold_off=0.35, jitter_us=80.0)}
 
 
 def dev_grid():
@@ -716,6 +732,33 @@ def fresh53_grid():
                    seed=53, **extra)
 
 
+def fresh54_grid():
+    """Inputs no session had tried, run once when the fifty-fourth session began (seed 54):
+    six new sensors (above), a fast slew on the DAVIS346, a 0.5 Hz sinusoid of 15° with the
+    IMU, a speed ramp up on a dark sky, an 8 Hz vibration with the particle filter, a 1.5 °/s
+    star for 1.5 s, a magnitude-2.5 star at 25 °/s, 5 ms frames at 6 °/s, a roll-axis star
+    off the centre, a tilted axis at 14 °/s on the EVK4."""
+    for motion, mag, psf, sensor, comp, extra in (
+            (11, 4.0, 1.2, "dark-sky-25-low-ceiling", "none", {}),
+            ("sine", 4.0, 1.0, "dark-sky-25-low-ceiling", "imu", {"amplitude": 6.0, "freq": 2.0}),
+            (6, 4.5, 1.3, "off-low-dropout", "none", {"direction": 70}),
+            (8, 4.0, 1.1, "dark-sky-shot", "none", {}),
+            (3, 4.0, 1.4, "rising-off", "none", {"duration": 1.0}),
+            (14, 4.0, 1.0, "dark-sky-50-leak", "imu", {}),
+            (17, 3.5, 1.2, "coarse-jitter", "none", {"direction": 300}),
+            ("slew", 3.5, 1.0, "default", "none", {"peak": 25.0, "camera": "davis346"}),
+            ("sine", 3.5, 1.3, "default", "imu", {"amplitude": 15.0, "freq": 0.5}),
+            ("ramp", 4.0, 1.1, "dark-sky", "none", {"rate": 2.0, "rate_end": 14.0}),
+            ("vibe", 4.0, 1.1, "default", "pf", {"rate": 7.0, "vib": 0.05, "vib_hz": 8.0}),
+            (1.5, 4.5, 1.2, "default", "none", {"duration": 1.5}),
+            (25, 2.5, 1.0, "default", "none", {}),
+            (6, 4.0, 1.1, "default", "none", {"settings": {"dt_us": 5000}}),
+            (10, 4.0, 1.0, "default", "none", {"tilt": 90, "at": (60, 20)}),
+            (14, 4.0, 1.2, "default", "none", {"tilt": 30, "camera": "evk4"})):
+        yield dict(set="fresh-54", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
+                   seed=54, **extra)
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -780,6 +823,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
+         "fresh-54": fresh54_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

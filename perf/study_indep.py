@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh13 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh14 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -39,8 +39,8 @@ after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --
 (M1–M10, the forty-fourth's), --fresh7 (N1–N10, the forty-fifth's), --fresh8 (O1–O10,
 the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
---fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's) and --fresh13
-(T1–T10, the fifty-third's) likewise.
+--fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
+(T1–T10, the fifty-third's) and --fresh14 (U1–U10, the fifty-fourth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -208,6 +208,21 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     "coarse-leak": dict(pixel="ideal", c_on=0.32, c_off=0.32, leak_hz=1.5, jitter_us=60.0),
     "dark-gap-asym": dict(pixel="lowpass", f_min_hz=30.0, f_max_hz=1500.0, i_half=25.0,
                           c_on=0.22, c_off=0.3, gaps_s=((0.30, 0.36),)),
+    # the fourteenth fresh grid's (--fresh14; written in the fifty-fourth session, never
+    # tuned on): a 60 Hz dark sky with a low ceiling and a 12 % mismatch, coarse ON above a
+    # finer OFF threshold behind 250 µs with 40 µs of jitter, a slow dark sky that leaks with
+    # 60 µs of jitter, fine thresholds on a background that doubles and is mostly ON, a dark
+    # sky with OFF above ON behind 400 µs
+    "dark-60-mismatch": dict(pixel="lowpass", f_min_hz=60.0, f_max_hz=900.0, i_half=10.0,
+                             c_on=0.18, c_off=0.22, mismatch=0.12),
+    "coarse-off-low-ref": dict(pixel="ideal", c_on=0.34, c_off=0.22, refractory_us=250.0,
+                               jitter_us=40.0),
+    "dark-leak-jitter": dict(pixel="lowpass", f_min_hz=18.0, f_max_hz=2500.0, i_half=35.0,
+                             c_on=0.24, c_off=0.24, leak_hz=0.8, jitter_us=60.0),
+    "fine-busy-on": dict(pixel="ideal", c_on=0.1, c_off=0.11, noise_on_fraction=0.8,
+                         noise_growth=2.0),
+    "dark-ref-off-high": dict(pixel="lowpass", f_min_hz=28.0, f_max_hz=1800.0, i_half=22.0,
+                              c_on=0.2, c_off=0.32, refractory_us=400.0),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -499,9 +514,32 @@ FRESH13 = [
     ("vga", ("lin", 25, 240), [3, 4], ("gauss", 1.0), "dark-gap-asym", 1.0, 0, 0.6),
 ]
 FRESH13_SEED = 18000
+#: held out (--fresh14, written in the fifty-fourth session and run once before any change of
+#: it): five new sensors (above), a 9 °/s pan of three stars, a sinusoid on the HD sensor
+#: among hot pixels, a 3 °/s crawl under a Moffat PSF, a 2 °/s pan through the telephoto, an
+#: acceleration from rest on the wide lens, a roll of three stars, a vibration across a VGA
+#: pan, coning under an elliptical PSF, an 18 °/s pan of three defocused stars among hot
+#: pixels, a slow sinusoid of 12°; seeds 19000 + i
+FRESH14 = [
+    ("vga", ("lin", 9, 250), [3.5, 4.5, 5], ("gauss", 1.1), "dark-60-mismatch", 1.0, 0, 1.0),
+    ("hd", ("sine", 7, 0.9, 40), [3, 4], ("gauss", 1.2), "coarse-off-low-ref", 1.0, 5, 1.0),
+    ("davis", ("lin", 3, 200), [3.5, 4.5], ("moffat", 2.2, 3.5), "dark-leak-jitter", 1.0, 0,
+     1.2),
+    ("tele", ("lin", 2, 310), [3.5, 4], ("gauss", 1.5), "fine-busy-on", 2.0, 0, 1.0),
+    ("wide", ("acc", 35, 60), [3, 4], ("gauss", 1.0), "dark-ref-off-high", 1.0, 0, 1.0),
+    ("hd", ("roll", 8, 2, 150), [3.5, 4, 4.5], ("gauss", 1.1), "dark-60-mismatch", 1.0, 0, 1.0),
+    ("vga", ("vibe", 5, 70, 0.03, 18, 160), [3.5, 4.5], ("gauss", 1.2), "coarse-off-low-ref",
+     1.0, 0, 1.0),
+    ("davis", ("circle", 4, 1.0), [3, 4], ("ellip", 1.4, 1.0, 70), "dark-leak-jitter", 1.0, 0,
+     1.0),
+    ("hd", ("lin", 18, 120), [3, 4, 5], ("defocus", 1.6, 0.5), "fine-busy-on", 1.5, 10, 0.6),
+    ("vga", ("sine", 12, 0.6, 300), [3.5, 4.5], ("gauss", 1.0), "dark-ref-off-high", 1.0, 0,
+     1.5),
+]
+FRESH14_SEED = 19000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
@@ -724,6 +762,8 @@ def main(argv=None):
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
+    ap.add_argument("--fresh14", action="store_true", help="the fourteenth held-out grid "
+                    "FRESH14 instead (scenes U1..U10)")
     ap.add_argument("--fresh13", action="store_true", help="the thirteenth held-out grid "
                     "FRESH13 instead (scenes T1..T10)")
     ap.add_argument("--fresh12", action="store_true", help="the twelfth held-out grid "
