@@ -136,7 +136,8 @@ def velocity_prior(config, imu, camera, t_events, filter_result=None):
 
 
 def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span_us=None,
-             sensor=None, measured_lag=None, rate_hz=None, near=None, report=None, stalls=None):
+             sensor=None, measured_lag=None, rate_hz=None, near=None, report=None, stalls=None,
+             depth_delay_us=0.0):
     """CENTROID_DTYPE rows for linked `centroids` (see the module docstring). Coasted rows
     outside the recording's time span `span_us` (first, last event µs) or the `sensor`
     (width, height) are dropped: there is no star to report there. measured_lag: the
@@ -147,9 +148,12 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     track's or a field's vibration is found and followed (evstar.vibration;
     estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary).
     stalls: (n, 2) µs spans the readout sent nothing in (frames.stalls): a track is
-    smoothed in pieces across them (evstar.pieces)."""
+    smoothed in pieces across them (evstar.pieces). depth_delay_us: how much later the
+    crossings' deepest levels pass than their top (evstar.level_lag.LevelProfiles
+    .depth_delay_us): where no lag moves the crossings and no gyro pins them, the rows' σ
+    holds it as the unknown lag's scale (UNMEASURED_LAG_SHARE)."""
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
-            near, stalls)
+            near, stalls, depth_delay_us)
     rows, est, kept = _estimate(centroids, *args)
     # with a velocity prior the gyro already carries the platform's motion
     if est is None or velocity_prior is not None or not config.estimate.vibration:
@@ -169,7 +173,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
 
 def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
-              measured_lag, rate_hz, near, stalls=None):
+              measured_lag, rate_hz, near, stalls=None, depth_delay_us=0.0):
     """estimate's rows, and the smoothed rows (ESTIMATE_DTYPE) of its tracks and the
     centroids they index (None, None where no track is smoothed)."""
     # a pooled centroid no track took is noise that once pooled into a cluster
@@ -181,7 +185,7 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
                                      no_star_tracks(centroids, near, t0_us, config.dt_us))]
     e = config.estimate
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
-            near)
+            near, depth_delay_us)
     cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
     rows, est, kept = _estimate_pieces(cut, *args)
     gaps = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else {}
@@ -196,7 +200,7 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
 
 
 def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
-                     measured_lag, rate_hz, near):
+                     measured_lag, rate_hz, near, depth_delay_us=0.0):
     """_estimate of tracks cut into pieces across stalls (evstar.pieces)."""
     from .smoothing import TrackSmoother
 
@@ -236,6 +240,10 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         if lag is not None and velocity_prior is not None:
             refined = _own_lag(refined, smoother, ests, groups, crossings, e.along_weight, t0_us,
                                velocity_prior, assigned_to, lag, rate_hz)
+        elif lag is None and velocity_prior is None and depth_delay_us > 0:
+            # the levels show a low-pass whose lag the profiles could not tell: its scale
+            lag_sigma = dict.fromkeys(np.unique(np.concatenate(refined)["track"]).tolist(),
+                                      UNMEASURED_LAG_SHARE * depth_delay_us)
         ests = refined
     est = np.concatenate(ests)
     if span_us is not None:
@@ -420,6 +428,12 @@ LAG_SIGMA_FRACTION = 0.1
 #: 3–5.6). Without a gyro only: with one a track's lag is fitted against the gyro's turns
 #: (_own_lag), and the share took the grid's gyro sinusoids' error/σ from 0.35–0.6 to 0.1–0.3
 SHORT_PASSAGE_SHARE = 0.75
+#: where the level profiles show a low-pass (the deepest level passes later than the top:
+#: LevelProfiles.depth_delay_us) but fit no lag, the lag left in the rows is taken to be
+#: about that delay: on the accuracy grid's dark skies without an IMU whose profiles failed
+#: their gates, the rows' error was 0.4–3.4 times the star's speed times it (20 °/s, a
+#: shot-noisy sky at 8 °/s, a 60 Hz sky at 6 °/s)
+UNMEASURED_LAG_SHARE = 1.0
 
 
 def _track_lag_sigmas(crossings, assigned, lag, short=True):

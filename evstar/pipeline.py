@@ -371,7 +371,7 @@ class Pipeline:
                 positions.report["pixel_lag"] = used.summary()
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, highest(), state.near_events(),
-                                       positions.report, state.stalls())
+                                       positions.report, state.stalls(), state.depth_delay_us())
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field

@@ -950,7 +950,8 @@ def run_scene(s, settings=None):
                                "estimate.refractory_us": refractory_us if name == "refractory" else 0.0})
         rows = estimation.estimate(linked, c, t0, crossings_r if name == "refractory" else crossings,
                                    prior, (t0, int(ev.t[-1])), (ev.width, ev.height),
-                                   None if name == "no_lag" else lag, rate, near)
+                                   None if name == "no_lag" else lag, rate, near,
+                                   depth_delay_us=profiles.depth_delay_us())
         out[name] = scores(rows, run.truth, frames_t, run.camera, n_frames)
     return out
 

@@ -398,6 +398,39 @@ def test_a_lag_is_less_certain_where_the_passages_are_short_beside_it():
     assert told[7] == told[9] == pytest.approx(LAG_SIGMA_FRACTION * 2000.0)
 
 
+def test_a_low_pass_the_profiles_could_not_fit_widens_sigma_by_its_depth_delay():
+    """No lag measured, no gyro, but the deepest levels pass 2 ms after the top: each moving
+    row's σ holds UNMEASURED_LAG_SHARE × 2 ms × its speed along the motion (the positions
+    stay); with no depth delay, or with a gyro's velocity prior, the delay adds nothing."""
+    from evstar import Config, Pipeline, estimation, sim
+    from evstar.estimation import UNMEASURED_LAG_SHARE
+
+    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.3), seed=6)
+    cfg = Config().replace(**{"estimate.estimator": "mean"})
+    res = Pipeline(cfg).run(run.events)
+    linked = res.centroids[res.centroids["track"] >= 0]
+    crossings = estimation.chunk_crossings(run.events, res.keep, 3.0)
+    c = cfg.replace(**{"estimate.estimator": "crossings", "estimate.vibration": False})
+    t0 = int(run.events.t[0])
+    plain = estimation.estimate(linked, c, t0, crossings)
+    wide = estimation.estimate(linked, c, t0, crossings, depth_delay_us=2000.0)
+    np.testing.assert_array_equal(wide["x"], plain["x"])
+    speed = 8.0 * run.camera.fx * np.pi / 180          # px/s near the centre
+    along = UNMEASURED_LAG_SHARE * 2000e-6 * speed
+    mid = slice(5, -5)                                  # (speeds from neighbours at the ends)
+    np.testing.assert_allclose(wide["sigma"][mid], np.sqrt(plain["sigma"][mid] ** 2 + along ** 2 / 2),
+                               rtol=0.05)
+    none = estimation.estimate(linked, c, t0, crossings, depth_delay_us=0.0)
+    np.testing.assert_array_equal(none["sigma"], plain["sigma"])
+    from evstar.smoothing import imu_velocity_prior
+
+    gyro = imu_velocity_prior(run.imu, run.camera)
+    told = estimation.estimate(linked, c, t0, crossings, velocity_prior=gyro)
+    told_deep = estimation.estimate(linked, c, t0, crossings, velocity_prior=gyro,
+                                    depth_delay_us=2000.0)
+    np.testing.assert_array_equal(told_deep["sigma"], told["sigma"])
+
+
 def _track(x_of_t, track=0, n=100, dt_us=10_000, y=50.0):
     """Linked centroids of one track at frame mid-times, x = x_of_t(t s)."""
     from evstar.extract import CENTROID_DTYPE
