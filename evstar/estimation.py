@@ -232,8 +232,9 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         lag = run_lag(e, measured_lag)
         refined = _refined(smoother, ests, mine, groups, crossings, e.along_weight, t0_us, lag,
                            rate_hz)
-        if lag is not None:     # the lag's uncertainty as measured (or calibrated), per track
-            lag_sigma = _track_lag_sigmas(crossings, every[:2], lag, velocity_prior is None)
+        if lag is not None:     # the lag's scale as measured (or calibrated), per track
+            lag_sigma = {t: LAG_SIGMA_FRACTION * v for t, v in
+                         _track_lags(crossings, every[:2], lag).items()}
             if e.pixel_lag_file is None and e.lag_from_tracks:
                 refined = _lag_from_tracks(refined, smoother, ests, mine, groups, crossings,
                                            e.along_weight, t0_us, lag, every[:2], rate_hz)
@@ -419,15 +420,6 @@ def without_shadows(rows):
 #: the tracks' told table: with the latter, Cygnus EVK4 dark-sky pans went 0.52–1.29 ->
 #: 1.33–1.67
 LAG_SIGMA_FRACTION = 0.1
-#: ... and to about this share of its ratio to the passages' half-width (CROSSING_DTYPE
-#: t_half) where that is more: the level profiles read a pixel's delays as if the star
-#: passed slowly, and a passage not much longer than the lag is no slow one. On the accuracy
-#: grid's 52 dark-sky rows without an IMU whose lag was measured, the lag left was a median
-#: 0.12 of it (0.03–0.58) where the median lag was under 0.2 of the half-width, and 0.26
-#: (0.15–0.54) where it was 0.3–1 (perf/study_accuracy.py's fast dark skies: error/σ
-#: 3–5.6). Without a gyro only: with one a track's lag is fitted against the gyro's turns
-#: (_own_lag), and the share took the grid's gyro sinusoids' error/σ from 0.35–0.6 to 0.1–0.3
-SHORT_PASSAGE_SHARE = 0.75
 #: where the level profiles show a low-pass (the deepest level passes later than the top:
 #: LevelProfiles.depth_delay_us) but fit no lag, the lag left in the rows is taken to be
 #: about that delay: on the accuracy grid's dark skies without an IMU whose profiles failed
@@ -436,20 +428,14 @@ SHORT_PASSAGE_SHARE = 0.75
 UNMEASURED_LAG_SHARE = 1.0
 
 
-def _track_lag_sigmas(crossings, assigned, lag, short=True):
-    """{track id: the uncertainty (µs) of its crossings' lag}: LAG_SIGMA_FRACTION of their
-    median lag from the table `lag` (its slowest speed column: the lag's scale), or, where
-    `short`, SHORT_PASSAGE_SHARE of its median ratio to their half-widths if that is more."""
+def _track_lags(crossings, assigned, lag):
+    """{track id: its crossings' median lag (µs)} from the table `lag` (its slowest speed
+    column: the lag's scale, for the uncertainty)."""
     got, owner = assigned
     from .frames import groups
 
     each = lag.lag_at(crossings["pairs"][got], lag.speed_px_s[0])
-    ratio = each / np.maximum(crossings["t_half"][got], 1.0)   # the lag beside its passage
-
-    def share(o):
-        return max(LAG_SIGMA_FRACTION, SHORT_PASSAGE_SHARE * np.median(ratio[o]) if short else 0.0)
-
-    return {int(t): float(np.median(each[o]) * share(o)) for t, o in zip(*groups(owner))}
+    return {int(t): float(np.median(each[o])) for t, o in zip(*groups(owner))}
 
 
 def with_lag_sigma(rows, lag_sigma_us):

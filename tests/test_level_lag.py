@@ -377,27 +377,6 @@ def test_a_lag_s_uncertainty_widens_sigma_along_the_motion_by_speed():
     np.testing.assert_array_equal(out["x"], rows["x"])
 
 
-def test_a_lag_is_less_certain_where_the_passages_are_short_beside_it():
-    """A lag of 2 ms: on a track whose crossings' half-widths are 20 ms its uncertainty is
-    LAG_SIGMA_FRACTION of it (0.2 ms); on one whose passages last 4 ms, SHORT_PASSAGE_SHARE
-    of their ratio (0.5): 0.75 ms; each track's own crossings only. With a gyro (short
-    False) both keep LAG_SIGMA_FRACTION."""
-    from evstar.calibration import PixelLag
-    from evstar.crossings import CROSSING_DTYPE
-    from evstar.estimation import LAG_SIGMA_FRACTION, SHORT_PASSAGE_SHARE, _track_lag_sigmas
-
-    lag = PixelLag([2, 6], [100.0], [[2000.0], [2000.0]], [[0.0], [0.0]])
-    c = np.zeros(8, CROSSING_DTYPE)
-    c["pairs"] = 4
-    c["t_half"] = [20_000.0] * 4 + [4_000.0] * 4
-    got, owner = np.arange(8), np.r_[[7] * 4, [9] * 4]
-    out = _track_lag_sigmas(c, (got, owner), lag)
-    assert out[7] == pytest.approx(LAG_SIGMA_FRACTION * 2000.0)
-    assert out[9] == pytest.approx(SHORT_PASSAGE_SHARE * 0.5 * 2000.0)
-    told = _track_lag_sigmas(c, (got, owner), lag, short=False)
-    assert told[7] == told[9] == pytest.approx(LAG_SIGMA_FRACTION * 2000.0)
-
-
 def test_a_low_pass_the_profiles_could_not_fit_widens_sigma_by_its_depth_delay():
     """No lag measured, no gyro, but the deepest levels pass 2 ms after the top: each moving
     row's σ holds UNMEASURED_LAG_SHARE × 2 ms × its speed along the motion (the positions
