@@ -292,9 +292,11 @@ def fresh9_grid():
 
 
 def _listed(part, seed, scenes):
-    """Grid rows of the part's (motion, magnitude, PSF σ, sensor, compensation) scenes."""
-    for motion, mag, psf, sensor, comp in scenes:
-        yield dict(set=part, motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp, seed=seed)
+    """Grid rows of the part's (motion, magnitude, PSF σ, sensor, compensation[, extra keys])
+    scenes."""
+    for motion, mag, psf, sensor, comp, *extra in scenes:
+        yield dict(set=part, motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp, seed=seed,
+                   **(extra[0] if extra else {}))
 
 
 def fresh10_grid():
@@ -343,7 +345,7 @@ def fresh22_grid():
     """Inputs no session had tried, run once when the twenty-second session began (seed 57):
     stars moving across the pixel grid's diagonals (direction given in degrees from x),
     lost events, slow pixels, shot noise, the EVK4's small pixels."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-22", 57, (
             (8, 4.0, 1.1, "default", "none", {"direction": 35}),
             (3, 4.5, 1.3, "default", "none", {"direction": 60}),
             ("sine", 4.0, 1.0, "default", "imu", {"direction": 30}),
@@ -351,9 +353,7 @@ def fresh22_grid():
             (12, 4.0, 1.2, "dropout", "none", {}),
             (5, 3.5, 1.0, "slow-pixel", "none", {}),
             (10, 4.5, 1.2, "shot", "none", {}),
-            (6, 5.0, 0.9, "default", "none", {"camera": "evk4"})):
-        yield dict(set="fresh-22", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=57, **extra)
+            (6, 5.0, 0.9, "default", "none", {"camera": "evk4"})))
 
 
 def fresh37_grid():
@@ -361,7 +361,7 @@ def fresh37_grid():
     other cameras and directions, a 5° sinusoid, 0.5 °/s over 2 s, the sensors above, a wide
     PSF; and the issue's grid points the others lacked, dark-sky sinusoids without the IMU
     (four photoreceptors; one with the IMU beside them)."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-37", 37, (
             (7, 4.0, 1.1, "default", "none", {"direction": 25, "camera": "davis346"}),
             (25, 3.5, 0.9, "default", "none", {"camera": "dvxplorer"}),
             ("sine", 4.0, 1.2, "default", "none", {"amplitude": 5.0, "direction": 70}),
@@ -380,9 +380,7 @@ def fresh37_grid():
             ("sine", 3.0, 1.0, "dark-sky", "none", {}),
             ("sine", 5.0, 1.0, "dark-sky", "none", {}),
             ("sine", 4.5, 1.2, "dark-sky-60", "none", {}),
-            ("sine", 4.0, 1.1, "dark-sky-20", "none", {})):
-        yield dict(set="fresh-37", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=37, **extra)
+            ("sine", 4.0, 1.1, "dark-sky-20", "none", {})))
 
 
 def fresh38_grid():
@@ -390,7 +388,7 @@ def fresh38_grid():
     the issue's grid corners (1 and 2 °/s, magnitudes 2 and 5, PSF σ 0.8 and 1.5, with and
     without the IMU, each sensor low-pass), hot and warm pixels by the hundred, and the
     sensors above."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-38", 38, (
             (1, 5.0, 1.5, "default", "none", {"camera": "davis346"}),
             (2, 2.0, 0.8, "default", "imu", {"camera": "evk4"}),
             (4, 4.5, 1.3, "many-hot", "none", {}),
@@ -406,9 +404,7 @@ def fresh38_grid():
             (10, 3.0, 1.0, "fast-pixel", "none", {}),
             ("sine", 4.5, 1.0, "dark-sky-40", "none", {"direction": 45}),
             (12, 4.0, 1.2, "default", "imu", {"duration": 1.0, "camera": "dvxplorer",
-                                               "direction": 300})):
-        yield dict(set="fresh-38", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=38, **extra)
+                                               "direction": 300})))
 
 
 def _rot_z(deg):
@@ -423,7 +419,7 @@ def fresh39_grid():
     ten times the noise — and a sky 2x brighter or 3x darker than the star's contrast
     assumes, a 10 Hz dark sky, a fast 1.5 Hz sinusoid."""
     one_dps = float(np.radians(1.0))
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-39", 39, (
             ("sine", 3.0, 1.0, "default", "imu", {"imu": {"time_offset_us": 3000}, "imu_untold": True}),
             ("sine", 4.0, 1.1, "dark-sky", "imu", {"imu": {"time_offset_us": -5000}, "imu_untold": True}),
             (4, 4.0, 1.0, "default", "imu", {"imu": {"gyro_bias": (one_dps, -0.5 * one_dps, 0.3 * one_dps)}}),
@@ -439,9 +435,7 @@ def fresh39_grid():
             ("sine", 3.5, 1.0, "default", "none", {"amplitude": 3.0, "freq": 1.5, "direction": 200}),
             (20, 4.0, 1.0, "default", "imu", {"imu": {"time_offset_us": 2000}, "imu_untold": True,
                                               "camera": "evk4", "direction": 60}),
-            (3, 4.5, 1.3, "default", "imu", {"imu": {"rate_hz": 100.0, "gyro_noise_density": 6e-4}})):
-        yield dict(set="fresh-39", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=39, **extra)
+            (3, 4.5, 1.3, "default", "imu", {"imu": {"rate_hz": 100.0, "gyro_noise_density": 6e-4}})))
 
 
 def fresh40_grid():
@@ -450,7 +444,7 @@ def fresh40_grid():
     out of the image plane (`tilt`, degrees: a curved path), a 2 Hz sinusoid; PSFs narrower
     than the issue's (σ 0.6-0.7 px: pixel-locked events), a magnitude-1.5 and a 5.5 star,
     frames of 5 and 20 ms (`settings`: Config values of that scene), a 3 s dark-sky crawl."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-40", 40, (
             ("slew", 3.5, 1.0, "default", "none", {"peak": 10.0, "duration": 1.0}),
             ("slew", 4.0, 1.1, "default", "imu", {"peak": 20.0, "duration": 1.0, "camera": "evk4"}),
             ("slew", 3.5, 1.0, "dark-sky", "none", {"peak": 8.0, "duration": 1.0}),
@@ -466,9 +460,7 @@ def fresh40_grid():
             (1, 4.0, 1.0, "dark-sky", "none", {"duration": 3.0}),
             (25, 4.0, 1.2, "dark-sky", "imu", {"direction": 240, "camera": "davis346"}),
             ("slew", 3.0, 1.3, "default", "pf", {"peak": 15.0, "duration": 1.0}),
-            (4, 4.5, 1.0, "default", "none", {"settings": {"dt_us": 20000}})):
-        yield dict(set="fresh-40", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=40, **extra)
+            (4, 4.5, 1.0, "default", "none", {"settings": {"dt_us": 20000}})))
 
 
 def fresh41_grid():
@@ -478,7 +470,7 @@ def fresh41_grid():
     `rate` to `rate_end` °/s), an OFF threshold a third of the ON one, a 3 ms refractory
     period, 0.45 thresholds, a busy dark sky, a σ 2 px PSF, 2 ms frames, a 3 Hz sinusoid,
     6 s of a faint slow star."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-41", 41, (
             ("vibe", 3.5, 1.0, "default", "none", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
             ("vibe", 3.5, 1.0, "default", "imu", {"rate": 8.0, "vib": 0.05, "vib_hz": 20.0}),
             ("vibe", 4.0, 1.1, "dark-sky", "none", {"rate": 3.0, "vib": 0.1, "vib_hz": 8.0}),
@@ -494,9 +486,7 @@ def fresh41_grid():
             (25, 3.0, 1.0, "default", "none", {"settings": {"dt_us": 2000}}),
             ("sine", 3.5, 1.0, "default", "imu", {"amplitude": 2.0, "freq": 3.0, "camera": "davis346"}),
             (2, 5.0, 1.0, "quiet", "none", {"duration": 6.0}),
-            (8, 4.5, 1.1, "dark-sky", "none", {"tilt": 40.0, "camera": "evk4"})):
-        yield dict(set="fresh-41", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=41, **extra)
+            (8, 4.5, 1.1, "dark-sky", "none", {"tilt": 40.0, "camera": "evk4"})))
 
 
 def vibration_grid():
@@ -505,7 +495,7 @@ def vibration_grid():
     frequencies, amplitudes, cameras, frame lengths, a fainter star, a diagonal pan, a dark
     sky, and the particle filter (a velocity prior: the step is not taken); and three
     vibrating along the motion (`vib_along`: about the pan's own axis)."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("vibration", 141, (
             ("vibe", 3.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.03, "vib_hz": 12.0}),
             ("vibe", 3.0, 1.0, "default", "none", {"rate": 10.0, "vib": 0.02, "vib_hz": 30.0}),
             ("vibe", 4.0, 1.0, "default", "none", {"rate": 15.0, "vib": 0.01, "vib_hz": 25.0,
@@ -525,9 +515,7 @@ def vibration_grid():
                                                    "vib_along": True, "camera": "evk4"}),
             ("vibe", 3.5, 1.1, "default", "none", {"rate": 6.0, "vib": 0.05, "vib_hz": 16.0,
                                                    "vib_along": True, "direction": 30,
-                                                   "camera": "davis346"})):
-        yield dict(set="vibration", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=141, **extra)
+                                                   "camera": "davis346"})))
 
 
 def fresh42_grid():
@@ -537,7 +525,7 @@ def fresh42_grid():
     off the centre, a 0.5 ms refractory period not told, fine thresholds, a 3 Hz leak, an
     asymmetric dark sky, a magnitude-5.5 star, a slow sinusoid with the particle filter, a
     dark-sky slew, 5 ms frames on a DVXplorer, a faint slow ramp on a quiet sensor."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-42", 42, (
             (25, 3.5, 1.0, "default", "none", {"tilt": 90, "at": (0, 100)}),
             (30, 3.0, 1.0, "default", "imu", {"tilt": 90, "at": (80, 60), "camera": "davis346"}),
             (20, 4.0, 1.0, "dark-sky", "none", {"tilt": 90, "at": (-150, 0), "camera": "evk4"}),
@@ -554,9 +542,7 @@ def fresh42_grid():
             ("slew", 3.5, 1.2, "dark-sky", "imu", {"peak": 25.0, "duration": 1.5}),
             (18, 4.0, 1.4, "dark-sky-ratio", "none", {"direction": 135, "camera": "evk4"}),
             (15, 3.0, 1.0, "default", "none", {"settings": {"dt_us": 5000}, "camera": "dvxplorer"}),
-            ("ramp", 5.0, 1.0, "quiet", "none", {"rate": 1.0, "rate_end": 6.0, "duration": 2.0})):
-        yield dict(set="fresh-42", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=42, **extra)
+            ("ramp", 5.0, 1.0, "quiet", "none", {"rate": 1.0, "rate_end": 6.0, "duration": 2.0})))
 
 def fresh43_grid():
     """Inputs no session had tried, run once when the forty-third session began (seed 43):
@@ -565,7 +551,7 @@ def fresh43_grid():
     sky, 50 ms and 1 ms frames, a 50 Hz gyro, a thousand hot pixels, a 0.15 s recording, a
     vibrating platform on a dark sky with the IMU, a slow faint star on the DAVIS346, a
     0.5 °/s gyro bias with the particle filter, 300 µs of timestamp jitter."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-43", 43, (
             (45, 3.0, 1.0, "default", "none", {}),
             (6, 1.0, 1.0, "default", "none", {}),
             (8, 3.0, 0.5, "default", "none", {}),
@@ -581,9 +567,7 @@ def fresh43_grid():
             ("vibe", 3.5, 1.0, "dark-sky", "imu", {"rate": 8.0, "vib": 0.05, "vib_hz": 15.0}),
             (2, 5.0, 1.0, "quiet", "none", {"duration": 2.0, "camera": "davis346"}),
             (10, 3.5, 1.0, "default", "pf", {"imu": {"gyro_bias": (0.01, -0.008, 0.005)}}),
-            (7, 4.0, 1.0, "jitter-300", "none", {})):
-        yield dict(set="fresh-43", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=43, **extra)
+            (7, 4.0, 1.0, "jitter-300", "none", {})))
 
 
 def fresh44_grid():
@@ -594,7 +578,7 @@ def fresh44_grid():
     slew with the IMU, a busy background with the particle filter, four new sensors (above),
     a bright star on the DAVIS346, 30 °/s on the EVK4 with the IMU, a fast 40 Hz vibration
     without the IMU."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-44", 44, (
             (10, 3.5, 1.0, "default", "imu", {"imu": {"gyro_noise_density": 1.2e-3}}),
             (10, 3.5, 1.0, "default", "imu", {"imu": {"time_offset_us": 3000}}),
             (8, 4.0, 2.0, "default", "none", {}),
@@ -611,9 +595,7 @@ def fresh44_grid():
             (8, 4.0, 1.0, "ratio-half", "none", {"direction": 315}),
             (10, 2.0, 0.8, "default", "none", {"camera": "davis346"}),
             (30, 4.0, 1.2, "default", "imu", {"camera": "evk4"}),
-            ("vibe", 4.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.02, "vib_hz": 40.0})):
-        yield dict(set="fresh-44", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=44, **extra)
+            ("vibe", 4.0, 1.0, "default", "none", {"rate": 5.0, "vib": 0.02, "vib_hz": 40.0})))
 
 
 def fresh45_grid():
@@ -624,7 +606,7 @@ def fresh45_grid():
     IMU, the particle filter on the DAVIS346, a deceleration 15 -> 3 °/s, an axis 60° out of
     the image plane with the star off the centre, a slow wide star in 5 ms frames, a 200 Hz
     noisy gyro."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-45", 45, (
             (35, 3.5, 1.0, "default", "none", {"camera": "davis346", "direction": 200}),
             ("sine", 4.0, 1.2, "dark-sky-40", "imu", {"amplitude": 3.0, "freq": 1.5}),
             (5, 5.5, 1.0, "quiet", "none", {"duration": 1.5}),
@@ -640,9 +622,7 @@ def fresh45_grid():
             (6, 3.5, 1.0, "default", "none", {"tilt": 60, "at": (-120, 50)}),
             (2.5, 4.0, 1.6, "default", "none", {"settings": {"dt_us": 5000}}),
             (8, 3.0, 1.0, "default", "imu", {"imu": {"rate_hz": 200.0,
-                                                     "gyro_noise_density": 5e-4}})):
-        yield dict(set="fresh-45", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=45, **extra)
+                                                     "gyro_noise_density": 5e-4}})))
 
 
 def fresh50_grid():
@@ -653,7 +633,7 @@ def fresh50_grid():
     filter, a slow dark-sky vibration with the IMU, a faint dark-sky star on the DAVIS346, a
     diagonal sinusoid on the DAVIS346 with the IMU, a bright slow star in 15 ms frames, a
     fast roll about the boresight."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-50", 50, (
             (3, 5.0, 0.8, "default", "none", {}),
             (25, 4.0, 1.3, "default", "none", {"camera": "evk4"}),
             ("sine", 4.0, 1.4, "dark-sky-60", "imu", {"amplitude": 15.0, "freq": 0.3,
@@ -670,9 +650,7 @@ def fresh50_grid():
             (15, 5.0, 1.0, "dark-sky", "none", {"camera": "davis346"}),
             ("sine", 4.5, 1.0, "default", "imu", {"camera": "davis346", "direction": 45}),
             (2, 3.0, 1.5, "default", "none", {"settings": {"dt_us": 15000}}),
-            (18, 3.5, 1.0, "default", "none", {"tilt": 90, "at": (150, -60)})):
-        yield dict(set="fresh-50", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=50, **extra)
+            (18, 3.5, 1.0, "default", "none", {"tilt": 90, "at": (150, -60)})))
 
 
 def fresh51_grid():
@@ -681,7 +659,7 @@ def fresh51_grid():
     motion without the IMU, a dark-sky deceleration without the IMU, a fast slew on the
     DAVIS346 with the IMU, a gyro biased by half a degree a second, a slow wide sinusoid on
     the EVK4 with the particle filter, a curved path, a bright star at 40 °/s, 8 ms frames."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-51", 51, (
             (7, 4.0, 1.0, "dark-sky-shot", "none", {}),
             (14, 3.5, 1.2, "dark-sky-leak-mismatch", "imu", {}),
             ("sine", 4.0, 1.0, "dark-sky-off-double", "none", {"amplitude": 5.0, "freq": 1.2}),
@@ -699,9 +677,7 @@ def fresh51_grid():
             (16, 4.5, 1.0, "default", "none", {"tilt": 30, "direction": 160}),
             (40, 2.5, 1.0, "default", "none", {}),
             (5, 3.5, 1.0, "default", "none", {"settings": {"dt_us": 8000}}),
-            ("sine", 5.0, 1.2, "dark-sky", "imu", {"amplitude": 4.0, "freq": 2.0})):
-        yield dict(set="fresh-51", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=51, **extra)
+            ("sine", 5.0, 1.2, "dark-sky", "imu", {"amplitude": 4.0, "freq": 2.0})))
 
 
 def fresh53_grid():
@@ -710,7 +686,7 @@ def fresh53_grid():
     vibration with the IMU, a 0.7 °/s star for 2 s, a wide slow sinusoid on the DAVIS346, a
     fast dark-sky star on the DAVIS346 with the IMU, a magnitude-5.5 star on a quiet sensor,
     the particle filter at 12 °/s, 20 ms frames, a star off the centre on a tilted axis."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-53", 53, (
             (9, 4.0, 1.1, "dark-sky-jitter", "none", {}),
             ("sine", 4.0, 1.2, "dark-sky-70", "imu", {"amplitude": 8.0, "freq": 1.5}),
             (4, 4.5, 1.4, "ratio-dropout", "none", {}),
@@ -727,9 +703,7 @@ def fresh53_grid():
             (5, 5.5, 1.0, "quiet", "none", {}),
             (12, 4.0, 1.0, "default", "pf", {"direction": 200}),
             (7, 4.0, 1.5, "default", "none", {"settings": {"dt_us": 20000}}),
-            (20, 3.5, 1.0, "default", "none", {"tilt": 45, "at": (40, -30)})):
-        yield dict(set="fresh-53", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=53, **extra)
+            (20, 3.5, 1.0, "default", "none", {"tilt": 45, "at": (40, -30)})))
 
 
 def fresh54_grid():
@@ -738,7 +712,7 @@ def fresh54_grid():
     IMU, a speed ramp up on a dark sky, an 8 Hz vibration with the particle filter, a 1.5 °/s
     star for 1.5 s, a magnitude-2.5 star at 25 °/s, 5 ms frames at 6 °/s, a roll-axis star
     off the centre, a tilted axis at 14 °/s on the EVK4."""
-    for motion, mag, psf, sensor, comp, extra in (
+    return _listed("fresh-54", 54, (
             (11, 4.0, 1.2, "dark-sky-25-low-ceiling", "none", {}),
             ("sine", 4.0, 1.0, "dark-sky-25-low-ceiling", "imu", {"amplitude": 6.0, "freq": 2.0}),
             (6, 4.5, 1.3, "off-low-dropout", "none", {"direction": 70}),
@@ -754,9 +728,7 @@ def fresh54_grid():
             (25, 2.5, 1.0, "default", "none", {}),
             (6, 4.0, 1.1, "default", "none", {"settings": {"dt_us": 5000}}),
             (10, 4.0, 1.0, "default", "none", {"tilt": 90, "at": (60, 20)}),
-            (14, 4.0, 1.2, "default", "none", {"tilt": 30, "camera": "evk4"})):
-        yield dict(set="fresh-54", motion=motion, mag=mag, psf=psf, sensor=sensor, comp=comp,
-                   seed=54, **extra)
+            (14, 4.0, 1.2, "default", "none", {"tilt": 30, "camera": "evk4"})))
 
 
 def short_frames_grid():
