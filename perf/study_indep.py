@@ -757,39 +757,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", help="comma-separated scene numbers (1-based) to run")
     ap.add_argument("--only", choices=list(SUBSETS), help="a subset of the grid")
-    ap.add_argument("--vibe", action="store_true", help="the held-out grid VIBE instead "
-                    "(vibrating platforms, scenes V1..V6)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a Config setting for both estimators' runs, e.g. "
                     "estimate.vibration=false (repeatable; give --name too)")
-    ap.add_argument("--fresh14", action="store_true", help="the fourteenth held-out grid "
-                    "FRESH14 instead (scenes U1..U10)")
-    ap.add_argument("--fresh13", action="store_true", help="the thirteenth held-out grid "
-                    "FRESH13 instead (scenes T1..T10)")
-    ap.add_argument("--fresh12", action="store_true", help="the twelfth held-out grid "
-                    "FRESH12 instead (scenes S1..S10)")
-    ap.add_argument("--fresh11", action="store_true", help="the eleventh held-out grid "
-                    "FRESH11 instead (scenes R1..R10)")
-    ap.add_argument("--fresh10", action="store_true", help="the tenth held-out grid FRESH10 "
-                    "instead (scenes Q1..Q10)")
-    ap.add_argument("--fresh9", action="store_true", help="the ninth held-out grid FRESH9 "
-                    "instead (scenes P1..P10)")
-    ap.add_argument("--fresh8", action="store_true", help="the eighth held-out grid FRESH8 "
-                    "instead (scenes O1..O10)")
-    ap.add_argument("--fresh7", action="store_true", help="the seventh held-out grid FRESH7 "
-                    "instead (scenes N1..N10)")
-    ap.add_argument("--fresh6", action="store_true", help="the sixth held-out grid FRESH6 "
-                    "instead (scenes M1..M10)")
-    ap.add_argument("--fresh5", action="store_true", help="the fifth held-out grid FRESH5 "
-                    "instead (scenes L1..L10)")
-    ap.add_argument("--fresh4", action="store_true", help="the fourth held-out grid FRESH4 "
-                    "instead (scenes K1..K10)")
-    ap.add_argument("--fresh3", action="store_true", help="the third held-out grid FRESH3 "
-                    "instead (scenes H1..H12)")
-    ap.add_argument("--fresh2", action="store_true", help="the second held-out grid FRESH2 "
-                    "instead (scenes G1..G14)")
-    ap.add_argument("--fresh", action="store_true", help="the held-out grid FRESH instead "
-                    "(scenes F1..F12; --scenes and --only pick among them)")
+    notes = {"vibe": "vibrating platforms; "}
+    for flag, (grid, _, prefix) in HELD_OUT.items():   # --fresh14 .. --fresh, --vibe
+        ap.add_argument(f"--{flag}", action="store_true", help=f"the held-out grid "
+                        f"{flag.upper()} instead ({notes.get(flag, '')}scenes {prefix}1.."
+                        f"{prefix}{len(grid)}; --scenes and --only pick among them)")
     ap.add_argument("--quick", action="store_true", help="recordings shortened to 0.3 s")
     ap.add_argument("--calibrated", action="store_true", help="each scene with the lag file "
                     "evstar calibrate measures on a calibration recording of its sensor "
