@@ -231,7 +231,27 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-50-leak": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=50.0,
                                                         leak_hz=1.0),
            "coarse-jitter": lambda: sim.sensor_model("default", threshold_on=0.35,
-                                                     threshold_off=0.35, jitter_us=80.0)}
+                                                     threshold_off=0.35, jitter_us=80.0),
+           # the fifty-fifth session's (fresh-55): a 35 Hz dark sky with OFF below ON and a
+           # leak, a fast pixel (50 µs) with 40 µs of jitter and a 5 % mismatch, a busy
+           # background of mostly OFF events that fades, a dark sky with an 800 Hz ceiling
+           # losing 15 %, fine thresholds among 300 hot pixels at 300 Hz, a 45 Hz dark sky with
+           # shot noise and coarse thresholds
+           "dark-sky-35-off-low-leak": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=35.0,
+                                                                threshold_on=0.24, threshold_off=0.17,
+                                                                leak_hz=0.5),
+           "fast-ref-mismatch-jitter": lambda: sim.sensor_model("default", refractory_us=50.0,
+                                                                jitter_us=40.0,
+                                                                threshold_mismatch=0.05),
+           "off-fading-busy": lambda: sim.sensor_model("default", noise_hz=3.0, noise_on_fraction=0.3,
+                                                       noise_growth=0.4),
+           "dark-sky-800-dropout": lambda: sim.sensor_model("dark-sky", cutoff_hz_max=800.0,
+                                                            dropout=0.15),
+           "hot-fine-300": lambda: sim.sensor_model("default", threshold_on=0.14, threshold_off=0.14,
+                                                    hot_pixels=300, hot_pixel_hz=300.0),
+           "dark-sky-45-shot-coarse": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=45.0,
+                                                               shot_noise_hz=1.0, threshold_on=0.26,
+                                                               threshold_off=0.26)}
 
 
 def dev_grid():
@@ -731,6 +751,30 @@ def fresh54_grid():
             (14, 4.0, 1.2, "default", "none", {"tilt": 30, "camera": "evk4"})))
 
 
+def fresh55_grid():
+    """Inputs no session had tried, run once when the fifty-fifth session began (seed 55):
+    six new sensors (above), an EVK4 slew, a speed ramp and a 28 °/s pan with the IMU, a
+    12 Hz vibration, a slow faint star for 1.5 s, a 0.8 Hz sinusoid with the particle filter,
+    15 ms frames, a tilted axis on the DAVIS346, a bright wide star."""
+    return _listed("fresh-55", 55, (
+            (9, 4.0, 1.2, "dark-sky-35-off-low-leak", "none", {}),
+            ("sine", 4.0, 1.1, "dark-sky-35-off-low-leak", "imu", {"amplitude": 8.0, "freq": 1.5}),
+            (24, 3.5, 1.0, "fast-ref-mismatch-jitter", "none", {"camera": "evk4"}),
+            (5, 4.5, 1.4, "off-fading-busy", "none", {"direction": 150}),
+            (13, 4.0, 1.0, "dark-sky-800-dropout", "none", {}),
+            (7, 4.0, 1.1, "hot-fine-300", "none", {"duration": 1.0}),
+            (16, 3.5, 1.2, "dark-sky-45-shot-coarse", "imu", {}),
+            ("slew", 3.5, 1.1, "default", "none", {"peak": 18.0, "duration": 1.2, "camera": "evk4"}),
+            ("ramp", 4.0, 1.0, "default", "imu", {"rate": 3.0, "rate_end": 16.0}),
+            ("vibe", 4.0, 1.2, "default", "none", {"rate": 5.0, "vib": 0.04, "vib_hz": 12.0}),
+            (2.5, 5.0, 1.3, "default", "none", {"duration": 1.5}),
+            ("sine", 3.0, 0.7, "default", "pf", {"amplitude": 12.0, "freq": 0.8}),
+            (11, 4.0, 1.3, "default", "none", {"settings": {"dt_us": 15000}}),
+            (18, 4.5, 1.0, "default", "none", {"tilt": 60, "camera": "davis346"}),
+            (6, 2.5, 1.6, "default", "none", {"direction": 250}),
+            (28, 4.0, 1.1, "default", "imu", {"camera": "evk4", "direction": 20})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -795,7 +839,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
-         "fresh-54": fresh54_grid,
+         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -223,6 +223,21 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                          noise_growth=2.0),
     "dark-ref-off-high": dict(pixel="lowpass", f_min_hz=28.0, f_max_hz=1800.0, i_half=22.0,
                               c_on=0.2, c_off=0.32, refractory_us=400.0),
+    # the fifteenth fresh grid's (--fresh15; written in the fifty-fifth session, never
+    # tuned on): a fast 80 Hz dark sky with fine thresholds and 30 µs of jitter, a 600 µs
+    # refractory period with a 7 % mismatch, a slow dark sky with OFF below ON that leaks, a
+    # coarse sensor on a fading background of mostly OFF events, a dark sky behind 200 µs
+    # with an 80 ms readout stall
+    "dark-80-fine-jitter": dict(pixel="lowpass", f_min_hz=80.0, f_max_hz=1600.0, i_half=12.0,
+                                c_on=0.15, c_off=0.15, jitter_us=30.0),
+    "slow-ref-mismatch": dict(pixel="ideal", c_on=0.22, c_off=0.22, refractory_us=600.0,
+                              mismatch=0.07),
+    "dark-off-low-leak": dict(pixel="lowpass", f_min_hz=22.0, f_max_hz=2200.0, i_half=30.0,
+                              c_on=0.26, c_off=0.18, leak_hz=0.6),
+    "busy-off-coarse": dict(pixel="ideal", c_on=0.28, c_off=0.3, noise_on_fraction=0.3,
+                            noise_growth=0.5),
+    "dark-stall-ref": dict(pixel="lowpass", f_min_hz=45.0, f_max_hz=1400.0, i_half=18.0,
+                           c_on=0.2, c_off=0.2, refractory_us=200.0, gaps_s=((0.50, 0.58),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -537,9 +552,30 @@ FRESH14 = [
      1.5),
 ]
 FRESH14_SEED = 19000
+#: the fifteenth held-out grid (written in the fifty-fifth session, run once on its start):
+#: five new sensors (above) under a three-star HD pan, a DAVIS346 sinusoid, a Moffat VGA
+#: pan, an acceleration on the wide lens, a circle through a readout stall, a 22 Hz
+#: vibration, a roll under an elliptical PSF, a slow DAVIS346 crawl, a defocused sinusoid
+#: among hot pixels, a fast VGA pan; seeds 20000 + i
+FRESH15 = [
+    ("hd", ("lin", 14, 35), [3, 4, 5], ("gauss", 1.2), "dark-80-fine-jitter", 1.0, 0, 1.0),
+    ("davis", ("sine", 9, 0.8, 60), [3.5, 4.5], ("gauss", 1.0), "slow-ref-mismatch", 1.0, 3, 1.0),
+    ("vga", ("lin", 6, 140), [3.5, 4.5], ("moffat", 2.0, 3.0), "dark-off-low-leak", 1.0, 0, 1.0),
+    ("wide", ("acc", 45, 200), [3, 4], ("gauss", 1.1), "busy-off-coarse", 2.5, 0, 0.8),
+    ("tele", ("circle", 3, 0.7), [3.5, 4], ("gauss", 1.3), "dark-stall-ref", 1.0, 0, 1.2),
+    ("hd", ("vibe", 7, 20, 0.02, 22, 110), [3.5, 4.5, 5], ("gauss", 1.0), "dark-80-fine-jitter",
+     1.0, 0, 1.0),
+    ("vga", ("roll", 10, 3, 45), [3, 4, 4.5], ("ellip", 1.3, 1.0, 30), "slow-ref-mismatch", 1.0,
+     0, 1.0),
+    ("davis", ("lin", 1.5, 80), [3, 4], ("gauss", 1.4), "dark-off-low-leak", 0.5, 0, 1.5),
+    ("hd", ("sine", 14, 1.2, 200), [3, 4], ("defocus", 1.5, 0.5), "busy-off-coarse", 1.5, 20,
+     1.0),
+    ("vga", ("lin", 20, 330), [3.5, 4.5], ("gauss", 0.9), "dark-stall-ref", 1.0, 0, 1.0),
+]
+FRESH15_SEED = 20000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
