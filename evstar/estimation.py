@@ -28,7 +28,8 @@ from .tracking import BLENDED
 
 #: keyword arguments of TrackSmoother among the [estimate] settings
 _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor_px",
-                  "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends", "speed_change")
+                  "psf_sigma_px", "min_events", "outlier_sigma", "coast_ends", "coast_gyro_ms",
+                  "speed_change")
 
 
 def pixel_lag(path):
@@ -187,12 +188,12 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near, depth_delay_us)
     cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
-    rows, est, kept = _estimate_pieces(cut, *args)
+    rows, est, kept = _estimate_pieces(cut, *args, stalls=stalls)
     gaps = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else {}
     if any(g.bridged for g in gaps.values()):   # stalls the gyro's turn bridges: fitted across
         cut, owner = pieces.rejoined(centroids, cut, {p: t for p, t in owner.items()
                                                        if not (p in gaps and gaps[p].bridged)})
-        rows, est, kept = _estimate_pieces(cut, *args)
+        rows, est, kept = _estimate_pieces(cut, *args, stalls=stalls)
     rows = pieces.coasted_honestly(pieces.owned(rows, owner), gaps.values(), e.coast_sigma_px)
     if est is None:
         return rows, None, None
@@ -200,12 +201,14 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
 
 
 def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
-                     measured_lag, rate_hz, near, depth_delay_us=0.0):
+                     measured_lag, rate_hz, near, depth_delay_us=0.0, stalls=None):
     """_estimate of tracks cut into pieces across stalls (evstar.pieces)."""
     from .smoothing import TrackSmoother
 
     e = config.estimate
-    smoother = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS})
+    # the fits coast coast_ms everywhere; the gyro's farther ends come after (_gyro_coasted)
+    fitting = {**{k: getattr(e, k) for k in _SMOOTHER_KEYS}, "coast_gyro_ms": e.coast_ms}
+    smoother = TrackSmoother(config.dt_us, **fitting)
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
     out = centroids.copy()
     out["sigma"] = sigma
@@ -214,8 +217,10 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         return out, None, None
     groups = _by_prior(centroids, sigma, smoother, velocity_prior)
     ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
-    stiff = TrackSmoother(config.dt_us, **{**{k: getattr(e, k) for k in _SMOOTHER_KEYS},
-                                           "process_noise": e.process_noise_min})
+    # the tracks the gyro carries (coast_gyro_ms at their ends)
+    carried = [int(t) for cents, _, prior in groups if prior is not None
+               for t in np.unique(cents["track"][cents["track"] >= 0])]
+    stiff = TrackSmoother(config.dt_us, **{**fitting, "process_noise": e.process_noise_min})
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
     lag = lag_sigma = near_cross = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
@@ -247,6 +252,8 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
                                       UNMEASURED_LAG_SHARE * depth_delay_us)
         ests = refined
     est = np.concatenate(ests)
+    if carried and e.coast_ends and e.coast_gyro_ms > e.coast_ms:
+        est = _gyro_coasted(est, groups, carried, config, t0_us, stalls)
     if span_us is not None:
         est = _last_frame_at_the_end(est, span_us[1], t0_us, config.dt_us)
     loose = out[centroids["track"] < 0]
@@ -256,6 +263,11 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     if near is not None:   # a particle's hit: a spot firing at once (evstar.bursts)
         loose = loose[~bunched(loose, near, t0_us, config.dt_us)]
     rows = _merge(loose, out, est)
+    if carried:   # beyond their ends, the gyro's own errors too
+        from .coasting import gyro_widened
+
+        on = np.isin(rows["track"], carried)
+        rows[on] = gyro_widened(rows[on], velocity_prior)
     # a prediction far from any measurement is no position: keep coasted rows while certain,
     # and, less certain, those between two of their track's measurements (a gap the smoother
     # bridges from both sides: a sinusoid's turn, where σ peaks with the crossings left out);
@@ -657,6 +669,21 @@ def _by_group(every, ests):
         # u (n, 2) by compress: the rows of u[m] at a tenth of its cost
         parts.append((got[m], owner[m], u.compress(m, 0), resid[m]))
     return parts
+
+
+def _gyro_coasted(est, groups, carried, config, t0_us, stalls):
+    """`est` with the ends of the tracks the gyro carries (`carried`) coasted to
+    coast_gyro_ms, up to a readout stall, by a plain smoothing of their centroids (`groups`:
+    (centroids, σ, prior) each; evstar.coasting.extended)."""
+    from .coasting import extended
+    from .smoothing import TrackSmoother
+
+    e = config.estimate
+    far = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS},
+                        stalls=stalls)
+    coasted = [far.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups
+               if prior is not None]
+    return extended(est, np.concatenate(coasted), carried, SHADOW_PX) if coasted else est
 
 
 def _last_frame_at_the_end(est, end_us, t0_us, dt_us):

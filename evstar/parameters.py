@@ -388,6 +388,12 @@ ESTIMATE = Params(
           "a measurement (before or after)", low=0, high=MAX_DT_US / 1000, unit="ms"),
     Param("coast_ends", bool, True, "coast also before a track's first and after its last "
           "centroid (within coast_ms)"),
+    Param("coast_gyro_ms", float, 500.0, "where a gyro prior carries a track (motion.compensate "
+          "imu or pf), coast before its first and after its last centroid within this instead, "
+          "up to a readout stall (each such position's σ also holds a share of the gyro's "
+          "displacement since that centroid, evstar.coasting, and coast_sigma_px bounds it); "
+          "gaps inside a track keep coast_ms",
+          low=0, high=MAX_DT_US / 1000, unit="ms"),
     Param("coast_sigma_px", float, 0.5, "a coasted position before a track's first or after "
           "its last measurement is reported only while its uncertainty is at most this",
           low=0, open_low=True, unit="px"),

@@ -161,7 +161,9 @@ class TrackSmoother:
                  min_events=ESTIMATE["min_events"].default,
                  outlier_sigma=ESTIMATE["outlier_sigma"].default,
                  coast_ends=ESTIMATE["coast_ends"].default,
-                 speed_change=ESTIMATE["speed_change"].default, engine=SMOOTHER["engine"].default):
+                 coast_gyro_ms=ESTIMATE["coast_gyro_ms"].default,
+                 speed_change=ESTIMATE["speed_change"].default, engine=SMOOTHER["engine"].default,
+                 stalls=None):
         from .frames import check_dt
 
         self.dt_us = check_dt(dt_us)
@@ -173,8 +175,11 @@ class TrackSmoother:
         self.min_events = ESTIMATE.check("min_events", min_events)
         self.outlier_sigma = ESTIMATE.check("outlier_sigma", outlier_sigma)
         self.coast_ends = ESTIMATE.check("coast_ends", coast_ends)
+        self.coast_gyro_ms = ESTIMATE.check("coast_gyro_ms", coast_gyro_ms)
         self.speed_change = ESTIMATE.check("speed_change", speed_change)
         self.engine = SMOOTHER.check("engine", engine)
+        # the readout's stalls ((n, 2) µs, time-sorted): a gyro-coasted end stops at one
+        self.stalls = np.zeros((0, 2), np.int64) if stalls is None else np.asarray(stalls)
         # the q estimated for each track's centroid data (_estimate_q_many): refine asks
         # again for the same data of most tracks (~25 % of the estimate stage's kernel time)
         self._q_memo = {}
@@ -264,7 +269,7 @@ class TrackSmoother:
         frames', positions less the prior's displacement (a _batched step)."""
         t_meas = cents["t"].astype(np.int64)
         frames = cents["frame"].astype(np.int64)
-        coast_f = self._coast_frames(t_meas, frames, t0_us)
+        coast_f = self._coast_frames(t_meas, frames, t0_us, velocity_prior is not None)
         t_coast = t0_us + coast_f * self.dt_us + self.dt_us // 2
         t_all = np.concatenate([t_meas, t_coast])
         order = np.argsort(t_all, kind="stable")
@@ -593,20 +598,31 @@ class TrackSmoother:
             new[worst] = True
         return new
 
-    def _coast_frames(self, t_meas, frames, t0_us):
+    def _coast_frames(self, t_meas, frames, t0_us, gyro=False):
         """Frames without a centroid whose mid-time is within coast_ms of a centroid of the
         track (the previous or the next one): gaps, and the frames just before its first and
         after its last centroid (a star fading out keeps its predicted position, flagged;
         frames before 0 are never reported, and the caller drops what lies past the
-        recording or outside the sensor)."""
+        recording or outside the sensor). With a gyro prior (`gyro`) the ends reach
+        coast_gyro_ms: the gyro, not a constant velocity, carries the star there (a star
+        speeding up from rest gives no events at first: perf/study_indep.py --fresh2 G12
+        with the IMU had 91 % of its frames, its fainter star's first 140 ms left out)."""
         limit = self.coast_ms * 1000.0
-        k = int(limit // self.dt_us) + 1 if self.coast_ends else 0
+        end = max(limit, self.coast_gyro_ms * 1000.0) if gyro else limit
+        k = int(end // self.dt_us) + 1 if self.coast_ends else 0
         life = np.arange(max(frames.min() - k, 0), frames.max() + k + 1)
         empty = life[~np.isin(life, frames)]
         if not len(empty):
             return empty
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
-        return empty[_near_any(mid, t_meas, limit)]
+        near = _near_any(mid, t_meas, limit)
+        if end > limit:   # never across a readout stall (evstar.pieces bridges those)
+            a, b = self.stalls[:, 0].astype(np.float64), self.stalls[:, 1].astype(np.float64)
+            after_stall = np.max(b[a < t_meas[0]], initial=-np.inf)
+            before_stall = np.min(a[b > t_meas[-1]], initial=np.inf)
+            near |= ((mid < t_meas[0]) & (t_meas[0] - mid <= end) & (mid > after_stall)) | \
+                    ((mid > t_meas[-1]) & (mid - t_meas[-1] <= end) & (mid < before_stall))
+        return empty[near]
 
     def _q_many(self, tracks, w=0.0):
         """q per (ts, positions, σ) of measured steps: the set one or the ML estimate (with
@@ -1535,7 +1551,12 @@ def prior_displacement(prior, t_all, t_meas, z):
     """(n, 2) px the prior moves a star from t_all[0] to each t_all: the trapezoid rule on
     a grid of at most _PRIOR_STEP_S (so a prior from noisy gyro samples is averaged over
     each interval, not read at its two ends), along the measured positions interpolated."""
-    return _batched([_displacement(prior, t_all, t_meas, z)], prior)[0]
+    return prior_displacements(prior, [(t_all, t_meas, z)])[0]
+
+
+def prior_displacements(prior, runs):
+    """prior_displacement of each (t_all, t_meas, z) of `runs`, the prior asked once a round."""
+    return _batched([_displacement(prior, *run) for run in runs], prior)
 
 
 def _displacement(prior, t_all, t_meas, z):

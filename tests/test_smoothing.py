@@ -289,6 +289,80 @@ def test_coasting_goes_past_the_track_ends_within_the_limit():
     assert err.max() < 0.5 and (coasted["sigma_x"] > est["sigma_x"][~est["coasted"]].max()).all()
 
 
+def line_velocity(t_us, x, y):
+    return np.tile([40.0, -15.0], (len(t_us), 1))
+
+
+def test_a_gyro_carries_the_track_ends_farther_but_not_across_a_stall():
+    """With a velocity prior the frames before a track's first and after its last centroid
+    are coasted within coast_gyro_ms (a gap inside it keeps coast_ms), and never beyond a
+    readout stall next to the end; without a prior coast_ms holds everywhere."""
+    rng = np.random.default_rng(8)
+    cents = centroids(np.r_[30:41, 51:61], line, 0.2, rng, jitter_us=0)
+    plain = TrackSmoother(DT, coast_ms=30, coast_gyro_ms=150).smooth(cents, t0_us=0)
+    assert sorted(plain["frame"][plain["coasted"]]) == [27, 28, 29, 41, 42, 43, 48, 49, 50, 61, 62, 63]
+    gyro = TrackSmoother(DT, coast_ms=30, coast_gyro_ms=150).smooth(
+        cents, t0_us=0, velocity_prior=line_velocity)
+    coasted = gyro[gyro["coasted"]]
+    # mids within 150 ms of 305 ms and of 605 ms: frames 15-29 and 61-75; the gap as before
+    assert sorted(coasted["frame"]) == list(range(15, 30)) + [41, 42, 43, 48, 49, 50] + list(range(61, 76))
+    # the prior moves them on the line: off by the velocity bias the centroids left, in σ
+    err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
+    assert (err < 3 * np.hypot(coasted["sigma_x"], coasted["sigma_y"]) / np.sqrt(2)).all()
+    # a stall from 200 to 250 ms stops the early end at 250 ms, one from 700 ms the late one
+    stalled = TrackSmoother(DT, coast_ms=30, coast_gyro_ms=150,
+                            stalls=np.array([[200_000, 250_000], [700_000, 760_000]])).smooth(
+        cents, t0_us=0, velocity_prior=line_velocity)
+    ends = stalled["frame"][stalled["coasted"]]
+    assert ends.min() == 25 and ends.max() == 69
+
+
+def test_the_gyros_farther_ends_join_the_fitted_track_and_never_stand_in_for_another():
+    """evstar.coasting.extended: a plain smoothing's rows beyond the fitted track's ends,
+    moved by their difference at each end, variance grown from there; none beside another
+    track's row of its frame."""
+    from evstar.coasting import extended
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    def rows(frames, track, x0, sigma):
+        r = np.zeros(len(frames), ESTIMATE_DTYPE)
+        r["frame"], r["track"], r["t"] = frames, track, np.asarray(frames) * DT + DT // 2
+        r["x"], r["y"] = x0 + 2.0 * np.asarray(frames), 50.0
+        r["sigma_x"] = r["sigma_y"] = sigma
+        r["source"] = "measured"
+        return r
+
+    fitted = rows(np.arange(10, 21), 5, 0.0, 0.05)
+    far = rows(np.arange(4, 27), 5, 0.3, 0.1)        # 0.3 px off the fit, σ growing away
+    far["sigma_x"] = far["sigma_y"] = 0.1 + 0.02 * np.abs(far["frame"] - 15)
+    other = rows([7], 9, 0.0, 0.05)                  # another track's row where frame 7's would be
+    out = extended(np.concatenate([fitted, other]), far, [5], 3.0)
+    mine = out[out["track"] == 5]
+    added = mine[mine["coasted"]]
+    assert sorted(added["frame"]) == [4, 5, 6, 8, 9, 21, 22, 23, 24, 25, 26]
+    assert np.allclose(added["x"], 2.0 * added["frame"])           # moved onto the fit
+    grown = (0.1 + 0.02 * np.abs(added["frame"] - 15)) ** 2 - 0.2 ** 2
+    assert np.allclose(added["sigma_x"], np.sqrt(0.05 ** 2 + grown))
+    assert (added["source"] == "coasted").all() and (added["centroid"] == -1).all()
+    assert extended(fitted, far[:0], [5], 3.0).tobytes() == fitted.tobytes()
+
+
+def test_a_gyro_coasted_end_holds_a_share_of_the_gyros_turn_in_its_sigma():
+    from evstar.coasting import GYRO_SCALE_SHARE, gyro_widened
+
+    rows = np.zeros(6, CENTROID_DTYPE)
+    rows["track"], rows["sigma"] = 3, 0.05
+    rows["t"] = np.arange(6) * DT
+    rows["x"], rows["y"] = 10.0 + np.arange(6), 20.0
+    rows["source"] = ["coasted", "coasted", "measured", "coasted", "measured", "coasted"]
+    out = gyro_widened(rows, lambda t, x, y: np.tile([300.0, 400.0], (len(t), 1)))
+    # 500 px/s: 10 and 5 px before the first measured row, 5 px after the last
+    moved = np.array([10.0, 5.0, 0.0, 0.0, 0.0, 5.0])
+    want = np.sqrt(0.05 ** 2 + (GYRO_SCALE_SHARE * moved) ** 2 / 2)
+    assert np.allclose(out["sigma"], want, rtol=1e-6)
+    assert gyro_widened(rows, None)["sigma"].tolist() == rows["sigma"].tolist()
+
+
 def test_the_pipeline_reports_coasted_rows_only_while_certain():
     from evstar import estimation
     from evstar.config import Config
@@ -1073,3 +1147,34 @@ def test_an_acceleration_refit_is_measured_against_the_first_fit_on_its_measured
     out = _with_larger_sigma(b, a)
     np.testing.assert_allclose(out["sigma_x"], [0.1, 0.2, 0.1, 0.1, 0.1])
     np.testing.assert_array_equal(out["x"], b["x"])
+
+
+def test_a_star_speeding_up_from_rest_has_a_position_from_the_start_with_the_gyro():
+    """A star speeding up from rest (10 °/s²) gives no events at first: its track starts
+    20–30 ms late. With the gyro its first frames are coasted back to the start
+    (coast_gyro_ms), on the star; coasting only coast_ms misses them."""
+    from evstar import accuracy
+    from evstar.sim.motion import Slew
+    from evstar.sim.presets import camera_preset
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = camera_preset("dvxplorer-lite")
+    motion = Slew(10.0, 2.0)                       # speeding up for 1 s, recorded 0.5 s
+    star = star_at_pixel(cam, motion.rotation(0.25)[0], (cam.cx, cam.cy), 4.0)
+    run = sim.simulate(Scenario(cam, star, motion, 0.5, psf_sigma_px=1.2), seed=5)
+    ev = run.events
+    frames = np.arange((ev.t[-1] - ev.t[0]) // DT + 1)
+    mid = ev.t[0] + frames * DT + DT // 2
+
+    def covered(coast_gyro_ms):
+        cfg = evstar.Config().replace(**{"motion.compensate": "imu",
+                                         "estimate.coast_gyro_ms": coast_gyro_ms})
+        rows = evstar.Pipeline(cfg).run(ev, run.imu, run.camera).centroids
+        star_of, err = accuracy.match(rows, run.truth.star_position)
+        share, _ = accuracy.detection(rows[star_of >= 0], run.truth.star_position, frames, mid,
+                                      cam.width, cam.height)
+        return share, err[star_of >= 0].max()
+
+    short, (whole, worst) = covered(60.0)[0], covered(500.0)
+    assert short < 0.99 and whole == 1.0 and worst < 0.5
