@@ -24,6 +24,28 @@ import numpy as np
 GYRO_SCALE_SHARE = 0.01
 
 
+def open_ends(est, tracks, frames, sensor, margin_px):
+    """Those of `tracks` with an end in `est` (ESTIMATE_DTYPE) the gyro could carry further:
+    a first row after the recording's first frame or a last before its last (`frames`:
+    those two), at least `margin_px` inside the sensor (`sensor`: (width, height); None:
+    anywhere). An end at the edge is a star leaving the view."""
+    first_f, last_f = frames
+    out = []
+    for track in tracks:
+        mine = est[est["track"] == track]
+        if not len(mine):
+            continue
+        mine = mine[np.argsort(mine["t"], kind="stable")]
+        for end, open_ in ((mine[0], mine["frame"][0] > first_f),
+                           (mine[-1], mine["frame"][-1] < last_f)):
+            inside = sensor is None or (margin_px <= end["x"] <= sensor[0] - 1 - margin_px
+                                        and margin_px <= end["y"] <= sensor[1] - 1 - margin_px)
+            if open_ and inside:
+                out.append(int(track))
+                break
+    return out
+
+
 def extended(est, coasted, tracks, apart_px):
     """`est` (ESTIMATE_DTYPE, the fitted rows) with, for each of `tracks`, the rows of
     `coasted` (a plain smoothing of its centroids whose ends reach farther) in frames before

@@ -253,7 +253,8 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         ests = refined
     est = np.concatenate(ests)
     if carried and e.coast_ends and e.coast_gyro_ms > e.coast_ms:
-        est = _gyro_coasted(est, groups, carried, config, t0_us, stalls)
+        last = (span_us[1] - t0_us) // config.dt_us if span_us is not None else est["frame"].max()
+        est = _gyro_coasted(est, groups, carried, config, t0_us, stalls, sensor, (0, last))
     if span_us is not None:
         est = _last_frame_at_the_end(est, span_us[1], t0_us, config.dt_us)
     loose = out[centroids["track"] < 0]
@@ -671,19 +672,24 @@ def _by_group(every, ests):
     return parts
 
 
-def _gyro_coasted(est, groups, carried, config, t0_us, stalls):
+def _gyro_coasted(est, groups, carried, config, t0_us, stalls, sensor, frames):
     """`est` with the ends of the tracks the gyro carries (`carried`) coasted to
     coast_gyro_ms, up to a readout stall, by a plain smoothing of their centroids (`groups`:
-    (centroids, σ, prior) each; evstar.coasting.extended)."""
-    from .coasting import extended
+    (centroids, σ, prior) each; evstar.coasting.extended) — of those with an end inside the
+    sensor (`sensor`: (width, height), or None) within the recording's `frames` (first,
+    last): a field's tracks mostly end where their stars leave it."""
+    from .coasting import extended, open_ends
     from .smoothing import TrackSmoother
 
     e = config.estimate
+    tracks = open_ends(est, carried, frames, sensor, SHADOW_PX)
+    if not tracks:
+        return est
     far = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS},
                         stalls=stalls)
-    coasted = [far.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups
-               if prior is not None]
-    return extended(est, np.concatenate(coasted), carried, SHADOW_PX) if coasted else est
+    coasted = [far.smooth(_only(cents, tracks), t0_us, prior, sig) for cents, sig, prior in groups
+               if prior is not None and np.isin(cents["track"], tracks).any()]
+    return extended(est, np.concatenate(coasted), tracks, SHADOW_PX) if coasted else est
 
 
 def _last_frame_at_the_end(est, end_us, t0_us, dt_us):

@@ -347,6 +347,22 @@ def test_the_gyros_farther_ends_join_the_fitted_track_and_never_stand_in_for_ano
     assert extended(fitted, far[:0], [5], 3.0).tobytes() == fitted.tobytes()
 
 
+def test_only_ends_inside_the_sensor_and_the_recording_are_carried_further():
+    from evstar.coasting import open_ends
+    from evstar.smoothing import ESTIMATE_DTYPE
+
+    est = np.zeros(6, ESTIMATE_DTYPE)
+    est["track"] = [1, 1, 2, 2, 3, 3]
+    est["frame"] = [0, 99, 10, 40, 5, 99]
+    est["t"] = est["frame"] * DT + DT // 2
+    est["x"] = [50, 50, 50, 1.5, 1.0, 50]        # track 2 leaves at the edge, 3 enters there
+    est["y"] = 30
+    # 1 spans the recording; 2 starts inside after its start; 3 ends at its last frame
+    assert open_ends(est, [1, 2, 3], (0, 99), (100, 60), 3.0) == [2]
+    assert open_ends(est, [1, 2, 3], (0, 99), None, 3.0) == [2, 3]      # no sensor: no edge
+    assert open_ends(est, [1, 2, 3], (0, 120), (100, 60), 3.0) == [1, 2, 3]
+
+
 def test_a_gyro_coasted_end_holds_a_share_of_the_gyros_turn_in_its_sigma():
     from evstar.coasting import GYRO_SCALE_SHARE, gyro_widened
 
