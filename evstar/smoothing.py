@@ -30,7 +30,8 @@ filterpy's, one step at a time, is the reference, ``engine="filterpy"``).
   and the track refitted without it; its frame keeps the refitted position.
 * Frames of a track's life without a centroid are "coasted": the smoothed position at the
   frame's mid-time, flagged, when it lies within ``coast_ms`` of a measurement on either
-  side; farther from both, nothing is reported for that frame.
+  side (with a velocity prior, a track's ends reach ``coast_gyro_ms``, up to a readout
+  stall: evstar.coasting); farther from both, nothing is reported for that frame.
 
 Output rows (:data:`ESTIMATE_DTYPE`) are sorted by track, then time.
 """
