@@ -29,21 +29,19 @@ def open_ends(est, tracks, frames, sensor, margin_px):
     a first row after the recording's first frame or a last before its last (`frames`:
     those two), at least `margin_px` inside the sensor (`sensor`: (width, height); None:
     anywhere). An end at the edge is a star leaving the view."""
-    first_f, last_f = frames
-    out = []
-    for track in tracks:
-        mine = est[est["track"] == track]
-        if not len(mine):
-            continue
-        mine = mine[np.argsort(mine["t"], kind="stable")]
-        for end, open_ in ((mine[0], mine["frame"][0] > first_f),
-                           (mine[-1], mine["frame"][-1] < last_f)):
-            inside = sensor is None or (margin_px <= end["x"] <= sensor[0] - 1 - margin_px
-                                        and margin_px <= end["y"] <= sensor[1] - 1 - margin_px)
-            if open_ and inside:
-                out.append(int(track))
-                break
-    return out
+    mine = est[np.isin(est["track"], tracks)]
+    if not len(mine):
+        return []
+    mine = mine[np.lexsort((mine["t"], mine["track"]))]
+    ids, first = np.unique(mine["track"], return_index=True)
+    last = np.r_[first[1:], len(mine)] - 1
+    x, y = mine["x"], mine["y"]
+    inside = np.ones(len(mine), bool) if sensor is None else (
+        (x >= margin_px) & (x <= sensor[0] - 1 - margin_px)
+        & (y >= margin_px) & (y <= sensor[1] - 1 - margin_px))
+    open_ = ((mine["frame"][first] > frames[0]) & inside[first]) | \
+            ((mine["frame"][last] < frames[1]) & inside[last])
+    return [int(t) for t in ids[open_]]
 
 
 def extended(est, coasted, tracks, apart_px):
