@@ -22,6 +22,8 @@ import numpy as np
 
 #: share of the gyro's displacement (px) since a track's end that a coasted row may be off
 GYRO_SCALE_SHARE = 0.01
+#: a track's end this near the sensor's edge (px) is its star leaving the view: not carried
+EDGE_PX = 3.0
 
 
 def open_ends(est, tracks, frames, sensor, margin_px):

@@ -678,11 +678,11 @@ def _gyro_coasted(est, groups, carried, config, t0_us, stalls, sensor, frames):
     (centroids, σ, prior) each; evstar.coasting.extended) — of those with an end inside the
     sensor (`sensor`: (width, height), or None) within the recording's `frames` (first,
     last): a field's tracks mostly end where their stars leave it."""
-    from .coasting import extended, open_ends
+    from .coasting import EDGE_PX, extended, open_ends
     from .smoothing import TrackSmoother
 
     e = config.estimate
-    tracks = open_ends(est, carried, frames, sensor, SHADOW_PX)
+    tracks = open_ends(est, carried, frames, sensor, EDGE_PX)
     if not tracks:
         return est
     far = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS},
