@@ -206,8 +206,9 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     from .smoothing import TrackSmoother
 
     e = config.estimate
+    params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
     # the fits coast coast_ms everywhere; the gyro's farther ends come after (_gyro_coasted)
-    fitting = {**{k: getattr(e, k) for k in _SMOOTHER_KEYS}, "coast_gyro_ms": e.coast_ms}
+    fitting = {**params, "coast_gyro_ms": e.coast_ms}
     smoother = TrackSmoother(config.dt_us, **fitting)
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
     out = centroids.copy()
@@ -254,7 +255,8 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     est = np.concatenate(ests)
     if carried and e.coast_ends and e.coast_gyro_ms > e.coast_ms:
         last = (span_us[1] - t0_us) // config.dt_us if span_us is not None else est["frame"].max()
-        est = _gyro_coasted(est, groups, carried, config, t0_us, stalls, sensor, (0, last))
+        est = _gyro_coasted(est, groups, carried, config.dt_us, params, t0_us, stalls, sensor,
+                            (0, last))
     if span_us is not None:
         est = _last_frame_at_the_end(est, span_us[1], t0_us, config.dt_us)
     loose = out[centroids["track"] < 0]
@@ -672,21 +674,20 @@ def _by_group(every, ests):
     return parts
 
 
-def _gyro_coasted(est, groups, carried, config, t0_us, stalls, sensor, frames):
+def _gyro_coasted(est, groups, carried, dt_us, params, t0_us, stalls, sensor, frames):
     """`est` with the ends of the tracks the gyro carries (`carried`) coasted to
     coast_gyro_ms, up to a readout stall, by a plain smoothing of their centroids (`groups`:
-    (centroids, σ, prior) each; evstar.coasting.extended) — of those with an end inside the
-    sensor (`sensor`: (width, height), or None) within the recording's `frames` (first,
-    last): a field's tracks mostly end where their stars leave it."""
+    (centroids, σ, prior) each; a TrackSmoother of `params`, evstar.coasting.extended) —
+    of those with an end inside the sensor (`sensor`: (width, height), or None) within the
+    recording's `frames` (first, last): a field's tracks mostly end where their stars leave
+    it."""
     from .coasting import EDGE_PX, extended, open_ends
     from .smoothing import TrackSmoother
 
-    e = config.estimate
     tracks = open_ends(est, carried, frames, sensor, EDGE_PX)
     if not tracks:
         return est
-    far = TrackSmoother(config.dt_us, **{k: getattr(e, k) for k in _SMOOTHER_KEYS},
-                        stalls=stalls)
+    far = TrackSmoother(dt_us, **params, stalls=stalls)
     coasted = [far.smooth(_only(cents, tracks), t0_us, prior, sig) for cents, sig, prior in groups
                if prior is not None and np.isin(cents["track"], tracks).any()]
     return extended(est, np.concatenate(coasted), tracks, SHADOW_PX) if coasted else est

@@ -180,7 +180,7 @@ class TrackSmoother:
         self.speed_change = ESTIMATE.check("speed_change", speed_change)
         self.engine = SMOOTHER.check("engine", engine)
         # the readout's stalls ((n, 2) µs, time-sorted): a gyro-coasted end stops at one
-        self.stalls = np.zeros((0, 2), np.int64) if stalls is None else np.asarray(stalls)
+        self.stalls = np.zeros((0, 2)) if stalls is None else np.asarray(stalls, np.float64)
         # the q estimated for each track's centroid data (_estimate_q_many): refine asks
         # again for the same data of most tracks (~25 % of the estimate stage's kernel time)
         self._q_memo = {}
@@ -618,7 +618,7 @@ class TrackSmoother:
         mid = t0_us + empty * self.dt_us + self.dt_us // 2
         near = _near_any(mid, t_meas, limit)
         if end > limit:   # never across a readout stall (evstar.pieces bridges those)
-            a, b = self.stalls[:, 0].astype(np.float64), self.stalls[:, 1].astype(np.float64)
+            a, b = self.stalls[:, 0], self.stalls[:, 1]
             after_stall = np.max(b[a < t_meas[0]], initial=-np.inf)
             before_stall = np.min(a[b > t_meas[-1]], initial=np.inf)
             near |= ((mid < t_meas[0]) & (t_meas[0] - mid <= end) & (mid > after_stall)) | \

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh14 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh15 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -40,7 +40,8 @@ after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --
 the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
-(T1–T10, the fifty-third's) and --fresh14 (U1–U10, the fifty-fourth's) likewise.
+(T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's) and --fresh15
+(W1–W10, the fifty-fifth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
