@@ -251,7 +251,25 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                     hot_pixels=300, hot_pixel_hz=300.0),
            "dark-sky-45-shot-coarse": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=45.0,
                                                                shot_noise_hz=1.0, threshold_on=0.26,
-                                                               threshold_off=0.26)}
+                                                               threshold_off=0.26),
+           # the fifty-sixth session's (fresh-56): a slow 20 Hz dark sky with coarse jittered
+           # thresholds, an untold 400 µs refractory period with OFF above ON, a busy rising
+           # background of mostly ON events, an 8 % mismatch losing a quarter of the events, a
+           # 60 Hz dark sky among 50 hot pixels at 500 Hz, fine thresholds with a leak and shot
+           # noise
+           "dark-sky-20-jitter-coarse": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=20.0,
+                                                                 jitter_us=60.0, threshold_on=0.3,
+                                                                 threshold_off=0.3),
+           "ref-400-off-high": lambda: sim.sensor_model("default", refractory_us=400.0,
+                                                        threshold_off=0.3),
+           "busy-on-rising": lambda: sim.sensor_model("default", noise_hz=4.0, noise_on_fraction=0.7,
+                                                      noise_growth=2.5),
+           "mismatch-08-dropout": lambda: sim.sensor_model("default", threshold_mismatch=0.08,
+                                                           dropout=0.25),
+           "dark-sky-60-hot": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=60.0,
+                                                       hot_pixels=50, hot_pixel_hz=500.0),
+           "fine-leak-shot": lambda: sim.sensor_model("default", threshold_on=0.12, threshold_off=0.12,
+                                                      leak_hz=2.0, shot_noise_hz=0.5)}
 
 
 def dev_grid():
@@ -775,6 +793,32 @@ def fresh55_grid():
             (28, 4.0, 1.1, "default", "imu", {"camera": "evk4", "direction": 20})))
 
 
+def fresh56_grid():
+    """Inputs no session had tried, run once when the fifty-sixth session began (seed 56):
+    six new sensors (above), a 30 °/s DAVIS346 slew and a 35 °/s EVK4 pan with the IMU, a
+    deceleration, a 30 Hz vibration along the motion with the IMU, a 3 Hz sinusoid without
+    it, a slow wide faint star, 20 °/s with the particle filter, 8 ms frames, a tilted axis
+    off the centre of the EVK4."""
+    return _listed("fresh-56", 56, (
+            (12, 4.0, 1.1, "dark-sky-20-jitter-coarse", "none", {}),
+            ("sine", 3.5, 1.2, "dark-sky-20-jitter-coarse", "imu", {"amplitude": 5.0, "freq": 2.5}),
+            (15, 4.0, 1.0, "ref-400-off-high", "none", {"direction": 110}),
+            (4, 4.5, 1.3, "busy-on-rising", "none", {"duration": 1.0}),
+            (10, 4.0, 1.2, "mismatch-08-dropout", "none", {"camera": "evk4"}),
+            (8, 4.0, 1.0, "dark-sky-60-hot", "imu", {}),
+            (6, 4.5, 1.1, "fine-leak-shot", "none", {}),
+            ("slew", 3.5, 1.2, "default", "imu", {"peak": 30.0, "duration": 1.5, "camera": "davis346"}),
+            ("ramp", 4.0, 1.1, "default", "none", {"rate": 16.0, "rate_end": 3.0}),
+            ("vibe", 4.0, 1.0, "default", "imu", {"rate": 9.0, "vib": 0.03, "vib_hz": 30.0,
+                                                  "vib_along": True}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 4.0, "freq": 3.0}),
+            (3, 4.5, 1.5, "default", "none", {"duration": 1.2}),
+            (20, 4.0, 1.2, "default", "pf", {}),
+            (9, 4.0, 1.1, "default", "none", {"settings": {"dt_us": 8000}, "direction": 200}),
+            (12, 4.0, 0.9, "default", "none", {"tilt": 45, "at": (-40, 30), "camera": "evk4"}),
+            (35, 3.0, 1.3, "default", "imu", {"camera": "evk4"})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -839,7 +883,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
-         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid,
+         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

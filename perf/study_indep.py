@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh15 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh16 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -40,8 +40,8 @@ after seeing it (that first run: study_indep_fresh3_first.md, _imu_first.md); --
 the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray light),
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
-(T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's) and --fresh15
-(W1–W10, the fifty-fifth's) likewise.
+(T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
+(W1–W10, the fifty-fifth's) and --fresh16 (X1–X10, the fifty-sixth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -239,6 +239,19 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                             noise_growth=0.5),
     "dark-stall-ref": dict(pixel="lowpass", f_min_hz=45.0, f_max_hz=1400.0, i_half=18.0,
                            c_on=0.2, c_off=0.2, refractory_us=200.0, gaps_s=((0.50, 0.58),)),
+    # the sixteenth fresh grid's (--fresh16; written in the fifty-sixth session, never tuned
+    # on): a slow 15 Hz dark sky with coarse thresholds behind 150 µs, fine jittered
+    # thresholds that leak, a dark sky reaching its ceiling early with ON below OFF and a 10 %
+    # mismatch, a fading background of mostly ON events, a dark sky with an early readout gap
+    "dark-15-coarse-ref": dict(pixel="lowpass", f_min_hz=15.0, f_max_hz=900.0, i_half=40.0,
+                               c_on=0.3, c_off=0.3, refractory_us=150.0),
+    "fine-jitter-leak": dict(pixel="ideal", c_on=0.13, c_off=0.13, jitter_us=70.0, leak_hz=0.4),
+    "dark-on-low-mismatch": dict(pixel="lowpass", f_min_hz=35.0, f_max_hz=3000.0, i_half=8.0,
+                                 c_on=0.17, c_off=0.27, mismatch=0.1),
+    "busy-fading-on": dict(pixel="ideal", c_on=0.22, c_off=0.2, noise_on_fraction=0.75,
+                           noise_growth=0.3),
+    "gap-early-dark": dict(pixel="lowpass", f_min_hz=50.0, f_max_hz=1200.0, i_half=25.0,
+                           c_on=0.22, c_off=0.22, gaps_s=((0.10, 0.16), (0.70, 0.72))),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -574,9 +587,29 @@ FRESH15 = [
     ("vga", ("lin", 20, 330), [3.5, 4.5], ("gauss", 0.9), "dark-stall-ref", 1.0, 0, 1.0),
 ]
 FRESH15_SEED = 20000
+#: the sixteenth held-out grid (written in the fifty-sixth session, run once on its start):
+#: five new sensors (above) under a three-star VGA pan, an HD sinusoid, a Moffat DAVIS346
+#: pan among warm pixels, an acceleration on the wide lens, a tele pan through an early
+#: readout gap, a 14 Hz vibration, a circle under an elliptical PSF, a roll on the DAVIS346,
+#: a fast defocused VGA pan, a slow HD sinusoid among hot pixels; seeds 21000 + i
+FRESH16 = [
+    ("vga", ("lin", 11, 75), [3, 4, 5], ("gauss", 1.1), "dark-15-coarse-ref", 1.0, 0, 1.0),
+    ("hd", ("sine", 6, 1.4, 250), [3.5, 4.5], ("gauss", 1.2), "fine-jitter-leak", 1.0, 0, 1.0),
+    ("davis", ("lin", 5, 170), [3, 4], ("moffat", 2.5, 4.0), "dark-on-low-mismatch", 1.0, 2, 1.0),
+    ("wide", ("acc", 25, 300), [3.5, 4.5], ("gauss", 1.0), "busy-fading-on", 3.0, 0, 1.0),
+    ("tele", ("lin", 8, 15), [3, 4], ("gauss", 1.6), "gap-early-dark", 1.0, 0, 1.0),
+    ("vga", ("vibe", 4, 100, 0.025, 14, 10), [3.5, 4.5], ("gauss", 1.1), "fine-jitter-leak", 1.0,
+     0, 1.2),
+    ("hd", ("circle", 5, 0.5), [3, 4, 5], ("ellip", 1.5, 1.1, 120), "dark-on-low-mismatch", 1.0,
+     0, 1.0),
+    ("davis", ("roll", 6, 1, 260), [3, 3.5], ("gauss", 1.2), "busy-fading-on", 2.0, 5, 1.0),
+    ("vga", ("lin", 25, 190), [3, 4], ("defocus", 1.4, 0.6), "dark-15-coarse-ref", 1.0, 0, 0.8),
+    ("hd", ("sine", 16, 0.5, 130), [3.5, 4.5], ("gauss", 1.0), "gap-early-dark", 1.0, 8, 1.5),
+]
+FRESH16_SEED = 21000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
