@@ -29,7 +29,7 @@ from . import backends, parameters as P
 from .config import Config
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events, gather
-from .frames import check_frame_count
+from .frames import check_frame_count, check_grid
 from evstar_kernels.reference import denoise as ref
 from evstar_kernels.taichi.scratch import Scratch
 
@@ -52,6 +52,7 @@ def _check_common(dt_us, backend, device, t0_us):
 def _check_events(events):
     if not isinstance(events, Events):
         raise ParameterTypeError(f"events must be evstar.Events, got {type(events).__name__}")
+    check_grid(events.width, events.height)
     return events
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import DataError
-from .parameters import MAX_FRAMES
+from .parameters import MAX_FRAMES, MAX_GRID_PIXELS
 
 #: frames are kept apart in one spatial search by a coordinate this far apart (>> any px)
 FRAME_GAP = 1e6
@@ -78,6 +78,15 @@ def check_frame_count(n_frames, first_us, last_us, dt_us):
     if n_frames > MAX_FRAMES:
         raise DataError(f"{first_us} to {last_us} µs spans {n_frames} frames of dt_us={dt_us}, "
                         f"more than {MAX_FRAMES:_} (a corrupt timestamp or frame origin?)")
+
+
+def check_grid(width, height):
+    """DataError where a width x height sensor has more than MAX_GRID_PIXELS pixels (the
+    dense kernels' per-pixel grids would not fit in memory)."""
+    if width * height > MAX_GRID_PIXELS:
+        raise DataError(f"the sensor is {width}x{height} px, {width * height:,} pixels: evstar's "
+                        f"per-pixel grids take at most {MAX_GRID_PIXELS:,} (8192x8192; a "
+                        "corrupt header's size?)")
 
 
 def frame_offsets(t, dt_us, t0):

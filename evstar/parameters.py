@@ -181,6 +181,10 @@ MAX_DT_US = 3_600_000_000  # one hour: frames longer than that are a unit mistak
 #: pseudo-frames of one stream: its per-frame arrays (int64 offsets: 0.8 GB) must fit, and
 #: 1e8 frames are 11.6 days of the default 10 ms frames (a longer span is a corrupt timestamp)
 MAX_FRAMES = 10**8
+#: pixels of a sensor the dense kernels take (8192 x 8192): each per-pixel grid of int64 is
+#: 0.5 GB there, and the largest event sensors have ~1.2 million (a header's 65536 x 65536,
+#: a legal side each, asked for 32 GB)
+MAX_GRID_PIXELS = 2**26
 #: largest density threshold: the counting kernels count in int32
 MAX_THRESHOLD = 2**31 - 1
 _INT32 = " (below 2**31: the kernels count in int32)"

@@ -31,8 +31,8 @@ from .config import Config
 from .errors import DataError, EvstarWarning, ParameterTypeError
 from .events import Events, time_lattice_us
 from .extract import CENTROID_DTYPE, Extractor
-from .frames import (accumulated, frame_offsets, images, on_pixels, stall_starts,
-                     stalled_us, stalls)
+from .frames import (accumulated, check_frame_count, frame_offsets, images, on_pixels,
+                     stall_starts, stalled_us, stalls)
 from .gyro_repair import repaired
 from .parameters import AUTO, MAX_PIXEL_RATE_HZ
 from .pixel_order import PixelOrder
@@ -279,6 +279,8 @@ class Pipeline:
                         events.t[[0, -1]] if len(events) else None)
         t0 = int(events.t[0]) if len(events) else 0
         span = (t0, int(events.t[-1])) if len(events) else None   # the recording's first, last µs
+        if span is not None:
+            check_frame_count((span[1] - t0) // self.config.dt_us + 1, *span, self.config.dt_us)
         rate, hot = self.calibration(events, t0)
         timings = {}
         state = _RunState(self.config, events.width, events.height, t0, hot,

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from .camera import Camera
 from .errors import DataError, ParameterError, ParameterTypeError
 from .events import Events
+from .frames import check_grid
 from .imu import Imu
 
 
@@ -26,6 +27,8 @@ def check_parts(events, imu, camera, mode):
         if value is not None and not isinstance(value, cls):
             raise ParameterTypeError(f"{name} must be an evstar.{cls.__name__} or None, "
                                      f"got {type(value).__name__}")
+    if events is not None:
+        check_grid(events.width, events.height)
     if mode != "none":
         missing = [what for what, v in (("an IMU (imu=; command line: --imu FILE, a CSV "
                                          "t,gx,gy,gz,ax,ay,az)", imu),

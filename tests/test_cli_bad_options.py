@@ -144,6 +144,58 @@ def test_demo_at_rate_0_falls_back_to_the_imu(tmp_path, capsys):
     assert "compensating with the IMU alone" in text
     assert 'compensate = "imu"' in (out / "config.toml").read_text()
     assert {"events.h5", "imu.csv", "truth.npz", "metrics.json"} <= {p.name for p in out.iterdir()}
+    assert main(["demo", "-o", str(out), "--rate", "0"]) == 0   # its own files: replaced
+
+
+def test_demo_replaces_no_file_it_did_not_write_and_writes_nothing_first(tmp_path, capsys):
+    """A user's imu.csv in OUTDIR (or centroids.csv in OUTDIR/field) is refused before the
+    demo simulates or writes anything: it had replaced the recording files unasked, and
+    written them before refusing a foreign centroids.csv."""
+    for folder, name in (("demo", "imu.csv"), ("demo/field", "centroids.csv")):
+        out = tmp_path / folder
+        out.mkdir(parents=True)
+        (out / name).write_text("mine\n")
+        before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+        fails(capsys, ["demo", "-o", tmp_path / "demo"], 4, name, "evstar")
+        assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+        (out / name).unlink()
+
+
+def test_a_span_or_sensor_too_large_for_memory_is_refused_before_allocating(tmp_path, capsys):
+    """Events an hour of hours apart, or a header's 65536 x 65536 sensor: extract and run
+    had ended in "out of memory (26.8 GiB)"; now the span's frames or the sensor's pixels
+    are refused up front, as denoise refused the span."""
+    span = tmp_path / "span.csv"
+    span.write_text("t,x,y,p\n# width=320 height=240\n0,10,10,1\n3600000000000,11,10,0\n")
+    big = tmp_path / "big.csv"
+    big.write_text("t,x,y,p\n# width=65536 height=65536\n0,10,10,1\n10,11,10,0\n20,12,10,1\n")
+    for cmd in (["extract", span, "-o", tmp_path / "a.csv"], ["run", span, "-o", tmp_path / "r"]):
+        fails(capsys, cmd, 3, "360000001 frames", "corrupt timestamp")
+    for cmd in (["extract", big, "-o", tmp_path / "b.csv"], ["denoise", big, tmp_path / "d.h5"],
+                ["run", big, "-o", tmp_path / "s"]):
+        fails(capsys, cmd, 3, "65536x65536 px", "8192x8192")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.csv", "span.csv"]
+
+
+def test_options_are_not_abbreviated_debug_goes_after_the_command_and_pointing_is_checked(
+        rec, tmp_path, capsys):
+    """`--forc` had been taken for --force (and replaced a file); `--debug` after the command
+    was an unrecognized argument though errors suggest adding it; a malformed --pointing
+    passed unchecked with one star."""
+    from evstar.errors import FormatError
+
+    (tmp_path / "mine.h5").write_bytes(b"mine")
+    fails(capsys, ["convert", rec / "events.h5", tmp_path / "mine.h5", "--forc"], 2,
+          "unrecognized arguments: --forc")
+    assert (tmp_path / "mine.h5").read_bytes() == b"mine"
+    with pytest.raises(FormatError, match="no such file"):
+        main(["info", str(tmp_path / "none.csv"), "--debug"])
+    fails(capsys, ["simulate", tmp_path / "sim", "--pointing", "foo"], 2, "--pointing", "'foo'")
+    assert not (tmp_path / "sim").exists()
+    # a truth that is no .npz: said so (np.load's message had asked to allow pickles)
+    (tmp_path / "t.csv").write_text("t,x\n")
+    fails(capsys, ["run", rec / "events.h5", "-o", tmp_path / "r", "--truth", tmp_path / "t.csv"],
+          3, "t.csv: not a truth .npz")
 
 
 # -- 8, 9: bounds -----------------------------------------------------------------------------------

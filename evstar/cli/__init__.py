@@ -46,7 +46,8 @@ class Parser(argparse.ArgumentParser):
 def build_parser(argv=None):
     """The parser; only the sub-command named in `argv` gets its options (and imports its
     module), so `evstar --help` and every other command start without the rest."""
-    parser = Parser(prog="evstar", description=__doc__,
+    # no abbreviations: `--forc` had been taken for --force
+    parser = Parser(prog="evstar", description=__doc__, allow_abbrev=False,
                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version="evstar 0.1.0")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
@@ -57,9 +58,12 @@ def build_parser(argv=None):
             sub.add_parser(name, help=help_text)
             continue
         module = import_module(f".{name}", __name__)
-        p = sub.add_parser(name, help=help_text, description=module.__doc__,
+        p = sub.add_parser(name, help=help_text, description=module.__doc__, allow_abbrev=False,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(p)
+        # after the command too (where an error message suggests adding it)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show the traceback of an error")
         p.set_defaults(_run=module.run)
         parser.chosen = p     # its errors name the command
     return parser
@@ -76,6 +80,9 @@ def main(argv=None):
     with warnings.catch_warnings():
         if not args.debug:   # one line per warning, like the errors (no source line)
             warnings.showwarning = _one_line_warning(args.command)
+            # a dependency's deprecations are its maintainers' to act on, not a user's
+            # (Taichi's first init calls locale.getdefaultlocale)
+            warnings.filterwarnings("ignore", category=DeprecationWarning, module=r"taichi\b")
         return _run(args)
 
 

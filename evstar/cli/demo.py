@@ -37,6 +37,7 @@ def run(args):
 
     out = pathlib.Path(args.output)
     check_output_dir(out)
+    _check_replaceable(out)
     backends.require(args.device)   # a missing GPU before the simulation
     bias = tuple(np.radians([0.3, -0.2, 0.25]))   # a realistic MEMS gyro bias, °/s -> rad/s
     scenario = sim.paper_preset(args.rate, imu=sim.ImuSpec(gyro_bias=bias))
@@ -65,6 +66,18 @@ def run(args):
         print(f"gyro bias     true {[0.3, -0.2, 0.25]} °/s, particle filter {est} °/s")
     print(outputs.summary_text(result, out, steady=steady))
     _field(out / "field", args)
+
+
+def _check_replaceable(out):
+    """OutputError before anything is simulated where OUTDIR or OUTDIR/field holds a file the
+    demo would write that no evstar command wrote there (simulate's recording files, known
+    by its truth.npz; a run's, by .evstar-owned)."""
+    from ..outputs import RUN_FILES, check_owned
+    from .simulate import check_replaceable
+
+    check_replaceable(out, "events.h5")
+    for folder in (out, out / "field"):
+        check_owned(folder, RUN_FILES)
 
 
 def _field(out, args):

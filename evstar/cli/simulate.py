@@ -230,6 +230,7 @@ def run(args):
     events_path = os.path.join(args.out_dir, check_events_name(args.events_name))
     fmt = check_events_output(events_path, None, option="--events-name", override=None)
     check_replaceable(args.out_dir, args.events_name)
+    pointing(args)   # malformed, it is refused with --stars 1 too (where no field is drawn)
     try:
         scenario = scenario_from(args)
     except ValueError as exc:  # the simulator's own checks of a combination of options

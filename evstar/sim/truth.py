@@ -129,6 +129,13 @@ def save_truth(path, truth):
 
 def load_truth(path):
     """Read a truth.npz written by :func:`save_truth`."""
+    try:   # np.load reads anything else as a pickle, whose message asks to allow pickles
+        with open(path, "rb") as f:
+            if f.read(4) != b"PK\x03\x04":
+                raise FormatError(path, "not a truth .npz (an .npz is a zip archive; "
+                                        "evstar simulate writes truth.npz)")
+    except OSError:
+        pass   # np.load says what is wrong below
     try:
         with np.load(path, allow_pickle=False) as z:
             d = {k: z[k] for k in z.files}
