@@ -90,6 +90,14 @@ LEAST_LAGGED = 1 / 3
 #: apart, 0.73 px), where without a low-pass the levels of a k with 100 profiles or more
 #: passed within 0.02 ms
 DELAY_SHARE = 0.25
+#: an offset must be told by the gyro's turns slower than a period of this many times
+#: itself as well (the rates smoothed over that long): a turn of period P tells an offset
+#: only modulo P, and a crossing's level pairs, timed over the star's passage (T ~ 2σ/v),
+#: see a motion of frequency f with a gain cos(π f T) that turns negative where the passage
+#: outlasts half its period — a 30 Hz, 0.03° vibration along a 9 °/s pan read as a 15.6 ms
+#: offset, half its period (fresh-56 of perf/study_accuracy.py; 0.221 px, 0.033 without
+#: the IMU). Under a quarter period an offset cannot alias
+ALIAS_PERIODS = 4.0
 #: the gyro's rate must change over a gap this many times more than its noise alone seems
 #: to, and by more than MIN_RATE_CHANGE (rad/s RMS: a noiseless gyro at a constant rate)
 NOISE_RATIO, MIN_RATE_CHANGE = 3.0, 1e-3
@@ -161,6 +169,8 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
     if offset is None or (lag is None and depth_delay_us > DELAY_SHARE * abs(offset)):
         return None
+    if not _slow_turns_tell(offset, imu, chosen, t_cam, camera):
+        return None
     if not np.any(pairs[-1] > 0):
         return offset
     # behind a pixel lag the least-lagged pairs must tell it too (LEAST_LAGGED)
@@ -169,6 +179,18 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
         return offset
     confirmed = _offset_of(least, t_cam, turned, camera)
     return offset if confirmed is not None and confirmed * offset > 0 else None
+
+
+def _slow_turns_tell(offset, imu, pairs, t_cam, camera):
+    """Whether the gyro's turns slower than a period of ALIAS_PERIODS x |offset| tell the
+    offset too (its sign): see ALIAS_PERIODS."""
+    window = ALIAS_PERIODS * abs(offset)
+    if window <= SMOOTH_US:   # the search's own smoothing keeps only such turns
+        return True
+    if not _rate_changes(imu, window):
+        return False
+    slow = _offset_of(pairs, t_cam, _turned(t_cam, imu.gyro_cam, window), camera)
+    return slow is not None and slow * offset > 0
 
 
 def _offset_of(pairs, t_cam, turned, camera):
@@ -257,11 +279,11 @@ def _clipped_fit(columns, r, weight, clip):
     return np.linalg.lstsq(columns[ok] * sw[ok, None], r[ok] * sw[ok], rcond=None)[0], ok
 
 
-def _rate_changes(imu):
-    """Whether the gyro's smoothed rate changes over a pair's gap by more than its own white
-    noise makes it seem to: the RMS over its record of that change at least NOISE_RATIO
-    times a constant-rate gyro's of the same measured noise (a constant rate tells no
-    offset, and a noisy gyro's smoothed rate still wanders)."""
+def _rate_changes(imu, window_us=SMOOTH_US):
+    """Whether the gyro's rate smoothed over window_us changes over a pair's gap by more
+    than its own white noise makes it seem to: the RMS over its record of that change at
+    least NOISE_RATIO times a constant-rate gyro's of the same measured noise (a constant
+    rate tells no offset, and a noisy gyro's smoothed rate still wanders)."""
     from .smoothing import gyro_noise_density
 
     t = imu.t_cam.astype(np.float64)
@@ -272,28 +294,29 @@ def _rate_changes(imu):
              * gyro_noise_density(imu) * np.sqrt(rate_hz))
 
     def rms_change(gyro):
-        smooth = _smoothed(t, gyro)
+        smooth = _smoothed(t, gyro, window_us)
         later = interp_rows(t + MIN_GAP_US, t, smooth)
         return np.sqrt(np.mean(np.sum((later - smooth)[t + MIN_GAP_US <= t[-1]] ** 2, 1)))
 
     return rms_change(imu.gyro_cam) > max(NOISE_RATIO * rms_change(white), MIN_RATE_CHANGE)
 
 
-def _smoothed(t_cam, gyro):
-    """The rates fitted over SMOOTH_US (a quadratic Savitzky-Golay fit): the offset is read
+def _smoothed(t_cam, gyro, window_us=SMOOTH_US):
+    """The rates fitted over window_us (a quadratic Savitzky-Golay fit): the offset is read
     off how the rate changes, and a white noise's changes from sample to sample, which the
     raw rates hold, had passed for that at a constant rate."""
     from scipy.signal import savgol_filter
 
-    step = float(np.median(np.diff(t_cam))) if len(gyro) > 1 else SMOOTH_US
-    window = int(SMOOTH_US // max(step, 1.0)) // 2 * 2 + 1
+    step = float(np.median(np.diff(t_cam))) if len(gyro) > 1 else window_us
+    window = int(window_us // max(step, 1.0)) // 2 * 2 + 1
     return savgol_filter(gyro, window, 2, axis=0) if 5 <= window <= len(gyro) else gyro
 
 
-def _turned(t_cam, gyro):
-    """(n, 3) the smoothed rates (rad/s, camera frame) integrated from the first sample (rad,
-    trapezoids) at the camera times: over a pair's gap its difference is the turn."""
-    g = _smoothed(t_cam, gyro)
+def _turned(t_cam, gyro, window_us=SMOOTH_US):
+    """(n, 3) the rates smoothed over window_us (rad/s, camera frame) integrated from the
+    first sample (rad, trapezoids) at the camera times: over a pair's gap its difference is
+    the turn."""
+    g = _smoothed(t_cam, gyro, window_us)
     dt = np.diff(t_cam.astype(np.float64)) * 1e-6
     return np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (g[1:] + g[:-1]) * dt[:, None], axis=0)]
 

@@ -236,3 +236,25 @@ def test_a_faint_stars_unmeasured_lag_on_a_dark_sky_is_not_taken_for_a_clock_off
                                           sensor=sim.sensor_model("dark-sky")), seed=3)
     res, err = run_imu(run)
     assert "imu_time_offset_us" not in res.metrics and err < 0.15
+
+
+def test_a_vibration_along_the_motion_is_not_read_as_a_clock_offset(monkeypatch):
+    """fresh-56: a 30 Hz, 0.03° vibration along a 9 °/s pan, the gyro told its clock. The
+    crossings, each timed over a ~20 ms passage, see the vibration reversed (gain
+    cos(π f T) < 0), which the search reads as half its period; the gyro's prior was then
+    rejected (0.22 px). The gyro's slow turns (ALIAS_PERIODS) are a constant rate and tell
+    no offset: none is taken, and the gyro carries the vibration."""
+    from evstar import clock
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = sim.camera_preset("dvxplorer-lite")
+    motion = sim.Jitter(sim.ConstantRate(9.0), 0.03, 30.0, (0.0, -1.0, 0.0))
+    stars = star_at_pixel(cam, motion.rotation(0.4)[0], (cam.cx, cam.cy), 4.0)
+    run = sim.simulate(Scenario(cam, stars, motion, 0.8), seed=56)
+    res, err = run_imu(run)
+    assert "imu_time_offset_us" not in res.metrics and err < 0.06
+    monkeypatch.setattr(clock, "ALIAS_PERIODS", 0.0)   # fast turns alone
+    aliased, err_aliased = run_imu(run)
+    assert abs(abs(aliased.metrics["imu_time_offset_us"]) - 1e6 / 60) < 3000
+    assert err_aliased > 2 * err
