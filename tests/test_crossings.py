@@ -790,6 +790,31 @@ def test_a_measured_ratio_discounts_the_background_in_the_runs(leak_hz, noise_hz
         assert abs(told - plain) < 0.02
 
 
+def test_a_background_that_breaks_the_runs_tells_no_ratio():
+    """A busy background of mostly ON events rising from 4 to 10 Hz under a slow faint star
+    (fresh-56 of perf/study_accuracy.py): 1.2 events of the other polarity a run, expected.
+    Its runs read 1.24 for equal thresholds (0.93 with the background taken off); they tell
+    no ratio, the run takes its fallback (1), and the star is no longer led by 0.22 px."""
+    from evstar import Config, Pipeline, accuracy, estimation
+    from evstar.crossings import (_change_runs, _measured_ratio, first_of_pixel,
+                                  without_strays)
+
+    sensor = sim.sensor_model("default", noise_hz=4.0, noise_on_fraction=0.7, noise_growth=2.5)
+    run = sim.simulate(sim.paper_preset(4.0, magnitude=4.5, duration_s=1.0, sensor=sensor,
+                                        psf_sigma_px=1.3), seed=56)
+    pipe = Pipeline(Config())
+    res = pipe.run(run.events, run.imu, run.camera)
+    rate = pipe.calibration_rate(run.events, int(run.events.t[0]))
+    (ts, keys, ps), rates = estimation._near_kept(run.events, res.keep, 3.0, background_hz=rate)
+    _, (change, nb, na) = _change_runs(ts, keys, ps, "numpy")
+    nb, na = without_strays(ts, change, nb, na)
+    first = first_of_pixel(keys[change])
+    assert _measured_ratio(nb, na, first=first) > 1.15
+    assert _measured_ratio(nb, na, first=first, runs=(ts, keys, change, rates)) is None
+    star, err = accuracy.match(res.centroids, run.truth.star_position)
+    assert err[star >= 0].mean() < 0.1
+
+
 @pytest.mark.parametrize("device_arrays", [False, True], ids=["serial-cpu", "parallel-device"])
 @pytest.mark.parametrize("n, n_pixels, cap", [(0, 1, 4096), (1, 1, 4096), (2, 1, 4096),
                                               (50_000, 400, 4096), (50_000, 3, 4)])
