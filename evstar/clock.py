@@ -15,8 +15,9 @@ such pairs where the path runs straight (a grid search, then Gauss-Newton steps)
 bias's constant image velocity fitted beside it, and it is taken only where the data can
 tell it: the smoothed gyro rate changes over a gap well beyond what its noise makes it
 seem to (a constant rate tells nothing), δ stands MIN_Z standard errors from zero (each
-100 ms block of pairs taken as one), and, behind a pixel lag, exceeds the lag itself and
-stands out on the least-lagged third of the pairs too.
+100 ms block of pairs taken as one), the gyro's turns slower than ALIAS_PERIODS x δ tell
+it too (a vibration's period aliases it), and, behind a pixel lag, δ exceeds the lag
+itself and stands out on the least-lagged third of the pairs too.
 Crossing times are the star's own behind a pixel lag (moved back by the measured one),
 but an error of that lag still reads as an offset: smaller ones are left as they are."""
 from __future__ import annotations
