@@ -3,6 +3,7 @@
 lost or overwritten. Inputs are tiny simulated recordings (`evstar simulate --duration 0.1`)."""
 import hashlib
 import json
+import os
 import subprocess
 import sys
 
@@ -196,6 +197,35 @@ def test_options_are_not_abbreviated_debug_goes_after_the_command_and_pointing_i
     (tmp_path / "t.csv").write_text("t,x\n")
     fails(capsys, ["run", rec / "events.h5", "-o", tmp_path / "r", "--truth", tmp_path / "t.csv"],
           3, "t.csv: not a truth .npz")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes on this system")
+def test_a_named_pipe_is_refused_as_input_and_stdout_into_a_pipe_is_written(rec, tmp_path, capsys):
+    """A named pipe as input had read as "file is empty" (its size), and read past that it
+    would hang (a reader opens the file twice); /dev/stdout into a pipe resolved to a
+    "pipe:[n]" path that does not exist and was refused."""
+    fifo = tmp_path / "in.csv"
+    os.mkfifo(fifo)
+    fails(capsys, ["info", fifo], 3, "in.csv: is a named pipe")
+    csv = tmp_path / "two.csv"
+    csv.write_text("t,x,y,p\n# width=20 height=20\n100,10,10,1\n200,11,10,0\n")
+    out = subprocess.run([sys.executable, "-m", "evstar", "convert", str(csv), "/dev/stdout",
+                          "--to", "csv", "--force"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("t,x,y,p") and "200,11,10,0" in out.stdout
+
+
+def test_an_imu_of_another_time_span_is_named(rec, tmp_path, capsys):
+    """The IMU's time-span error came from its array, which knows no file: the command line
+    leads it with the IMU file's name."""
+    import pandas as pd
+
+    imu = pd.read_csv(rec / "imu.csv", comment="#")
+    imu["t"] += 10_000_000
+    late = tmp_path / "late.csv"
+    imu.to_csv(late, index=False)
+    fails(capsys, ["extract", rec / "events.h5", "-o", tmp_path / "c.csv", "--compensate", "imu",
+                   "--imu", late], 3, f"{late}: the IMU starts")
 
 
 # -- 8, 9: bounds -----------------------------------------------------------------------------------

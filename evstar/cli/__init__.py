@@ -104,7 +104,7 @@ def _run(args):
         _stdout_to_devnull()
         return EXIT_PIPE
     except EvstarError as exc:
-        return _fail(args, exc, exc.exit_code)
+        return _fail(args, _named(args, exc), exc.exit_code, exc)
     except KeyboardInterrupt:
         print(f"evstar {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -117,6 +117,26 @@ def _run(args):
     except Exception as exc:
         return _fail(args, f"internal error: {type(exc).__name__}: {exc} (rerun with --debug "
                            "for the traceback)", EXIT_INTERNAL, exc)
+
+
+#: a data error that names the IMU or the truth but not its file: (the message's start,
+#: the option whose file it is, else the input's)
+_UNNAMED = (("the IMU ", "imu"), ("the truth ", "truth"))
+
+
+def _named(args, exc):
+    """The error's message, led by the file it is about where it names none (the library
+    checks arrays, which know no path: an IMU file of another time span, a truth file of
+    another recording)."""
+    from ..errors import DataError
+
+    message = str(exc)
+    if isinstance(exc, DataError):
+        for start, option in _UNNAMED:
+            path = getattr(args, option, None) or getattr(args, "input", None)
+            if message.startswith(start) and path and str(path) not in message:
+                return f"{path}: {message}"
+    return message
 
 
 def _stdout_to_devnull():

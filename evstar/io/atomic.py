@@ -17,7 +17,7 @@ def atomic_path(path, suffix=None):
     A symbolic link is followed (its target is replaced, the link kept), and a device or a
     named pipe (/dev/null, a FIFO a reader waits on) is written in place: a rename would
     put a plain file where it was."""
-    path = pathlib.Path(os.path.realpath(path)) if os.path.islink(path) else pathlib.Path(path)
+    path = _followed(path)
     if path.exists() and not path.is_file() and not path.is_dir():
         try:
             yield path
@@ -46,6 +46,15 @@ def atomic_path(path, suffix=None):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _followed(path):
+    """`path`, a symbolic link followed to its target — but a link to what has no path
+    (/dev/stdout into a pipe: /proc/self/fd/1 -> "pipe:[n]") is written through as it is."""
+    if not os.path.islink(path):
+        return pathlib.Path(path)
+    target = pathlib.Path(os.path.realpath(path))
+    return target if target.exists() or not os.path.exists(path) else pathlib.Path(path)
 
 
 def _output_error(path, exc):

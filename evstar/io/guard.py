@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
 import tokenize
 import zipfile
 import zlib
@@ -30,7 +31,9 @@ def check_path_type(path):
 
 
 def check_readable(path):
-    """FormatError unless `path` is an existing, readable, non-empty file."""
+    """FormatError unless `path` is an existing, readable, non-empty plain file (a named
+    pipe is refused as one: the readers open a file more than once, and the second open of a
+    pipe waits for a writer that is gone)."""
     check_path_type(path)
     if not os.path.exists(path):
         raise FormatError(path, "no such file")
@@ -38,7 +41,10 @@ def check_readable(path):
         raise FormatError(path, "is a folder, not a file")
     if not os.access(path, os.R_OK):
         raise FormatError(path, "permission denied")
-    if os.path.getsize(path) == 0:
+    if stat.S_ISFIFO(os.stat(path).st_mode):
+        raise FormatError(path, "is a named pipe; evstar reads files: save the stream to a file "
+                                "first")
+    if os.path.isfile(path) and os.path.getsize(path) == 0:
         raise FormatError(path, "file is empty")
 
 
