@@ -215,6 +215,13 @@ def test_a_named_pipe_is_refused_as_input_and_stdout_into_a_pipe_is_written(rec,
     assert out.stdout.startswith("t,x,y,p") and "200,11,10,0" in out.stdout
 
 
+def test_an_unknown_output_extension_lists_only_what_evstar_writes(tmp_path, capsys):
+    """The list had offered .npy, which is then refused (one array, no recording)."""
+    err = fails(capsys, ["simulate", tmp_path / "s", "--events-name", "ev.xyz"], 2,
+                "unknown extension '.xyz'", ".npz")
+    assert ".npy" not in err
+
+
 def test_an_imu_of_another_time_span_is_named(rec, tmp_path, capsys):
     """The IMU's time-span error came from its array, which knows no file: the command line
     leads it with the IMU file's name."""

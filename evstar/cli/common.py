@@ -75,7 +75,8 @@ def check_events_output(path, out_format, option="OUT", override="--to FORMAT"):
         fmt = io.format_of(path, out_format)
     except FormatError:
         ext = os.path.splitext(str(path))[1]
-        known = sorted(e for n in names for e in io.FORMATS[n][1])
+        # (.npy reads as a one-array npz but holds no recording to write)
+        known = sorted(e for n in names for e in io.FORMATS[n][1] if e != ".npy")
         raise ParameterError(f"{option} {path}: {f'unknown extension {ext!r}' if ext else 'no extension'}; give one of "
                              f"{', '.join(known)}" + (f" (or {override})" if override else "")) from None
     if not io.FORMATS[fmt][2]:
