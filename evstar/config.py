@@ -159,11 +159,11 @@ class Config:
             raise ParameterTypeError(f"config path must be a str or os.PathLike, got {path!r}")
         path = pathlib.Path(path)
         kind = path.suffix.lower()
+        if path.is_dir():
+            raise FormatError(path, "is a folder, not a configuration file")
         if kind not in (".toml", ".json"):   # the format is the extension's: no guessing
             raise FormatError(path, f"a configuration file is .toml or .json, got "
                                     f"{repr(path.suffix) if path.suffix else 'no extension'}")
-        if path.is_dir():
-            raise FormatError(path, "is a folder, not a configuration file")
         try:
             text = path.read_text(encoding="utf-8")
         except FileNotFoundError:

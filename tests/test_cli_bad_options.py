@@ -220,6 +220,9 @@ def test_an_unknown_output_extension_lists_only_what_evstar_writes(tmp_path, cap
     err = fails(capsys, ["simulate", tmp_path / "s", "--events-name", "ev.xyz"], 2,
                 "unknown extension '.xyz'", ".npz")
     assert ".npy" not in err
+    (tmp_path / "cfg").mkdir()   # a folder as --config: said so (not "no extension")
+    fails(capsys, ["extract", tmp_path / "x.csv", "-o", tmp_path / "o.csv", "--config",
+                   tmp_path / "cfg"], 3, "cfg: is a folder, not a configuration file")
 
 
 def test_an_imu_of_another_time_span_is_named(rec, tmp_path, capsys):
