@@ -145,8 +145,8 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     pixels' lag from the data (evstar.level_lag), used where no pixel_lag_file is given.
     rate_hz: the measured background rate (events/pixel/s), for untracked_alpha. near:
     (t, x, y) of the events near the stars, hot pixels out, for the tracks' positions
-    across their motion (evstar.across; needs `sensor`). Without a velocity prior, a
-    track's or a field's vibration is found and followed (evstar.vibration;
+    across their motion (evstar.across; needs `sensor`). Where no velocity prior carries a
+    track, a track's or a field's vibration is found and followed (evstar.vibration;
     estimate.vibration); a `report` dict gets its summary under "vibration" (vibration.summary).
     stalls: (n, 2) µs spans the readout sent nothing in (frames.stalls): a track is
     smoothed in pieces across them (evstar.pieces). depth_delay_us: how much later the
@@ -155,16 +155,19 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     holds it as the unknown lag's scale (UNMEASURED_LAG_SHARE)."""
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near, stalls, depth_delay_us)
-    rows, est, kept = _estimate(centroids, *args)
-    # with a velocity prior the gyro already carries the platform's motion
-    if est is None or velocity_prior is not None or not config.estimate.vibration:
+    rows, est, kept, carried = _estimate(centroids, *args)
+    # a gyro prior that carries a track carries the platform's motion; one that carries
+    # none (a gyro too noisy to beat a straight track, or on another clock) leaves the
+    # vibration to be sought as without it (fresh-56's 30 Hz vibration along the motion
+    # under a gyro 50x the default noise: 0.221 px)
+    if est is None or carried or not config.estimate.vibration:
         return rows
     found = vibration.found(est, kept, config.dt_us)
     if not found:
         return rows
     args = (config, t0_us, None if crossings is None else
             vibration.crossings_removed(crossings, est, found)) + args[3:]
-    again, est, _ = _estimate(vibration.removed(centroids, est, found), *args)
+    again, est, _, _ = _estimate(vibration.removed(centroids, est, found), *args)
     if est is None:   # (the same tracks: never; kept as the first pass's)
         return rows
     rows, found = again, vibration.refit(est, kept, found)
@@ -175,8 +178,9 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
 
 def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
               measured_lag, rate_hz, near, stalls=None, depth_delay_us=0.0):
-    """estimate's rows, and the smoothed rows (ESTIMATE_DTYPE) of its tracks and the
-    centroids they index (None, None where no track is smoothed)."""
+    """estimate's rows, the smoothed rows (ESTIMATE_DTYPE) of its tracks and the centroids
+    they index (None, None where no track is smoothed), and whether the velocity prior
+    carries a track."""
     # a pooled centroid no track took is noise that once pooled into a cluster
     # (evstar.pooling); a blend of two tracks' stars is neither's position; some tracks
     # are no star (no_star_tracks)
@@ -188,21 +192,22 @@ def _estimate(centroids, config, t0_us, crossings, velocity_prior, span_us, sens
     args = (config, t0_us, crossings, velocity_prior, span_us, sensor, measured_lag, rate_hz,
             near, depth_delay_us)
     cut, owner = pieces.cut(centroids, 2 * e.coast_ms * 1000, stalls)
-    rows, est, kept = _estimate_pieces(cut, *args, stalls=stalls)
+    rows, est, kept, carried = _estimate_pieces(cut, *args, stalls=stalls)
     gaps = pieces.bridged(est, owner, velocity_prior) if owner and est is not None else {}
     if any(g.bridged for g in gaps.values()):   # stalls the gyro's turn bridges: fitted across
         cut, owner = pieces.rejoined(centroids, cut, {p: t for p, t in owner.items()
                                                        if not (p in gaps and gaps[p].bridged)})
-        rows, est, kept = _estimate_pieces(cut, *args, stalls=stalls)
+        rows, est, kept, carried = _estimate_pieces(cut, *args, stalls=stalls)
     rows = pieces.coasted_honestly(pieces.owned(rows, owner), gaps.values(), e.coast_sigma_px)
     if est is None:
-        return rows, None, None
-    return rows, pieces.owned(est, owner, by_track=True), pieces.owned(kept, owner)
+        return rows, None, None, carried
+    return rows, pieces.owned(est, owner, by_track=True), pieces.owned(kept, owner), carried
 
 
 def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_us, sensor,
                      measured_lag, rate_hz, near, depth_delay_us=0.0, stalls=None):
-    """_estimate of tracks cut into pieces across stalls (evstar.pieces)."""
+    """_estimate of tracks cut into pieces across stalls (evstar.pieces); carried: whether
+    the velocity prior carries a track."""
     from .smoothing import TrackSmoother
 
     e = config.estimate
@@ -215,7 +220,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     out["sigma"] = sigma
     out["source"] = np.where(out["source"] == "pooled", "pooled", "measured")
     if e.estimator == "mean" or not (centroids["track"] >= 0).any():
-        return out, None, None
+        return out, None, None, False
     groups = _by_prior(centroids, sigma, smoother, velocity_prior)
     ests = [smoother.smooth(cents, t0_us, prior, sig) for cents, sig, prior in groups]
     # the tracks the gyro carries (coast_gyro_ms at their ends)
@@ -299,7 +304,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         from . import pairs
 
         rows = pairs.split(rows, crossings, near_cross, assigned_to)
-    return rows, est, centroids
+    return rows, est, centroids, bool(carried)
 
 
 def run_lag(e, measured_lag):

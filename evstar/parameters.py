@@ -373,8 +373,8 @@ ESTIMATE = Params(
           "far from the pixel, not equally long before and after): with an IMU velocity prior "
           "on every track, without one on the tracks that never reverse (the speed change "
           "read off their first fit with the crossings)"),
-    Param("vibration", bool, True, "without a velocity prior, search each long track's "
-          "centroids for a sinusoid across its motion (a platform's vibration, which the "
+    Param("vibration", bool, True, "where no velocity prior carries a track, search each "
+          "long track's centroids for a sinusoid across its motion (a platform's vibration, which the "
           "constant-velocity smoother flattens) and follow it where one is found beyond chance "
           "(evstar.vibration)"),
     Param("gyro_noise", float, AUTO, "with an IMU velocity prior, the gyro's white-noise "

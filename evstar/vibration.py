@@ -18,8 +18,8 @@ WINDOW_S is searched in half-overlapping windows, each for its own sinusoid, ble
 their centres (Waves): a vibration's frequency and amplitude drift. A field is searched as one
 first: the per-frame median of its tracks' offsets (in frames of >= MIN_SHARED_TRACKS
 tracks) holds a rigid platform's vibration with the noise of many stars averaged down, and
-one found there is given to every track. With a velocity prior the gyro carries the
-platform's motion and nothing is sought (evstar.estimation.estimate).
+one found there is given to every track. Where a velocity prior carries a track, the gyro
+carries the platform's motion and nothing is sought (evstar.estimation.estimate).
 """
 from __future__ import annotations
 
