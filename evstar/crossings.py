@@ -268,11 +268,11 @@ def _measured_ratio(on_before, off_after, levels=None, first=None, runs=None):
         on, off, breaks = _background_in_runs(*runs[:2], np.asarray(runs[2])[m],
                                               np.asarray(on_before)[m],
                                               np.asarray(off_after)[m], runs[3])
-        told = (np.sum(ons) - on) / (np.sum(b[m]) - off)
         # where the background breaks the runs (MAX_BREAKS_PER_RUN) neither count holds:
         # the runs do not tell the ratio (the caller's fallback stands)
         if breaks > MAX_BREAKS_PER_RUN * m.sum():
             return None
+        told = (np.sum(ons) - on) / (np.sum(b[m]) - off)
         # only a shift the changes can tell from their own scatter (below it the discount
         # moved a low-pass sensor's profiles across their fit's gate: study_indep's scene 7,
         # 1.473 -> 1.483 for a true 1.5, lost its 3-6 ms lag, 0.139 -> 0.238 px)

@@ -374,9 +374,9 @@ ESTIMATE = Params(
           "on every track, without one on the tracks that never reverse (the speed change "
           "read off their first fit with the crossings)"),
     Param("vibration", bool, True, "where no velocity prior carries a track, search each "
-          "long track's centroids for a sinusoid across its motion (a platform's vibration, which the "
-          "constant-velocity smoother flattens) and follow it where one is found beyond chance "
-          "(evstar.vibration)"),
+          "long track's centroids for a sinusoid across its motion (a platform's vibration, "
+          "which the constant-velocity smoother flattens) and follow it where one is found "
+          "beyond chance (evstar.vibration)"),
     Param("gyro_noise", float, AUTO, "with an IMU velocity prior, the gyro's white-noise "
           "density, whose integral the track smoother lets each track's positions wander by "
           "(auto: measured from the gyro's samples; set a datasheet value for a gyro filtered "

@@ -15,8 +15,10 @@ from ..camera import Camera
 from ..events import Events
 
 
+# what a .npz holding a file starts with (a zip's local file header)
+ZIP_MAGIC = b"PK\x03\x04"
 # what a .npy / .npz starts with: numpy's magic, or a zip entry (an empty zip's end record)
-MAGIC = (b"\x93NUMPY", b"PK\x03\x04", b"PK\x05\x06")
+MAGIC = (b"\x93NUMPY", ZIP_MAGIC, b"PK\x05\x06")
 
 
 def _load(path):

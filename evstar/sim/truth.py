@@ -129,9 +129,11 @@ def save_truth(path, truth):
 
 def load_truth(path):
     """Read a truth.npz written by :func:`save_truth`."""
+    from ..io.numpy_files import ZIP_MAGIC
+
     try:   # np.load reads anything else as a pickle, whose message asks to allow pickles
         with open(path, "rb") as f:
-            if f.read(4) != b"PK\x03\x04":
+            if f.read(len(ZIP_MAGIC)) != ZIP_MAGIC:
                 raise FormatError(path, "not a truth .npz (an .npz is a zip archive; "
                                         "evstar simulate writes truth.npz)")
     except OSError:
