@@ -269,7 +269,26 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-60-hot": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=60.0,
                                                        hot_pixels=50, hot_pixel_hz=500.0),
            "fine-leak-shot": lambda: sim.sensor_model("default", threshold_on=0.12, threshold_off=0.12,
-                                                      leak_hz=2.0, shot_noise_hz=0.5)}
+                                                      leak_hz=2.0, shot_noise_hz=0.5),
+           # the fifty-seventh session's (fresh-57): a 25 Hz dark sky whose ceiling is low
+           # (400 Hz) with a 6 % mismatch, an untold 250 µs refractory period with ON above
+           # OFF and jitter, a sparse background of mostly OFF events that rises, coarse OFF
+           # thresholds losing a tenth of the events among 100 warm pixels, a 90 Hz dark sky
+           # with a leak and shot noise, fine thresholds with 100 µs of jitter
+           "dark-sky-25-low-ceiling": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=25.0,
+                                                               cutoff_hz_max=400.0,
+                                                               threshold_mismatch=0.06),
+           "ref-250-on-high-jitter": lambda: sim.sensor_model("default", refractory_us=250.0,
+                                                              threshold_on=0.27, jitter_us=50.0),
+           "sparse-off-rising": lambda: sim.sensor_model("default", noise_hz=0.3, noise_on_fraction=0.2,
+                                                         noise_growth=3.0),
+           "coarse-off-warm-dropout": lambda: sim.sensor_model("default", threshold_off=0.32,
+                                                               dropout=0.1, hot_pixels=100,
+                                                               hot_pixel_hz=30.0),
+           "dark-sky-90-leak-shot": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=90.0,
+                                                             leak_hz=0.8, shot_noise_hz=0.7),
+           "fine-jitter-100": lambda: sim.sensor_model("default", threshold_on=0.13, threshold_off=0.13,
+                                                       jitter_us=100.0)}
 
 
 def dev_grid():
@@ -819,6 +838,31 @@ def fresh56_grid():
             (35, 3.0, 1.3, "default", "imu", {"camera": "evk4"})))
 
 
+def fresh57_grid():
+    """Inputs no session had tried, run once when the fifty-seventh session began (seed 57):
+    six new sensors (above), a 25 °/s EVK4 slew with the IMU, a 24 °/s DAVIS346 pan, a
+    speed-up from 2 °/s, an 18 Hz vibration across the motion, a 2 Hz sinusoid with the IMU,
+    a faint 1.5 °/s star, 12 °/s with the particle filter, 12 ms frames, a tilted axis off
+    the centre, a broad bright star at 14 °/s."""
+    return _listed("fresh-57", 57, (
+            (7, 4.0, 1.1, "dark-sky-25-low-ceiling", "none", {}),
+            ("sine", 3.5, 1.0, "dark-sky-25-low-ceiling", "imu", {"amplitude": 6.0, "freq": 1.2}),
+            (11, 4.0, 1.2, "ref-250-on-high-jitter", "none", {"direction": 300}),
+            (3, 4.5, 1.2, "sparse-off-rising", "none", {"duration": 1.2}),
+            (9, 4.0, 1.0, "coarse-off-warm-dropout", "none", {"camera": "davis346"}),
+            (14, 3.5, 1.3, "dark-sky-90-leak-shot", "imu", {}),
+            (5, 4.5, 1.0, "fine-jitter-100", "none", {}),
+            ("slew", 3.5, 1.0, "default", "imu", {"peak": 25.0, "duration": 1.2, "camera": "evk4"}),
+            (24, 4.0, 1.2, "default", "none", {"camera": "davis346", "direction": 70}),
+            ("ramp", 4.0, 1.2, "default", "none", {"rate": 2.0, "rate_end": 12.0}),
+            ("vibe", 4.0, 1.1, "default", "none", {"rate": 6.0, "vib": 0.03, "vib_hz": 18.0}),
+            ("sine", 3.5, 1.2, "default", "imu", {"amplitude": 5.0, "freq": 2.0}),
+            (1.5, 5.0, 1.1, "default", "none", {"duration": 1.5}),
+            (12, 4.0, 1.0, "default", "pf", {"direction": 160}),
+            (8, 4.0, 1.2, "default", "none", {"settings": {"dt_us": 12000}}),
+            (14, 3.0, 1.6, "default", "none", {"tilt": 30, "at": (25, -20)})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -883,7 +927,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
-         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid,
+         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh16 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh17 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -41,7 +41,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
-(W1–W10, the fifty-fifth's) and --fresh16 (X1–X10, the fifty-sixth's) likewise.
+(W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's) and --fresh17 (Y1–Y10,
+the fifty-seventh's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -252,6 +253,21 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                            noise_growth=0.3),
     "gap-early-dark": dict(pixel="lowpass", f_min_hz=50.0, f_max_hz=1200.0, i_half=25.0,
                            c_on=0.22, c_off=0.22, gaps_s=((0.10, 0.16), (0.70, 0.72))),
+    # the seventeenth fresh grid's (--fresh17; written in the fifty-seventh session, never
+    # tuned on): a 28 Hz dark sky whose ceiling is low with 40 µs of jitter, coarse OFF
+    # thresholds behind 350 µs with a 6 % mismatch, fine thresholds on a rising background
+    # of mostly OFF events, a 60 Hz dark sky that leaks with ON above OFF, a late readout
+    # stall on an ideal pixel with jitter
+    "dark-28-low-ceiling-jitter": dict(pixel="lowpass", f_min_hz=28.0, f_max_hz=500.0,
+                                       i_half=20.0, c_on=0.21, c_off=0.21, jitter_us=40.0),
+    "coarse-off-ref-350": dict(pixel="ideal", c_on=0.2, c_off=0.3, refractory_us=350.0,
+                               mismatch=0.06),
+    "fine-rising-off": dict(pixel="ideal", c_on=0.14, c_off=0.14, noise_on_fraction=0.25,
+                            noise_growth=2.5),
+    "dark-60-leak-on-high": dict(pixel="lowpass", f_min_hz=60.0, f_max_hz=2500.0, i_half=15.0,
+                                 c_on=0.26, c_off=0.2, leak_hz=0.7),
+    "late-stall-jitter": dict(pixel="ideal", c_on=0.2, c_off=0.2, jitter_us=90.0,
+                              gaps_s=((0.82, 0.90),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -607,9 +623,31 @@ FRESH16 = [
     ("hd", ("sine", 16, 0.5, 130), [3.5, 4.5], ("gauss", 1.0), "gap-early-dark", 1.0, 8, 1.5),
 ]
 FRESH16_SEED = 21000
+#: the seventeenth held-out grid (written in the fifty-seventh session, run once on its
+#: start): five new sensors (above) under a three-star HD pan, a VGA sinusoid, a slow Moffat
+#: tele pan, an acceleration on the DAVIS346, a wide pan through a late stall, a 9 Hz
+#: vibration, a circle among hot pixels, a roll on the HD sensor, a fast elliptical DAVIS346
+#: pan, a slow wide sinusoid; seeds 22000 + i
+FRESH17 = [
+    ("hd", ("lin", 9, 55), [3, 4, 5], ("gauss", 1.1), "dark-28-low-ceiling-jitter", 1.0, 0, 1.0),
+    ("vga", ("sine", 7, 1.1, 320), [3.5, 4.5], ("gauss", 1.0), "coarse-off-ref-350", 1.0, 0, 1.0),
+    ("tele", ("lin", 2, 200), [3, 4], ("moffat", 2.2, 3.5), "fine-rising-off", 1.0, 0, 1.2),
+    ("davis", ("acc", 30, 100), [3.5, 4.5], ("gauss", 1.2), "dark-60-leak-on-high", 1.0, 0, 1.0),
+    ("wide", ("lin", 12, 280), [3, 4], ("gauss", 1.0), "late-stall-jitter", 1.0, 0, 1.0),
+    ("hd", ("vibe", 6, 40, 0.03, 9, 130), [3.5, 4.5], ("gauss", 1.2), "coarse-off-ref-350", 1.0,
+     0, 1.2),
+    ("vga", ("circle", 4, 0.8), [3, 4], ("gauss", 1.3), "fine-rising-off", 1.0, 15, 1.0),
+    ("hd", ("roll", 8, 2, 80), [3, 4, 4.5], ("ellip", 1.2, 1.0, 10), "dark-60-leak-on-high",
+     1.0, 0, 1.0),
+    ("davis", ("lin", 22, 240), [3, 4], ("ellip", 1.0, 1.4, 75), "dark-28-low-ceiling-jitter",
+     1.0, 0, 0.8),
+    ("wide", ("sine", 5, 0.6, 20), [3.5, 4.5], ("defocus", 1.3, 0.5), "late-stall-jitter", 1.0,
+     3, 1.5),
+]
+FRESH17_SEED = 22000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
