@@ -275,9 +275,8 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            # OFF and jitter, a sparse background of mostly OFF events that rises, coarse OFF
            # thresholds losing a tenth of the events among 100 warm pixels, a 90 Hz dark sky
            # with a leak and shot noise, fine thresholds with 100 µs of jitter
-           "dark-sky-25-low-ceiling": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=25.0,
-                                                               cutoff_hz_max=400.0,
-                                                               threshold_mismatch=0.06),
+           "dark-sky-25-ceiling-400-mismatch": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=25.0, cutoff_hz_max=400.0, threshold_mismatch=0.06),
            "ref-250-on-high-jitter": lambda: sim.sensor_model("default", refractory_us=250.0,
                                                               threshold_on=0.27, jitter_us=50.0),
            "sparse-off-rising": lambda: sim.sensor_model("default", noise_hz=0.3, noise_on_fraction=0.2,
@@ -845,8 +844,8 @@ def fresh57_grid():
     a faint 1.5 °/s star, 12 °/s with the particle filter, 12 ms frames, a tilted axis off
     the centre, a broad bright star at 14 °/s."""
     return _listed("fresh-57", 57, (
-            (7, 4.0, 1.1, "dark-sky-25-low-ceiling", "none", {}),
-            ("sine", 3.5, 1.0, "dark-sky-25-low-ceiling", "imu", {"amplitude": 6.0, "freq": 1.2}),
+            (7, 4.0, 1.1, "dark-sky-25-ceiling-400-mismatch", "none", {}),
+            ("sine", 3.5, 1.0, "dark-sky-25-ceiling-400-mismatch", "imu", {"amplitude": 6.0, "freq": 1.2}),
             (11, 4.0, 1.2, "ref-250-on-high-jitter", "none", {"direction": 300}),
             (3, 4.5, 1.2, "sparse-off-rising", "none", {"duration": 1.2}),
             (9, 4.0, 1.0, "coarse-off-warm-dropout", "none", {"camera": "davis346"}),
