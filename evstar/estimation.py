@@ -252,10 +252,12 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
         if lag is not None and velocity_prior is not None:
             refined = _own_lag(refined, smoother, ests, groups, crossings, e.along_weight, t0_us,
                                velocity_prior, assigned_to, lag, rate_hz)
-        elif lag is None and velocity_prior is None and depth_delay_us > 0:
-            # the levels show a low-pass whose lag the profiles could not tell: its scale
-            lag_sigma = dict.fromkeys(np.unique(np.concatenate(refined)["track"]).tolist(),
-                                      UNMEASURED_LAG_SHARE * depth_delay_us)
+        elif lag is None and depth_delay_us > 0:
+            # the levels show a low-pass whose lag the profiles could not tell, nor a gyro
+            # (none, or a constant rate: smoothing.lag_pinned): its scale
+            lag_sigma = {t: UNMEASURED_LAG_SHARE * depth_delay_us
+                         for t in np.unique(np.concatenate(refined)["track"]).tolist()
+                         if not smoother.lag_pinned_.get(t, False)}
         ests = refined
     est = np.concatenate(ests)
     if carried and e.coast_ends and e.coast_gyro_ms > e.coast_ms:
@@ -441,10 +443,11 @@ def without_shadows(rows):
 #: 1.33–1.67
 LAG_SIGMA_FRACTION = 0.1
 #: where the level profiles show a low-pass (the deepest level passes later than the top:
-#: LevelProfiles.depth_delay_us) but fit no lag, the lag left in the rows is taken to be
-#: about that delay: on the accuracy grid's dark skies without an IMU whose profiles failed
-#: their gates, the rows' error was 0.4–3.4 times the star's speed times it (20 °/s, a
-#: shot-noisy sky at 8 °/s, a 60 Hz sky at 6 °/s)
+#: LevelProfiles.depth_delay_us) but fit no lag, and no gyro tells one (none, or a constant
+#: rate: smoothing.lag_pinned), the lag left in the rows is taken to be about that delay: on
+#: the accuracy grid's dark skies without an IMU whose profiles failed their gates, the rows'
+#: error was 0.4–3.4 times the star's speed times it (20 °/s, a shot-noisy sky at 8 °/s, a
+#: 60 Hz sky at 6 °/s); with one at a constant rate, fresh-57's 14 °/s sky 2.2 times
 UNMEASURED_LAG_SHARE = 1.0
 
 

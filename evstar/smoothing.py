@@ -184,6 +184,8 @@ class TrackSmoother:
         # the q estimated for each track's centroid data (_estimate_q_many): refine asks
         # again for the same data of most tracks (~25 % of the estimate stage's kernel time)
         self._q_memo = {}
+        # {track id: whether its gyro-fitted lag is known (lag_pinned)}, of refine's calls
+        self.lag_pinned_ = {}
 
     # -- measurement noise --------------------------------------------------------------
     def measurement_sigma(self, centroids):
@@ -359,6 +361,7 @@ class TrackSmoother:
                         else None)
         w = [np.full(len(z), float(along_weight)) for _, z, _, _, _ in tracks]
         lag_fits = _field_lags(tracks, velocity_prior, self.sigma_floor_px)
+        self.lag_pinned_.update({int(t): lag_pinned(f) for t, f in zip(tids, lag_fits)})
         fitted = self._fit_along(tracks, w, velocity_prior, lag_fits)
         reversing = [i for i, t in enumerate(tracks) if t[4] and fitted[i][0] is not None]
         moved = set()
@@ -943,6 +946,14 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
     0 when its standard error exceeds `max_se_s`, or too few crossings. Robust: three passes
     dropping residuals beyond 5 MAD."""
     return _batched([_pixel_lag_s(t_us, q, u, velocity_prior, max_se_s)], velocity_prior)[0]
+
+
+def lag_pinned(fits):
+    """Whether a track's lag fits (_TrackLags, or None: no velocity prior) tell its pixels'
+    lag: its multi-level class's fit (else its only one) is within LAG_MAX_SE_S. A constant
+    rate tells none (the lag is then an offset along the motion)."""
+    fit = None if fits is None else fits.multi if fits.multi is not None else fits.one
+    return fit is not None and fit.se <= LAG_MAX_SE_S
 
 
 def _lag_classes(pairs, n):
