@@ -377,22 +377,30 @@ def test_a_lag_s_uncertainty_widens_sigma_along_the_motion_by_speed():
     np.testing.assert_array_equal(out["x"], rows["x"])
 
 
-def test_a_low_pass_the_profiles_could_not_fit_widens_sigma_by_its_depth_delay():
-    """No lag measured, no gyro, but the deepest levels pass 2 ms after the top: each moving
-    row's σ holds UNMEASURED_LAG_SHARE × 2 ms × its speed along the motion (the positions
-    stay); with no depth delay the delay adds nothing. A gyro at this constant rate tells
-    no lag either (an offset along the motion): the same σ."""
+def _crossings_run(scenario):
+    """(linked centroids, crossings, the crossings estimator's config, t0, the run) of a
+    simulated `scenario` (seed 6)."""
     from evstar import Config, Pipeline, estimation, sim
-    from evstar.estimation import UNMEASURED_LAG_SHARE
-    from evstar.smoothing import imu_velocity_prior
 
-    run = sim.simulate(sim.paper_preset(8.0, duration_s=0.3), seed=6)
+    run = sim.simulate(scenario, seed=6)
     cfg = Config().replace(**{"estimate.estimator": "mean"})
     res = Pipeline(cfg).run(run.events)
     linked = res.centroids[res.centroids["track"] >= 0]
     crossings = estimation.chunk_crossings(run.events, res.keep, 3.0)
     c = cfg.replace(**{"estimate.estimator": "crossings", "estimate.vibration": False})
-    t0 = int(run.events.t[0])
+    return linked, crossings, c, int(run.events.t[0]), run
+
+
+def test_a_low_pass_the_profiles_could_not_fit_widens_sigma_by_its_depth_delay():
+    """No lag measured, no gyro, but the deepest levels pass 2 ms after the top: each moving
+    row's σ holds UNMEASURED_LAG_SHARE × 2 ms × its speed along the motion (the positions
+    stay); with no depth delay the delay adds nothing. A gyro at this constant rate tells
+    no lag either (an offset along the motion): the same σ."""
+    from evstar import estimation, sim
+    from evstar.estimation import UNMEASURED_LAG_SHARE
+    from evstar.smoothing import imu_velocity_prior
+
+    linked, crossings, c, t0, run = _crossings_run(sim.paper_preset(8.0, duration_s=0.3))
     plain = estimation.estimate(linked, c, t0, crossings)
     wide = estimation.estimate(linked, c, t0, crossings, depth_delay_us=2000.0)
     np.testing.assert_array_equal(wide["x"], plain["x"])
@@ -415,24 +423,17 @@ def test_a_low_pass_the_profiles_could_not_fit_widens_sigma_by_its_depth_delay()
 def test_a_gyro_that_pins_the_lag_leaves_sigma_without_the_depth_delay():
     """On the paper's sinusoid the gyro's speed changes tell the pixels' lag (the track's
     fit within LAG_MAX_SE_S: smoothing.lag_pinned): a depth delay adds nothing to σ."""
-    from evstar import Config, Pipeline, estimation, sim
+    from evstar import estimation, sim
     from evstar.smoothing import TrackSmoother, imu_velocity_prior, lag_pinned
 
-    run = sim.simulate(sim.paper_sinusoid(duration_s=0.6), seed=6)
-    cfg = Config().replace(**{"estimate.estimator": "mean"})
-    res = Pipeline(cfg).run(run.events)
-    linked = res.centroids[res.centroids["track"] >= 0]
-    crossings = estimation.chunk_crossings(run.events, res.keep, 3.0)
-    c = cfg.replace(**{"estimate.estimator": "crossings", "estimate.vibration": False})
-    t0 = int(run.events.t[0])
+    linked, crossings, c, t0, run = _crossings_run(sim.paper_sinusoid(duration_s=0.6))
     gyro = imu_velocity_prior(run.imu, run.camera)
     told = estimation.estimate(linked, c, t0, crossings, velocity_prior=gyro)
     told_deep = estimation.estimate(linked, c, t0, crossings, velocity_prior=gyro,
                                     depth_delay_us=2000.0)
     np.testing.assert_array_equal(told_deep["sigma"], told["sigma"])
-    smoother = TrackSmoother(cfg.dt_us)
-    est = smoother.smooth(linked, t0, gyro)
-    smoother.refine(est, linked, crossings, gyro, t0_us=t0)
+    smoother = TrackSmoother(c.dt_us)
+    smoother.refine(smoother.smooth(linked, t0, gyro), linked, crossings, gyro, t0_us=t0)
     assert smoother.lag_pinned_ and all(smoother.lag_pinned_.values())
     assert not lag_pinned(None)
 
