@@ -449,6 +449,10 @@ LAG_SIGMA_FRACTION = 0.1
 #: error was 0.4–3.4 times the star's speed times it (20 °/s, a shot-noisy sky at 8 °/s, a
 #: 60 Hz sky at 6 °/s); with one at a constant rate, fresh-57's 14 °/s sky 2.2 times
 UNMEASURED_LAG_SHARE = 1.0
+#: ... and a run reports (and warns of) such a delay from this (µs): on the accuracy grid the
+#: simulator's default pixels show 0–20 µs at 6–35 °/s, its dark skies 0.4–1.2 ms and 2–3 ms
+#: refractory periods ~0.3 ms
+UNMEASURED_LAG_NOTE_US = 100.0
 
 
 def _track_lags(crossings, assigned, lag):

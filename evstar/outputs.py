@@ -218,8 +218,11 @@ def summary_text(result, outdir, steady=None):
     if "imu_time_offset_us" in m:   # the gyro's record was moved (evstar.clock)
         lines += [f"IMU clock     {m['imu_time_offset_us']:+,.0f} µs more time offset than the "
                   "IMU was given (measured on the stars; used)"]
-    if "pixel_lag" in m:   # the crossings were moved back by it
-        lag = m["pixel_lag"]
+    lag = m.get("pixel_lag")
+    if lag and lag["source"] == "not measured":   # a delay the positions do not correct
+        lines += [f"pixel lag     not measured; the levels show {lag['depth_delay_ms']:.2f} ms of "
+                  "delay, held in σ (`evstar calibrate` measures the lag)"]
+    elif lag:   # the crossings were moved back by it
         how = ("measured from the crossings' level profiles; `evstar calibrate` measures it "
                "against a gyro" if lag["source"] == "level profiles" else "the calibration file's")
         lines += [f"pixel lag     {lag['lag_ms'][0]:.1f}–{lag['lag_ms'][1]:.1f} ms by brightness ({how})"]

@@ -371,6 +371,8 @@ class Pipeline:
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
+            elif e.estimator == "crossings":
+                _note_unmeasured_lag(positions.report, state.depth_delay_us())
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, highest(), state.near_events(),
                                        positions.report, state.stalls(), state.depth_delay_us())
@@ -495,6 +497,23 @@ def _report_background(result, state):
     if moved:
         result.metrics["background_hz"] = moved
     return result
+
+
+def _note_unmeasured_lag(report, delay_us):
+    """Report (metrics' pixel_lag) and warn of a delay of the crossings' deepest levels
+    behind their top (µs) that no lag file or measured lag accounts for, from
+    estimation.UNMEASURED_LAG_NOTE_US: its size is in the rows' σ, not in their positions."""
+    from .estimation import UNMEASURED_LAG_NOTE_US
+
+    if delay_us < UNMEASURED_LAG_NOTE_US:
+        return
+    report["pixel_lag"] = {"source": "not measured", "depth_delay_ms": round(delay_us / 1e3, 2)}
+    warnings.warn(EvstarWarning(
+        f"the crossings' deepest levels pass {delay_us / 1e3:.2f} ms after their top (a pixel "
+        f"low-pass, or a long refractory period) and this run could not measure the lag: where "
+        f"no gyro speed change tells it, stars trail by up to their speed times that delay, "
+        f"which their sigma holds; a lag file from `evstar calibrate` (estimate.pixel_lag_file) "
+        f"or the sensor's refractory period (estimate.refractory_us) removes it"), stacklevel=4)
 
 
 def _warn_lattice(t):

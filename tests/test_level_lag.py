@@ -565,3 +565,30 @@ def test_the_depth_delay_is_how_much_later_the_deepest_level_passes():
     wild = np.full(12, 4)
     flat.add(wild, rng.normal(0, 5000.0, (12, 4)))
     assert flat.depth_delay_us() < 5 * DELAY_SE
+
+
+def test_a_delay_no_lag_accounts_for_is_reported_and_warned_of():
+    """A 0.5 s star at 7 °/s behind a 25 Hz dark sky (a 400 Hz ceiling, a 6 % mismatch): too
+    few profiles to fit a lag, but the deepest levels pass ~1 ms after the top. The run says
+    so (metrics' pixel_lag, the summary, a warning naming `evstar calibrate`); on the
+    default pixels, whose levels pass together, it says nothing."""
+    import warnings
+
+    from evstar import Pipeline, sim
+    from evstar.errors import EvstarWarning
+    from evstar.estimation import UNMEASURED_LAG_NOTE_US
+    from evstar.outputs import summary_text
+
+    dark = sim.sensor_model("dark-sky", cutoff_hz_background=25.0, cutoff_hz_max=400.0,
+                            threshold_mismatch=0.06)
+    run = sim.simulate(sim.paper_preset(7.0, sensor=dark, magnitude=4.0, psf_sigma_px=1.1), seed=57)
+    with pytest.warns(EvstarWarning, match="could not measure the lag.*evstar calibrate"):
+        res = Pipeline().run(run.events, camera=run.camera)
+    lag = res.metrics["pixel_lag"]
+    assert lag["source"] == "not measured" and lag["depth_delay_ms"] * 1e3 >= UNMEASURED_LAG_NOTE_US
+    assert "not measured" in summary_text(res, ".")
+    plain = sim.simulate(sim.paper_preset(7.0), seed=57)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EvstarWarning)
+        res = Pipeline().run(plain.events, camera=plain.camera)
+    assert "pixel_lag" not in res.metrics
