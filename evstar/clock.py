@@ -17,7 +17,9 @@ tell it: the smoothed gyro rate changes over a gap well beyond what its noise ma
 seem to (a constant rate tells nothing), δ stands MIN_Z standard errors from zero (each
 100 ms block of pairs taken as one), the gyro's turns slower than ALIAS_PERIODS x δ tell
 it too (a vibration's period aliases it), and, behind a pixel lag, δ exceeds the lag
-itself and stands out on the least-lagged third of the pairs too.
+itself and stands out on the least-lagged third of the pairs too; where no lag was
+measured, none is taken behind pixels that show a low-pass (their levels pass apart, or they
+relax slower than they rise: a faint star's lag reads as an offset).
 Crossing times are the star's own behind a pixel lag (moved back by the measured one),
 but an error of that lag still reads as an offset: smaller ones are left as they are."""
 from __future__ import annotations
@@ -105,19 +107,22 @@ NOISE_RATIO, MIN_RATE_CHANGE = 3.0, 1e-3
 
 
 def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
-                    measured_lag=None, filter_result=None, depth_delay_us=0.0):
+                    measured_lag=None, filter_result=None, depth_delay_us=0.0,
+                    slow_decay=False):
     """(the velocity prior, the offset µs or None): where the run measures the clock
     (motion.measure_clock) and the crossings tell an offset, the prior
     (evstar.estimation.velocity_prior of these arguments) of the IMU moved by it; else
     `prior` as it is. measured_lag: the pixels' lag the run measured (the estimate's
     calibration file wins); depth_delay_us: how much later the crossings' deepest levels
-    pass than their top (evstar.level_lag.LevelProfiles.depth_delay_us)."""
+    pass than their top (evstar.level_lag.LevelProfiles.depth_delay_us); slow_decay:
+    whether the stars' pixels relax slower than they rise (LevelProfiles.slow_decay)."""
     from . import estimation
 
     if prior is None or crossings is None or not config.motion.measure_clock:
         return prior, None
     offset = measured_offset_us(crossings, centroids, imu, camera,
-                                estimation.run_lag(config.estimate, measured_lag), depth_delay_us)
+                                estimation.run_lag(config.estimate, measured_lag), depth_delay_us,
+                                slow_decay)
     if offset is None:
         return prior, None
     # the moved record covers the events as far as the given one did
@@ -152,12 +157,15 @@ def corrected(imu, offset_us):
                time_offset_us=imu.time_offset_us - int(round(offset_us)))
 
 
-def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_us=0.0):
+def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_us=0.0,
+                       slow_decay=False):
     """δ (µs) such that the gyro's rate stamped camera time t + δ is the camera's at t,
     measured on `crossings` (CROSSING_DTYPE) assigned to the tracks of the linked
     `centroids`; None where the crossings do not tell it (see the module docstring). lag:
     the pixels' PixelLag the crossings are late by, or None; depth_delay_us: how much later
-    their deepest levels pass than their top, where no lag was measured (DELAY_SHARE)."""
+    their deepest levels pass than their top, where no lag was measured (DELAY_SHARE);
+    slow_decay: the stars' pixels relax slower than they rise (a low-pass: where no lag was
+    measured, none is taken; evstar.level_lag.SLOW_DECAY_RATIO)."""
     t_cam = imu.t_cam.astype(np.float64)
     if len(t_cam) < 3 or not _rate_changes(imu):
         return None
@@ -168,7 +176,7 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     straight = _straight(pairs, t_cam, turned, camera)
     chosen = _spread(pairs, straight)
     offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
-    if offset is None or (lag is None and depth_delay_us > DELAY_SHARE * abs(offset)):
+    if offset is None or (lag is None and (slow_decay or depth_delay_us > DELAY_SHARE * abs(offset))):
         return None
     if not _slow_turns_tell(offset, imu, chosen, t_cam, camera):
         return None

@@ -71,6 +71,8 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
+    if profiles is not None:
+        profiles.add_passages(*near)
     return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
                             with_ratio=with_ratio, refractory_us=refractory_us,
                             profiles=profiles, fallback_ratio=fallback_ratio,
@@ -90,6 +92,8 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
+    if profiles is not None:
+        profiles.add_passages(*near)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
                             refractory_us=refractory_us, fallback_ratio=fallback_ratio,
                             background_hz=rates)

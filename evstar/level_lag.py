@@ -53,13 +53,60 @@ _DROP_BOTTOM_FROM = 4
 _RHOS = np.exp(np.linspace(0.1, 0.9, 161))
 
 
+#: a pixel's passage is its events between gaps of more than this (µs); one with two ON
+#: and two OFF events or more gives its OFF events' span over its ON events' (slow_decay)
+PASSAGE_GAP_US = 50_000
+#: passages a run keeps for that ratio, read from at most this many of a span's events
+#: each time (the median of more tells no more)
+MAX_PASSAGES, PASSAGE_EVENTS = 2000, 200_000
+#: least passages the ratio needs
+MIN_PASSAGES = 50
+#: a median OFF/ON span ratio from this tells a low-pass the stars cross faster than its
+#: time constant: the pixels relax at the dim background's rate, slower than they rose
+#: (the stars' own passages on 12 accuracy-grid scenes without a low-pass, ideal to 3 ms
+#: refractory periods, 1–35 °/s: 0.81–0.99; behind fast dark skies 2.1–4.8). It needs no
+#: depth: a faint star's one- and two-level crossings show none
+SLOW_DECAY_RATIO = 1.5
+
+
 class LevelProfiles:
     """Demeaned level-midpoint profiles of crossings, by number of pairs k (at most
-    MAX_PROFILES each), gathered chunk by chunk."""
+    MAX_PROFILES each), gathered chunk by chunk, and the stars' pixel passages' OFF/ON span
+    ratios (at most MAX_PASSAGES: slow_decay)."""
 
     def __init__(self):
         self._by_k = {}
         self.seen = {}          # k: all the crossings of k pairs offered (wanted or not)
+        self._spans = []        # OFF/ON span ratios of passages (add_passages)
+
+    def add_passages(self, t, key, p):
+        """Keep the OFF/ON span ratios of the passages of events (t µs, pixel key, p 1 ON)
+        in the pixel-then-time order (their first PASSAGE_EVENTS; a passage the cut may
+        have shortened left out), up to MAX_PASSAGES in all."""
+        room = MAX_PASSAGES - sum(map(len, self._spans))
+        n = min(len(t), PASSAGE_EVENTS)
+        if room <= 0 or n < 4:
+            return
+        t, key, on = np.asarray(t[:n], np.int64), np.asarray(key[:n]), np.asarray(p[:n]) == 1
+        starts = np.flatnonzero(np.r_[True, (key[1:] != key[:-1]) | (np.diff(t) > PASSAGE_GAP_US)])
+        big = np.iinfo(np.int64).max
+
+        def span(sel):   # per passage: (last − first) time of the selected events, and count
+            first = np.minimum.reduceat(np.where(sel, t, big), starts)
+            last = np.maximum.reduceat(np.where(sel, t, -big), starts)
+            return last - first, np.add.reduceat(sel.astype(np.int64), starts)
+
+        (on_span, n_on), (off_span, n_off) = span(on), span(~on)
+        ok = (n_on >= 2) & (n_off >= 2) & (on_span > 0)
+        if n < len(key):
+            ok[-1] = False
+        self._spans.append((off_span[ok] / on_span[ok])[:room])
+
+    def slow_decay(self):
+        """Whether the passages' median OFF/ON span ratio reaches SLOW_DECAY_RATIO (False
+        with fewer than MIN_PASSAGES)."""
+        spans = np.concatenate(self._spans) if self._spans else np.zeros(0)
+        return len(spans) >= MIN_PASSAGES and float(np.median(spans)) >= SLOW_DECAY_RATIO
 
     def wanted(self, k):
         """Indices into `k` (pairs per crossing) of the crossings still wanted: per k >= 2,

@@ -366,7 +366,7 @@ class Pipeline:
             crossings = state.crossings(lag)
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result,
-                state.depth_delay_us())
+                state.depth_delay_us(), state.slow_decay())
             positions.report = dict(state.pixel_order(cents))   # evstar.pixel_order
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
@@ -684,6 +684,11 @@ class _RunState:
         """How much later the crossings' deepest levels pass than their top (µs; 0 where
         the run gathers no level profiles: evstar.level_lag.LevelProfiles.depth_delay_us)."""
         return 0.0 if self.profiles is None else self.profiles.depth_delay_us()
+
+    def slow_decay(self):
+        """Whether the stars' pixels relax slower than they rise (False where the run gathers
+        no level profiles: evstar.level_lag.LevelProfiles.slow_decay)."""
+        return self.profiles is not None and self.profiles.slow_decay()
 
     def measured_lag(self, centroids=None):
         """The pixels' lag measured from the crossings' level profiles (None: not measured,

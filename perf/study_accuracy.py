@@ -1037,7 +1037,8 @@ def run_scene(s, settings=None):
            "bound_px": s["psf"] / np.sqrt(max(signal, 1))}
     prior, _ = on_camera_clock(cfg, estimation.velocity_prior(cfg, run.imu, run.camera, ev.t[[0, -1]]),
                                run.imu, run.camera, ev.t[[0, -1]], crossings, linked, lag,
-                               depth_delay_us=profiles.depth_delay_us())
+                               depth_delay_us=profiles.depth_delay_us(),
+                               slow_decay=profiles.slow_decay())
     # the background where it was highest, where a block's moved (evstar.background)
     rate = res.metrics.get("background_hz", {}).get("highest", rate)
     near = across.near_centroids(ev, linked, hot)   # (one span: the whole run)

@@ -260,3 +260,45 @@ def test_a_vibration_along_the_motion_is_not_read_as_a_clock_offset(monkeypatch)
     aliased, err_aliased = run_imu(run, **{"estimate.vibration": False})
     assert abs(abs(aliased.metrics["imu_time_offset_us"]) - 1e6 / 60) < 3000
     assert err_aliased > 2 * err
+
+
+def test_a_faint_stars_lag_behind_unequal_thresholds_is_not_taken_for_a_clock_offset():
+    """faint-dark of perf/study_accuracy.py: magnitude 6 on the paper's sinusoid behind a dark
+    sky whose OFF threshold (0.2) is below ON (0.28), the gyro on the camera's clock. Its
+    crossings hold one or two levels, which show no depth delay, and its 2.7 ms lag read as a
+    −2.4 ms offset (1.24 px behind the star). Its pixels relax slower than they rise
+    (LevelProfiles.slow_decay): no offset is taken, and the lag fitted against the gyro's
+    speed changes holds."""
+    dark = sim.sensor_model("dark-sky", threshold_on=0.28, threshold_off=0.2)
+    run = sim.simulate(sim.paper_sinusoid(10.0, 1.0, duration_s=1.5, magnitude=6.0, sensor=dark),
+                       seed=3)
+    res, err = run_imu(run)
+    assert "imu_time_offset_us" not in res.metrics and err < 0.2
+
+
+def test_slow_decay_is_the_passages_off_span_over_their_on_span(monkeypatch):
+    """Passages of two ON then two OFF events (a pixel each): OFF spans three times their ON
+    spans tell a slow decay, equal ones do not; too few passages tell nothing; a passage the
+    event cut may have shortened is left out; passages end at gaps of PASSAGE_GAP_US."""
+    from evstar.level_lag import MIN_PASSAGES, PASSAGE_GAP_US, LevelProfiles
+
+    def passages(n, off_span_us, pixels=True):
+        t = np.concatenate([[0, 1000, 2000, 2000 + off_span_us] for _ in range(n)])
+        t = t + (0 if pixels else np.repeat(np.arange(n) * (PASSAGE_GAP_US + 10_000), 4))
+        key = np.repeat(np.arange(n) if pixels else np.zeros(n, np.int64), 4)
+        return t, key, np.tile([1, 1, 0, 0], n)
+
+    slow, even, few = LevelProfiles(), LevelProfiles(), LevelProfiles()
+    slow.add_passages(*passages(MIN_PASSAGES, 3000))
+    even.add_passages(*passages(MIN_PASSAGES, 1000))
+    few.add_passages(*passages(MIN_PASSAGES - 1, 3000))
+    assert slow.slow_decay() and not even.slow_decay() and not few.slow_decay()
+    one_pixel = LevelProfiles()
+    one_pixel.add_passages(*passages(MIN_PASSAGES, 3000, pixels=False))
+    assert one_pixel.slow_decay()
+    from evstar import level_lag
+
+    monkeypatch.setattr(level_lag, "PASSAGE_EVENTS", 10)   # the third passage cut at 2 of 4
+    cut = LevelProfiles()
+    cut.add_passages(*passages(3, 3000))
+    np.testing.assert_array_equal(np.concatenate(cut._spans), [3.0, 3.0])
