@@ -176,7 +176,8 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     straight = _straight(pairs, t_cam, turned, camera)
     chosen = _spread(pairs, straight)
     offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
-    if offset is None or (lag is None and (slow_decay or depth_delay_us > DELAY_SHARE * abs(offset))):
+    if offset is None or (lag is None and (slow_decay
+                                           or depth_delay_us > DELAY_SHARE * abs(offset))):
         return None
     if not _slow_turns_tell(offset, imu, chosen, t_cam, camera):
         return None

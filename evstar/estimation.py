@@ -67,12 +67,10 @@ def chunk_crossings(events, keep, radius_px, threshold_ratio=AUTO, with_ratio=Fa
     (events / pixel / s), whose events in the runs a measured ratio discounts, split by
     polarity as the events away from the stars are (evstar.crossings.background_rates);
     None: not."""
-    near, rates = _near_kept(events, keep, radius_px, order, background_hz)
+    near, rates = _near_kept(events, keep, radius_px, order, background_hz, profiles)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return (none, None if threshold_ratio == AUTO else threshold_ratio) if with_ratio else none
-    if profiles is not None:
-        profiles.add_passages(*near)
     return sorted_crossings(*near, events.width, threshold_ratio=threshold_ratio,
                             with_ratio=with_ratio, refractory_us=refractory_us,
                             profiles=profiles, fallback_ratio=fallback_ratio,
@@ -88,12 +86,10 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     `profiles` takes the plain pairs' levels. Behind a pixel low-pass a run takes the plain
     ones: they are what a run told no period finds (_RunState.crossings). order and
     background_hz: as chunk_crossings takes them."""
-    near, rates = _near_kept(events, keep, radius_px, order, background_hz)
+    near, rates = _near_kept(events, keep, radius_px, order, background_hz, profiles)
     if near is None:
         none = np.zeros(0, CROSSING_DTYPE)
         return tuple((none, None if r == AUTO else r) for r in ratios)
-    if profiles is not None:
-        profiles.add_passages(*near)
     told = sorted_crossings(*near, events.width, threshold_ratio=ratios[0], with_ratio=True,
                             refractory_us=refractory_us, fallback_ratio=fallback_ratio,
                             background_hz=rates)
@@ -103,11 +99,12 @@ def chunk_crossings_both(events, keep, radius_px, refractory_us, ratios=(AUTO, A
     return told, plain
 
 
-def _near_kept(events, keep, radius_px, order=None, background_hz=None):
+def _near_kept(events, keep, radius_px, order=None, background_hz=None, profiles=None):
     """((t, pixel key, p) of the events within `radius_px` (square) of a kept event (keep:
     as chunk_crossings takes it), in the pixel-then-time order, fed to `order` (a
-    PixelOrder, or None), and the (ON, OFF) rates of a background of `background_hz`
-    (None: None)); (None, None) where none is kept."""
+    PixelOrder, or None) and to `profiles`' passages (LevelProfiles.add_passages; None:
+    not), and the (ON, OFF) rates of a background of `background_hz` (None: None)); (None,
+    None) where none is kept."""
     from .crossings import background_rates
     from .frames import events_by_pixel, kept_indices, kept_pixels
 
@@ -118,6 +115,8 @@ def _near_kept(events, keep, radius_px, order=None, background_hz=None):
     near = events_by_pixel(events, mask)
     if order is not None:
         order.add(*near)
+    if profiles is not None:
+        profiles.add_passages(*near)
     return near, (None if background_hz is None else background_rates(events, mask, background_hz))
 
 

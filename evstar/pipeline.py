@@ -364,18 +364,19 @@ class Pipeline:
         def positions(cents):
             lag = state.measured_lag(cents)
             crossings = state.crossings(lag)
+            delay_us = state.depth_delay_us()
             moved, positions.clock_offset_us = on_camera_clock(
                 self.config, prior, imu, camera, span or (), crossings, cents, lag, filter_result,
-                state.depth_delay_us(), state.slow_decay())
+                delay_us, state.slow_decay())
             positions.report = dict(state.pixel_order(cents))   # evstar.pixel_order
             used = estimation.used_lag(e, lag)
             if used is not None:   # the pixels' lag the crossings are moved back by
                 positions.report["pixel_lag"] = used.summary()
             elif e.estimator == "crossings":
-                _note_unmeasured_lag(positions.report, state.depth_delay_us())
+                _note_unmeasured_lag(positions.report, delay_us)
             rows = estimation.estimate(cents, self.config, t0, crossings, moved, span,
                                        state.sensor, lag, highest(), state.near_events(),
-                                       positions.report, state.stalls(), state.depth_delay_us())
+                                       positions.report, state.stalls(), delay_us)
             if camera is None or e.field_min_stars == 0 or e.estimator == "mean":
                 return rows
             from . import field
