@@ -287,7 +287,23 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "dark-sky-90-leak-shot": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=90.0,
                                                              leak_hz=0.8, shot_noise_hz=0.7),
            "fine-jitter-100": lambda: sim.sensor_model("default", threshold_on=0.13, threshold_off=0.13,
-                                                       jitter_us=100.0)}
+                                                       jitter_us=100.0),
+           # the fifty-eighth session's (fresh-58): a 50 Hz dark sky with a 600 Hz ceiling and
+           # 80 µs of jitter, an untold 150 µs refractory period with a 10 % mismatch, a busy
+           # fading background of mostly ON events, a dark sky with ON above OFF losing a fifth
+           # of the events, 20 hot pixels at 2 kHz behind fine thresholds, a 3 Hz leak with
+           # coarse ON thresholds
+           "dark-sky-50-ceiling-600-jitter": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=50.0, cutoff_hz_max=600.0, jitter_us=80.0),
+           "ref-150-mismatch-10": lambda: sim.sensor_model("default", refractory_us=150.0,
+                                                           threshold_mismatch=0.10),
+           "busy-on-fading": lambda: sim.sensor_model("default", noise_hz=2.5, noise_on_fraction=0.8,
+                                                      noise_growth=0.5),
+           "dark-sky-on-high-dropout": lambda: sim.sensor_model("dark-sky", threshold_on=0.3,
+                                                                threshold_off=0.2, dropout=0.2),
+           "hot-2k-fine": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.15,
+                                                   hot_pixels=20, hot_pixel_hz=2000.0),
+           "leak-3-coarse-on": lambda: sim.sensor_model("default", leak_hz=3.0, threshold_on=0.33)}
 
 
 def dev_grid():
@@ -862,6 +878,31 @@ def fresh57_grid():
             (14, 3.0, 1.6, "default", "none", {"tilt": 30, "at": (25, -20)})))
 
 
+def fresh58_grid():
+    """Inputs no session had tried, run once when the fifty-eighth session began (seed 58):
+    six new sensors (above), an 18 °/s DAVIS346 slew with the IMU, a 28 °/s EVK4 pan, a
+    slow-down with the IMU, a 12 Hz vibration with the IMU, a 1.5 Hz sinusoid without it, a
+    faint 2.5 °/s star, 16 °/s with the particle filter, 15 ms frames, a tilted axis off the
+    centre with the IMU."""
+    return _listed("fresh-58", 58, (
+            (10, 4.0, 1.1, "dark-sky-50-ceiling-600-jitter", "none", {}),
+            ("sine", 3.5, 1.1, "dark-sky-50-ceiling-600-jitter", "imu", {"amplitude": 8.0, "freq": 0.8}),
+            (13, 4.0, 1.0, "ref-150-mismatch-10", "none", {"direction": 45}),
+            (5, 4.5, 1.3, "busy-on-fading", "none", {"duration": 1.0}),
+            (6, 4.0, 1.2, "dark-sky-on-high-dropout", "imu", {"camera": "davis346"}),
+            (9, 4.0, 1.0, "hot-2k-fine", "none", {"camera": "evk4"}),
+            (7, 4.5, 1.1, "leak-3-coarse-on", "none", {}),
+            ("slew", 3.5, 1.1, "default", "imu", {"peak": 18.0, "duration": 1.4, "camera": "davis346"}),
+            (28, 3.5, 1.2, "default", "none", {"camera": "evk4", "direction": 250}),
+            ("ramp", 4.0, 1.0, "default", "imu", {"rate": 14.0, "rate_end": 4.0}),
+            ("vibe", 4.0, 1.2, "default", "imu", {"rate": 5.0, "vib": 0.04, "vib_hz": 12.0}),
+            ("sine", 3.5, 1.3, "default", "none", {"amplitude": 7.0, "freq": 1.5}),
+            (2.5, 5.0, 1.0, "default", "none", {"duration": 1.5}),
+            (16, 4.0, 1.1, "default", "pf", {"direction": 20}),
+            (6, 4.0, 1.0, "default", "none", {"settings": {"dt_us": 15000}}),
+            (18, 3.0, 1.4, "default", "imu", {"tilt": 60, "at": (-30, -25)})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -926,7 +967,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-42": fresh42_grid, "dark-rates": dark_rates_grid, "fresh-43": fresh43_grid,
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
-         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid,
+         "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid, "fresh-58": fresh58_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh17 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh18 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -41,8 +41,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 --fresh9 (P1–P10, the forty-seventh's), --fresh10 (Q1–Q10, the forty-eighth's) and
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
-(W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's) and --fresh17 (Y1–Y10,
-the fifty-seventh's) likewise.
+(W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's), --fresh17 (Y1–Y10,
+the fifty-seventh's) and --fresh18 (Z1–Z10, the fifty-eighth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -268,6 +268,20 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                                  c_on=0.26, c_off=0.2, leak_hz=0.7),
     "late-stall-jitter": dict(pixel="ideal", c_on=0.2, c_off=0.2, jitter_us=90.0,
                               gaps_s=((0.82, 0.90),)),
+    # the eighteenth fresh grid's (--fresh18; written in the fifty-eighth session, never
+    # tuned on): a 40 Hz dark sky with a 700 Hz ceiling behind 250 µs, an ideal pixel with a
+    # 9 % mismatch and OFF below ON, a dark sky whose references start at zero with 60 µs of
+    # jitter, a leaking sensor with coarse thresholds on a fading background, a dark sky
+    # with two short readout gaps and fine thresholds
+    "dark-40-ceiling-700-ref": dict(pixel="lowpass", f_min_hz=40.0, f_max_hz=700.0, i_half=25.0,
+                                    c_on=0.22, c_off=0.22, refractory_us=250.0),
+    "mismatch-09-off-low": dict(pixel="ideal", c_on=0.25, c_off=0.17, mismatch=0.09),
+    "dark-zero-ref-jitter": dict(pixel="lowpass", f_min_hz=32.0, f_max_hz=2000.0, i_half=16.0,
+                                 c_on=0.2, c_off=0.2, jitter_us=60.0, random_reference=False),
+    "leak-coarse-fading": dict(pixel="ideal", c_on=0.31, c_off=0.29, leak_hz=1.2,
+                               noise_growth=0.4),
+    "dark-gaps-fine": dict(pixel="lowpass", f_min_hz=55.0, f_max_hz=1800.0, i_half=10.0,
+                           c_on=0.15, c_off=0.15, gaps_s=((0.30, 0.34), (0.61, 0.65))),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -645,9 +659,31 @@ FRESH17 = [
      3, 1.5),
 ]
 FRESH17_SEED = 22000
+#: the eighteenth held-out grid (written in the fifty-eighth session, run once on its
+#: start): five new sensors (above) under a three-star DAVIS346 pan, an HD sinusoid, a slow
+#: elliptical VGA pan, an acceleration on the tele lens, a wide pan through two gaps, an
+#: 11 Hz vibration, a circle on the DAVIS346, a roll on the VGA sensor, a fast HD pan, a
+#: slow tele sinusoid among hot pixels; seeds 23000 + i
+FRESH18 = [
+    ("davis", ("lin", 7, 110), [3, 4, 5], ("gauss", 1.2), "dark-40-ceiling-700-ref", 1.0, 0, 1.0),
+    ("hd", ("sine", 9, 0.9, 40), [3.5, 4.5], ("gauss", 1.0), "mismatch-09-off-low", 1.0, 0, 1.0),
+    ("vga", ("lin", 3, 310), [3, 4], ("ellip", 1.3, 0.9, 50), "dark-zero-ref-jitter", 1.0, 0,
+     1.2),
+    ("tele", ("acc", 20, 170), [3.5, 4.5], ("gauss", 1.4), "leak-coarse-fading", 1.0, 0, 1.0),
+    ("wide", ("lin", 10, 20), [3, 4], ("gauss", 1.1), "dark-gaps-fine", 1.0, 0, 1.0),
+    ("vga", ("vibe", 5, 200, 0.03, 11, 290), [3.5, 4.5], ("gauss", 1.0), "mismatch-09-off-low",
+     1.0, 0, 1.2),
+    ("davis", ("circle", 6, 0.7), [3, 4], ("gauss", 1.2), "dark-zero-ref-jitter", 1.0, 4, 1.0),
+    ("vga", ("roll", 10, 3, 140), [3, 4, 4.5], ("gauss", 1.1), "leak-coarse-fading", 1.0, 0,
+     1.0),
+    ("hd", ("lin", 26, 95), [3, 4], ("moffat", 2.0, 3.0), "dark-40-ceiling-700-ref", 1.0, 0, 0.8),
+    ("tele", ("sine", 3, 0.7, 230), [3.5, 4.5], ("defocus", 1.4, 0.5), "dark-gaps-fine", 1.0,
+     10, 1.5),
+]
+FRESH18_SEED = 23000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
