@@ -17,9 +17,10 @@ tell it: the smoothed gyro rate changes over a gap well beyond what its noise ma
 seem to (a constant rate tells nothing), δ stands MIN_Z standard errors from zero (each
 100 ms block of pairs taken as one), the gyro's turns slower than ALIAS_PERIODS x δ tell
 it too (a vibration's period aliases it), and, behind a pixel lag, δ exceeds the lag
-itself and stands out on the least-lagged third of the pairs too; where no lag was
-measured, none is taken behind pixels that show a low-pass (their levels pass apart, or they
-relax slower than they rise: a faint star's lag reads as an offset).
+itself and stands out on the least-lagged third of the pairs too (whose δ is taken where
+the rest pull all's off it); where no lag was measured, none is taken behind pixels that
+show a low-pass (their levels pass apart, or they relax slower than they rise: a faint
+star's lag reads as an offset).
 Crossing times are the star's own behind a pixel lag (moved back by the measured one),
 but an error of that lag still reads as an offset: smaller ones are left as they are."""
 from __future__ import annotations
@@ -79,12 +80,21 @@ MIN_OFFSET_US = 500.0
 #: (the accuracy grid's told dark-sky sinusoids with the IMU read 9-43 % of it as an
 #: offset, and took 0.024-0.138 px to 0.375-0.535 with it)
 LAG_SHARE = 1.0
-#: ... and the offset must stand out on the least-lagged third of the pairs as well: the
-#: faint crossings' lag is the least sure (the independent simulator's HD dark-sky
-#: sinusoid, told its clock, read 509 ± 43 µs on all pairs — 1773 ± 242 on the most-lagged
-#: third, 251 ± 49 on the least — and took 0.012 px to 0.253 with it; an untold 3 ms read
-#: 2501 on all and 2752 on the least-lagged third, and is taken)
+#: ... and the offset must stand out on the least-lagged third of the pairs as well, whose
+#: offset may be the one taken (LEAST_APART): the faint crossings' lag is the least sure (the
+#: independent simulator's HD dark-sky sinusoid, told its clock, read 509 ± 43 µs on all
+#: pairs — 1773 ± 242 on the most-lagged third, 251 ± 49 on the least — and took 0.012 px
+#: to 0.253 with it; an untold 3 ms read 2501 on all and 2752 on the least-lagged third; a
+#: Scorpius EVK4 dark-sky field's untold 5 ms 4280 on all, 4763 on the least-lagged third,
+#: and each track's gyro lag fit took the rest for a lag: 0.344 -> 0.231 px, told 0.188)
 LEAST_LAGGED = 1 / 3
+#: ... and is taken instead of all the pairs' where the two stand this many standard errors
+#: of their difference apart (a Hausman test: the third's pairs are among all's, so that
+#: variance is the third's less all's): a single star's third is noisier (fresh-39's dark-sky
+#: sinusoid, an untold 5 ms: 5157 ± 77 on all, 5292 ± 101 on the third, 2.1 apart; taken,
+#: 0.076 -> 0.136 px), where a field's least-lagged stars tell what the others' lag errors
+#: hide (the Scorpius field above: 4280 ± 65 and 4763 ± 87, 8.4 apart)
+LEAST_APART = 3.0
 #: where no pixel lag was measured, an offset is taken only where the crossings' deepest
 #: levels pass less than this share of it after their top: a clock delays every level
 #: alike, a pixel low-pass a dimmer one more. A faint star's unmeasured lag behind a dark
@@ -175,7 +185,8 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     turned = _turned(t_cam, imu.gyro_cam)
     straight = _straight(pairs, t_cam, turned, camera)
     chosen = _spread(pairs, straight)
-    offset = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
+    fit = None if chosen is None else _offset_se(chosen, t_cam, turned, camera)
+    offset = None if fit is None else fit[0]
     if offset is None or (lag is None and (slow_decay
                                            or depth_delay_us > DELAY_SHARE * abs(offset))):
         return None
@@ -183,12 +194,17 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
         return None
     if not np.any(pairs[-1] > 0):
         return offset
-    # behind a pixel lag the least-lagged pairs must tell it too (LEAST_LAGGED)
+    # behind a pixel lag the least-lagged pairs must tell it too, and where the rest pull
+    # it off by more than their noise, theirs is taken (LEAST_LAGGED, LEAST_APART)
     least = _spread(pairs, straight & _least_lagged(pairs[-1]))
     if least is None:
         return offset
-    confirmed = _offset_of(least, t_cam, turned, camera)
-    return offset if confirmed is not None and confirmed * offset > 0 else None
+    confirmed = _offset_se(least, t_cam, turned, camera)
+    if confirmed is None or confirmed[0] * offset <= 0:
+        return None
+    # the third's pairs are among all's: their difference's variance is the third's less all's
+    se = np.sqrt(max(confirmed[1] ** 2 - fit[1] ** 2, 0.0))
+    return confirmed[0] if abs(confirmed[0] - offset) > LEAST_APART * se else offset
 
 
 def _slow_turns_tell(offset, imu, pairs, t_cam, camera):
@@ -205,13 +221,20 @@ def _slow_turns_tell(offset, imu, pairs, t_cam, camera):
 
 def _offset_of(pairs, t_cam, turned, camera):
     """The offset (µs) the pairs tell, or None where it does not stand out."""
+    fit = _offset_se(pairs, t_cam, turned, camera)
+    return None if fit is None else fit[0]
+
+
+def _offset_se(pairs, t_cam, turned, camera):
+    """(the offset µs, its standard error) the pairs tell, or None where it does not stand
+    out."""
     offset, se = _fitted(pairs, lambda some: _predicted(some, t_cam, turned, camera))
     # the pixels' own timing biases read as an offset (MIN_OFFSET_US), behind a pixel lag
     # an error of the crossings' lag too (LAG_SHARE); at the search's edge the loss had no
     # minimum inside it
     floor = max(MIN_OFFSET_US, LAG_SHARE * float(np.median(pairs[-1])))
     inside = abs(offset) < SEARCH_US - COARSE_STEP_US
-    return offset if inside and abs(offset) > max(MIN_Z * se, floor) else None
+    return (offset, se) if inside and abs(offset) > max(MIN_Z * se, floor) else None
 
 
 def _least_lagged(lag):

@@ -950,10 +950,9 @@ def pixel_lag_s(t_us, q, u, velocity_prior, max_se_s=LAG_MAX_SE_S):
 
 def lag_pinned(fits):
     """Whether a track's lag fits (_TrackLags, or None: no velocity prior) tell its pixels'
-    lag: its multi-level class's fit (else its only one) is within LAG_MAX_SE_S. A constant
-    rate tells none (the lag is then an offset along the motion)."""
-    fit = None if fits is None else fits.multi if fits.multi is not None else fits.one
-    return fit is not None and fit.se <= LAG_MAX_SE_S
+    lag: its multi-level class's fit — the one whose lag moves it (_classes_lags) — is within
+    LAG_MAX_SE_S. A constant rate tells none (the lag is then an offset along the motion)."""
+    return fits is not None and fits.multi is not None and fits.multi.se <= LAG_MAX_SE_S
 
 
 def _lag_classes(pairs, n):

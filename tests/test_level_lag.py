@@ -438,6 +438,20 @@ def test_a_gyro_that_pins_the_lag_leaves_sigma_without_the_depth_delay():
     assert not lag_pinned(None)
 
 
+def test_only_the_fit_whose_lag_moves_a_track_pins_it():
+    """A track's one-level crossings take their own lag only beside a multi-level one
+    (smoothing._classes_lags): where the multi-level fit dropped out, no lag moves the track,
+    so however precise the one-level fit, σ must keep the depth delay (not pinned)."""
+    from evstar.smoothing import LAG_MAX_SE_S, LagFit, _classes_lags, _TrackLags, lag_pinned
+
+    sure = LagFit(1e-3, LAG_MAX_SE_S / 4, 0.0)
+    none = np.arange(0)
+    assert _classes_lags(None, sure) == (0.0, 0.0)
+    assert not lag_pinned(_TrackLags(none, none, None, sure))
+    assert lag_pinned(_TrackLags(none, none, sure, None))
+    assert not lag_pinned(_TrackLags(none, none, LagFit(1e-3, 2 * LAG_MAX_SE_S, 0.0), sure))
+
+
 def _track(x_of_t, track=0, n=100, dt_us=10_000, y=50.0):
     """Linked centroids of one track at frame mid-times, x = x_of_t(t s)."""
     from evstar.extract import CENTROID_DTYPE
