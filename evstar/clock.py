@@ -91,9 +91,9 @@ LEAST_LAGGED = 1 / 3
 #: ... and is taken instead of all the pairs' where the two stand this many standard errors
 #: of their difference apart (a Hausman test: the third's pairs are among all's, so that
 #: variance is the third's less all's): a single star's third is noisier (fresh-39's dark-sky
-#: sinusoid, an untold 5 ms: 5157 ± 77 on all, 5292 ± 101 on the third, 2.1 apart; taken,
-#: 0.076 -> 0.136 px), where a field's least-lagged stars tell what the others' lag errors
-#: hide (the Scorpius field above: 4280 ± 65 and 4763 ± 87, 8.4 apart)
+#: sinusoid, an untold 5 ms: 5157 ± 77 on all, 5292 ± 101 on the third, 2.1 apart; taking
+#: it moved 0.076 -> 0.136 px), where a field's least-lagged stars tell what the others'
+#: lag errors hide (the Scorpius field above: 4280 ± 65 and 4763 ± 87, 8.4 apart)
 LEAST_APART = 3.0
 #: where no pixel lag was measured, an offset is taken only where the crossings' deepest
 #: levels pass less than this share of it after their top: a clock delays every level
