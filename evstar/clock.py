@@ -185,7 +185,7 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     turned = _turned(t_cam, imu.gyro_cam)
     straight = _straight(pairs, t_cam, turned, camera)
     chosen = _spread(pairs, straight)
-    fit = None if chosen is None else _offset_se(chosen, t_cam, turned, camera)
+    fit = None if chosen is None else _offset_of(chosen, t_cam, turned, camera)
     offset = None if fit is None else fit[0]
     if offset is None or (lag is None and (slow_decay
                                            or depth_delay_us > DELAY_SHARE * abs(offset))):
@@ -199,7 +199,7 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     least = _spread(pairs, straight & _least_lagged(pairs[-1]))
     if least is None:
         return offset
-    confirmed = _offset_se(least, t_cam, turned, camera)
+    confirmed = _offset_of(least, t_cam, turned, camera)
     if confirmed is None or confirmed[0] * offset <= 0:
         return None
     # the third's pairs are among all's: their difference's variance is the third's less all's
@@ -216,16 +216,10 @@ def _slow_turns_tell(offset, imu, pairs, t_cam, camera):
     if not _rate_changes(imu, window):
         return False
     slow = _offset_of(pairs, t_cam, _turned(t_cam, imu.gyro_cam, window), camera)
-    return slow is not None and slow * offset > 0
+    return slow is not None and slow[0] * offset > 0
 
 
 def _offset_of(pairs, t_cam, turned, camera):
-    """The offset (µs) the pairs tell, or None where it does not stand out."""
-    fit = _offset_se(pairs, t_cam, turned, camera)
-    return None if fit is None else fit[0]
-
-
-def _offset_se(pairs, t_cam, turned, camera):
     """(the offset µs, its standard error) the pairs tell, or None where it does not stand
     out."""
     offset, se = _fitted(pairs, lambda some: _predicted(some, t_cam, turned, camera))
