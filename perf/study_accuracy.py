@@ -303,7 +303,25 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                                 threshold_off=0.2, dropout=0.2),
            "hot-2k-fine": lambda: sim.sensor_model("default", threshold_on=0.15, threshold_off=0.15,
                                                    hot_pixels=20, hot_pixel_hz=2000.0),
-           "leak-3-coarse-on": lambda: sim.sensor_model("default", leak_hz=3.0, threshold_on=0.33)}
+           "leak-3-coarse-on": lambda: sim.sensor_model("default", leak_hz=3.0, threshold_on=0.33),
+           # the fifty-ninth session's (fresh-59): a 35 Hz dark sky with fine jittered
+           # thresholds, an untold 60 µs refractory period with OFF below ON and a 4 %
+           # mismatch, a busy background of mostly OFF events, an 80 Hz dark sky with an
+           # 800 Hz ceiling losing 15 % of the events, 60 warm pixels with a leak, coarse
+           # jittered thresholds with shot noise
+           "dark-sky-35-fine-jitter": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=35.0, cutoff_hz_max=2000.0, threshold_on=0.15,
+               threshold_off=0.15, jitter_us=40.0),
+           "ref-60-off-low-mismatch-04": lambda: sim.sensor_model(
+               "default", refractory_us=60.0, threshold_on=0.23, threshold_off=0.17,
+               threshold_mismatch=0.04),
+           "busy-off": lambda: sim.sensor_model("default", noise_hz=3.0, noise_on_fraction=0.3),
+           "dark-sky-80-ceiling-800-dropout": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=80.0, cutoff_hz_max=800.0, dropout=0.15),
+           "warm-60-leak": lambda: sim.sensor_model("default", hot_pixels=60, hot_pixel_hz=12.0,
+                                                    leak_hz=1.5),
+           "coarse-jitter-shot": lambda: sim.sensor_model("default", threshold_on=0.28, threshold_off=0.28,
+                                                          jitter_us=70.0, shot_noise_hz=1.5)}
 
 
 def dev_grid():
@@ -903,6 +921,32 @@ def fresh58_grid():
             (18, 3.0, 1.4, "default", "imu", {"tilt": 60, "at": (-30, -25)})))
 
 
+def fresh59_grid():
+    """Inputs no session had tried, run once when the fifty-ninth session began (seed 59):
+    six new sensors (above), a 22 °/s EVK4 slew without the IMU, a 17 °/s DAVIS346 pan with
+    it, a speed-up with the particle filter, a 30 Hz vibration along the motion, a 0.7 Hz
+    sinusoid with the IMU on the EVK4, a faint 3 °/s star with a wide PSF, 8 ms frames at
+    19 °/s, a roll about the boresight, a bright narrow star at 11 °/s."""
+    return _listed("fresh-59", 59, (
+            (9, 4.0, 1.2, "dark-sky-35-fine-jitter", "none", {}),
+            ("sine", 3.5, 1.0, "dark-sky-35-fine-jitter", "imu", {"amplitude": 9.0, "freq": 1.1}),
+            (16, 4.0, 1.1, "ref-60-off-low-mismatch-04", "none", {"direction": 120}),
+            (4, 4.5, 1.2, "busy-off", "none", {"duration": 1.0}),
+            (11, 4.0, 1.0, "dark-sky-80-ceiling-800-dropout", "imu", {"camera": "evk4"}),
+            (6, 4.5, 1.1, "warm-60-leak", "none", {"camera": "davis346"}),
+            (8, 4.0, 1.3, "coarse-jitter-shot", "none", {"direction": 200}),
+            ("slew", 3.5, 1.0, "default", "none", {"peak": 22.0, "duration": 1.2, "camera": "evk4"}),
+            (17, 4.0, 1.1, "default", "imu", {"camera": "davis346", "direction": 300}),
+            ("ramp", 4.0, 1.1, "default", "pf", {"rate": 5.0, "rate_end": 15.0}),
+            ("vibe", 4.0, 1.0, "default", "none", {"rate": 7.0, "vib": 0.02, "vib_hz": 30.0,
+                                                  "vib_along": True}),
+            ("sine", 3.5, 1.2, "default", "imu", {"amplitude": 6.0, "freq": 0.7, "camera": "evk4"}),
+            (3, 5.0, 1.6, "default", "none", {"duration": 1.5}),
+            (19, 4.0, 1.0, "default", "none", {"settings": {"dt_us": 8000}}),
+            (12, 3.5, 1.1, "default", "none", {"tilt": 90, "at": (40, 10)}),
+            (11, 2.5, 0.8, "default", "none", {"direction": 330})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -968,6 +1012,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
          "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid, "fresh-58": fresh58_grid,
+         "fresh-59": fresh59_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

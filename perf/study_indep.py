@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh18 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh19 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -42,7 +42,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
 (W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's), --fresh17 (Y1–Y10,
-the fifty-seventh's) and --fresh18 (Z1–Z10, the fifty-eighth's) likewise.
+the fifty-seventh's), --fresh18 (Z1–Z10, the fifty-eighth's) and --fresh19 (A1–A10,
+the fifty-ninth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -282,6 +283,20 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                                noise_growth=0.4),
     "dark-gaps-fine": dict(pixel="lowpass", f_min_hz=55.0, f_max_hz=1800.0, i_half=10.0,
                            c_on=0.15, c_off=0.15, gaps_s=((0.30, 0.34), (0.61, 0.65))),
+    # the nineteenth fresh grid's (--fresh19; written in the fifty-ninth session, never
+    # tuned on): a 22 Hz dark sky whose cutoff climbs late (I_half 60) with OFF above ON, an
+    # ideal pixel with fine thresholds on a busy background of mostly ON events, a 70 Hz
+    # dark sky with a 7 % mismatch and 120 µs of jitter, coarse thresholds that leak behind
+    # 80 µs, an ideal pixel whose readout stalls early with a rising background
+    "dark-22-late-off-high": dict(pixel="lowpass", f_min_hz=22.0, f_max_hz=1200.0, i_half=60.0,
+                                  c_on=0.2, c_off=0.26),
+    "fine-busy-on": dict(pixel="ideal", c_on=0.13, c_off=0.13, noise_on_fraction=0.8),
+    "dark-70-mismatch-jitter": dict(pixel="lowpass", f_min_hz=70.0, f_max_hz=1600.0, i_half=12.0,
+                                    c_on=0.23, c_off=0.23, mismatch=0.07, jitter_us=120.0),
+    "coarse-leak-ref-80": dict(pixel="ideal", c_on=0.33, c_off=0.33, leak_hz=0.8,
+                               refractory_us=80.0),
+    "early-stall-rising": dict(pixel="ideal", c_on=0.2, c_off=0.2, noise_growth=3.0,
+                               gaps_s=((0.12, 0.19),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -681,9 +696,33 @@ FRESH18 = [
      10, 1.5),
 ]
 FRESH18_SEED = 23000
+#: the nineteenth held-out grid (written in the fifty-ninth session, run once on its start):
+#: five new sensors (above) under a three-star HD pan, a DAVIS346 sinusoid, a slow wide pan,
+#: an acceleration on the VGA sensor, a tele pan through an early stall, a 16 Hz vibration,
+#: a circle on the HD sensor, a roll on the DAVIS346, a fast wide pan, a slow VGA sinusoid
+#: among hot pixels; seeds 24000 + i
+FRESH19 = [
+    ("hd", ("lin", 8, 250), [3, 4, 5], ("gauss", 1.1), "dark-22-late-off-high", 1.0, 0, 1.0),
+    ("davis", ("sine", 8, 1.2, 60), [3.5, 4.5], ("gauss", 1.2), "fine-busy-on", 2.0, 0, 1.0),
+    ("wide", ("lin", 2.5, 15), [3, 4], ("moffat", 2.4, 3.0), "dark-70-mismatch-jitter", 1.0, 0,
+     1.2),
+    ("vga", ("acc", 25, 300), [3.5, 4.5], ("gauss", 1.0), "coarse-leak-ref-80", 1.0, 0, 1.0),
+    ("tele", ("lin", 5, 140), [3, 4], ("gauss", 1.3), "early-stall-rising", 1.0, 0, 1.0),
+    ("hd", ("vibe", 7, 330, 0.02, 16, 60), [3.5, 4.5], ("gauss", 1.1), "fine-busy-on", 1.0, 0,
+     1.2),
+    ("hd", ("circle", 5, 0.6), [3, 4], ("ellip", 1.3, 1.0, 20), "dark-22-late-off-high", 1.0, 0,
+     1.0),
+    ("davis", ("roll", 12, 2, 45), [3, 4, 4.5], ("gauss", 1.0), "coarse-leak-ref-80", 1.0, 0,
+     1.0),
+    ("wide", ("lin", 24, 170), [3, 4], ("defocus", 1.6, 0.5), "dark-70-mismatch-jitter", 1.0, 0,
+     0.8),
+    ("vga", ("sine", 4, 0.8, 100), [3.5, 4.5], ("gauss", 1.2), "early-stall-rising", 1.0, 8,
+     1.5),
+]
+FRESH19_SEED = 24000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
