@@ -290,7 +290,7 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
     # 80 µs, an ideal pixel whose readout stalls early with a rising background
     "dark-22-late-off-high": dict(pixel="lowpass", f_min_hz=22.0, f_max_hz=1200.0, i_half=60.0,
                                   c_on=0.2, c_off=0.26),
-    "fine-busy-on": dict(pixel="ideal", c_on=0.13, c_off=0.13, noise_on_fraction=0.8),
+    "fine-13-busy-on": dict(pixel="ideal", c_on=0.13, c_off=0.13, noise_on_fraction=0.8),
     "dark-70-mismatch-jitter": dict(pixel="lowpass", f_min_hz=70.0, f_max_hz=1600.0, i_half=12.0,
                                     c_on=0.23, c_off=0.23, mismatch=0.07, jitter_us=120.0),
     "coarse-leak-ref-80": dict(pixel="ideal", c_on=0.33, c_off=0.33, leak_hz=0.8,
@@ -703,12 +703,12 @@ FRESH18_SEED = 23000
 #: among hot pixels; seeds 24000 + i
 FRESH19 = [
     ("hd", ("lin", 8, 250), [3, 4, 5], ("gauss", 1.1), "dark-22-late-off-high", 1.0, 0, 1.0),
-    ("davis", ("sine", 8, 1.2, 60), [3.5, 4.5], ("gauss", 1.2), "fine-busy-on", 2.0, 0, 1.0),
+    ("davis", ("sine", 8, 1.2, 60), [3.5, 4.5], ("gauss", 1.2), "fine-13-busy-on", 2.0, 0, 1.0),
     ("wide", ("lin", 2.5, 15), [3, 4], ("moffat", 2.4, 3.0), "dark-70-mismatch-jitter", 1.0, 0,
      1.2),
     ("vga", ("acc", 25, 300), [3.5, 4.5], ("gauss", 1.0), "coarse-leak-ref-80", 1.0, 0, 1.0),
     ("tele", ("lin", 5, 140), [3, 4], ("gauss", 1.3), "early-stall-rising", 1.0, 0, 1.0),
-    ("hd", ("vibe", 7, 330, 0.02, 16, 60), [3.5, 4.5], ("gauss", 1.1), "fine-busy-on", 1.0, 0,
+    ("hd", ("vibe", 7, 330, 0.02, 16, 60), [3.5, 4.5], ("gauss", 1.1), "fine-13-busy-on", 1.0, 0,
      1.2),
     ("hd", ("circle", 5, 0.6), [3, 4], ("ellip", 1.3, 1.0, 20), "dark-22-late-off-high", 1.0, 0,
      1.0),
