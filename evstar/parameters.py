@@ -487,8 +487,14 @@ IDENTIFY = Params(
           "is matched to it", low=0, open_low=True, high=1000, unit="px"),
     Param("pattern_error", float, 0.01, "largest error of a 4-star pattern's edge ratios the "
           "search accepts (centroid error / star separation)", low=0, high=0.1, open_low=True),
-    Param("timeout_ms", int, 500, "give up a lost-in-space search after this long", low=1,
-          high=600_000, unit="ms"),
+    Param("max_patterns", int, 1000, "give up a lost-in-space search after testing this many "
+          "4-star patterns: a bound by work, so a field solves or fails alike on every machine "
+          "(a failed search of 24 or more centroids takes ~0.7 s at 1000 on a 2-core CPU; the "
+          "fields tried solved within 450, nearly all within 25)", low=1, high=10_000_000),
+    Param("timeout_ms", int, 10_000, "give up a lost-in-space search after this long even "
+          "within max_patterns: a cap for very slow machines (where it ends a search first, the "
+          "outcome depends on the machine)",
+          low=1, high=600_000, unit="ms"),
     Param("pooled_alphas", float, [1e-6, 1e-4, 1e-3], "identify_events: false-alarm "
           "probabilities per pixel of the pooled-window star detection, tried in turn (strictest "
           "first) until one identifies", low=0, high=1, open_low=True, many=True),

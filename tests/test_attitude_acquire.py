@@ -17,7 +17,7 @@ CAM = sim.camera_preset("davis346", 16.0)
 
 @pytest.fixture(scope="module")
 def solver(tmp_path_factory):
-    return Solver.for_camera(CAM, cache_dir=tmp_path_factory.mktemp("attitude-cache"), timeout_ms=20_000)
+    return Solver.for_camera(CAM, cache_dir=tmp_path_factory.mktemp("attitude-cache"))
 
 
 def noise(rng, p=0.08):
@@ -97,7 +97,7 @@ def test_the_pooled_warp_reads_only_the_imu_around_its_window(solver):
 
 def test_the_slow_roll_needs_the_looser_alphas(solver, tmp_path):
     run = slow_roll()
-    strict = Solver.for_camera(CAM, cache_dir=solver.path.rsplit("/", 1)[0], timeout_ms=20_000,
+    strict = Solver.for_camera(CAM, cache_dir=solver.path.rsplit("/", 1)[0],
                                pooled_alphas=[1e-12])
     assert strict.path == solver.path
     fix, xy = identify_events(run.events, CAM, solver=strict)

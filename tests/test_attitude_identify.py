@@ -23,10 +23,9 @@ def cache_folder(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def solvers(cache_folder):
-    """One database per camera, built once (1-2 s each) in a private cache folder; a long
-    search timeout, so that a loaded machine cannot turn a solvable field into a failure."""
-    return {name: Solver.for_camera(cam, cache_dir=cache_folder, timeout_ms=20_000)
-            for name, cam in CAMERAS.items()}
+    """One database per camera, built once (1-2 s each) in a private cache folder; the
+    default settings (the search bounded by patterns tested, not by the clock)."""
+    return {name: Solver.for_camera(cam, cache_dir=cache_folder) for name, cam in CAMERAS.items()}
 
 
 def angle_deg(R_a, R_b):
@@ -94,9 +93,9 @@ def test_failures_are_statuses_not_exceptions(solvers, cache_folder):
         fix = identify(few, cam, 5, solver=solver)
         assert (fix.ok, fix.status, fix.t_us) == (False, "too_few_stars", 5)
         assert np.all(np.isnan(fix.q_icrs_cam)) and fix.n_matches == 0
-    # an exhaustive search of 40 random points takes seconds: the default timeout ends it
-    quick = Solver.for_camera(cam, cache_dir=cache_folder)     # the same database file
-    assert quick.settings["timeout_ms"] == 500 and quick.path == solver.path
+    # an exhaustive search of 40 random points takes seconds: the work bound ends it
+    quick = Solver.for_camera(cam, cache_dir=cache_folder, max_patterns=200)   # the same file
+    assert quick.path == solver.path
     rng = np.random.default_rng(3)
     for _ in range(3):
         garbage = rng.uniform([0, 0], [cam.width, cam.height], (40, 2))
@@ -190,3 +189,22 @@ def test_old_truth_files_without_the_icrs_quaternion_still_load(tmp_path):
 def test_pointing_option_errors(tmp_path):
     for bad in (["10"], ["10", "95"], ["north", "pole"]):
         assert main(["simulate", str(tmp_path / "x"), "--stars", "5", "--pointing", *bad]) == 2
+
+
+def test_the_search_is_bounded_by_patterns_tested_not_by_the_clock(solvers, cache_folder):
+    """max_patterns decides whether a field solves (the same on every machine): a true field
+    behind six spurious centroids that come first (brightest) needs the patterns of those
+    six to be tried and refused before the stars' own; with a generous clock, too few
+    patterns fail it and the default solves it."""
+    cam = CAMERAS["davis346"]
+    R_cw, xy, _ = field(cam, 83.8, -5.4, 0.0)
+    junk = np.random.default_rng(5).uniform([0, 0], [cam.width, cam.height], (6, 2))
+    xy = np.concatenate([junk, xy])
+    few = Solver.for_camera(cam, cache_dir=cache_folder, max_patterns=5, timeout_ms=600_000)
+    assert few.settings["max_patterns"] == 5 and few.path == solvers["davis346"].path
+    assert identify(xy, cam, solver=few).status == "no_solution"
+    fix = identify(xy, cam, solver=solvers["davis346"])
+    assert fix.ok and angle_deg(fix.R_icrs_cam, R_cw.T) < 0.05
+    assert solvers["davis346"].settings["max_patterns"] == 1000
+    with pytest.raises(ParameterError, match="max_patterns"):
+        Solver.for_camera(cam, cache_dir=cache_folder, max_patterns=0)

@@ -105,7 +105,8 @@ class Solver:
         result = self.database.solve_from_centroids(
             np.ascontiguousarray(xy), camera_model=model,
             match_radius=cfg["match_radius_px"] / camera.width, match_threshold=cfg["max_false_match"],
-            match_max_error=cfg["pattern_error"], solve_timeout_ms=cfg["timeout_ms"])
+            match_max_error=cfg["pattern_error"], solve_timeout_ms=cfg["timeout_ms"],
+            max_patterns_checked=cfg["max_patterns"])
         if not result:
             return None
         return (np.asarray(result.matched_centroids, np.int64),
