@@ -321,7 +321,22 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "warm-60-leak": lambda: sim.sensor_model("default", hot_pixels=60, hot_pixel_hz=12.0,
                                                     leak_hz=1.5),
            "coarse-jitter-shot": lambda: sim.sensor_model("default", threshold_on=0.28, threshold_off=0.28,
-                                                          jitter_us=70.0, shot_noise_hz=1.5)}
+                                                          jitter_us=70.0, shot_noise_hz=1.5),
+           # the sixtieth session's (fresh-60): a 45 Hz dark sky with a 1.2 kHz ceiling behind
+           # an untold 200 µs refractory period, fine thresholds with OFF below ON on a busy
+           # background, a 3 % mismatch losing a quarter of the events, a 25 Hz dark sky with
+           # ON below OFF, 300 warm pixels with shot noise, 60 µs of jitter with a 2 Hz leak
+           "dark-sky-45-ceiling-1200-ref-200": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=45.0, cutoff_hz_max=1200.0, refractory_us=200.0),
+           "fine-off-low-busy": lambda: sim.sensor_model("default", threshold_on=0.16, threshold_off=0.12,
+                                                         noise_hz=2.0),
+           "mismatch-03-dropout-25": lambda: sim.sensor_model("default", threshold_mismatch=0.03,
+                                                              dropout=0.25),
+           "dark-sky-25-on-low": lambda: sim.sensor_model("dark-sky", cutoff_hz_background=25.0,
+                                                          threshold_on=0.18, threshold_off=0.26),
+           "warm-300-shot": lambda: sim.sensor_model("default", hot_pixels=300, hot_pixel_hz=5.0,
+                                                     shot_noise_hz=1.0),
+           "jitter-60-leak-2": lambda: sim.sensor_model("default", jitter_us=60.0, leak_hz=2.0)}
 
 
 def dev_grid():
@@ -947,6 +962,31 @@ def fresh59_grid():
             (11, 2.5, 0.8, "default", "none", {"direction": 330})))
 
 
+def fresh60_grid():
+    """Inputs no session had tried, run once when the sixtieth session began (seed 60): six
+    new sensors (above), a 14 °/s DAVIS346 slew without the IMU, a 20 °/s EVK4 slew with
+    the particle filter, an EVK4 slow-down without it, an 18 Hz vibration with the IMU, a
+    ±12° 0.6 Hz sinusoid without it, a faint 1.8 °/s star for 2 s, 6 ms frames at 24 °/s, a
+    tilted axis off the centre, a magnitude-5 star with the IMU on the DAVIS346."""
+    return _listed("fresh-60", 60, (
+            (7, 4.0, 1.1, "dark-sky-45-ceiling-1200-ref-200", "none", {}),
+            ("sine", 4.0, 1.2, "dark-sky-45-ceiling-1200-ref-200", "imu", {"amplitude": 5.0, "freq": 1.3}),
+            (10, 4.5, 1.0, "fine-off-low-busy", "none", {"direction": 60}),
+            (3.5, 4.0, 1.3, "mismatch-03-dropout-25", "none", {"duration": 1.0}),
+            (14, 4.0, 1.0, "dark-sky-25-on-low", "imu", {"camera": "davis346"}),
+            (9, 4.5, 1.2, "warm-300-shot", "none", {"camera": "evk4"}),
+            (5, 4.0, 1.0, "jitter-60-leak-2", "none", {"direction": 160}),
+            ("slew", 3.5, 1.1, "default", "none", {"peak": 14.0, "duration": 1.0, "camera": "davis346"}),
+            ("slew", 4.0, 1.0, "default", "pf", {"peak": 20.0, "duration": 1.2, "camera": "evk4"}),
+            ("ramp", 4.0, 1.2, "default", "none", {"rate": 18.0, "rate_end": 6.0, "camera": "evk4"}),
+            ("vibe", 4.0, 1.1, "default", "imu", {"rate": 9.0, "vib": 0.03, "vib_hz": 18.0}),
+            ("sine", 3.5, 1.0, "default", "none", {"amplitude": 12.0, "freq": 0.6}),
+            (1.8, 4.5, 1.4, "default", "none", {"duration": 2.0}),
+            (24, 4.0, 1.0, "default", "none", {"settings": {"dt_us": 6000}}),
+            (15, 3.5, 1.2, "default", "none", {"tilt": 20, "at": (-20, 35)}),
+            (6, 5.0, 1.1, "default", "imu", {"camera": "davis346", "direction": 280})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -1012,7 +1052,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
          "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid, "fresh-58": fresh58_grid,
-         "fresh-59": fresh59_grid,
+         "fresh-59": fresh59_grid, "fresh-60": fresh60_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh19 | --vibe]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh20 | --vibe]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -42,8 +42,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 --fresh11 (R1–R10, the fiftieth's), --fresh12 (S1–S10, the fifty-first's), --fresh13
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
 (W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's), --fresh17 (Y1–Y10,
-the fifty-seventh's), --fresh18 (Z1–Z10, the fifty-eighth's) and --fresh19 (A1–A10,
-the fifty-ninth's) likewise.
+the fifty-seventh's), --fresh18 (Z1–Z10, the fifty-eighth's), --fresh19 (A1–A10,
+the fifty-ninth's) and --fresh20 (B1–B10, the sixtieth's) likewise.
 
 Writes perf/results/study_indep.json and .md (a subset: study_indep_SUBSET.*) and prints
 the table.
@@ -297,6 +297,20 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                                refractory_us=80.0),
     "early-stall-rising": dict(pixel="ideal", c_on=0.2, c_off=0.2, noise_growth=3.0,
                                gaps_s=((0.12, 0.19),)),
+    # the twentieth fresh grid's (--fresh20; written in the sixtieth session, never tuned
+    # on): a 28 Hz dark sky climbing early (I_half 6) to 900 Hz behind 150 µs, an ideal pixel
+    # with OFF well below ON and 40 µs of jitter, a 50 Hz dark sky with fine thresholds and a
+    # 0.5 Hz leak, an ideal pixel with a 6 % mismatch on a background fading to a third, an
+    # ideal pixel whose readout loses 40 ms late with 300 µs of refractory period
+    "dark-28-early-ref-150": dict(pixel="lowpass", f_min_hz=28.0, f_max_hz=900.0, i_half=6.0,
+                                  c_on=0.22, c_off=0.22, refractory_us=150.0),
+    "off-low-jitter-40": dict(pixel="ideal", c_on=0.27, c_off=0.16, jitter_us=40.0),
+    "dark-50-fine-leak": dict(pixel="lowpass", f_min_hz=50.0, f_max_hz=2500.0, i_half=25.0,
+                              c_on=0.14, c_off=0.14, leak_hz=0.5),
+    "mismatch-06-fading": dict(pixel="ideal", c_on=0.21, c_off=0.21, mismatch=0.06,
+                               noise_growth=0.33),
+    "late-gap-ref-300": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=300.0,
+                             gaps_s=((0.70, 0.74),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -720,9 +734,26 @@ FRESH19 = [
      1.5),
 ]
 FRESH19_SEED = 24000
+#: the twentieth (B1–B10; the sixtieth session, run once before any change for it)
+FRESH20 = [
+    ("vga", ("lin", 11, 35), [3, 4, 5], ("gauss", 1.2), "dark-28-early-ref-150", 1.0, 0, 1.0),
+    ("hd", ("sine", 6, 0.9, 20), [3.5, 4.5], ("gauss", 1.0), "off-low-jitter-40", 1.0, 0, 1.2),
+    ("davis", ("lin", 3, 290), [3, 4], ("moffat", 2.0, 3.5), "dark-50-fine-leak", 1.0, 0, 1.2),
+    ("tele", ("acc", 15, 200), [3.5, 4.5], ("gauss", 1.1), "mismatch-06-fading", 2.0, 0, 1.0),
+    ("wide", ("lin", 18, 75), [3, 4], ("gauss", 1.3), "late-gap-ref-300", 1.0, 3, 1.0),
+    ("hd", ("circle", 4, 0.8), [3.5, 4.5], ("gauss", 1.1), "off-low-jitter-40", 1.0, 0, 1.0),
+    ("vga", ("vibe", 6, 10, 0.025, 22, 100), [3, 4], ("gauss", 1.0), "dark-50-fine-leak", 1.0, 0,
+     1.0),
+    ("davis", ("roll", 8, 3, 200), [3, 4], ("ellip", 1.2, 0.9, 60), "mismatch-06-fading", 1.0, 0,
+     1.0),
+    ("hd", ("sine", 10, 1.1, 150), [3.5, 4.5], ("defocus", 1.4, 0.4), "dark-28-early-ref-150",
+     1.0, 0, 1.0),
+    ("tele", ("lin", 1.5, 320), [4, 5], ("gauss", 1.2), "late-gap-ref-300", 0.5, 0, 1.5),
+]
+FRESH20_SEED = 25000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh20": (FRESH20, FRESH20_SEED, "B"), "fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
