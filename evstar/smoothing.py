@@ -1284,10 +1284,6 @@ _SPEED_CHANGE_REFIT_PX = 0.01
 #: fits of such a track with its crossings moved by the last one's path (converged by 2 on
 #: fresh-40's slews: 4 and 8 changed them by < 0.001 px)
 ACCEL_PASSES = 2
-#: on an acceleration fit's path a crossing is moved where the star's speed at each flank
-#: lies within this factor of its speed at the crossing (0.2-5; 0.5-1.5 on other paths):
-#: a star speeding up from rest doubles its speed across one pixel's flanks
-_ACCEL_SPEED_RATIO = 5.0
 _NEWTON_STEPS = 3        # ... solving for the passing time (converged to < 1 µs by 3)
 #: an acceleration refit is kept only where its measured rows from the track's first
 #: crossing on lie within this of the constant-velocity fit's (_departure; which they leave
@@ -1331,11 +1327,18 @@ def _with_larger_sigma(rows, other):
     track, interpolated to their times): an acceleration fit's own σ, from a model that
     holds only approximately (a slew's acceleration turns into deceleration at once),
     came out too small — 80 % of an EVK4 slew field's rows within 2.45 σ where the
-    constant-velocity fit's σ held 96 % (perf/study_field.py --motion slew)."""
+    constant-velocity fit's σ held 96 % (perf/study_field.py --motion slew). Not the rows
+    coasted before or after the refit's measured ones: they are that model's extrapolation,
+    whose own σ held their errors on slews from and to rest (error/σ ≤ 0.9) where the
+    constant-velocity fit's, over coast_sigma_px, dropped them (perf/study_accuracy.py's
+    slews without IMU: frames 94–98 -> 96–100 %)."""
     out = rows.copy()
     t, t_other = rows["t"].astype(np.float64), other["t"].astype(np.float64)
+    coasted = rows["source"] == COASTED
+    meas = t[~coasted]
+    ends = coasted & ((t < meas.min()) | (t > meas.max())) if len(meas) else coasted
     for f in ("sigma_x", "sigma_y"):
-        out[f] = np.maximum(rows[f], np.interp(t, t_other, other[f]))
+        out[f] = np.where(ends, rows[f], np.maximum(rows[f], np.interp(t, t_other, other[f])))
     return out
 
 
@@ -1428,8 +1431,11 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0, exact=False)
     speed of a slow faint star wanders by ±25 % on a constant-rate slew, and following
     that bend moved its crossings by noise (0.13 → 0.17 px). exact: `track` is a
     constant-acceleration fit (TrackSmoother._refit_speed_changes): the passing time solved
-    on its path (Newton steps, not the first-order shift), with the speed at the flanks
-    within _ACCEL_SPEED_RATIO of the crossing's."""
+    on its path (Newton steps, not the first-order shift), wherever the star keeps its way
+    over the flanks (a star speeding up from rest doubles its speed across one pixel's
+    flanks, one slowing to rest reaches the far flank at a tenth of it: left unmoved there,
+    below a fifth, a 14 °/s DAVIS346 slew's last rows trailed by up to 1.5 px) and the
+    solution lies within them; not where the fit turns back (its model run past a stop)."""
     ts = track["t"].astype(np.float64)
     if len(ts) < 3 or np.any(np.diff(ts) <= 0):
         return t_c, resid
@@ -1455,9 +1461,9 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0, exact=False)
     # not the flanks (a fast dark-sky sinusoid on an EVK4: 0.30 px without the correction,
     # 0.31 with it there too)
     ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1]) & (lag_us <= passage))
-    lo, hi = (1 / _ACCEL_SPEED_RATIO, _ACCEL_SPEED_RATIO) if exact else (0.5, 1.5)
     for side in (speed(t_c - h) / v, speed(t_c + h) / v):
-        ok &= (side >= lo) & (side <= hi)
+        # on the fit's path: wherever the star keeps going the same way over the passage
+        ok &= (side > 0) & (np.abs(shift) <= h) if exact else (side >= 0.5) & (side <= 1.5)
     shift = np.where(ok, shift, 0.0)
     return t_c + shift, resid - v * shift * 1e-6
 

@@ -967,6 +967,44 @@ def test_a_crossing_on_a_changing_speed_is_moved_to_when_the_star_passed_its_pix
     assert np.all(np.abs(near - t_c)[:3] < 0.1 * np.abs(fixed - t_c)[:3])
 
 
+def test_on_an_acceleration_fit_a_crossing_is_moved_while_the_star_keeps_its_way():
+    """exact (a constant-acceleration fit's path): a star slowing to rest reaches a pixel's
+    far flank at a seventh of its speed at the crossing; the crossing is still moved to when
+    it passed the pixel (the flanks' mean time, left late, had put a slew's last rows up to
+    1.5 px behind: fresh-60 of perf/study_accuracy.py). Where the fit turns back within the
+    flanks (its model run past the stop), nothing moves."""
+    from scipy.optimize import brentq
+
+    from evstar.smoothing import ESTIMATE_DTYPE, _speed_change_corrected
+
+    v0, a = 40.0, 40.0                                       # px/s, px/s²: at rest after 1 s
+    x = lambda t: 50 + v0 * t - 0.5 * a * t * t               # t in s, up to the stop
+    t = np.arange(0, 1_100_000, 10_000)
+    ts = t * 1e-6
+    track = np.zeros(len(t), ESTIMATE_DTYPE)
+    track["t"], track["y"] = t, 20.0
+    track["x"], track["vx"] = x(np.minimum(ts, 1.0)), np.maximum(v0 - a * ts, 0.0)
+    d, q = 0.99, np.array([60.0, 69.0])
+    when = lambda level: np.array([brentq(lambda s: x(s) - v, 0, 1.0) * 1e6 for v in level])
+    t0, t1, t2 = when(q), when(q - d), when(q + d)
+    t_c, width = 0.5 * (t1 + t2), 0.5 * (t2 - t1)
+    u = np.tile([1.0, 0.0], (2, 1))
+    pix = np.column_stack([q, [20.0, 21.5]])                 # the star's reach: 2 px
+    far = np.interp(t_c + width, t, track["vx"]) / np.interp(t_c, t, track["vx"])
+    assert 0 < far[1] < 0.2                                   # ... was left unmoved below 1/5
+    fixed, _ = _speed_change_corrected(t_c, width, pix, u, np.zeros(2), track, exact=True)
+    assert np.all(t_c > t0) and np.all(np.abs(fixed - t0) < 0.05 * (t_c - t0))
+    # the same star's constant-deceleration fit runs on past the stop, turning back
+    past = track.copy()
+    past["x"], past["vx"] = x(ts), v0 - a * ts
+    assert past["vx"][-1] < 0
+    late = t_c + np.array([0.0, 0.05e6])                     # the second's far flank at -1 px/s
+    moved, _ = _speed_change_corrected(late, width, pix, u, np.zeros(2), past, exact=True)
+    back = np.interp(late + width, t, past["vx"])
+    assert back[1] < 0 < back[0] and late[1] + width[1] < t[-1]
+    assert moved[0] != late[0] and moved[1] == late[1]
+
+
 def test_on_a_small_sinusoid_the_speed_change_correction_brings_the_star_closer():
     """A magnitude-3.5 star on a ±1.6° 1 Hz sinusoid through a DAVIS346 behind 8 mm (±12 px:
     near its turns the star slows and speeds up hardest): crossings moved to when the star
@@ -1135,11 +1173,35 @@ def test_without_imu_a_hard_start_from_rest_keeps_its_acceleration_refit():
     assert (star_of >= 0).all() and e.mean() < 0.06 and e.max() < 0.2
 
 
+def test_without_imu_a_slew_s_ends_are_coasted_with_the_acceleration_refit_s_sigma():
+    """A 25 °/s-peak DAVIS346 slew from rest to rest, no IMU: the star fires too few events
+    for a centroid in its first and last frames. Coasted there by the acceleration refit,
+    those rows took the constant-velocity fit's σ (over coast_sigma_px: dropped, 96 % of the
+    frames); with the refit's own σ every frame has a position, each coasted one within its
+    σ."""
+    from evstar import Config, Pipeline, accuracy
+    from evstar.sim.motion import Slew
+    from evstar.sim.scene import Scenario
+    from evstar.sim.targets import star_at_pixel
+
+    cam = sim.camera_preset("davis346")
+    move = Slew(25.0, 1.0)
+    star = star_at_pixel(cam, move.rotation(0.5)[0], (cam.cx, cam.cy), 3.5)
+    run = sim.simulate(Scenario(cam, star, move, 1.0), seed=1)
+    rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
+    star_of, e = accuracy.match(rows, run.truth.star_position)
+    assert (star_of >= 0).all() and np.array_equal(np.unique(rows["frame"]), np.arange(100))
+    coasted = rows["source"] == COASTED
+    assert coasted.sum() >= 2 and np.all(e[coasted] <= rows["sigma"][coasted])
+    assert e.mean() < 0.05 and e.max() < 0.3
+
+
 def test_an_acceleration_refit_is_measured_against_the_first_fit_on_its_measured_rows():
     """_departure: the largest distance between two fits of a track at the refit's measured
     rows (coasted ones left out: past a slew's end the two may part by more, rightly), within
     from the first crossing on where the crossings' times are given;
-    _with_larger_sigma: each row keeps the larger σ of the two."""
+    _with_larger_sigma: each row keeps the larger σ of the two, but for the rows coasted
+    before or after the refit's measured ones."""
     from evstar.smoothing import ESTIMATE_DTYPE, _departure, _with_larger_sigma
 
     a = np.zeros(5, ESTIMATE_DTYPE)
@@ -1163,6 +1225,10 @@ def test_an_acceleration_refit_is_measured_against_the_first_fit_on_its_measured
     out = _with_larger_sigma(b, a)
     np.testing.assert_allclose(out["sigma_x"], [0.1, 0.2, 0.1, 0.1, 0.1])
     np.testing.assert_array_equal(out["x"], b["x"])
+    # ... but a row coasted beyond the refit's measured ones keeps the refit's own σ: the
+    # position is that model's extrapolation; one coasted between two measured rows does not
+    b["source"][[0, 2]] = COASTED
+    np.testing.assert_allclose(_with_larger_sigma(b, a)["sigma_x"], [0.05, 0.2, 0.1, 0.1, 0.1])
 
 
 def test_a_star_speeding_up_from_rest_has_a_position_from_the_start_with_the_gyro():
