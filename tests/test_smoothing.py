@@ -1136,18 +1136,24 @@ def test_without_imu_a_slew_from_rest_to_rest_is_followed_as_it_speeds_up_and_st
     fit had led it by up to 0.27 px and trailed it by as much (fresh-40 of
     perf/study_accuracy.py on seed 40: 0.086 / 0.66 px -> 0.026 / 0.08; on this seed
     0.096 / 0.68 -> 0.046 / 0.44, its last row pooled as the star stops)."""
+    rows, star_of, e = _slew_without_imu("dvxplorer-lite", 10.0, seed=5)
+    assert (star_of >= 0).all() and e.mean() < 0.07 and e.max() < 0.55
+
+
+def _slew_without_imu(camera, peak, seed):
+    """(rows, their star, error px) of a magnitude-3.5 star through `camera`'s centre midway
+    on a 1 s rest-to-rest slew peaking at `peak` °/s, the pipeline run without the IMU."""
     from evstar import Config, Pipeline, accuracy
     from evstar.sim.motion import Slew
     from evstar.sim.scene import Scenario
     from evstar.sim.targets import star_at_pixel
 
-    cam = sim.camera_preset("dvxplorer-lite")
-    move = Slew(10.0, 1.0)
+    cam = sim.camera_preset(camera)
+    move = Slew(peak, 1.0)
     star = star_at_pixel(cam, move.rotation(0.5)[0], (cam.cx, cam.cy), 3.5)
-    run = sim.simulate(Scenario(cam, star, move, 1.0), seed=5)
+    run = sim.simulate(Scenario(cam, star, move, 1.0), seed=seed)
     rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
-    star_of, e = accuracy.match(rows, run.truth.star_position)
-    assert (star_of >= 0).all() and e.mean() < 0.07 and e.max() < 0.55
+    return (rows, *accuracy.match(rows, run.truth.star_position))
 
 
 def test_without_imu_a_hard_start_from_rest_keeps_its_acceleration_refit():
@@ -1179,17 +1185,7 @@ def test_without_imu_a_slew_s_ends_are_coasted_with_the_acceleration_refit_s_sig
     those rows took the constant-velocity fit's σ (over coast_sigma_px: dropped, 96 % of the
     frames); with the refit's own σ every frame has a position, each coasted one within its
     σ."""
-    from evstar import Config, Pipeline, accuracy
-    from evstar.sim.motion import Slew
-    from evstar.sim.scene import Scenario
-    from evstar.sim.targets import star_at_pixel
-
-    cam = sim.camera_preset("davis346")
-    move = Slew(25.0, 1.0)
-    star = star_at_pixel(cam, move.rotation(0.5)[0], (cam.cx, cam.cy), 3.5)
-    run = sim.simulate(Scenario(cam, star, move, 1.0), seed=1)
-    rows = Pipeline(Config()).run(run.events, run.imu, run.camera).centroids
-    star_of, e = accuracy.match(rows, run.truth.star_position)
+    rows, star_of, e = _slew_without_imu("davis346", 25.0, seed=1)
     assert (star_of >= 0).all() and np.array_equal(np.unique(rows["frame"]), np.arange(100))
     coasted = rows["source"] == COASTED
     assert coasted.sum() >= 2 and np.all(e[coasted] <= rows["sigma"][coasted])
