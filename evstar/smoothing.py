@@ -1463,7 +1463,9 @@ def _speed_change_corrected(t_c, h, q, u, resid, track, lag_us=0.0, exact=False)
     ok = (np.isfinite(shift) & (t_c - h >= ts[0]) & (t_c + h <= ts[-1]) & (lag_us <= passage))
     for side in (speed(t_c - h) / v, speed(t_c + h) / v):
         # on the fit's path: wherever the star keeps going the same way over the passage
-        ok &= (side > 0) & (np.abs(shift) <= h) if exact else (side >= 0.5) & (side <= 1.5)
+        ok &= (side > 0) if exact else (side >= 0.5) & (side <= 1.5)
+    if exact:
+        ok &= np.abs(shift) <= h
     shift = np.where(ok, shift, 0.0)
     return t_c + shift, resid - v * shift * 1e-6
 
