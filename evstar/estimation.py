@@ -211,7 +211,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
                      measured_lag, rate_hz, near, depth_delay_us=0.0, stalls=None):
     """_estimate of tracks cut into pieces across stalls (evstar.pieces); carried: whether
     the velocity prior carries a track."""
-    from .smoothing import TrackSmoother
+    from .smoothing import TrackSmoother, bracketed
 
     e = config.estimate
     params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
@@ -287,7 +287,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     # no row at all whose σ says it is no position (a short track's outlier, a crowded
     # field's track that lost its star)
     sigma = rows["sigma"]
-    ok = (sigma <= e.coast_sigma_px) | _bracketed(rows)
+    ok = (sigma <= e.coast_sigma_px) | bracketed(rows)
     if span_us is not None:
         ok &= (rows["t"] >= span_us[0]) & (rows["t"] <= span_us[1])
     if sensor is not None:
@@ -607,27 +607,6 @@ def untracked_min_events(config, sensor, rate_hz):
     # per spot no stricter than MIN_ALPHA, where the quantile is still computed (NaN below)
     per_spot = min(max(config.estimate.untracked_alpha / spots, MIN_ALPHA), 1.0)
     return int(poisson.isf(per_spot, mu)) + 1
-
-
-def _bracketed(rows):
-    """Per row: whether it is a coasted row of a track that has rows of the other sources
-    (measured, pooled) both before and after it."""
-    out = np.zeros(len(rows), bool)
-    tracked = np.flatnonzero(rows["track"] >= 0)
-    if not len(tracked):
-        return out
-    order = tracked[np.lexsort((rows["t"][tracked], rows["track"][tracked]))]
-    tr, seen = rows["track"][order], rows["source"][order] != "coasted"
-    start = np.r_[True, tr[1:] != tr[:-1]]
-    group = np.cumsum(start) - 1
-    idx = np.arange(len(order))
-    # the last seen row at or before each position, and the first at or after, in its track
-    before = np.maximum.accumulate(np.where(seen, idx, -1))
-    after = np.minimum.accumulate(np.where(seen, idx, len(order))[::-1])[::-1]
-    ok_b = (before >= 0) & (group[np.clip(before, 0, None)] == group)
-    ok_a = (after < len(order)) & (group[np.clip(after, None, len(order) - 1)] == group)
-    out[order] = ~seen & ok_b & ok_a
-    return out
 
 
 def _by_prior(centroids, sigma, smoother, prior):

@@ -1322,6 +1322,27 @@ def _departure(rows, other, t_cross=()):
                                  rows["y"][m] - np.interp(t, t_other, other["y"]))))
 
 
+def bracketed(rows):
+    """Per row: whether it is a coasted row of a track that has rows of the other sources
+    (measured, pooled) both before and after it."""
+    out = np.zeros(len(rows), bool)
+    tracked = np.flatnonzero(rows["track"] >= 0)
+    if not len(tracked):
+        return out
+    order = tracked[np.lexsort((rows["t"][tracked], rows["track"][tracked]))]
+    tr, seen = rows["track"][order], rows["source"][order] != COASTED
+    start = np.r_[True, tr[1:] != tr[:-1]]
+    group = np.cumsum(start) - 1
+    idx = np.arange(len(order))
+    # the last seen row at or before each position, and the first at or after, in its track
+    before = np.maximum.accumulate(np.where(seen, idx, -1))
+    after = np.minimum.accumulate(np.where(seen, idx, len(order))[::-1])[::-1]
+    ok_b = (before >= 0) & (group[np.clip(before, 0, None)] == group)
+    ok_a = (after < len(order)) & (group[np.clip(after, None, len(order) - 1)] == group)
+    out[order] = ~seen & ok_b & ok_a
+    return out
+
+
 def _with_larger_sigma(rows, other):
     """`rows` with each σ the larger of theirs and `other`'s (another fit of the same
     track, interpolated to their times): an acceleration fit's own σ, from a model that
@@ -1334,9 +1355,7 @@ def _with_larger_sigma(rows, other):
     slews without IMU: frames 94–98 -> 96–100 %)."""
     out = rows.copy()
     t, t_other = rows["t"].astype(np.float64), other["t"].astype(np.float64)
-    coasted = rows["source"] == COASTED
-    meas = t[~coasted]
-    ends = coasted & ((t < meas.min()) | (t > meas.max())) if len(meas) else coasted
+    ends = (rows["source"] == COASTED) & ~bracketed(rows)
     for f in ("sigma_x", "sigma_y"):
         out[f] = np.where(ends, rows[f], np.maximum(rows[f], np.interp(t, t_other, other[f])))
     return out

@@ -399,6 +399,7 @@ def test_a_gap_between_measurements_is_coasted_whatever_its_sigma():
     by the smoother from both sides, are all reported (a sinusoid's turn, where σ peaks)."""
     from evstar import estimation
     from evstar.config import Config
+    from evstar.smoothing import bracketed
 
     rng = np.random.default_rng(9)
     cents = centroids(np.r_[10:21, 26:37], line, 0.2, rng, jitter_us=0)
@@ -410,7 +411,7 @@ def test_a_gap_between_measurements_is_coasted_whatever_its_sigma():
     assert coasted["sigma"].min() > 0.03                      # each beyond the gate
     err = np.hypot(*(np.column_stack([coasted["x"], coasted["y"]]) - line(coasted["t"] * 1e-6)).T)
     assert err.max() < 3 * coasted["sigma"].max()
-    assert not estimation._bracketed(rows[rows["source"] != "coasted"]).any()
+    assert not bracketed(rows[rows["source"] != "coasted"]).any()
     # rows less certain than max_sigma_px are no positions, the gap's either
     gate = float(np.median(coasted["sigma"]))
     tight = estimation.estimate(cents, cfg.replace(**{"estimate.max_sigma_px": gate}), 0)
