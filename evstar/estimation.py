@@ -173,7 +173,7 @@ def estimate(centroids, config, t0_us, crossings=None, velocity_prior=None, span
     again, est, _, _ = _estimate(vibration.removed(centroids, est, found), *args)
     if est is None:   # (the same tracks: never; kept as the first pass's)
         return rows
-    rows, found = again, vibration.refit(est, kept, found)
+    rows, found = again, vibration.refit(est, kept, found, crossings)
     if report is not None:
         report["vibration"] = vibration.summary(found)
     return vibration.added(rows, est, found)

@@ -18,8 +18,12 @@ WINDOW_S is searched in half-overlapping windows, each for its own sinusoid, ble
 their centres (Waves): a vibration's frequency and amplitude drift. A field is searched as one
 first: the per-frame median of its tracks' offsets (in frames of >= MIN_SHARED_TRACKS
 tracks) holds a rigid platform's vibration with the noise of many stars averaged down, and
-one found there is given to every track. Where a velocity prior carries a track, the gyro
-carries the platform's motion and nothing is sought (evstar.estimation.estimate).
+one found there is given to every track; else a frequency one track holds is sought in the
+others at it alone (KNOWN_FALSE_ALARM). Across the motion the sinusoid's amplitude and
+phase are refitted to the track's crossings, each timed when the star passed its pixel's
+column (_by_crossings): per-frame centroids see a fast swing across the motion early and
+small. Where a velocity prior carries a track, the gyro carries the platform's motion and
+nothing is sought (evstar.estimation.estimate).
 """
 from __future__ import annotations
 
@@ -39,6 +43,8 @@ MIN_HZ = 4.0
 MAX_NYQUIST_SHARE = 0.9
 #: the chance a track of white residuals shows a peak as strong somewhere in the band
 FALSE_ALARM = 1e-7
+#: ... or at a frequency another track of the recording holds (found)
+KNOWN_FALSE_ALARM = 1e-3
 #: a sinusoid smaller than this (px) is left in the track
 MIN_AMPLITUDE_PX = 0.05
 #: centroids a track needs to be searched
@@ -56,6 +62,14 @@ MIN_SHARED_TRACKS = 3
 #: each for its own sinusoid, blended between their centres: a vibration's frequency and
 #: amplitude drift (one 15 -> 25 Hz over 3 s was not found as one sinusoid)
 WINDOW_S = 1.0
+#: crossings a window needs for its sinusoid across the motion to be fitted to them
+#: (_by_crossings) rather than to the centroids
+MIN_CROSSINGS = 30
+#: ... each weighted by its level pairs to this power: the star's light at a pixel's passage
+#: falls off across the path in log units, flat at the top, so a plain mean of the pixels'
+#: offsets hardly follows the star; weighted by pairs it followed 0.75–0.95 of the
+#: independent simulator's 12–25 Hz swings, by pairs² 0.80–0.95 (30 Hz 0.5 → 0.65)
+PAIRS_POWER = 2
 #: offsets further than this many robust standard deviations from their median are pulled
 #: in to it before the search (_clipped)
 CLIP_MADS = 2.5
@@ -130,7 +144,7 @@ def found(est, centroids, dt_us):
     shared = _shared(track, t, frame, r, turning, dt_us)
     if shared:
         return {(int(tid), axis): v for axis, v in shared.items() for tid in np.unique(est["track"])}
-    out = {}
+    out, rest = {}, []
     for tid, sel in zip(*groups(track)):
         if len(sel) < MIN_ROWS:
             continue
@@ -138,16 +152,48 @@ def found(est, centroids, dt_us):
             v = _search(t[sel], r[sel, axis], dt_us)
             if v is not None:
                 out[(int(tid), axis)] = v
+            else:
+                rest.append((int(tid), axis, sel))
+    # a rigid platform shakes every star: a frequency some track holds is sought in the
+    # others at it alone (one frequency, not the band: KNOWN_FALSE_ALARM)
+    omegas = sorted({v.strongest.omega for v in out.values()})
+    for tid, axis, sel in rest if omegas else ():
+        v = _at_known(t[sel], r[sel, axis], omegas)
+        if v is not None:
+            out[(tid, axis)] = v
     return out
 
 
-def refit(est, centroids, vibrations):
+def _at_known(t_us, r, omegas):
+    """The Waves (one window) of one track's offsets r along one axis at the frequency of
+    `omegas` (rad/s) where its normalised power is highest, where that passes
+    KNOWN_FALSE_ALARM over len(omegas) frequencies and MIN_AMPLITUDE_PX; else None."""
+    from scipy.signal import lombscargle
+
+    order = np.argsort(t_us, kind="stable")
+    t_us, r = np.asarray(t_us, np.float64)[order], _clipped(np.asarray(r, np.float64)[order])
+    x = r - r.mean()
+    if not np.ptp(x) > 0:
+        return None
+    power = np.atleast_1d(lombscargle((t_us - t_us[0]) * 1e-6, x, np.asarray(omegas), normalize=True))
+    k = int(np.argmax(power))
+    if _false_alarm(power[k], len(x), len(omegas)) > KNOWN_FALSE_ALARM:
+        return None
+    a, b = _fit(t_us, r, omegas[k], int(t_us[0]))
+    if np.hypot(a, b) < MIN_AMPLITUDE_PX:
+        return None
+    return Waves(((float(t_us[0]), float(t_us[-1])),), (Vibration(float(omegas[k]), a, b, int(t_us[0])),))
+
+
+def refit(est, centroids, vibrations, crossings=None):
     """Each sinusoid at its frequency, its amplitude and phase fitted again to the offsets of
     `centroids` from `est` (a fit of centroids moved back by it; a shared one to the
     per-frame median once for all tracks), and the RMS of what it leaves: the track's σ is
     at least that (the sinusoid follows the centroids, whose own lag behind a fast swing the
-    fit cannot see)."""
+    fit cannot see). Across the motion, where `crossings` (CROSSING_DTYPE) give a window
+    MIN_CROSSINGS, its amplitude and phase come from them instead (_by_crossings)."""
     track, t, frame, r, turning = offsets(est, centroids)
+    across = None if crossings is None or not len(crossings) else across_crossings(crossings, est)
     out, shared = {}, {}
     for (tid, axis), v in vibrations.items():
         if v.shared:
@@ -155,13 +201,42 @@ def refit(est, centroids, vibrations):
                 series = _median_series(track, t, frame, r[:, axis],
                                         ~turning if axis == ALONG else None)
                 shared[axis] = None if series is None else _refitted(v, *series)
+                if axis == ACROSS and shared[axis] is not None and across is not None:
+                    shared[axis] = _by_crossings(shared[axis], *across)
             v = shared[axis]
         else:
             sel = track == tid
             v = _refitted(v, t[sel], r[sel, axis])
+            if axis == ACROSS and v is not None and across is not None:
+                mine = across[0] == tid
+                v = _by_crossings(v, *(a[mine] for a in across))
         if v is not None:
             out[(tid, axis)] = v
     return out
+
+
+def across_crossings(crossings, est):
+    """Per crossing within assignment.REACH_PX of a moving track of `est`: (track, when the
+    track passed the crossing's pixel along its motion µs, the pixel's offset across the
+    motion px, its level pairs). A crossing's own time is when the star came nearest its
+    pixel: a star swinging across its motion comes nearest a pixel beside its path earlier
+    or later than it passes the pixel's column (by offset · ẏ / v²: ~20 ms a pixel for a
+    0.27 px, 20 Hz swing across a 40 px/s pan)."""
+    from .assignment import REACH_PX
+    from .crossings import near_tracks
+
+    est = _sorted(est)
+    ci, tid, dx, dy, ux, uy = near_tracks(crossings, est, REACH_PX)
+    k = np.flatnonzero(np.hypot(dx, dy) < REACH_PX)
+    ci, tid, dx, dy, ux, uy = ci[k], tid[k], dx[k], dy[k], ux[k], uy[k]
+    t = crossings["t"][ci].astype(np.float64)
+    speed = np.zeros(len(ci))
+    for track, sel in zip(*groups(tid)):
+        mine = est[est["track"] == track]
+        speed[sel] = np.hypot(np.interp(t[sel], mine["t"], mine["vx"]),
+                              np.interp(t[sel], mine["t"], mine["vy"]))
+    column = t + (dx * ux + dy * uy) / np.maximum(speed, 1e-9) * 1e6
+    return tid, column, dy * ux - dx * uy, crossings["pairs"][ci].astype(np.float64)
 
 
 def _refitted(waves, t_us, r):
@@ -180,6 +255,30 @@ def _refitted(waves, t_us, r):
         v = v._replace(**dict(zip("ab", _fit(t_us[m], rm, v.omega, v.t0_us))))
         rest = rm - v.at(t_us[m])
         parts.append(v._replace(rms=float(np.sqrt(np.mean((rest - rest.mean()) ** 2)))))
+    return waves._replace(parts=tuple(parts))
+
+
+def _by_crossings(waves, track, t_us, d, pairs):
+    """`waves` across the motion with each window's found sinusoid's amplitude and phase
+    fitted to the offsets d of the crossings timed t_us (across_crossings), each weighted
+    by its level pairs ** PAIRS_POWER (a pixel beside the path fires as many levels as the
+    star's light at its passage reaches: their weighted mean across is the star's place
+    when it passed that column), each track's weighted mean taken out; a window of fewer than
+    MIN_CROSSINGS keeps the centroids' fit. Per-frame centroids see a fast swing across
+    the motion late and small: a pixel fires its levels over the whole passage (±σ/v), and
+    the ON lobe ahead tilts with the motion (the independent simulator's 15–25 Hz swings:
+    28–58° early against the truth at 0.6–0.85 of its amplitude; the crossings' fit 0–17°,
+    0.75–0.95)."""
+    parts = []
+    for (lo, hi), v in zip(waves.bounds, waves.parts):
+        m = (t_us >= lo) & (t_us <= hi)
+        if (v.a == 0 and v.b == 0) or m.sum() < MIN_CROSSINGS:
+            parts.append(v)
+            continue
+        w, dm, g = pairs[m] ** PAIRS_POWER, d[m], np.unique(track[m], return_inverse=True)[1]
+        dm = dm - (np.bincount(g, w * dm) / np.bincount(g, w))[g]
+        ab = _fit(t_us[m], dm * np.sqrt(w), v.omega, v.t0_us, np.sqrt(w))
+        parts.append(v._replace(**dict(zip("ab", ab))))
     return waves._replace(parts=tuple(parts))
 
 
@@ -445,9 +544,11 @@ def _false_alarm(power, n, m):
     return 1.0 - (1.0 - (1.0 - power) ** ((n - 3) / 2)) ** m
 
 
-def _fit(t_us, r, omega, t0_us):
-    """Least-squares (a, b) of r ≈ c + a·cos(ω t) + b·sin(ω t)."""
+def _fit(t_us, r, omega, t0_us, scale=1.0):
+    """Least-squares (a, b) of r ≈ c + a·cos(ω t) + b·sin(ω t); with `scale` (per point), of
+    r ≈ scale · (c + a·cos + b·sin): a weighted fit whose r and rows are scaled by √weight."""
     ts = (np.asarray(t_us, np.float64) - t0_us) * 1e-6
     A = np.column_stack([np.cos(omega * ts), np.sin(omega * ts), np.ones(len(ts))])
+    A = A * np.reshape(scale, (-1, 1))
     coef, *_ = np.linalg.lstsq(A, r, rcond=None)
     return float(coef[0]), float(coef[1])
