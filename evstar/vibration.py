@@ -65,10 +65,10 @@ WINDOW_S = 1.0
 #: crossings a window needs for its sinusoid across the motion to be fitted to them
 #: (_by_crossings) rather than to the centroids
 MIN_CROSSINGS = 30
-#: ... each weighted by its level pairs to this power: the star's light at a pixel's passage
-#: falls off across the path in log units, flat at the top, so a plain mean of the pixels'
-#: offsets hardly follows the star; weighted by pairs it followed 0.75–0.95 of the
-#: independent simulator's 12–25 Hz swings, by pairs² 0.80–0.95 (30 Hz 0.5 → 0.65)
+#: ... each weighted by its level pairs to this power: a pixel's pairs count the star's
+#: light at its passage (in log units, flat at the top), so a plain mean of the pixels'
+#: offsets scatters; weighted by pairs they followed 0.38–0.91 of the independent
+#: simulator's 15–30 Hz swings at their phase, by pairs² 0.53–0.93
 PAIRS_POWER = 2
 #: offsets further than this many robust standard deviations from their median are pulled
 #: in to it before the search (_clipped)
@@ -263,12 +263,15 @@ def _by_crossings(waves, track, t_us, d, pairs):
     fitted to the offsets d of the crossings timed t_us (across_crossings), each weighted
     by its level pairs ** PAIRS_POWER (a pixel beside the path fires as many levels as the
     star's light at its passage reaches: their weighted mean across is the star's place
-    when it passed that column), each track's weighted mean taken out; a window of fewer than
-    MIN_CROSSINGS keeps the centroids' fit. Per-frame centroids see a fast swing across
+    when it passed that column), each track's weighted mean taken out, its amplitude at
+    least the centroids' fit's in its phase; a window of fewer than MIN_CROSSINGS keeps the
+    centroids' fit. Per-frame centroids see a fast swing across
     the motion late and small: a pixel fires its levels over the whole passage (±σ/v), and
     the ON lobe ahead tilts with the motion (the independent simulator's 15–25 Hz swings:
-    28–58° early against the truth at 0.6–0.85 of its amplitude; the crossings' fit 0–17°,
-    0.75–0.95)."""
+    28–58° early against the truth at 0.6–0.85 of its amplitude; the crossings' fit 0–17°
+    off, mostly at 0.8–0.9 of it). Both read a swing small — the crossings most where the path swings within
+    a pixel's passage (a defocused magnitude-4 star at 22 Hz on a wide lens: 0.47 of it, the
+    centroids 0.72 at its phase) —, hence the floor."""
     parts = []
     for (lo, hi), v in zip(waves.bounds, waves.parts):
         m = (t_us >= lo) & (t_us <= hi)
@@ -277,8 +280,11 @@ def _by_crossings(waves, track, t_us, d, pairs):
             continue
         w, dm, g = pairs[m] ** PAIRS_POWER, d[m], np.unique(track[m], return_inverse=True)[1]
         dm = dm - (np.bincount(g, w * dm) / np.bincount(g, w))[g]
-        ab = _fit(t_us[m], dm * np.sqrt(w), v.omega, v.t0_us, np.sqrt(w))
-        parts.append(v._replace(**dict(zip("ab", ab))))
+        z = complex(*_fit(t_us[m], dm * np.sqrt(w), v.omega, v.t0_us, np.sqrt(w)))
+        if abs(z) > 0:
+            # both read a swing small: the centroids' in-phase amplitude is a floor
+            z *= max(1.0, (complex(v.a, v.b) * z.conjugate()).real / abs(z) ** 2)
+        parts.append(v._replace(a=z.real, b=z.imag))
     return waves._replace(parts=tuple(parts))
 
 

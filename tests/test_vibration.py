@@ -108,9 +108,9 @@ def test_removed_then_added_moves_rows_across_the_motion_and_back():
     assert np.allclose(along["x"], rows["x"] - wave.at(t)) and np.allclose(along["y"], 20.0)
 
 
-def test_crossings_of_a_track_vibrating_along_its_motion_move_to_its_smooth_passage():
-    """A track along x at 50 px/s: a crossing at time t is moved by −v(t)/speed, those of
-    another track (or none) stay."""
+def _two_tracks():
+    """(rows of tracks 3 and 4 along x at 50 px/s, y 20 and 60, over 0.5 s; three zeroed
+    crossings)."""
     from evstar.crossings import CROSSING_DTYPE
     from evstar.smoothing import ESTIMATE_DTYPE
 
@@ -120,7 +120,13 @@ def test_crossings_of_a_track_vibrating_along_its_motion_move_to_its_smooth_pass
     est["x"] = np.r_[10 + 50 * t * 1e-6, 10 + 50 * t * 1e-6]
     est["y"] = np.repeat([20.0, 60.0], 50)
     est["vx"] = 50.0
-    cr = np.zeros(3, CROSSING_DTYPE)
+    return est, np.zeros(3, CROSSING_DTYPE)
+
+
+def test_crossings_of_a_track_vibrating_along_its_motion_move_to_its_smooth_passage():
+    """A track along x at 50 px/s: a crossing at time t is moved by −v(t)/speed, those of
+    another track (or none) stay."""
+    est, cr = _two_tracks()
     cr["t"] = [100_000.0, 300_000.0, 200_000.0]
     cr["x"], cr["y"] = [15, 25, 20], [20, 20, 60]
     wave = vibration.Vibration(2 * np.pi * 10.0, 0.5, 0.0, 0)
@@ -134,22 +140,34 @@ def test_crossings_are_timed_when_their_track_passed_their_column():
     """A track along x at 50 px/s: a pixel 2 px beside it that came nearest 30 ms early
     (a star swinging across) is timed when the track passed its column; the crossings of
     the other track and those beyond the assignment's reach are its own or none."""
-    from evstar.crossings import CROSSING_DTYPE
-    from evstar.smoothing import ESTIMATE_DTYPE
-
-    t = np.arange(50, dtype=np.int64) * 10_000
-    est = np.zeros(100, ESTIMATE_DTYPE)
-    est["t"], est["track"] = np.r_[t, t], np.repeat([3, 4], 50)
-    est["x"] = np.r_[10 + 50 * t * 1e-6, 10 + 50 * t * 1e-6]
-    est["y"] = np.repeat([20.0, 60.0], 50)
-    est["vx"] = 50.0
-    cr = np.zeros(3, CROSSING_DTYPE)
+    est, cr = _two_tracks()
     cr["t"] = [70_000.0, 260_000.0, 200_000.0]      # the columns x 15 and 25 at 100, 300 ms
     cr["x"], cr["y"], cr["pairs"] = [15, 25, 20], [22, 19, 70], [4, 6, 5]
     track, t_col, across, pairs = vibration.across_crossings(cr, est)
     assert track.tolist() == [3, 3]
     assert np.allclose(t_col, [100_000.0, 300_000.0])
     assert np.allclose(across, [2.0, -1.0]) and pairs.tolist() == [4.0, 6.0]
+
+
+def test_the_crossings_phase_is_taken_with_the_centroids_in_phase_amplitude_as_a_floor():
+    """Crossings swinging 0.1 px at phase 0 (two tracks, each its own mean): a centroids' fit
+    of 0.3 px in phase raises the amplitude to it; one in quadrature or opposed, or a window
+    of fewer than MIN_CROSSINGS, leaves the crossings' (or the centroids') own."""
+    omega = 2 * np.pi * 15.0
+    t = np.linspace(0.0, 1e6, 200)
+    track = np.repeat([1, 2], 100)
+    d = 0.1 * np.cos(omega * t * 1e-6) + np.where(track == 1, 0.4, -0.2)
+    pairs = np.full(200, 3.0)
+
+    def amplitude_phase(a, b, n=200):
+        w = vibration.Waves(((0.0, 1e6),), (vibration.Vibration(omega, a, b, 0),))
+        v = vibration._by_crossings(w, track[:n], t[:n], d[:n], pairs[:n]).parts[0]
+        return np.hypot(v.a, v.b), np.degrees(np.arctan2(v.b, v.a))
+
+    assert np.allclose(amplitude_phase(0.3, 0.0), (0.3, 0.0), atol=1e-6)
+    for a, b in ((0.0, 0.3), (-0.3, 0.0), (0.05, 0.0)):
+        assert np.allclose(amplitude_phase(a, b), (0.1, 0.0), atol=1e-6)
+    assert np.allclose(amplitude_phase(0.0, 0.3, n=vibration.MIN_CROSSINGS - 1), (0.3, 90.0))
 
 
 def test_a_swing_across_the_motion_is_fitted_at_its_phase_by_the_crossings(monkeypatch):
