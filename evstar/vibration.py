@@ -263,15 +263,17 @@ def _by_crossings(waves, track, t_us, d, pairs):
     fitted to the offsets d of the crossings timed t_us (across_crossings), each weighted
     by its level pairs ** PAIRS_POWER (a pixel beside the path fires as many levels as the
     star's light at its passage reaches: their weighted mean across is the star's place
-    when it passed that column), each track's weighted mean taken out, its amplitude at
-    least the centroids' fit's in its phase; a window of fewer than MIN_CROSSINGS keeps the
-    centroids' fit. Per-frame centroids see a fast swing across
-    the motion late and small: a pixel fires its levels over the whole passage (±σ/v), and
-    the ON lobe ahead tilts with the motion (the independent simulator's 15–25 Hz swings:
-    28–58° early against the truth at 0.6–0.85 of its amplitude; the crossings' fit 0–17°
-    off, mostly at 0.8–0.9 of it). Both read a swing small — the crossings most where the path swings within
-    a pixel's passage (a defocused magnitude-4 star at 22 Hz on a wide lens: 0.47 of it, the
-    centroids 0.72 at its phase) —, hence the floor."""
+    when it passed that column), each track's weighted mean taken out, the amplitude at
+    least the centroids' fit's in that phase; a window of fewer than MIN_CROSSINGS keeps
+    the centroids' fit.
+
+    Per-frame centroids see a fast swing across the motion early and small: a pixel fires
+    its levels over its whole passage (±σ/v) and the ON lobe ahead tilts with the motion
+    (the independent simulator's 15–25 Hz swings: 28–58° early, at 0.6–0.85 of the
+    amplitude; the crossings' fit 0–17° off, mostly at 0.8–0.9 of it). Both read a swing
+    small, the crossings most where the path swings within a pixel's passage (a defocused
+    magnitude-4 star at 22 Hz on a wide lens: 0.47 of it, the centroids 0.72 in its
+    phase): hence the floor."""
     parts = []
     for (lo, hi), v in zip(waves.bounds, waves.parts):
         m = (t_us >= lo) & (t_us <= hi)
