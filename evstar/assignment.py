@@ -18,6 +18,7 @@ import numpy as np
 
 from .crossings import near_tracks, within
 from .frames import groups
+from .smoothing import _speed_at
 
 #: a crossing is a track's within this (px) of its position at the crossing's time
 REACH_PX = 3.0
@@ -69,7 +70,7 @@ def track_shifts(crossings, tracks):
     for track, rows in zip(*groups(tracks["track"])):
         m = mine.get(track, np.zeros(0, np.int64))
         r = tracks[rows]
-        s = np.hypot(np.interp(t[m], r["t"], r["vx"]), np.interp(t[m], r["t"], r["vy"]))
+        s = _speed_at(r, t[m])
         late = along[m] / np.maximum(s, SHIFT_MIN_SPEED_PX_S) * 1e6
         ok = ((np.abs(across[m]) < SHIFT_ACROSS_PX) & (s >= SHIFT_MIN_SPEED_PX_S)
               & (np.abs(late) <= MAX_SHIFT_US))

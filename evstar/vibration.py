@@ -165,24 +165,16 @@ def found(est, centroids, dt_us):
 
 
 def _at_known(t_us, r, omegas):
-    """The Waves (one window) of one track's offsets r along one axis at the frequency of
-    `omegas` (rad/s) where its normalised power is highest, where that passes
-    KNOWN_FALSE_ALARM over len(omegas) frequencies and MIN_AMPLITUDE_PX; else None."""
-    from scipy.signal import lombscargle
-
+    """The Waves (one window) of one track's offsets r along one axis at the one of
+    `omegas` (rad/s) _claimed with KNOWN_FALSE_ALARM over len(omegas) frequencies; else
+    None."""
     order = np.argsort(t_us, kind="stable")
     t_us, r = np.asarray(t_us, np.float64)[order], _clipped(np.asarray(r, np.float64)[order])
     x = r - r.mean()
     if not np.ptp(x) > 0:
         return None
-    power = np.atleast_1d(lombscargle((t_us - t_us[0]) * 1e-6, x, np.asarray(omegas), normalize=True))
-    k = int(np.argmax(power))
-    if _false_alarm(power[k], len(x), len(omegas)) > KNOWN_FALSE_ALARM:
-        return None
-    a, b = _fit(t_us, r, omegas[k], int(t_us[0]))
-    if np.hypot(a, b) < MIN_AMPLITUDE_PX:
-        return None
-    return Waves(((float(t_us[0]), float(t_us[-1])),), (Vibration(float(omegas[k]), a, b, int(t_us[0])),))
+    v = _claimed(t_us, r, x, np.asarray(omegas), len(omegas), KNOWN_FALSE_ALARM)
+    return None if v is None else Waves(((float(t_us[0]), float(t_us[-1])),), (v,))
 
 
 def refit(est, centroids, vibrations, crossings=None):
@@ -193,7 +185,8 @@ def refit(est, centroids, vibrations, crossings=None):
     fit cannot see). Across the motion, where `crossings` (CROSSING_DTYPE) give a window
     MIN_CROSSINGS, its amplitude and phase come from them instead (_by_crossings)."""
     track, t, frame, r, turning = offsets(est, centroids)
-    across = None if crossings is None or not len(crossings) else across_crossings(crossings, est)
+    wanted = crossings is not None and len(crossings) and any(a == ACROSS for _, a in vibrations)
+    across = across_crossings(crossings, est) if wanted else None
     out, shared = {}, {}
     for (tid, axis), v in vibrations.items():
         if v.shared:
@@ -224,17 +217,14 @@ def across_crossings(crossings, est):
     0.27 px, 20 Hz swing across a 40 px/s pan)."""
     from .assignment import REACH_PX
     from .crossings import near_tracks
+    from .smoothing import _speed_at
 
     est = _sorted(est)
-    ci, tid, dx, dy, ux, uy = near_tracks(crossings, est, REACH_PX)
-    k = np.flatnonzero(np.hypot(dx, dy) < REACH_PX)
-    ci, tid, dx, dy, ux, uy = ci[k], tid[k], dx[k], dy[k], ux[k], uy[k]
+    ci, tid, dx, dy, ux, uy = near_tracks(crossings, est, REACH_PX)   # (within REACH_PX)
     t = crossings["t"][ci].astype(np.float64)
     speed = np.zeros(len(ci))
     for track, sel in zip(*groups(tid)):
-        mine = est[est["track"] == track]
-        speed[sel] = np.hypot(np.interp(t[sel], mine["t"], mine["vx"]),
-                              np.interp(t[sel], mine["t"], mine["vy"]))
+        speed[sel] = _speed_at(est[est["track"] == track], t[sel])
     column = t + (dx * ux + dy * uy) / np.maximum(speed, 1e-9) * 1e6
     return tid, column, dy * ux - dx * uy, crossings["pairs"][ci].astype(np.float64)
 
@@ -368,6 +358,7 @@ def crossings_removed(crossings, est, vibrations):
     track without its sinusoid passed their pixel: t − v(t) / speed; a new array."""
     from .assignment import REACH_PX
     from .crossings import along_track
+    from .smoothing import _speed_at
 
     along = {tid: v for (tid, axis), v in vibrations.items() if axis == ALONG}
     out = crossings.copy()
@@ -379,7 +370,7 @@ def crossings_removed(crossings, est, vibrations):
         k = ci[owner == tid]
         mine = est[est["track"] == tid]
         t = crossings["t"][k]
-        speed = np.hypot(np.interp(t, mine["t"], mine["vx"]), np.interp(t, mine["t"], mine["vy"]))
+        speed = _speed_at(mine, t)
         out["t"][k] = t - np.divide(v.at(t), speed, out=np.zeros(len(k)), where=speed > 0) * 1e6
     return out
 
@@ -502,8 +493,6 @@ def _worth(t_us, r, masks, dt_us):
 
 def _sinusoid(t_us, r, dt_us):
     """The Vibration of one track's offsets r along one axis, or None (module doc)."""
-    from scipy.signal import lombscargle
-
     order = np.argsort(t_us, kind="stable")     # (a field's median times may cross)
     t_us, r, n = np.asarray(t_us, np.float64)[order], np.asarray(r, np.float64)[order], len(t_us)
     span_s = (t_us[-1] - t_us[0]) * 1e-6 if n else 0.0
@@ -516,14 +505,24 @@ def _sinusoid(t_us, r, dt_us):
     f, rough = _peaks(t_us, x, dt_us, top)
     if not len(f) or _false_alarm(min(PRESCREEN * rough, 1.0), n, m) > FALSE_ALARM:
         return None
-    power = lombscargle((t_us - t_us[0]) * 1e-6, x, 2 * np.pi * f, normalize=True)
+    return _claimed(t_us, r, x, 2 * np.pi * f, m, FALSE_ALARM)
+
+
+def _claimed(t_us, r, x, omegas, m, alarm):
+    """The Vibration of offsets r (x: r less its mean; t_us ascending) at the one of
+    `omegas` (rad/s) where their normalised power is highest, where that passes the
+    false-alarm probability `alarm` over m independent frequencies and MIN_AMPLITUDE_PX;
+    else None."""
+    from scipy.signal import lombscargle
+
+    power = np.atleast_1d(lombscargle((t_us - t_us[0]) * 1e-6, x, omegas, normalize=True))
     k = int(np.argmax(power))
-    if _false_alarm(power[k], n, m) > FALSE_ALARM:
+    if _false_alarm(power[k], len(x), m) > alarm:
         return None
-    a, b = _fit(t_us, r, 2 * np.pi * f[k], int(t_us[0]))
+    a, b = _fit(t_us, r, omegas[k], int(t_us[0]))
     if np.hypot(a, b) < MIN_AMPLITUDE_PX:
         return None
-    return Vibration(float(2 * np.pi * f[k]), a, b, int(t_us[0]))
+    return Vibration(float(omegas[k]), a, b, int(t_us[0]))
 
 
 def _peaks(t_us, x, dt_us, top):
