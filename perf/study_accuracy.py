@@ -336,7 +336,24 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
                                                           threshold_on=0.18, threshold_off=0.26),
            "warm-300-shot": lambda: sim.sensor_model("default", hot_pixels=300, hot_pixel_hz=5.0,
                                                      shot_noise_hz=1.0),
-           "jitter-60-leak-2": lambda: sim.sensor_model("default", jitter_us=60.0, leak_hz=2.0)}
+           "jitter-60-leak-2": lambda: sim.sensor_model("default", jitter_us=60.0, leak_hz=2.0),
+           # the sixty-second session's (fresh-62): a 60 Hz dark sky with a 1.5 kHz ceiling and
+           # fine ON below OFF, an untold 400 µs refractory period on a busy background, coarse
+           # thresholds with a 5 % mismatch and 30 µs of jitter, a 32 Hz dark sky with shot
+           # noise losing a tenth of the events, 500 warm pixels on a quiet background, fine ON
+           # thresholds on a background rising 2.5-fold
+           "dark-sky-60-ceiling-1500-on-low": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=60.0, cutoff_hz_max=1500.0, threshold_on=0.15,
+               threshold_off=0.22),
+           "ref-400-busy": lambda: sim.sensor_model("default", refractory_us=400.0, noise_hz=2.5),
+           "coarse-mismatch-05-jitter-30": lambda: sim.sensor_model(
+               "default", threshold_on=0.3, threshold_off=0.3, threshold_mismatch=0.05, jitter_us=30.0),
+           "dark-sky-32-shot-dropout": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=32.0, shot_noise_hz=1.2, dropout=0.1),
+           "warm-500-quiet": lambda: sim.sensor_model("default", noise_hz=0.2, hot_pixels=500,
+                                                      hot_pixel_hz=50.0),
+           "on-low-rising": lambda: sim.sensor_model("default", threshold_on=0.12, threshold_off=0.2,
+                                                     noise_growth=2.5)}
 
 
 def dev_grid():
@@ -987,6 +1004,32 @@ def fresh60_grid():
             (6, 5.0, 1.1, "default", "imu", {"camera": "davis346", "direction": 280})))
 
 
+def fresh62_grid():
+    """Inputs no session had tried, run once when the sixty-second session began (seed 62):
+    six new sensors (above), a 25 °/s EVK4 slew with the IMU, a slow 10 °/s slew without
+    it, a 2 → 20 °/s DAVIS346 ramp with the IMU, a 15 Hz vibration on the EVK4 without it, a
+    0.9 Hz sinusoid with the particle filter, a 2.2 °/s star for 1.5 s, 5 ms frames at 28 °/s
+    on the DAVIS346, a tilted axis off the centre, a magnitude-5 narrow star with the IMU."""
+    return _listed("fresh-62", 62, (
+            (8, 4.0, 1.2, "dark-sky-60-ceiling-1500-on-low", "none", {}),
+            ("sine", 4.0, 1.1, "dark-sky-60-ceiling-1500-on-low", "imu", {"amplitude": 7.0, "freq": 1.4}),
+            (13, 4.0, 1.0, "ref-400-busy", "none", {"direction": 250}),
+            (5, 4.5, 1.3, "coarse-mismatch-05-jitter-30", "none", {"duration": 1.0}),
+            (16, 3.5, 1.1, "dark-sky-32-shot-dropout", "imu", {"camera": "evk4"}),
+            (7, 4.5, 1.0, "warm-500-quiet", "none", {"camera": "davis346"}),
+            (4, 4.0, 1.2, "on-low-rising", "none", {"direction": 45}),
+            ("slew", 4.0, 1.2, "default", "imu", {"peak": 25.0, "duration": 1.0, "camera": "evk4"}),
+            ("slew", 3.5, 1.0, "default", "none", {"peak": 10.0, "duration": 1.4}),
+            ("ramp", 4.0, 1.0, "default", "imu", {"rate": 2.0, "rate_end": 20.0, "camera": "davis346"}),
+            ("vibe", 4.0, 1.2, "default", "none", {"rate": 11.0, "vib": 0.025, "vib_hz": 15.0,
+                                                  "camera": "evk4"}),
+            ("sine", 4.0, 1.3, "default", "pf", {"amplitude": 8.0, "freq": 0.9}),
+            (2.2, 4.0, 1.2, "default", "none", {"duration": 1.5, "direction": 100}),
+            (28, 4.5, 1.0, "default", "none", {"settings": {"dt_us": 5000}, "camera": "davis346"}),
+            (9, 3.5, 1.0, "default", "none", {"tilt": 60, "at": (30, -25)}),
+            (10, 5.0, 0.9, "default", "imu", {"direction": 15})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -1052,7 +1095,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-44": fresh44_grid, "fresh-45": fresh45_grid, "fresh-50": fresh50_grid,
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
          "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid, "fresh-58": fresh58_grid,
-         "fresh-59": fresh59_grid, "fresh-60": fresh60_grid,
+         "fresh-59": fresh59_grid, "fresh-60": fresh60_grid, "fresh-62": fresh62_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

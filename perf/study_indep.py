@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh20 | --vibe | --vibe2]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh21 | --vibe | --vibe2]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -43,7 +43,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
 (W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's), --fresh17 (Y1–Y10,
 the fifty-seventh's), --fresh18 (Z1–Z10, the fifty-eighth's), --fresh19 (A1–A10,
-the fifty-ninth's) and --fresh20 (B1–B10, the sixtieth's) likewise; --vibe2 (C1–C10,
+the fifty-ninth's), --fresh20 (B1–B10, the sixtieth's) and --fresh21 (D1–D10, the
+sixty-second's) likewise; --vibe2 (C1–C10,
 vibrating platforms, the sixty-first's) was run once on the code before and after its
 change.
 
@@ -313,6 +314,21 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                                noise_growth=0.33),
     "late-gap-ref-300": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=300.0,
                              gaps_s=((0.70, 0.74),)),
+    # the twenty-first fresh grid's (--fresh21; written in the sixty-second session, never
+    # tuned on): a 40 Hz dark sky climbing late (I_half 40) to 1.8 kHz with OFF above ON
+    # behind 100 µs, an ideal pixel with fine thresholds on a busy mostly-OFF background, an
+    # ideal pixel with a 4 % mismatch, a 1 Hz leak and 90 µs of jitter, a slow 20 Hz dark sky
+    # with coarse thresholds and a low 700 Hz ceiling, an ideal pixel whose readout loses
+    # 60 ms midway on a background doubling
+    "dark-40-late-ref-100": dict(pixel="lowpass", f_min_hz=40.0, f_max_hz=1800.0, i_half=40.0,
+                                 c_on=0.2, c_off=0.24, refractory_us=100.0),
+    "fine-busy-off": dict(pixel="ideal", c_on=0.15, c_off=0.12, noise_on_fraction=0.35),
+    "mismatch-04-leak-1-jitter-90": dict(pixel="ideal", c_on=0.22, c_off=0.22, mismatch=0.04,
+                                         leak_hz=1.0, jitter_us=90.0),
+    "dark-20-coarse": dict(pixel="lowpass", f_min_hz=20.0, f_max_hz=700.0, i_half=10.0,
+                           c_on=0.3, c_off=0.3),
+    "mid-gap-rising": dict(pixel="ideal", c_on=0.2, c_off=0.2, noise_growth=2.0,
+                           gaps_s=((0.40, 0.46),)),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -753,6 +769,22 @@ FRESH20 = [
     ("tele", ("lin", 1.5, 320), [4, 5], ("gauss", 1.2), "late-gap-ref-300", 0.5, 0, 1.5),
 ]
 FRESH20_SEED = 25000
+#: the twenty-first (D1–D10; the sixty-second session, run once before any change for it)
+FRESH21 = [
+    ("hd", ("lin", 9, 140), [3, 4.5], ("gauss", 1.1), "dark-40-late-ref-100", 1.0, 0, 1.0),
+    ("davis", ("sine", 7, 0.7, 60), [3.5, 4.5], ("moffat", 2.4, 3.0), "fine-busy-off", 2.0, 0, 1.5),
+    ("vga", ("lin", 2, 250), [3, 4], ("gauss", 1.4), "mismatch-04-leak-1-jitter-90", 0.5, 3, 1.5),
+    ("wide", ("lin", 15, 20), [3, 4], ("gauss", 1.1), "dark-20-coarse", 1.0, 0, 0.8),
+    ("tele", ("circle", 3, 1.2), [3.5, 4.5], ("gauss", 1.2), "mid-gap-rising", 1.0, 2, 1.0),
+    ("hd", ("acc", 30, 300), [3.5, 4.5], ("ellip", 1.3, 1.0, 10), "fine-busy-off", 1.0, 0, 1.0),
+    ("davis", ("roll", 10, 4, 100), [3, 4], ("gauss", 1.0), "dark-40-late-ref-100", 1.0, 0, 1.0),
+    ("vga", ("vibe", 8, 60, 0.02, 20.0, 150), [3.5, 4.5], ("gauss", 1.1),
+     "mismatch-04-leak-1-jitter-90", 1.0, 0, 1.0),
+    ("davis", ("lin", 5, 210), [3, 4, 5, 5.5], ("defocus", 1.8, 0.5), "mid-gap-rising", 1.0, 5,
+     1.0),
+    ("hd", ("sine", 4, 1.6, 330), [3, 4], ("gauss", 1.0), "dark-20-coarse", 0.5, 0, 1.0),
+]
+FRESH21_SEED = 27000
 #: held out (--vibe2, C1–C10; written in the sixty-first session after its change to
 #: evstar.vibration, which it was developed on --vibe for, and run once on the code before
 #: and after it): platforms vibrating at 8–35 Hz across, along and oblique to pans of
@@ -776,7 +808,7 @@ VIBE2 = [
 VIBE2_SEED = 26000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"vibe2": (VIBE2, VIBE2_SEED, "C"), "fresh20": (FRESH20, FRESH20_SEED, "B"), "fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh21": (FRESH21, FRESH21_SEED, "D"), "vibe2": (VIBE2, VIBE2_SEED, "C"), "fresh20": (FRESH20, FRESH20_SEED, "B"), "fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
