@@ -12,7 +12,8 @@ let tracks take neighbours' centroids. A track survives up to ``max_gap`` frames
 centroid (a star fading or crossing a dead region keeps its id); unassigned centroids
 start new tracks, so stars entering the field get fresh ids. A track that begins where
 another ended continues it (_join): at a turn a star can give two centroids in a frame,
-or, slow, none for longer than max_gap frames.
+or, slow, none for longer than max_gap frames; a readout stall silences every star at
+once, and a fast one on a curved path leaves the straight prediction's gate in it.
 
 A new track (one centroid) has no velocity of its own. Stars are fixed on the sky, so
 they all move with the camera's rotation: once confirmed tracks exist, a new track moves
@@ -333,8 +334,11 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
     in the gate, B beginning within that of A's end (a star turning: _Ends.reach); failing
     those, with a velocity prior, where the
     means of A's last and B's first _END_CENTROIDS centroids, carried by the prior to B's
-    first time, lie within gate_px × _CARRY_GATE (A and B of min_length centroids at least:
-    confirmed pieces of a star's track, not noise); the nearest A wins."""
+    first time, lie within gate_px × _CARRY_GATE, or, without one, where A's end line and
+    B's start line, each carried to the middle of the gap on a constant-rate turn, meet
+    within that (a readout stall on a fast curved path: _Ends.met; both over more than a
+    frame's gap, A and B of min_length centroids at least: confirmed pieces of a star's
+    track, not noise); the nearest A wins."""
     ends, at_ends = {}, _Ends(out)
     normal, slow = max_gap + 1, _SLOW_GAPS * (max_gap + 1)
     for tr in sorted(tracks, key=lambda tr: tr["frames"][0]):
