@@ -355,13 +355,12 @@ def _join(out, tracks, gate_px, max_gap, velocity_prior=None, min_length=1):
             if d <= best_d and (gap <= normal or
                                 at_ends.reach(a["ids"][-1], tr["id"], gap, d) <= gate_px):
                 best, best_d = a, d
-            elif gap > 1:
+            elif gap > (normal if velocity_prior is not None else 1):
                 far.append(a)      # carried below: by the prior, or by their own speeds
         # short tracks (most are noise; a crowded field has thousands) are carried nowhere
         if far and best is None and at_ends.count(tr["id"]) >= min_length:
             far = [a for a in far if at_ends.count(a["ids"][-1]) >= min_length]
             if velocity_prior is not None:
-                far = [a for a in far if tr["frames"][0] - a["frames"][-1] > normal]
                 d = at_ends.carried(velocity_prior, [a["ids"][-1] for a in far], tr["id"]) if far else []
             else:
                 d = [at_ends.met(a["ids"][-1], tr["id"]) for a in far]
@@ -482,9 +481,8 @@ class _Ends:
         if len(rows) < 2 or np.ptp(t) == 0:
             return None
         tm = t.mean()
-        xy = np.column_stack([self.out["x"][rows], self.out["y"][rows]])
-        (vx, x0), (vy, y0) = (np.polyfit(t - tm, c, 1) for c in xy.T)
-        return tm, np.array([x0, y0]), np.array([vx, vy])
+        v, p = np.polyfit(t - tm, np.column_stack([self.out["x"][rows], self.out["y"][rows]]), 1)
+        return tm, p, v
 
     def count(self, track):
         """Centroids of a track as linked."""

@@ -168,8 +168,7 @@ def _at_known(t_us, r, omegas):
     """The Waves (one window) of one track's offsets r along one axis at the one of
     `omegas` (rad/s) _claimed with KNOWN_FALSE_ALARM over len(omegas) frequencies; else
     None."""
-    order = np.argsort(t_us, kind="stable")
-    t_us, r = np.asarray(t_us, np.float64)[order], _clipped(np.asarray(r, np.float64)[order])
+    t_us, r = _sorted_clipped(t_us, r)
     x = r - r.mean()
     if not np.ptp(x) > 0:
         return None
@@ -427,8 +426,7 @@ def _axes_at(track, t_us):
 def _search(t_us, r, dt_us):
     """The Waves of one track's (or a field's) offsets r along one axis: a sinusoid sought in
     each window (_windows), or None where no window holds one."""
-    order = np.argsort(t_us, kind="stable")     # (a field's median times may cross)
-    t_us, r = np.asarray(t_us, np.float64)[order], _clipped(np.asarray(r, np.float64)[order])
+    t_us, r = _sorted_clipped(t_us, r)
     bounds = _windows(t_us)
     masks = [(t_us >= lo) & (t_us <= hi) for lo, hi in bounds]
     parts = [_sinusoid(t_us[m], r[m], dt_us) if ok else None
@@ -437,6 +435,13 @@ def _search(t_us, r, dt_us):
         return None
     zero = Vibration(0.0, 0.0, 0.0, int(t_us[0]))
     return Waves(tuple(bounds), tuple(zero if p is None else p for p in parts))
+
+
+def _sorted_clipped(t_us, r):
+    """(t_us, r) in time order (a field's median times may cross), r _clipped: a series as
+    it is searched."""
+    order = np.argsort(t_us, kind="stable")
+    return np.asarray(t_us, np.float64)[order], _clipped(np.asarray(r, np.float64)[order])
 
 
 def _clipped(r):
