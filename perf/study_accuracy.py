@@ -353,7 +353,23 @@ SENSORS = {"default": lambda: sim.sensor_model("default"),
            "warm-500-quiet": lambda: sim.sensor_model("default", noise_hz=0.2, hot_pixels=500,
                                                       hot_pixel_hz=50.0),
            "on-low-rising": lambda: sim.sensor_model("default", threshold_on=0.12, threshold_off=0.2,
-                                                     noise_growth=2.5)}
+                                                     noise_growth=2.5),
+           # the sixty-third session's (fresh-63): a 38 Hz dark sky with a 2 kHz ceiling behind
+           # an untold 150 µs refractory period, OFF 0.14 below ON 0.24 with a 4 % mismatch,
+           # 120 µs of jitter losing a fifth of the events, a 50 Hz dark sky with OFF below ON
+           # and shot noise, 80 hot pixels on a busy background rising 1.8-fold, a 3 Hz leak
+           # behind an untold 250 µs refractory period
+           "dark-sky-38-ceiling-2000-ref-150": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=38.0, cutoff_hz_max=2000.0, refractory_us=150.0),
+           "off-fine-mismatch-04": lambda: sim.sensor_model("default", threshold_on=0.24, threshold_off=0.14,
+                                                            threshold_mismatch=0.04),
+           "jitter-120-dropout-20": lambda: sim.sensor_model("default", jitter_us=120.0, dropout=0.2),
+           "dark-sky-50-off-low-shot": lambda: sim.sensor_model(
+               "dark-sky", cutoff_hz_background=50.0, threshold_on=0.22, threshold_off=0.16,
+               shot_noise_hz=0.8),
+           "hot-80-busy-rising": lambda: sim.sensor_model("default", hot_pixels=80, hot_pixel_hz=200.0,
+                                                          noise_hz=2.0, noise_growth=1.8),
+           "leak-3-ref-250": lambda: sim.sensor_model("default", leak_hz=3.0, refractory_us=250.0)}
 
 
 def dev_grid():
@@ -1030,6 +1046,32 @@ def fresh62_grid():
             (10, 5.0, 0.9, "default", "imu", {"direction": 15})))
 
 
+def fresh63_grid():
+    """Inputs no session had tried, run once when the sixty-third session began (seed 63):
+    six new sensors (above), a 30 °/s-peak DAVIS346 slew without the IMU, a 12 °/s-peak EVK4
+    slew with it, a 24 → 4 °/s ramp without it, a 25 Hz vibration with the IMU on the
+    DAVIS346, a ±6° 1.6 Hz sinusoid with the particle filter on the EVK4, a 1.2 °/s star for
+    2 s, 8 ms frames at 18 °/s, a tilted axis, a magnitude-5.5 wide star at 3 °/s."""
+    return _listed("fresh-63", 63, (
+            (11, 4.0, 1.1, "dark-sky-38-ceiling-2000-ref-150", "none", {"direction": 200}),
+            ("sine", 4.0, 1.2, "dark-sky-38-ceiling-2000-ref-150", "imu", {"amplitude": 9.0, "freq": 0.7}),
+            (6, 4.5, 1.0, "off-fine-mismatch-04", "none", {"camera": "davis346"}),
+            (9, 4.0, 1.3, "jitter-120-dropout-20", "none", {"direction": 300}),
+            (18, 4.0, 1.0, "dark-sky-50-off-low-shot", "imu", {}),
+            (4, 4.5, 1.2, "dark-sky-50-off-low-shot", "none", {"duration": 1.0, "camera": "evk4"}),
+            (12, 4.0, 1.1, "hot-80-busy-rising", "none", {}),
+            (20, 3.5, 1.0, "leak-3-ref-250", "none", {"direction": 135}),
+            ("slew", 3.5, 1.0, "default", "none", {"peak": 30.0, "duration": 1.0, "camera": "davis346"}),
+            ("slew", 4.0, 1.2, "default", "imu", {"peak": 12.0, "duration": 1.2, "camera": "evk4"}),
+            ("ramp", 4.0, 1.1, "default", "none", {"rate": 24.0, "rate_end": 4.0}),
+            ("vibe", 4.0, 1.0, "default", "imu", {"rate": 6.0, "vib": 0.02, "vib_hz": 25.0,
+                                                 "camera": "davis346"}),
+            ("sine", 4.0, 1.1, "default", "pf", {"amplitude": 6.0, "freq": 1.6, "camera": "evk4"}),
+            (1.2, 4.0, 1.3, "default", "none", {"duration": 2.0, "direction": 20}),
+            (18, 4.5, 1.0, "default", "none", {"settings": {"dt_us": 8000}}),
+            (3, 5.5, 1.5, "default", "none", {"tilt": 40, "at": (-15, -30)})))
+
+
 def short_frames_grid():
     """Slow stars in frames too short to hold both lobes (2–7 ms): the forty-fifth session's
     check, after fresh-45's 5 ms row, of its lone-lobe tracking on settings it was not
@@ -1096,6 +1138,7 @@ PARTS = {"dev": dev_grid, "held-out": held_out_grid, "fresh": fresh_grid, "fresh
          "fresh-51": fresh51_grid, "fresh-53": fresh53_grid,
          "fresh-54": fresh54_grid, "fresh-55": fresh55_grid, "fresh-56": fresh56_grid, "fresh-57": fresh57_grid, "fresh-58": fresh58_grid,
          "fresh-59": fresh59_grid, "fresh-60": fresh60_grid, "fresh-62": fresh62_grid,
+         "fresh-63": fresh63_grid,
          "short-frames": short_frames_grid, "stray": stray_grid, "faint-dark": faint_dark_grid}
 
 

@@ -27,7 +27,7 @@ error/σ (1.18 for honest Gaussian σ). Per star: signal events per frame N and 
 single-frame bound σ_eff/√N (σ_eff: the PSF's per-axis RMS width with the pixel's 1/12 px²).
 
     python perf/study_indep.py [--scenes 1,5,12 | --only davis|vga|hd|sine|lowpass|asym]
-        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh21 | --vibe | --vibe2]
+        [--quick (recordings shortened to 0.3 s)] [--imu [--clock-offset-us N]] [--fresh | --fresh2 | ... | --fresh22 | --vibe | --vibe2]
         [--calibrated (each scene with its sensor's lag file from a calibration recording)]
         [--set KEY=VALUE --name NAME]
 
@@ -43,8 +43,8 @@ the forty-sixth's: rolls about the boresight, a wide lens and a telephoto, stray
 (T1–T10, the fifty-third's), --fresh14 (U1–U10, the fifty-fourth's), --fresh15
 (W1–W10, the fifty-fifth's), --fresh16 (X1–X10, the fifty-sixth's), --fresh17 (Y1–Y10,
 the fifty-seventh's), --fresh18 (Z1–Z10, the fifty-eighth's), --fresh19 (A1–A10,
-the fifty-ninth's), --fresh20 (B1–B10, the sixtieth's) and --fresh21 (D1–D10, the
-sixty-second's) likewise; --vibe2 (C1–C10,
+the fifty-ninth's), --fresh20 (B1–B10, the sixtieth's), --fresh21 (D1–D10, the
+sixty-second's) and --fresh22 (E1–E10, the sixty-third's) likewise; --vibe2 (C1–C10,
 vibrating platforms, the sixty-first's) was run once on the code before and after its
 change.
 
@@ -329,6 +329,19 @@ SENSORS = {   # pixel model and thresholds; noise, hot pixels per scene
                            c_on=0.3, c_off=0.3),
     "mid-gap-rising": dict(pixel="ideal", c_on=0.2, c_off=0.2, noise_growth=2.0,
                            gaps_s=((0.40, 0.46),)),
+    # the twenty-second fresh grid's (--fresh22; written in the sixty-third session, never
+    # tuned on): a 33 Hz dark sky to 1.4 kHz with OFF above ON behind 200 µs, an ideal pixel
+    # with fine thresholds and 60 µs of jitter, an ideal pixel with an 8 % mismatch, a 60 Hz
+    # dark sky climbing early (I_half 5) to 2.2 kHz with a 0.7 Hz leak, an ideal pixel whose
+    # readout loses two spans behind 200 µs of refractory period
+    "dark-33-ref-200-off-high": dict(pixel="lowpass", f_min_hz=33.0, f_max_hz=1400.0, i_half=15.0,
+                                     c_on=0.19, c_off=0.25, refractory_us=200.0),
+    "fine-jitter-60": dict(pixel="ideal", c_on=0.14, c_off=0.14, jitter_us=60.0),
+    "mismatch-08": dict(pixel="ideal", c_on=0.21, c_off=0.21, mismatch=0.08),
+    "dark-60-early-leak": dict(pixel="lowpass", f_min_hz=60.0, f_max_hz=2200.0, i_half=5.0,
+                               c_on=0.2, c_off=0.2, leak_hz=0.7),
+    "two-gaps-ref-200": dict(pixel="ideal", c_on=0.2, c_off=0.2, refractory_us=200.0,
+                             gaps_s=((0.25, 0.29), (0.62, 0.70))),
 }
 #: (camera, motion, magnitudes, PSF, sensor, noise Hz, hot pixels, seconds)
 GRID = [
@@ -785,6 +798,22 @@ FRESH21 = [
     ("hd", ("sine", 4, 1.6, 330), [3, 4], ("gauss", 1.0), "dark-20-coarse", 0.5, 0, 1.0),
 ]
 FRESH21_SEED = 27000
+#: the twenty-second (E1–E10; the sixty-third session, run once before any change for it)
+FRESH22 = [
+    ("vga", ("lin", 13, 60), [3, 4, 5], ("gauss", 1.1), "dark-33-ref-200-off-high", 1.0, 0, 1.0),
+    ("hd", ("sine", 5, 1.3, 240), [3.5, 4.5], ("gauss", 1.2), "fine-jitter-60", 1.5, 0, 1.2),
+    ("davis", ("lin", 4, 330), [3, 4], ("moffat", 2.2, 3.0), "mismatch-08", 0.5, 2, 1.2),
+    ("tele", ("lin", 2.5, 110), [3.5, 4.5], ("gauss", 1.3), "dark-60-early-leak", 1.0, 0, 1.2),
+    ("wide", ("circle", 6, 0.9), [3, 4], ("gauss", 1.0), "two-gaps-ref-200", 1.0, 0, 1.0),
+    ("hd", ("acc", 20, 45), [3.5, 4.5], ("defocus", 1.5, 0.5), "dark-33-ref-200-off-high", 1.0, 0,
+     1.0),
+    ("vga", ("roll", 9, 5, 270), [3, 4], ("gauss", 1.1), "fine-jitter-60", 1.0, 3, 1.0),
+    ("davis", ("vibe", 6, 100, 0.03, 14.0, 190), [3.5, 4.5], ("gauss", 1.2), "dark-60-early-leak",
+     1.0, 0, 1.2),
+    ("hd", ("lin", 22, 250), [3, 4, 4.5], ("ellip", 1.3, 0.9, 70), "two-gaps-ref-200", 1.0, 0, 1.0),
+    ("vga", ("sine", 9, 0.6, 15), [3.5, 4.5], ("gauss", 1.0), "mismatch-08", 1.0, 0, 1.5),
+]
+FRESH22_SEED = 28000
 #: held out (--vibe2, C1–C10; written in the sixty-first session after its change to
 #: evstar.vibration, which it was developed on --vibe for, and run once on the code before
 #: and after it): platforms vibrating at 8–35 Hz across, along and oblique to pans of
@@ -808,7 +837,7 @@ VIBE2 = [
 VIBE2_SEED = 26000
 #: the held-out grids by command-line flag (the later grid first where flags are combined):
 #: (scenes, seed index of the first, label prefix)
-HELD_OUT = {"fresh21": (FRESH21, FRESH21_SEED, "D"), "vibe2": (VIBE2, VIBE2_SEED, "C"), "fresh20": (FRESH20, FRESH20_SEED, "B"), "fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
+HELD_OUT = {"fresh22": (FRESH22, FRESH22_SEED, "E"), "fresh21": (FRESH21, FRESH21_SEED, "D"), "vibe2": (VIBE2, VIBE2_SEED, "C"), "fresh20": (FRESH20, FRESH20_SEED, "B"), "fresh19": (FRESH19, FRESH19_SEED, "A"), "fresh18": (FRESH18, FRESH18_SEED, "Z"), "fresh17": (FRESH17, FRESH17_SEED, "Y"), "fresh16": (FRESH16, FRESH16_SEED, "X"), "fresh15": (FRESH15, FRESH15_SEED, "W"), "fresh14": (FRESH14, FRESH14_SEED, "U"), "fresh13": (FRESH13, FRESH13_SEED, "T"), "fresh12": (FRESH12, FRESH12_SEED, "S"), "fresh11": (FRESH11, FRESH11_SEED, "R"), "fresh10": (FRESH10, FRESH10_SEED, "Q"), "fresh9": (FRESH9, FRESH9_SEED, "P"), "fresh8": (FRESH8, FRESH8_SEED, "O"), "fresh7": (FRESH7, FRESH7_SEED, "N"), "fresh6": (FRESH6, FRESH6_SEED, "M"), "fresh5": (FRESH5, FRESH5_SEED, "L"), "fresh4": (FRESH4, FRESH4_SEED, "K"),
             "vibe": (VIBE, VIBE_SEED, "V"), "fresh3": (FRESH3, FRESH3_SEED, "H"),
             "fresh2": (FRESH2, FRESH2_SEED, "G"), "fresh": (FRESH, FRESH_SEED, "F")}
 ESTIMATORS = ("default", "mean")
