@@ -32,6 +32,16 @@ _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor
                   "speed_change")
 
 
+def track_smoother(config):
+    """The TrackSmoother of the [estimate] settings, its fits coasting coast_ms everywhere
+    (the gyro's farther ends come after: _gyro_coasted)."""
+    from .smoothing import TrackSmoother
+
+    e = config.estimate
+    params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
+    return TrackSmoother(config.dt_us, **{**params, "coast_gyro_ms": e.coast_ms})
+
+
 def pixel_lag(path):
     """The PixelLag of an `evstar calibrate` file (None for none), read once per version of
     the file (FormatError naming it when it is missing or not one)."""
@@ -217,7 +227,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
     # the fits coast coast_ms everywhere; the gyro's farther ends come after (_gyro_coasted)
     fitting = {**params, "coast_gyro_ms": e.coast_ms}
-    smoother = TrackSmoother(config.dt_us, **fitting)
+    smoother = track_smoother(config)
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
     out = centroids.copy()
     out["sigma"] = sigma

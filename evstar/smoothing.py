@@ -61,7 +61,14 @@ _MIN_Q_STEPS = 4                       # measured steps a track needs for a q (o
 _Q_MEMO_TRACKS = 4096                  # q estimates a smoother remembers (then forgets them all)
 #: log-likelihood by which a track with the velocity prior must beat it without: "strong"
 #: evidence (Kass & Raftery's 2Δ > 6), since the centroids alone hardly see a gyro's noise
-_PRIOR_EVIDENCE = 3.0
+PRIOR_EVIDENCE = 3.0
+#: ... and "positive" evidence (2Δ > 2) where the prior is quiet: its random walk over a
+#: track less than the variance all its centroids together leave (their σ² over their
+#: number), so that taking it costs nothing the centroids could see. Per-frame centroids
+#: average a swing across a slow star's motion over its passage (±σ/v: ±41 ms at 29 px/s),
+#: so a noiseless gyro's 14 Hz, 0.15 px vibration across a DAVIS346 pan won only by 1.6
+#: and 1.9 (the independent simulator's E8: 0.112 px without the prior, 0.037 with it)
+_QUIET_EVIDENCE = 1.0
 #: shares of the prior's displacement the evidence test also tries: per-frame centroids
 #: follow a fast motion in part (their lobes, the pixels' sampling and low-pass; across a
 #: 15 Hz, 0.34 px vibration the means followed 64 % of it on the default sensor and 50 %
@@ -236,28 +243,45 @@ class TrackSmoother:
         and one free parameter. A gyro's white noise integrates into the displacement as a
         random walk (0.03 px per 10 ms at f = 2469 px for 1.2·10⁻⁴ rad/s/√Hz): on a constant
         pan the plain track is the better model, through a sinusoid's turnarounds the prior,
-        which must win by _PRIOR_EVIDENCE. Per-frame centroids follow a fast motion only in
+        which must win by PRIOR_EVIDENCE. Per-frame centroids follow a fast motion only in
         part (_PRIOR_GAINS), so the prior is also tried scaled down: whether the centroids
         move with it at all is the question, and the fit then takes it whole — so each
         scaled try carries the whole prior's random walk. One camera turns every star: where
         the tracks together (the sum of their log-likelihood ratios: the prior for all
-        against none) pass _PRIOR_EVIDENCE·√(tracks), every track takes it, though a short
+        against none) pass PRIOR_EVIDENCE·√(tracks), every track takes it, though a short
         one alone shows too little either way (the sum of n ratios that favour neither
-        scatters as √n). Tracks too short to tell keep the prior."""
+        scatters as √n). A quiet prior (_QUIET_EVIDENCE) needs less evidence. Tracks too
+        short to tell keep the prior."""
         sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
         every = _track_rows(centroids)
         rows = [r for r in every if len(r) >= _MIN_Q_STEPS]
         scaled, plain = _with_and_without(centroids, rows, sig, velocity_prior)
-        loglik = _ENGINES[self.engine][1]
         w = diffusion(velocity_prior)
-        best = np.max([[float(np.max(ll)) for ll in loglik(less, _Q_GRID, w)]
-                       for less in scaled.values()], axis=0) if rows else []
-        alone = [float(np.max(ll)) for ll in loglik(plain, _Q_GRID)]
+        best = np.max([self._best_loglik(less, w) for less in scaled.values()], axis=0) \
+            if rows else []
+        alone = self._best_loglik(plain, 0.0)
         ids = [int(centroids["track"][r[0]]) for r in rows]
         gain = np.asarray(best) - np.asarray(alone)
-        helps = set(ids) if gain.sum() > _PRIOR_EVIDENCE * np.sqrt(len(gain)) else \
-            {i for i, g in zip(ids, gain) if g > _PRIOR_EVIDENCE}
+        need = np.where(_quiet_walk(plain, w), _QUIET_EVIDENCE, PRIOR_EVIDENCE)
+        helps = set(ids) if gain.sum() > need.max(initial=0.0) * np.sqrt(len(gain)) else \
+            {i for i, g, n in zip(ids, gain, need) if g > n}
         return helps | ({int(centroids["track"][r[0]]) for r in every} - set(ids))
+
+    def prior_loglik(self, centroids, velocity_prior, sigma=None):
+        """Per confirmed track long enough to tell (ascending id), the innovation
+        log-likelihood, maximised over q, of its positions less the velocity prior's
+        displacement (prior_helps's measure of how well a prior explains them)."""
+        sig = self.measurement_sigma(centroids) if sigma is None else _check_sigma(sigma, centroids)
+        rows = [r for r in _track_rows(centroids) if len(r) >= _MIN_Q_STEPS]
+        if not rows:
+            return np.zeros(0)
+        less = _with_and_without(centroids, rows, sig, velocity_prior)[0][1.0]
+        return np.asarray(self._best_loglik(less, diffusion(velocity_prior)))
+
+    def _best_loglik(self, data, w):
+        """Per (ts, positions, σ) of `data` its innovation log-likelihood at the best q of
+        _Q_GRID, with w the prior's random-walk density."""
+        return [float(np.max(ll)) for ll in _ENGINES[self.engine][1](data, _Q_GRID, w)]
 
     # -- one track ----------------------------------------------------------------------
     def smooth_track(self, cents, sigma, t0_us, velocity_prior=None, index=None):
@@ -656,6 +680,13 @@ def _with_and_without(centroids, rows, sigma, velocity_prior):
     return ({g: [(a, zi - g * shift, sigma[r]) for a, zi, shift, r in zip(ts, z, shifts, rows)]
              for g in _PRIOR_GAINS},
             [(a, zi, sigma[r]) for a, zi, r in zip(ts, z, rows)])
+
+
+def _quiet_walk(tracks, w):
+    """Per track (ts s, positions, σ) whether a prior's random walk of density w (px²/s)
+    over it is less than the variance its centroids together leave (σ² / their number)."""
+    return np.array([w * (ts[-1] - ts[0]) < np.median(sig) ** 2 / len(ts)
+                     for ts, _, sig in tracks], bool)
 
 
 def with_diffusion(velocity_prior, w):

@@ -1,6 +1,8 @@
 """The IMU clock's offset against the camera's, measured on the stars' crossings
 (evstar.clock), and the pipeline's gyro prior moved by it."""
 import dataclasses
+import pathlib
+import sys
 
 import numpy as np
 import pytest
@@ -120,9 +122,6 @@ def hd_dark_sinusoid():
     """The independent simulator's HD sensor on its asymmetric dark sky (a saturating
     cutoff law, not evstar's), two stars on a 4°/1.5 Hz sinusoid with the gyro
     (perf/study_indep.py --fresh4 K7), 1 s."""
-    import pathlib
-    import sys
-
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "perf"))
     import study_indep as si
 
@@ -244,7 +243,10 @@ def test_a_vibration_along_the_motion_is_not_read_as_a_clock_offset(monkeypatch)
     crossings, each timed over a ~20 ms passage, see the vibration reversed (gain
     cos(π f T) < 0), which the search reads as half its period; the gyro's prior was then
     rejected (0.22 px). The gyro's slow turns (ALIAS_PERIODS) are a constant rate and tell
-    no offset: none is taken, and the gyro carries the vibration."""
+    no offset: none is taken, and the gyro carries the vibration. Without that guard the
+    centroids, which the prior moved by half a period explains worse, refuse the offset."""
+    from evstar.clock import measured_offset_us
+    from evstar.estimation import chunk_crossings
     from evstar import clock
     from evstar.sim.scene import Scenario
     from evstar.sim.targets import star_at_pixel
@@ -255,12 +257,13 @@ def test_a_vibration_along_the_motion_is_not_read_as_a_clock_offset(monkeypatch)
     run = sim.simulate(Scenario(cam, stars, motion, 0.8), seed=56)
     res, err = run_imu(run)
     assert "imu_time_offset_us" not in res.metrics and err < 0.06
-    # fast turns alone: the half-period offset, and the prior moved by it carries no
-    # track (the vibration search, which then runs, follows the star without the gyro)
+    # fast turns alone: the half-period offset, which the centroids refuse
     monkeypatch.setattr(clock, "ALIAS_PERIODS", 0.0)
-    aliased, err_aliased = run_imu(run, **{"estimate.vibration": False})
-    assert abs(abs(aliased.metrics["imu_time_offset_us"]) - 1e6 / 60) < 3000
-    assert err_aliased > 2 * err
+    crossings = chunk_crossings(run.events, res.keep, 2.5)
+    aliased = measured_offset_us(crossings, res.centroids, run.imu, run.camera)
+    assert abs(abs(aliased) - 1e6 / 60) < 3000
+    refused, err_refused = run_imu(run, **{"estimate.vibration": False})
+    assert "imu_time_offset_us" not in refused.metrics and err_refused < 0.06
 
 
 def test_a_faint_stars_lag_behind_unequal_thresholds_is_not_taken_for_a_clock_offset():
@@ -303,3 +306,53 @@ def test_slow_decay_is_the_passages_off_span_over_their_on_span(monkeypatch):
     cut = LevelProfiles()
     cut.add_passages(*passages(3, 3000))
     np.testing.assert_array_equal(np.concatenate(cut._spans), [3.0, 3.0])
+
+
+def test_the_centroids_refuse_an_offset_that_explains_them_worse():
+    """Tracks of a pan swinging 0.2 px across at 12 Hz and of a 1 Hz sinusoid, their
+    centroids on the camera's clock: a prior moved 14 ms off the swing (the independent
+    simulator's C8 read such an offset off its crossings) explains them worse than the
+    gyro as given, and is refused; a gyro 3 ms late on the sinusoid, moved back, explains
+    them better, and is taken."""
+    from evstar.clock import _centroids_gain
+
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+    from test_smoothing import centroids
+
+    def swing(t):   # px: a 40 px/s pan, 0.2 px across at 12 Hz
+        return np.column_stack([50 + 40.0 * t, 80 + 0.2 * np.sin(2 * np.pi * 12.0 * t)])
+
+    def sine(t):    # px: ±60 px at 1 Hz
+        return np.column_stack([100 + 60.0 * np.sin(2 * np.pi * t), 40 + 0.0 * t])
+
+    def prior_of(path, late_us):   # the path's velocity, read late_us late
+        def prior(t_us, x, y):
+            t = (np.asarray(t_us, float) - late_us) * 1e-6
+            return (path(t + 1e-5) - path(t - 1e-5)) / 2e-5
+        return prior
+
+    rng = np.random.default_rng(12)
+    config = Config()
+    for path, given, moved, agree in ((swing, 0, 14_000, False), (sine, 3000, 0, True)):
+        cents = np.concatenate([centroids(np.arange(100), lambda t, j=j: path(t) + [0.0, 30.0 * j],
+                                          0.1, rng, track=j) for j in range(2)])
+        gain, tracks = _centroids_gain(config, cents, prior_of(path, given), prior_of(path, moved))
+        assert tracks == 2 and (gain >= 0) is agree
+
+
+def test_an_offset_few_standard_errors_tell_is_taken_on_the_centroids_strong_evidence():
+    """The independent simulator's 5°/1 Hz DAVIS346 sinusoid (perf/study_indep.py's scene
+    14, two stars, 1 s), its gyro 3 ms late, untold: the crossings read 2.35 ms at 3.7
+    standard errors, under MIN_Z (0.326 px before); the centroids take it by strong
+    evidence (0.073 px). Told its clock, nothing is taken."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "perf"))
+    import study_indep as si
+
+    scene, sensor = si.scene_of(13, si.GRID[13])
+    run = si.S.simulate(scene, sensor, seed=13, imu=True)
+    pipe = Pipeline(Config().replace(**{"motion.compensate": "imu"}))
+    res = pipe.run(run.events, Imu(run.imu.t - 3000, run.imu.gyro), run.camera)
+    star, err = accuracy.match(res.centroids, run.truth)
+    assert res.metrics["imu_time_offset_us"] == pytest.approx(3000, abs=1000)
+    assert err[star >= 0].mean() < 0.12
+    assert "imu_time_offset_us" not in pipe.run(run.events, run.imu, run.camera).metrics
