@@ -72,8 +72,8 @@ MIN_BLOCKS, MIN_Z = 5, 5.0
 #: ... or, where no pixel lag was measured, LOOSE_Z of them where the tracks' centroids,
 #: on the camera's own clock, are explained better by the moved gyro by strong evidence
 #: (smoothing.PRIOR_EVIDENCE·√tracks: _centroids_gain): the independent simulator's
-#: untold 3 ms on three sinusoids read 2.2–2.5 ms at 3.7–5.0 standard errors, which the
-#: centroids took by 12–19 (0.326 -> 0.073, 0.421 -> 0.101 and 0.379 -> 0.071 px); a
+#: untold 3 ms on two ideal-pixel sinusoids read 2.35 and 2.46 ms at 3.7 and 5.0 standard
+#: errors, which the centroids took by 15 and 19 (0.326 -> 0.073, 0.379 -> 0.071 px); a
 #: told clock behind a 1 ms refractory period read 1.1 ms there, which they refused (−11)
 LOOSE_Z = 2.0
 #: the straight pairs it needs: a path that bends all the while (a platform's vibration
@@ -135,8 +135,9 @@ def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
     (evstar.estimation.velocity_prior of these arguments) of the IMU moved by it; else
     `prior` as it is. Where no pixel lag was measured the tracks' centroids must not be
     explained worse by the moved prior, and an offset the crossings tell by LOOSE_Z
-    standard errors only must explain them better by strong evidence (_centroids_gain). measured_lag: the pixels' lag the run measured (the estimate's
-    calibration file wins); depth_delay_us: how much later the crossings' deepest levels
+    standard errors only must explain them better by strong evidence (_centroids_gain).
+    measured_lag: the pixels' lag the run measured (the estimate's calibration file
+    wins); depth_delay_us: how much later the crossings' deepest levels
     pass than their top (evstar.level_lag.LevelProfiles.depth_delay_us); slow_decay:
     whether the stars' pixels relax slower than they rise (LevelProfiles.slow_decay)."""
     from . import estimation
