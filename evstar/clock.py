@@ -145,12 +145,12 @@ def on_camera_clock(config, prior, imu, camera, t_events, crossings, centroids,
     if prior is None or crossings is None or not config.motion.measure_clock:
         return prior, None
     lag = estimation.run_lag(config.estimate, measured_lag)
-    args = (crossings, centroids, imu, camera, lag, depth_delay_us, slow_decay)
-    offset, need = measured_offset_us(*args), 0.0
-    if offset is None and lag is None:   # told by fewer standard errors: strong evidence
-        offset, need = measured_offset_us(*args, min_z=LOOSE_Z), PRIOR_EVIDENCE
-    if offset is None:
+    reading = _reading(crossings, centroids, imu, camera, lag, depth_delay_us, slow_decay,
+                       MIN_Z if lag is not None else LOOSE_Z)
+    if reading is None:
         return prior, None
+    offset, z = reading
+    need = 0.0 if z > MIN_Z else PRIOR_EVIDENCE   # told by fewer: strong evidence
     # the moved record covers the events as far as the given one did
     held = config.replace(**{"motion.extrapolate_us": config.motion.extrapolate_us
                              + int(np.ceil(abs(offset)))})
@@ -219,6 +219,13 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     slow_decay: the stars' pixels relax slower than they rise (a low-pass: where no lag was
     measured, none is taken; evstar.level_lag.SLOW_DECAY_RATIO); min_z: the standard
     errors the offset must stand from zero."""
+    reading = _reading(crossings, centroids, imu, camera, lag, depth_delay_us, slow_decay, min_z)
+    return None if reading is None else reading[0]
+
+
+def _reading(crossings, centroids, imu, camera, lag, depth_delay_us, slow_decay, min_z):
+    """(measured_offset_us's δ, the fewest standard errors any of its fits told it by), or
+    None: one search serves every min_z up to that."""
     t_cam = imu.t_cam.astype(np.float64)
     if len(t_cam) < 3 or not _rate_changes(imu):
         return None
@@ -233,33 +240,42 @@ def measured_offset_us(crossings, centroids, imu, camera, lag=None, depth_delay_
     if offset is None or (lag is None and (slow_decay
                                            or depth_delay_us > DELAY_SHARE * abs(offset))):
         return None
-    if not _slow_turns_tell(offset, imu, chosen, t_cam, camera, min_z):
+    slow_z = _slow_turns_z(offset, imu, chosen, t_cam, camera, min_z)
+    if slow_z is None:
         return None
+    z = min(_z(fit), slow_z)
     if not np.any(pairs[-1] > 0):
-        return offset
+        return offset, z
     # behind a pixel lag the least-lagged pairs must tell it too, and where the rest pull
     # it off by more than their noise, theirs is taken (LEAST_LAGGED, LEAST_APART)
     least = _spread(pairs, straight & _least_lagged(pairs[-1]))
     if least is None:
-        return offset
+        return offset, z
     confirmed = _offset_of(least, t_cam, turned, camera, min_z)
     if confirmed is None or confirmed[0] * offset <= 0:
         return None
     # the third's pairs are among all's: their difference's variance is the third's less all's
     se = np.sqrt(max(confirmed[1] ** 2 - fit[1] ** 2, 0.0))
-    return confirmed[0] if abs(confirmed[0] - offset) > LEAST_APART * se else offset
+    return (confirmed[0] if abs(confirmed[0] - offset) > LEAST_APART * se else offset,
+            min(z, _z(confirmed)))
 
 
-def _slow_turns_tell(offset, imu, pairs, t_cam, camera, min_z=MIN_Z):
-    """Whether the gyro's turns slower than a period of ALIAS_PERIODS x |offset| tell the
-    offset too (its sign): see ALIAS_PERIODS."""
+def _z(fit):
+    """The standard errors an (offset, standard error) stands from zero."""
+    return abs(fit[0]) / fit[1] if fit[1] > 0 else np.inf
+
+
+def _slow_turns_z(offset, imu, pairs, t_cam, camera, min_z=MIN_Z):
+    """The standard errors by which the gyro's turns slower than a period of
+    ALIAS_PERIODS x |offset| tell the offset too (its sign; inf where the search's own
+    smoothing keeps only such turns), or None where they do not: see ALIAS_PERIODS."""
     window = ALIAS_PERIODS * abs(offset)
     if window <= SMOOTH_US:   # the search's own smoothing keeps only such turns
-        return True
+        return np.inf
     if not _rate_changes(imu, window):
-        return False
+        return None
     slow = _offset_of(pairs, t_cam, _turned(t_cam, imu.gyro_cam, window), camera, min_z)
-    return slow is not None and slow[0] * offset > 0
+    return _z(slow) if slow is not None and slow[0] * offset > 0 else None
 
 
 def _offset_of(pairs, t_cam, turned, camera, min_z=MIN_Z):

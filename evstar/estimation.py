@@ -32,14 +32,14 @@ _SMOOTHER_KEYS = ("process_noise", "process_noise_min", "coast_ms", "sigma_floor
                   "speed_change")
 
 
-def track_smoother(config):
-    """The TrackSmoother of the [estimate] settings, its fits coasting coast_ms everywhere
-    (the gyro's farther ends come after: _gyro_coasted)."""
+def track_smoother(config, **overrides):
+    """The TrackSmoother of the [estimate] settings (and `overrides` of them), its fits
+    coasting coast_ms everywhere (the gyro's farther ends come after: _gyro_coasted)."""
     from .smoothing import TrackSmoother
 
     e = config.estimate
     params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
-    return TrackSmoother(config.dt_us, **{**params, "coast_gyro_ms": e.coast_ms})
+    return TrackSmoother(config.dt_us, **{**params, "coast_gyro_ms": e.coast_ms, **overrides})
 
 
 def pixel_lag(path):
@@ -221,12 +221,10 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
                      measured_lag, rate_hz, near, depth_delay_us=0.0, stalls=None):
     """_estimate of tracks cut into pieces across stalls (evstar.pieces); carried: whether
     the velocity prior carries a track."""
-    from .smoothing import TrackSmoother, bracketed
+    from .smoothing import bracketed
 
     e = config.estimate
     params = {k: getattr(e, k) for k in _SMOOTHER_KEYS}
-    # the fits coast coast_ms everywhere; the gyro's farther ends come after (_gyro_coasted)
-    fitting = {**params, "coast_gyro_ms": e.coast_ms}
     smoother = track_smoother(config)
     sigma = smoother.measurement_sigma(centroids) if len(centroids) else np.zeros(0)
     out = centroids.copy()
@@ -239,7 +237,7 @@ def _estimate_pieces(centroids, config, t0_us, crossings, velocity_prior, span_u
     # the tracks the gyro carries (coast_gyro_ms at their ends)
     carried = [int(t) for cents, _, prior in groups if prior is not None
                for t in np.unique(cents["track"][cents["track"] >= 0])]
-    stiff = TrackSmoother(config.dt_us, **{**fitting, "process_noise": e.process_noise_min})
+    stiff = track_smoother(config, process_noise=e.process_noise_min)
     groups, ests = _without_lobe_bias(groups, ests, smoother, stiff, t0_us)
     lag = lag_sigma = near_cross = None
     if e.estimator == "crossings" and crossings is not None and len(crossings):
